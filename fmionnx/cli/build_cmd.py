@@ -1,0 +1,39 @@
+"""``fmionnx build-fmu``: compile a source-code FMU for this platform."""
+
+from __future__ import annotations
+
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich.console import Console
+
+from fmionnx.build import build_fmu
+from fmionnx.cli.app import ExitCode, app
+from fmionnx.errors import BuildError, ModelError
+
+
+@app.command(
+    "build-fmu",
+    epilog="Examples:\n\n"
+    "  fmionnx build-fmu models/fmus/ReadOdometry -o build/models/ReadOdometry.fmu\n\n"
+    "  fmionnx build-fmu WindowsOnly.fmu   # writes WindowsOnly.built.fmu",
+)
+def build_fmu_command(
+    source: Annotated[Path, typer.Argument(help="Source FMU: a folder or .fmu with sources/.")],
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="FMU to write.")] = None,
+) -> None:
+    """Compile a source FMU (C sources inside) into a binary FMU for this platform."""
+    err = Console(stderr=True, highlight=False)
+    try:
+        written = build_fmu(source, output)
+    except ModelError as exc:
+        err.print(f"[bold red]error[{exc.code}][/]: {exc}")
+        if exc.hint:
+            err.print(f"  hint: {exc.hint}")
+        raise typer.Exit(ExitCode.PROBLEMS) from None
+    except BuildError as exc:
+        err.print(f"[bold red]error[/]: {exc}")
+        err.print(exc.log, markup=False)
+        raise typer.Exit(ExitCode.PROBLEMS) from None
+    Console(highlight=False).print(f"built {written}")

@@ -1,0 +1,1 @@
+"""``fmionnx graph`` (being written)."""

@@ -1,0 +1,1 @@
+"""``fmionnx inspect`` (being written)."""

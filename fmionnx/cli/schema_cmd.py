@@ -1,0 +1,30 @@
+"""``fmionnx schema``: print or write the JSON Schema of system files."""
+
+from __future__ import annotations
+
+import json
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from fmionnx.cli.app import app
+from fmionnx.spec.model import json_schema
+
+
+def schema_text() -> str:
+    """The schema as written to ``schemas/system.schema.json``."""
+    return json.dumps(json_schema(), indent=2, sort_keys=True) + "\n"
+
+
+@app.command(epilog="Example:\n\n  fmionnx schema -o schemas/system.schema.json")
+def schema(
+    output: Annotated[Path | None, typer.Option("--output", "-o", help="File to write.")] = None,
+) -> None:
+    """Print the JSON Schema of system files (for editor completion and checks)."""
+    text = schema_text()
+    if output is None:
+        typer.echo(text, nl=False)
+    else:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        output.write_text(text, encoding="utf-8")

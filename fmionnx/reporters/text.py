@@ -1,0 +1,89 @@
+"""Compiler-style text output: ``file:line:col: error[E031 dtype]: ...`` with the source line."""
+
+from __future__ import annotations
+
+from functools import lru_cache
+from pathlib import Path
+from typing import TextIO
+
+from rich.console import Console
+from rich.markup import escape
+
+from fmionnx.diagnostics import Diagnostic, Severity, Span
+from fmionnx.reporters.base import FileResult, Reporter, count
+
+_STYLE = {Severity.ERROR: "bold red", Severity.WARNING: "bold yellow", Severity.INFO: "bold cyan"}
+
+
+@lru_cache(maxsize=64)
+def _lines(path: Path) -> tuple[str, ...]:
+    try:
+        return tuple(path.read_text(encoding="utf-8").splitlines())
+    except (OSError, UnicodeDecodeError):
+        return ()
+
+
+def source_excerpt(span: Span) -> list[str]:
+    """The source line of ``span`` and a caret under its column (empty when unknown)."""
+    if span.line <= 0:
+        return []
+    lines = _lines(span.file)
+    if span.line > len(lines):
+        return []
+    text = lines[span.line - 1].expandtabs(1)
+    gutter = f"{span.line:>4} | "
+    excerpt = [gutter + text]
+    if span.col > 0:
+        excerpt.append(" " * (len(gutter) - 2) + "| " + " " * (span.col - 1) + "^")
+    return excerpt
+
+
+def format_plain(diagnostic: Diagnostic, *, excerpt: bool = True) -> list[str]:
+    """The lines of one diagnostic without colour (golden files use this)."""
+    where = f"{diagnostic.span}: " if diagnostic.span else ""
+    head = f"{where}{diagnostic.severity.label}[{diagnostic.code} {diagnostic.name}]: {diagnostic.message}"
+    lines = [head]
+    if excerpt and diagnostic.span is not None:
+        lines.extend(source_excerpt(diagnostic.span))
+    for note in diagnostic.notes:
+        at = f"{note.span}: " if note.span else ""
+        lines.append(f"  note: {at}{note.message}")
+    if diagnostic.hint:
+        lines.append(f"  hint: {diagnostic.hint}")
+    return lines
+
+
+def summary(results: list[FileResult]) -> str:
+    """``2 errors, 1 warning in 3 files`` (``no problems in 1 file``)."""
+    errors = count(results, Severity.ERROR)
+    warnings = count(results, Severity.WARNING)
+    files = f"{len(results)} file" + ("s" if len(results) != 1 else "")
+    if not errors and not warnings:
+        return f"no problems in {files}"
+    parts = []
+    if errors:
+        parts.append(f"{errors} error" + ("s" if errors != 1 else ""))
+    if warnings:
+        parts.append(f"{warnings} warning" + ("s" if warnings != 1 else ""))
+    return ", ".join(parts) + f" in {files}"
+
+
+class TextReporter(Reporter):
+    """Human-readable report; colour and bold only on a terminal."""
+
+    name = "text"
+
+    def render(self, results: list[FileResult], stream: TextIO, *, color: bool) -> None:
+        """Write every diagnostic, then a one-line summary."""
+        console = Console(file=stream, force_terminal=color, no_color=not color, highlight=False, soft_wrap=True)
+        for result in results:
+            for diagnostic in result.diagnostics:
+                lines = format_plain(diagnostic)
+                style = _STYLE[diagnostic.severity]
+                label = f"{diagnostic.severity.label}[{diagnostic.code} {diagnostic.name}]"
+                console.print(escape(lines[0]).replace(escape(label), f"[{style}]{escape(label)}[/]", 1))
+                for line in lines[1:]:
+                    console.print(escape(line), style="dim" if "|" in line[:8] else None)
+        errors = count(results, Severity.ERROR)
+        style = "bold red" if errors else "bold green"
+        console.print(summary(results), style=style)

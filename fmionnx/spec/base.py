@@ -1,0 +1,44 @@
+"""Shared pieces of the raw system-file models (pydantic, strict, frozen)."""
+
+from __future__ import annotations
+
+from pydantic import BaseModel, ConfigDict, Field
+
+#: A scalar in a system file. ``bool`` first so that ``true`` stays a bool, not 1.
+ScalarLiteral = bool | int | float | str
+#: A parameter or start value: a scalar, a list, or a list of lists (row-major).
+ParameterLiteral = ScalarLiteral | list[ScalarLiteral] | list[list[ScalarLiteral]]
+
+
+class StrictModel(BaseModel):
+    """Base of every raw model: unknown keys are errors, values are immutable."""
+
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+
+
+class ComponentSpecBase(StrictModel):
+    """Keys every component has, whatever its kind.
+
+    Kind-specific models (in ``fmionnx.components.<kind>``) add their own options; the
+    ``kind`` key selects the model, so an option of another kind is an unknown key.
+    """
+
+    kind: str = Field(description="Component kind: `fmu`, `onnx` or `mujoco`.")
+    path: str = Field(description="Model file, relative to the system file.")
+    period: float | None = Field(
+        default=None,
+        gt=0,
+        description="Seconds between two steps of this component; a whole multiple of "
+        "`run.step`. Default: the base step.",
+    )
+    parameters: dict[str, ParameterLiteral] = Field(
+        default_factory=dict,
+        description="Values set before initialization: parameters and start values, by "
+        "variable/port name.",
+    )
+    external: bool = Field(
+        default=False,
+        description="ROS 2 mode: the component is provided from outside (e.g. a real robot); "
+        "its topics are expected, no node is started for it.",
+    )
+    description: str = Field(default="", description="Free text shown by `graph` and docs.")

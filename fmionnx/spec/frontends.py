@@ -1,0 +1,32 @@
+"""Front ends by file suffix: each turns a file into a SystemSpec plus a SourceMap."""
+
+from __future__ import annotations
+
+from collections.abc import Callable, Mapping
+from pathlib import Path
+
+from fmionnx.diagnostics import DiagnosticBag, Span, one_of
+from fmionnx.spec.yaml import LoadedSpec, load_yaml_system
+
+FrontEnd = Callable[[Path, DiagnosticBag], LoadedSpec]
+
+FRONTENDS: Mapping[str, FrontEnd] = {
+    ".yaml": load_yaml_system,
+    ".yml": load_yaml_system,
+}
+
+
+def load_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
+    """Load a system file with the front end its suffix selects."""
+    from fmionnx.spec.sourcemap import SourceMap
+
+    frontend = FRONTENDS.get(path.suffix.lower())
+    if frontend is None:
+        bag.emit(
+            "E013",
+            f"`{path.name}` is not a system file fmionnx reads",
+            Span(path),
+            hint=f"system files end in {one_of(FRONTENDS)}",
+        )
+        return LoadedSpec(None, SourceMap(path), path)
+    return frontend(path, bag)

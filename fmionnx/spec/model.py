@@ -1,0 +1,170 @@
+"""The raw system-file model: the single source of truth for the format and its JSON Schema.
+
+Both front ends (YAML and SSP) produce a :class:`SystemSpec` plus a
+:class:`~fmionnx.spec.sourcemap.SourceMap` that maps every key path to a position in the file
+the user wrote, so the compiler can point at ``system.yaml:14:7``.
+"""
+
+from __future__ import annotations
+
+import re
+from typing import Annotated, Any, Literal
+
+from pydantic import Field, field_validator, model_validator
+
+from fmionnx.components.fmu import FmuSpec
+from fmionnx.components.mujoco import MujocoSpec
+from fmionnx.components.onnx import OnnxSpec
+from fmionnx.spec.base import StrictModel
+
+#: The format versions this release reads (the ``fmionnx:`` key).
+SUPPORTED_FORMATS = (1,)
+
+#: Discriminated by ``kind``; keep in step with ``components.registry.COMPONENT_KINDS``
+#: (a test checks that both list the same kinds).
+ComponentSpec = Annotated[FmuSpec | OnnxSpec | MujocoSpec, Field(discriminator="kind")]
+
+#: ``component.port`` or ``component.port[3]`` / ``component.port[0,2]``; names may contain
+#: letters, digits, ``_`` and, for ports, FMI-style dots are not allowed (quote-free syntax).
+ENDPOINT_RE = re.compile(
+    r"^\s*(?P<component>[A-Za-z_][\w-]*)\.(?P<port>[A-Za-z_][\w.:]*?)"
+    r"(?:\[(?P<index>\s*\d+\s*(?:,\s*\d+\s*)*)\])?\s*$"
+)
+ARROW = "->"
+
+
+class RunSpec(StrictModel):
+    """When and how finely the system runs. Missing values are resolved by the compiler."""
+
+    start: float = Field(default=0.0, description="Start time in seconds.")
+    stop: float | None = Field(default=None, description="Stop time in seconds.")
+    step: float | None = Field(
+        default=None, gt=0, description="Base step in seconds: the fastest component's period."
+    )
+
+
+class ConnectionSpec(StrictModel):
+    """Long form of a connection, for the options the one-line form cannot carry."""
+
+    from_: str = Field(alias="from", description="Source endpoint `component.port[index]`.")
+    to: str = Field(description="Destination endpoint `component.port[index]`.")
+    factor: float = Field(default=1.0, description="Linear transformation: y = factor*x + offset.")
+    offset: float = Field(default=0.0, description="Linear transformation offset.")
+
+    model_config = StrictModel.model_config | {"populate_by_name": True}
+
+
+def split_connection(text: str) -> tuple[str, str] | None:
+    """Split ``"a.b -> c.d"`` into its two endpoint texts, or None when there is no arrow."""
+    if text.count(ARROW) != 1:
+        return None
+    left, right = text.split(ARROW)
+    return left.strip(), right.strip()
+
+
+class PlotSpec(StrictModel):
+    """A plot written by ``fmionnx run``: an x-y trajectory or signals over time."""
+
+    xy: tuple[str, str] | None = Field(
+        default=None, description="Two signals plotted against each other (x, y)."
+    )
+    y: list[str] | None = Field(default=None, description="Signals plotted over time.")
+    over: str | None = Field(
+        default=None,
+        description="Reference drawn underneath, e.g. `world.expected_path` (a path file "
+        "next to the component's model).",
+    )
+    title: str | None = None
+    file: str | None = Field(default=None, description="Output file name (default: derived).")
+
+    @model_validator(mode="after")
+    def _one_kind(self) -> PlotSpec:
+        if (self.xy is None) == (self.y is None):
+            msg = "a plot needs exactly one of `xy` or `y`"
+            raise ValueError(msg)
+        return self
+
+
+class QosSpec(StrictModel):
+    """A ROS 2 QoS profile."""
+
+    reliability: Literal["reliable", "best_effort"] = "reliable"
+    durability: Literal["volatile", "transient_local"] = "volatile"
+    depth: int = Field(default=10, ge=1)
+
+
+class TopicSpec(StrictModel):
+    """Where a port goes on ROS 2: topic, message type, field, QoS."""
+
+    topic: str
+    type: str | None = Field(default=None, description="e.g. `geometry_msgs/msg/Twist`.")
+    field: str | None = Field(default=None, description="Field path inside the message.")
+    qos: str | QosSpec | None = Field(
+        default=None, description="`default`, `sensor_data` or an explicit profile."
+    )
+
+
+class Ros2Spec(StrictModel):
+    """The ``ros2:`` section: only what differs from the defaults."""
+
+    namespace: str = Field(default="", description="Namespace of every node, e.g. `/robot1`.")
+    nodes: dict[str, str] = Field(
+        default_factory=dict, description="Node name per component (default: the component name)."
+    )
+    topics: dict[str, str | TopicSpec] = Field(
+        default_factory=dict,
+        description="Topic per output port `component.port`; a string may name a field "
+        "(`/cmd_vel.linear.x`).",
+    )
+    qos: dict[str, str | QosSpec] = Field(
+        default_factory=dict, description="QoS per topic name or per `component.port`."
+    )
+
+
+class SystemSpec(StrictModel):
+    """A whole system file."""
+
+    fmionnx: int = Field(description="Format version of this file; this release reads 1.")
+    name: str = Field(pattern=r"^[A-Za-z_][\w-]*$", description="Name of the system.")
+    description: str = ""
+    run: RunSpec = Field(default_factory=RunSpec)
+    components: dict[str, ComponentSpec] = Field(
+        description="Components by name (letters, digits, `_`, `-`)."
+    )
+    connections: list[str | ConnectionSpec] = Field(
+        default_factory=list,
+        description="`src.port[i] -> dst.port[j]`, or the long form with `from`/`to`.",
+    )
+    record: list[str] | None = Field(
+        default=None,
+        description="Signals written to results.csv (default: every connected output, "
+        "images excepted).",
+    )
+    plots: list[PlotSpec] = Field(default_factory=list)
+    ros2: Ros2Spec | None = None
+
+    @field_validator("fmionnx")
+    @classmethod
+    def _known_format(cls, value: int) -> int:
+        if value not in SUPPORTED_FORMATS:
+            msg = f"format version {value} is not supported; this release reads {SUPPORTED_FORMATS}"
+            raise ValueError(msg)
+        return value
+
+    @field_validator("components")
+    @classmethod
+    def _component_names(cls, value: dict[str, Any]) -> dict[str, Any]:
+        for name in value:
+            if not re.fullmatch(r"[A-Za-z_][\w-]*", name):
+                msg = f"component name `{name}` must start with a letter or `_` and contain only letters, digits, `_` or `-`"
+                raise ValueError(msg)
+        return value
+
+
+def json_schema() -> dict[str, Any]:
+    """The JSON Schema of the system file (written to ``schemas/system.schema.json``)."""
+    schema = SystemSpec.model_json_schema(by_alias=True)
+    schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
+    schema["$id"] = "https://fmionnx.dev/schemas/system.schema.json"
+    schema["title"] = "fmionnx system file"
+    return schema

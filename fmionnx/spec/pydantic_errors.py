@@ -1,0 +1,211 @@
+"""Turn pydantic validation errors into positioned diagnostics with "did you mean" hints.
+
+Pydantic reports ``loc`` tuples such as ``("components", "odometry", "fmu", "perid")``; we map
+them to spans through the :class:`SourceMap` and, for unknown keys, find the model that was
+being validated to suggest the closest valid key.
+"""
+
+from __future__ import annotations
+
+import types
+import typing
+from typing import Any
+
+from pydantic import BaseModel, ValidationError
+
+from fmionnx.diagnostics import DiagnosticBag, did_you_mean, one_of
+from fmionnx.spec.sourcemap import SourceMap
+
+
+def report_validation_error(
+    exc: ValidationError,
+    data: Any,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+    root: type[BaseModel] | None = None,
+) -> None:
+    """Add one diagnostic per pydantic error (unions reported once, on their best branch)."""
+    if root is None:
+        from fmionnx.spec.model import SystemSpec
+
+        root = SystemSpec
+    seen: set[tuple[Any, ...]] = set()
+    for error in exc.errors(include_url=False):
+        loc = tuple(error["loc"])
+        data_loc = _data_path(loc, data)
+        kind = error["type"]
+        if _other_union_branch(loc, data):
+            continue
+        if kind in {"extra_forbidden", "missing"} or data_loc not in seen:
+            _emit(error, loc, data_loc, data, sources, bag, root)
+        seen.add(data_loc)
+
+
+def _emit(
+    error: Any,
+    loc: tuple[Any, ...],
+    data_loc: tuple[Any, ...],
+    data: Any,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+    root: type[BaseModel],
+) -> None:
+    kind = error["type"]
+    where = _dotted(data_loc)
+    if kind == "extra_forbidden":
+        key = str(data_loc[-1])
+        model = _model_at(root, loc[:-1])
+        fields = _field_names(model) if model is not None else []
+        hint = did_you_mean(key, fields) or (one_of(fields) if fields else None)
+        owner = _dotted(data_loc[:-1]) or "the top level"
+        bag.emit("E002", f"unknown key `{key}` in {owner}", sources.key(data_loc), hint=hint)
+        return
+    if kind == "missing":
+        key = str(data_loc[-1])
+        owner = _dotted(data_loc[:-1]) or "the top level"
+        bag.emit("E004", f"missing key `{key}` in {owner}", sources.key(data_loc[:-1]))
+        return
+    if kind in {"union_tag_invalid", "union_tag_not_found"}:
+        from fmionnx.components.registry import COMPONENT_KINDS
+
+        if kind == "union_tag_not_found":
+            bag.emit(
+                "E004",
+                f"component `{data_loc[-1]}` has no `kind`",
+                sources.key(data_loc),
+                hint=one_of(COMPONENT_KINDS),
+            )
+            return
+        value = _value_at(data, (*data_loc, "kind"))
+        hint = did_you_mean(str(value), COMPONENT_KINDS) or one_of(COMPONENT_KINDS)
+        bag.emit(
+            "E014",
+            f"unknown component kind `{value}`",
+            sources.value((*data_loc, "kind")),
+            hint=hint,
+        )
+        return
+    message = str(error.get("msg", "invalid value"))
+    message = message.removeprefix("Value error, ")
+    value = _value_at(data, data_loc)
+    shown = f" (got {_short(value)})" if value is not _MISSING else ""
+    bag.emit("E003", f"`{where}`: {message}{shown}", sources.value(data_loc))
+
+
+_MISSING = object()
+
+
+def _short(value: Any) -> str:
+    text = repr(value)
+    return text if len(text) <= 40 else text[:37] + "..."
+
+
+def _dotted(path: tuple[Any, ...]) -> str:
+    text = ""
+    for element in path:
+        if isinstance(element, int):
+            text += f"[{element}]"
+        else:
+            text += ("." if text else "") + str(element)
+    return text
+
+
+def _value_at(data: Any, path: tuple[Any, ...]) -> Any:
+    current = data
+    for element in path:
+        if isinstance(current, dict) and element in current:
+            current = current[element]
+        elif isinstance(current, list) and isinstance(element, int) and element < len(current):
+            current = current[element]
+        else:
+            return _MISSING
+    return current
+
+
+def _data_path(loc: tuple[Any, ...], data: Any) -> tuple[Any, ...]:
+    """Drop loc elements that are not in the data (union tags, type names like `str`)."""
+    path: list[Any] = []
+    current = data
+    for element in loc:
+        if isinstance(current, dict) and element in current:
+            path.append(element)
+            current = current[element]
+        elif isinstance(current, list) and isinstance(element, int) and element < len(current):
+            path.append(element)
+            current = current[element]
+        elif isinstance(current, dict) and element not in current and _is_last_key(loc, element):
+            path.append(element)
+    return tuple(path)
+
+
+def _other_union_branch(loc: tuple[Any, ...], data: Any) -> bool:
+    """True for an error of the `str` branch of a `str | Model` union whose value is a map."""
+    for position, element in enumerate(loc):
+        if element == "str":
+            return not isinstance(_value_at(data, _data_path(loc[:position], data)), str)
+    return False
+
+
+def _is_last_key(loc: tuple[Any, ...], element: Any) -> bool:
+    return bool(loc) and loc[-1] == element
+
+
+def _field_names(model: type[BaseModel]) -> list[str]:
+    return [info.alias or name for name, info in model.model_fields.items()]
+
+
+def _model_at(root: type[BaseModel], loc: tuple[Any, ...]) -> type[BaseModel] | None:
+    """The model class validated at ``loc`` (follows fields, dict values, lists, union tags)."""
+    current: Any = root
+    for element in loc:
+        current = _step(current, element)
+        if current is None:
+            return None
+    models = [m for m in _candidates(current) if isinstance(m, type) and issubclass(m, BaseModel)]
+    return models[0] if len(models) == 1 else None
+
+
+def _step(current: Any, element: Any) -> Any:
+    if isinstance(element, str):
+        for candidate in _candidates(current):
+            if isinstance(candidate, type) and candidate.__name__ == element:
+                return candidate
+        tagged = _tagged(current, element)
+        if tagged is not None:
+            return tagged
+    for candidate in _candidates(current):
+        if isinstance(candidate, type) and issubclass(candidate, BaseModel):
+            fields = candidate.model_fields
+            for name, info in fields.items():
+                if element in {name, info.alias}:
+                    return info.annotation
+            continue
+        origin = typing.get_origin(candidate)
+        args = typing.get_args(candidate)
+        if origin is dict and isinstance(element, str):
+            return args[1]
+        if origin in {list, tuple} and isinstance(element, int):
+            return args[0]
+    return None
+
+
+def _tagged(candidate: Any, tag: str) -> Any:
+    for option in _candidates(candidate):
+        if isinstance(option, type) and issubclass(option, BaseModel):
+            kind_field = option.model_fields.get("kind")
+            if kind_field is not None and kind_field.default == tag:
+                return option
+    return None
+
+
+def _candidates(annotation: Any) -> list[Any]:
+    """Flatten Optional/Union/Annotated into the list of alternative types."""
+    origin = typing.get_origin(annotation)
+    if origin is typing.Annotated:
+        return _candidates(typing.get_args(annotation)[0])
+    if origin in {typing.Union, types.UnionType}:
+        result: list[Any] = []
+        for arg in typing.get_args(annotation):
+            result.extend(_candidates(arg))
+        return result
+    return [annotation]

@@ -1,0 +1,189 @@
+"""YAML front end: bytes -> plain data with positions -> validated :class:`SystemSpec`.
+
+ruamel.yaml's round-trip loader keeps line/column marks on every mapping and sequence; we
+convert its nodes to plain Python values while recording positions in a
+:class:`~fmionnx.spec.sourcemap.SourceMap`. The loader constructs only plain data (maps,
+lists, scalars): any explicit tag is rejected, so no object is ever built from the file.
+"""
+
+from __future__ import annotations
+
+import datetime as dt
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+from ruamel.yaml import YAML
+from ruamel.yaml.comments import CommentedMap, CommentedSeq
+from ruamel.yaml.constructor import DuplicateKeyError
+from ruamel.yaml.error import MarkedYAMLError, YAMLError
+
+from fmionnx.diagnostics import DiagnosticBag, Span
+from fmionnx.spec.pydantic_errors import report_validation_error
+from fmionnx.spec.model import SystemSpec
+from fmionnx.spec.sourcemap import KeyPath, SourceMap
+
+MAX_SYSTEM_FILE_BYTES = 16 * 1024 * 1024
+
+
+@dataclass(frozen=True)
+class LoadedSpec:
+    """A front end's result: the spec (None when unusable), and where everything is."""
+
+    spec: SystemSpec | None
+    sources: SourceMap
+    path: Path
+
+
+class _TagError(Exception):
+    def __init__(self, path: KeyPath, tag: str) -> None:
+        self.path = path
+        self.tag = tag
+
+
+def read_text(path: Path, bag: DiagnosticBag) -> str | None:
+    """Read a UTF-8 text file, reporting missing files, directories and bad encodings."""
+    span = Span(path)
+    if not path.exists():
+        bag.emit("E010", f"system file `{path}` does not exist", span)
+        return None
+    if not path.is_file():
+        bag.emit("E011", f"`{path}` is a directory or special file, not a system file", span)
+        return None
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        bag.emit("E010", f"cannot read `{path}`: {exc.strerror}", span)
+        return None
+    if len(data) > MAX_SYSTEM_FILE_BYTES:
+        bag.emit("E003", f"`{path}` is larger than {MAX_SYSTEM_FILE_BYTES} bytes", span)
+        return None
+    try:
+        return data.decode("utf-8-sig")
+    except UnicodeDecodeError as exc:
+        line = data[: exc.start].count(b"\n") + 1
+        col = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
+        bag.emit(
+            "E006",
+            f"the file is not UTF-8 text (byte 0x{data[exc.start]:02x})",
+            Span(path, line, col),
+            hint="save the file as UTF-8",
+        )
+        return None
+
+
+def load_yaml_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
+    """Load and validate a YAML system file; every problem goes into ``bag``."""
+    sources = SourceMap(path)
+    text = read_text(path, bag)
+    if text is None:
+        return LoadedSpec(None, sources, path)
+    data = parse_yaml(text, path, sources, bag)
+    if data is None:
+        return LoadedSpec(None, sources, path)
+    if not isinstance(data, dict):
+        bag.emit(
+            "E003",
+            "a system file must be a mapping with keys `fmionnx`, `name`, `components` ...",
+            Span(path, 1, 1),
+            hint="start the file with `fmionnx: 1`",
+        )
+        return LoadedSpec(None, sources, path)
+    try:
+        spec = SystemSpec.model_validate(data)
+    except ValidationError as exc:
+        report_validation_error(exc, data, sources, bag)
+        return LoadedSpec(None, sources, path)
+    return LoadedSpec(spec, sources, path)
+
+
+def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) -> Any:
+    """Parse YAML text to plain data, recording positions; None (and a diagnostic) on error."""
+    yaml = YAML(typ="rt")
+    yaml.allow_duplicate_keys = False
+    try:
+        node = yaml.load(text)
+    except DuplicateKeyError as exc:
+        _report_marked(exc, path, bag, "E007")
+        return None
+    except MarkedYAMLError as exc:
+        _report_marked(exc, path, bag, "E001")
+        return None
+    except YAMLError as exc:
+        bag.emit("E001", f"invalid YAML: {exc}", Span(path, 1, 1))
+        return None
+    if node is None:
+        bag.emit("E004", "the system file is empty", Span(path, 1, 1), hint="start with `fmionnx: 1`")
+        return None
+    sources.record((), Span(path, 1, 1))
+    try:
+        return _plain(node, (), sources)
+    except _TagError as exc:
+        bag.emit(
+            "E003",
+            f"YAML tag `{exc.tag}` is not allowed in a system file",
+            sources.value(exc.path),
+            hint="system files hold plain maps, lists, strings and numbers",
+        )
+        return None
+
+
+def _report_marked(exc: MarkedYAMLError, path: Path, bag: DiagnosticBag, code: str) -> None:
+    mark = exc.problem_mark or exc.context_mark
+    span = Span(path, mark.line + 1, mark.column + 1) if mark is not None else Span(path, 1, 1)
+    problem = exc.problem or "invalid YAML"
+    if code == "E007":
+        message = problem.split(" with value")[0]
+        problem = message.replace("found duplicate key", "duplicate key")
+        bag.emit(code, problem, span, hint="each key may appear once in a mapping")
+        return
+    context = f" ({exc.context})" if exc.context else ""
+    bag.emit(code, f"invalid YAML: {problem}{context}", span)
+
+
+def _plain(node: Any, path: KeyPath, sources: SourceMap) -> Any:
+    """Convert ruamel nodes to plain dict/list/scalars and record spans (recursive)."""
+    file = sources.file
+    if isinstance(node, CommentedMap):
+        _reject_tag(node, path)
+        result: dict[str, Any] = {}
+        for key in node:
+            key_line, key_col = node.lc.key(key)
+            value_line, value_col = node.lc.value(key)
+            child = (*path, str(key))
+            sources.record(
+                child,
+                Span(file, value_line + 1, value_col + 1),
+                Span(file, key_line + 1, key_col + 1),
+            )
+            result[str(key)] = _plain(node[key], child, sources)
+        return result
+    if isinstance(node, CommentedSeq):
+        _reject_tag(node, path)
+        items: list[Any] = []
+        for index, item in enumerate(node):
+            line, col = node.lc.item(index)
+            child = (*path, index)
+            sources.record(child, Span(file, line + 1, col + 1))
+            items.append(_plain(item, child, sources))
+        return items
+    if isinstance(node, bool) or node is None:
+        return node
+    if isinstance(node, int):
+        return int(node)
+    if isinstance(node, float):
+        return float(node)
+    if isinstance(node, str) and type(node).__name__ in {"str", "ScalarString", "LiteralScalarString", "FoldedScalarString", "SingleQuotedScalarString", "DoubleQuotedScalarString", "PlainScalarString"}:
+        return str(node)
+    if isinstance(node, dt.date):
+        return node.isoformat()
+    tag = getattr(getattr(node, "tag", None), "value", None) or type(node).__name__
+    raise _TagError(path, str(tag))
+
+
+def _reject_tag(node: CommentedMap | CommentedSeq, path: KeyPath) -> None:
+    tag = getattr(node, "tag", None)
+    value = getattr(tag, "value", None)
+    if value:
+        raise _TagError(path, str(value))

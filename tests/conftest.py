@@ -1,0 +1,66 @@
+"""Shared fixtures: no network, real models built from the repository's own sources."""
+
+from __future__ import annotations
+
+import hashlib
+import socket
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+REPO = Path(__file__).resolve().parent.parent
+FIXTURES = Path(__file__).resolve().parent / "fixtures"
+BUILT_MODELS = REPO / "build" / "models"
+FIXTURE_BUILD = REPO / "build" / "test-fixtures"
+
+
+@pytest.fixture(autouse=True)
+def _no_network(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """Tests never reach beyond this machine: only loopback and local sockets are allowed."""
+    real_connect = socket.socket.connect
+
+    def guarded(self: socket.socket, address: object) -> object:
+        host = address[0] if isinstance(address, tuple) else None
+        if host is not None and not str(host).startswith(("127.", "::1", "localhost")):
+            msg = f"test tried to reach {address}"
+            raise RuntimeError(msg)
+        return real_connect(self, address)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(socket.socket, "connect", guarded)
+    yield
+
+
+def _tree_hash(folder: Path) -> str:
+    digest = hashlib.sha256()
+    for file in sorted(p for p in folder.rglob("*") if p.is_file()):
+        digest.update(file.relative_to(folder).as_posix().encode())
+        digest.update(file.read_bytes())
+    return digest.hexdigest()[:16]
+
+
+def build_fixture_fmu(name: str) -> Path:
+    """Build ``tests/fixtures/fmus/<name>`` into a binary FMU, cached by source hash."""
+    from fmionnx.build import build_fmu
+
+    source = FIXTURES / "fmus" / name
+    digest = _tree_hash(source)
+    output = FIXTURE_BUILD / f"{name}-{digest}.fmu"
+    if not output.exists():
+        build_fmu(source, output)
+    return output
+
+
+@pytest.fixture(scope="session")
+def fixture_fmu() -> object:
+    """Callable fixture: ``fixture_fmu("Gain")`` -> path of the built test FMU."""
+    return build_fixture_fmu
+
+
+def built_model(name: str) -> Path:
+    """A model built by ``make models`` (``build/models/<name>``); skips nothing: it must exist."""
+    path = BUILT_MODELS / name
+    if not path.exists():
+        msg = f"{path} is missing: run `make models` first (make test does)"
+        raise FileNotFoundError(msg)
+    return path
