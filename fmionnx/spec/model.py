@@ -24,10 +24,11 @@ SUPPORTED_FORMATS = (1,)
 #: (a test checks that both list the same kinds).
 ComponentSpec = Annotated[FmuSpec | OnnxSpec | MujocoSpec, Field(discriminator="kind")]
 
-#: ``component.port`` or ``component.port[3]`` / ``component.port[0,2]``; names may contain
-#: letters, digits, ``_`` and, for ports, FMI-style dots are not allowed (quote-free syntax).
+#: ``name.more[3]``: a dotted name with an optional element index (``[0]`` or ``[0,2]``).
+#: Which prefix is the component is decided by the compiler from the known component names
+#: (SSP nested systems give dotted component names; Modelica FMUs give dotted port names).
 ENDPOINT_RE = re.compile(
-    r"^\s*(?P<component>[A-Za-z_][\w-]*)\.(?P<port>[A-Za-z_][\w.:]*?)"
+    r"^\s*(?P<name>[A-Za-z_][\w:-]*(?:\.[A-Za-z_$][\w:$-]*)+)"
     r"(?:\[(?P<index>\s*\d+\s*(?:,\s*\d+\s*)*)\])?\s*$"
 )
 ARROW = "->"
@@ -155,8 +156,11 @@ class SystemSpec(StrictModel):
     @classmethod
     def _component_names(cls, value: dict[str, Any]) -> dict[str, Any]:
         for name in value:
-            if not re.fullmatch(r"[A-Za-z_][\w-]*", name):
-                msg = f"component name `{name}` must start with a letter or `_` and contain only letters, digits, `_` or `-`"
+            if not re.fullmatch(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*", name):
+                msg = (
+                    f"component name `{name}` must start with a letter or `_` and contain "
+                    "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
+                )
                 raise ValueError(msg)
         return value
 
