@@ -1,8 +1,8 @@
 """The Python API: everything the CLI does, callable from code and tests.
 
-    >>> from fmionnx import api
-    >>> result = api.compile_system("systems/sign_follower.yaml")
-    >>> result.ok, [str(d.span) for d in result.diagnostics]
+>>> from fmionnx import api
+>>> result = api.compile_system("systems/sign_follower.yaml")
+>>> result.ok, [str(d.span) for d in result.diagnostics]
 """
 
 from __future__ import annotations

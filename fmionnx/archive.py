@@ -64,7 +64,11 @@ def check_archive(archive: zipfile.ZipFile) -> None:
             msg = f"archive member `{info.filename}` is a symbolic link"
             raise ModelError("E017", msg)
         total += info.file_size
-        if info.compress_size and info.file_size / max(info.compress_size, 1) > MAX_RATIO and info.file_size > 1024**2:
+        if (
+            info.compress_size
+            and info.file_size / max(info.compress_size, 1) > MAX_RATIO
+            and info.file_size > 1024**2
+        ):
             msg = f"archive member `{info.filename}` expands {info.file_size // max(info.compress_size, 1)}x (zip bomb?)"
             raise ModelError("E017", msg)
     if total > MAX_TOTAL_BYTES:

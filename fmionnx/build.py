@@ -50,12 +50,14 @@ def build_fmu(source: Path, output: Path | None = None) -> Path:
             raise ModelError("E010", msg)
         if not (unpacked / "modelDescription.xml").is_file():
             msg = f"`{source}` has no modelDescription.xml"
-            raise ModelError("E012", msg, hint="a source FMU holds modelDescription.xml and sources/")
+            raise ModelError(
+                "E012", msg, hint="a source FMU holds modelDescription.xml and sources/"
+            )
         if not (unpacked / "sources").is_dir():
             msg = f"`{source}` has no sources/ folder: there is nothing to compile"
             raise ModelError("E015", msg)
         shutil.rmtree(unpacked / "binaries", ignore_errors=True)
-        result = subprocess.run(  # noqa: S603 - fixed interpreter and script
+        result = subprocess.run(
             [sys.executable, "-c", _BUILD_SCRIPT, str(unpacked), str(Path(tmp) / "cmake")],
             capture_output=True,
             text=True,

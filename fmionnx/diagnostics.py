@@ -84,58 +84,186 @@ CODES: dict[str, ErrorCode] = _codes(
     ErrorCode("E007", "duplicate-key", _E, "syntax", "A key appears twice in one mapping."),
     # --- model files
     ErrorCode("E010", "file-not-found", _E, "model", "A referenced file does not exist."),
-    ErrorCode("E011", "not-a-file", _E, "model", "A directory or special file where a file is expected."),
-    ErrorCode("E012", "bad-model", _E, "model", "The model file cannot be read (corrupt archive, bad XML, bad protobuf)."),
-    ErrorCode("E013", "unsupported-model", _E, "model", "A model version or feature fmionnx does not support."),
+    ErrorCode(
+        "E011", "not-a-file", _E, "model", "A directory or special file where a file is expected."
+    ),
+    ErrorCode(
+        "E012",
+        "bad-model",
+        _E,
+        "model",
+        "The model file cannot be read (corrupt archive, bad XML, bad protobuf).",
+    ),
+    ErrorCode(
+        "E013",
+        "unsupported-model",
+        _E,
+        "model",
+        "A model version or feature fmionnx does not support.",
+    ),
     ErrorCode("E014", "unknown-kind", _E, "schema", "A component kind that is not registered."),
-    ErrorCode("E015", "no-binary", _E, "model", "The FMU has no binary for this platform (and no sources to build)."),
-    ErrorCode("E016", "interface-type", _E, "model", "The FMU does not offer the requested interface type (CS/ME)."),
-    ErrorCode("E017", "unsafe-archive", _E, "model", "An archive with path traversal, links or an excessive size."),
-    ErrorCode("E018", "unknown-option", _E, "schema", "An option that does not apply to this component kind."),
+    ErrorCode(
+        "E015",
+        "no-binary",
+        _E,
+        "model",
+        "The FMU has no binary for this platform (and no sources to build).",
+    ),
+    ErrorCode(
+        "E016",
+        "interface-type",
+        _E,
+        "model",
+        "The FMU does not offer the requested interface type (CS/ME).",
+    ),
+    ErrorCode(
+        "E017",
+        "unsafe-archive",
+        _E,
+        "model",
+        "An archive with path traversal, links or an excessive size.",
+    ),
+    ErrorCode(
+        "E018",
+        "unknown-option",
+        _E,
+        "schema",
+        "An option that does not apply to this component kind.",
+    ),
     # --- endpoints
-    ErrorCode("E020", "unknown-component", _E, "endpoint", "A connection names a component that does not exist."),
-    ErrorCode("E021", "unknown-port", _E, "endpoint", "A connection names a port the component does not have."),
-    ErrorCode("E022", "bad-index", _E, "endpoint", "An element index that is out of range or on a scalar port."),
-    ErrorCode("E023", "bad-endpoint", _E, "endpoint", "An endpoint that is not of the form `component.port[index]`."),
+    ErrorCode(
+        "E020",
+        "unknown-component",
+        _E,
+        "endpoint",
+        "A connection names a component that does not exist.",
+    ),
+    ErrorCode(
+        "E021",
+        "unknown-port",
+        _E,
+        "endpoint",
+        "A connection names a port the component does not have.",
+    ),
+    ErrorCode(
+        "E022",
+        "bad-index",
+        _E,
+        "endpoint",
+        "An element index that is out of range or on a scalar port.",
+    ),
+    ErrorCode(
+        "E023",
+        "bad-endpoint",
+        _E,
+        "endpoint",
+        "An endpoint that is not of the form `component.port[index]`.",
+    ),
     # --- connection checks
-    ErrorCode("E030", "causality", _E, "connection", "A connection must go from an output to an input or parameter."),
+    ErrorCode(
+        "E030",
+        "causality",
+        _E,
+        "connection",
+        "A connection must go from an output to an input or parameter.",
+    ),
     ErrorCode("E031", "dtype", _E, "connection", "Element types on both ends cannot be converted."),
     ErrorCode("E032", "shape", _E, "connection", "Element counts on both ends differ."),
     ErrorCode("E033", "unit", _E, "connection", "Both ends declare units and they differ."),
-    ErrorCode("E034", "multiple-drivers", _E, "connection", "An input is driven by more than one connection."),
+    ErrorCode(
+        "E034",
+        "multiple-drivers",
+        _E,
+        "connection",
+        "An input is driven by more than one connection.",
+    ),
     ErrorCode("E035", "algebraic-loop", _E, "graph", "A cycle through direct-feedthrough ports."),
     ErrorCode("E036", "self-connection", _E, "connection", "A connection from a port to itself."),
-    ErrorCode("W030", "unconnected-input", _W, "connection", "An input nobody drives: its start value is used."),
-    ErrorCode("W031", "lossy-conversion", _W, "connection", "A conversion that may lose precision or range."),
-    ErrorCode("W032", "unit-unchecked", _W, "connection", "Only one end declares a unit; it cannot be checked."),
+    ErrorCode(
+        "W030",
+        "unconnected-input",
+        _W,
+        "connection",
+        "An input nobody drives: its start value is used.",
+    ),
+    ErrorCode(
+        "W031",
+        "lossy-conversion",
+        _W,
+        "connection",
+        "A conversion that may lose precision or range.",
+    ),
     # --- run settings and parameters
     ErrorCode("E040", "run-settings", _E, "run", "Start, stop or step time are inconsistent."),
-    ErrorCode("E041", "period", _E, "run", "A component period is not a whole multiple of the base step."),
-    ErrorCode("E042", "unknown-parameter", _E, "parameter", "A parameter or start value the model does not have."),
-    ErrorCode("E043", "parameter-value", _E, "parameter", "A parameter value of the wrong type or shape."),
-    ErrorCode("E044", "parameter-causality", _E, "parameter", "A value set on a variable that may not be set."),
+    ErrorCode(
+        "E041", "period", _E, "run", "A component period is not a whole multiple of the base step."
+    ),
+    ErrorCode(
+        "E042",
+        "unknown-parameter",
+        _E,
+        "parameter",
+        "A parameter or start value the model does not have.",
+    ),
+    ErrorCode(
+        "E043", "parameter-value", _E, "parameter", "A parameter value of the wrong type or shape."
+    ),
+    ErrorCode(
+        "E044",
+        "parameter-causality",
+        _E,
+        "parameter",
+        "A value set on a variable that may not be set.",
+    ),
     ErrorCode("E045", "plot", _E, "run", "A plot names a signal that does not exist."),
-    ErrorCode("W040", "default-period", _I, "run", "A component without a period runs at the base step."),
     # --- graph
     ErrorCode("E050", "duplicate-component", _E, "graph", "Two components share a name."),
     ErrorCode("W050", "isolated-component", _W, "graph", "A component with no connections at all."),
     # --- ROS 2 (issue: ROS 2 mode)
     ErrorCode("E060", "ros2-type", _E, "ros2", "Unknown ROS 2 message type."),
-    ErrorCode("E061", "ros2-field", _E, "ros2", "A message field that does not exist or does not fit the port."),
+    ErrorCode(
+        "E061",
+        "ros2-field",
+        _E,
+        "ros2",
+        "A message field that does not exist or does not fit the port.",
+    ),
     ErrorCode("E062", "ros2-name", _E, "ros2", "A node or topic name that ROS 2 does not allow."),
     ErrorCode("E063", "ros2-qos", _E, "ros2", "Unknown or inconsistent QoS profile."),
-    ErrorCode("E064", "ros2-unmapped", _E, "ros2", "A port that cannot be mapped onto a ROS 2 topic."),
-    ErrorCode("E065", "ros2-reference", _E, "ros2", "The ros2 section names a component or port that does not exist."),
+    ErrorCode(
+        "E064", "ros2-unmapped", _E, "ros2", "A port that cannot be mapped onto a ROS 2 topic."
+    ),
+    ErrorCode(
+        "E065",
+        "ros2-reference",
+        _E,
+        "ros2",
+        "The ros2 section names a component or port that does not exist.",
+    ),
     # --- SSP (issue: SSP)
     ErrorCode("E070", "ssp-schema", _E, "ssp", "The SSD does not validate against the SSP XSD."),
     ErrorCode("E071", "ssp-unsupported", _E, "ssp", "An SSP feature fmionnx does not support yet."),
-    ErrorCode("E072", "ssp-reference", _E, "ssp", "An SSP element references something that does not exist."),
+    ErrorCode(
+        "E072",
+        "ssp-reference",
+        _E,
+        "ssp",
+        "An SSP element references something that does not exist.",
+    ),
     ErrorCode("W070", "ssp-ignored", _W, "ssp", "An SSP element that fmionnx reads but ignores."),
     # --- interface lock (issue: CI)
-    ErrorCode("E080", "lock-interface-changed", _E, "lock", "A model's interface differs from the lock file."),
+    ErrorCode(
+        "E080",
+        "lock-interface-changed",
+        _E,
+        "lock",
+        "A model's interface differs from the lock file.",
+    ),
     ErrorCode("E081", "lock-missing", _E, "lock", "No lock file, or a component missing from it."),
     ErrorCode("E082", "lock-invalid", _E, "lock", "The lock file cannot be read."),
-    ErrorCode("I080", "lock-binary-changed", _I, "lock", "The model file changed, its interface did not."),
+    ErrorCode(
+        "I080", "lock-binary-changed", _I, "lock", "The model file changed, its interface did not."
+    ),
 )
 
 

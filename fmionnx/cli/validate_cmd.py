@@ -31,7 +31,9 @@ def validate(
     systems: Annotated[list[Path], typer.Argument(help="System files (.yaml, .ssp, .ssd).")],
     output_format: Annotated[
         str,
-        typer.Option("--format", "-f", callback=_check_format, help="Report format: text, json, ..."),
+        typer.Option(
+            "--format", "-f", callback=_check_format, help="Report format: text, json, ..."
+        ),
     ] = "text",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Report errors only.")] = False,
 ) -> None:

@@ -169,11 +169,15 @@ class PortRef:
     port: str
     index: tuple[int, ...] | None = None
 
+    @property
+    def port_label(self) -> str:
+        """The port with its index, without the component: ``base_quat[0]``."""
+        if self.index is None:
+            return self.port
+        return self.port + "[" + ",".join(str(i) for i in self.index) + "]"
+
     def __str__(self) -> str:
-        text = f"{self.component}.{self.port}"
-        if self.index is not None:
-            text += "[" + ",".join(str(i) for i in self.index) + "]"
-        return text
+        return f"{self.component}.{self.port_label}"
 
 
 @dataclass(frozen=True, slots=True)
@@ -310,9 +314,7 @@ class CompiledSystem:
                 }
                 for c in self.components
             ],
-            "connections": [
-                [str(c.src), str(c.dst), c.factor, c.offset] for c in self.connections
-            ],
+            "connections": [[str(c.src), str(c.dst), c.factor, c.offset] for c in self.connections],
             "order": list(self.order),
         }
         text = json.dumps(payload, sort_keys=True, default=str)

@@ -19,10 +19,25 @@ class ComponentKind(Protocol):
     libraries are imported inside methods so that ``validate`` stays fast.
     """
 
-    name: str
-    spec_model: type[ComponentSpecBase]
-    suffixes: tuple[str, ...]
-    summary: str
+    @property
+    def name(self) -> str:
+        """Key of the kind in system files (``kind: fmu``)."""
+        ...
+
+    @property
+    def spec_model(self) -> type[ComponentSpecBase]:
+        """The pydantic model of this kind's component entry."""
+        ...
+
+    @property
+    def suffixes(self) -> tuple[str, ...]:
+        """File name endings recognised by ``fmionnx inspect``."""
+        ...
+
+    @property
+    def summary(self) -> str:
+        """One line for help texts."""
+        ...
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the interface of the model at ``path``."""

@@ -2,8 +2,6 @@
 
 from __future__ import annotations
 
-from functools import lru_cache
-from pathlib import Path
 from typing import TextIO
 
 from rich.console import Console
@@ -11,23 +9,16 @@ from rich.markup import escape
 
 from fmionnx.diagnostics import Diagnostic, Severity, Span
 from fmionnx.reporters.base import FileResult, Reporter, count
+from fmionnx.sourcetext import source_lines
 
 _STYLE = {Severity.ERROR: "bold red", Severity.WARNING: "bold yellow", Severity.INFO: "bold cyan"}
-
-
-@lru_cache(maxsize=64)
-def _lines(path: Path) -> tuple[str, ...]:
-    try:
-        return tuple(path.read_text(encoding="utf-8").splitlines())
-    except (OSError, UnicodeDecodeError):
-        return ()
 
 
 def source_excerpt(span: Span) -> list[str]:
     """The source line of ``span`` and a caret under its column (empty when unknown)."""
     if span.line <= 0:
         return []
-    lines = _lines(span.file)
+    lines = source_lines(span.file)
     if span.line > len(lines):
         return []
     text = lines[span.line - 1].expandtabs(1)
@@ -75,13 +66,17 @@ class TextReporter(Reporter):
 
     def render(self, results: list[FileResult], stream: TextIO, *, color: bool) -> None:
         """Write every diagnostic, then a one-line summary."""
-        console = Console(file=stream, force_terminal=color, no_color=not color, highlight=False, soft_wrap=True)
+        console = Console(
+            file=stream, force_terminal=color, no_color=not color, highlight=False, soft_wrap=True
+        )
         for result in results:
             for diagnostic in result.diagnostics:
                 lines = format_plain(diagnostic)
                 style = _STYLE[diagnostic.severity]
                 label = f"{diagnostic.severity.label}[{diagnostic.code} {diagnostic.name}]"
-                console.print(escape(lines[0]).replace(escape(label), f"[{style}]{escape(label)}[/]", 1))
+                console.print(
+                    escape(lines[0]).replace(escape(label), f"[{style}]{escape(label)}[/]", 1)
+                )
                 for line in lines[1:]:
                     console.print(escape(line), style="dim" if "|" in line[:8] else None)
         errors = count(results, Severity.ERROR)

@@ -113,9 +113,9 @@ def _dotted(path: tuple[Any, ...]) -> str:
 def _value_at(data: Any, path: tuple[Any, ...]) -> Any:
     current = data
     for element in path:
-        if isinstance(current, dict) and element in current:
-            current = current[element]
-        elif isinstance(current, list) and isinstance(element, int) and element < len(current):
+        if (isinstance(current, dict) and element in current) or (
+            isinstance(current, list) and isinstance(element, int) and element < len(current)
+        ):
             current = current[element]
         else:
             return _MISSING
@@ -127,10 +127,9 @@ def _data_path(loc: tuple[Any, ...], data: Any) -> tuple[Any, ...]:
     path: list[Any] = []
     current = data
     for element in loc:
-        if isinstance(current, dict) and element in current:
-            path.append(element)
-            current = current[element]
-        elif isinstance(current, list) and isinstance(element, int) and element < len(current):
+        if (isinstance(current, dict) and element in current) or (
+            isinstance(current, list) and isinstance(element, int) and element < len(current)
+        ):
             path.append(element)
             current = current[element]
         elif isinstance(current, dict) and element not in current and _is_last_key(loc, element):

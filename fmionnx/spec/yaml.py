@@ -20,8 +20,8 @@ from ruamel.yaml.constructor import DuplicateKeyError
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from fmionnx.diagnostics import DiagnosticBag, Span
-from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.model import SystemSpec
+from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import KeyPath, SourceMap
 
 MAX_SYSTEM_FILE_BYTES = 16 * 1024 * 1024
@@ -114,7 +114,9 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
         bag.emit("E001", f"invalid YAML: {exc}", Span(path, 1, 1))
         return None
     if node is None:
-        bag.emit("E004", "the system file is empty", Span(path, 1, 1), hint="start with `fmionnx: 1`")
+        bag.emit(
+            "E004", "the system file is empty", Span(path, 1, 1), hint="start with `fmionnx: 1`"
+        )
         return None
     sources.record((), Span(path, 1, 1))
     try:
@@ -174,7 +176,15 @@ def _plain(node: Any, path: KeyPath, sources: SourceMap) -> Any:
         return int(node)
     if isinstance(node, float):
         return float(node)
-    if isinstance(node, str) and type(node).__name__ in {"str", "ScalarString", "LiteralScalarString", "FoldedScalarString", "SingleQuotedScalarString", "DoubleQuotedScalarString", "PlainScalarString"}:
+    if isinstance(node, str) and type(node).__name__ in {
+        "str",
+        "ScalarString",
+        "LiteralScalarString",
+        "FoldedScalarString",
+        "SingleQuotedScalarString",
+        "DoubleQuotedScalarString",
+        "PlainScalarString",
+    }:
         return str(node)
     if isinstance(node, dt.date):
         return node.isoformat()

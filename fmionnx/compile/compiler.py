@@ -1,0 +1,324 @@
+"""The compiler: raw spec + real model interfaces -> checked, frozen :class:`CompiledSystem`.
+
+Stages collect diagnostics into one bag, so a single run reports every problem; a stage that
+cannot continue for one component or connection skips just that item.
+"""
+
+from __future__ import annotations
+
+from collections import defaultdict
+
+from fmionnx.compile.endpoints import ResolvedEndpoint, flat_index, resolve_endpoint
+from fmionnx.compile.graph import execution_order, find_algebraic_loops
+from fmionnx.compile.ir import (
+    Causality,
+    CompiledSystem,
+    Component,
+    ComponentInterface,
+    Connection,
+    PortRef,
+    is_whole_multiple,
+)
+from fmionnx.compile.resolve import model_path, read_interface, resolve_parameters, resolve_run
+from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
+from fmionnx.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.sourcetext import source_lines
+from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
+from fmionnx.spec.sourcemap import SourceMap
+from fmionnx.spec.yaml import LoadedSpec
+
+
+def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | None:
+    """Compile a loaded spec; returns None when errors make a system impossible."""
+    spec = loaded.spec
+    if spec is None:
+        return None
+    sources = loaded.sources
+    base = loaded.path.parent
+    interfaces: dict[str, ComponentInterface | None] = {}
+    for name, component_spec in spec.components.items():
+        interfaces[name] = read_interface(name, component_spec, base, sources, bag)
+    readable = {n: i for n, i in interfaces.items() if i is not None}
+    periods = {n: s.period for n, s in spec.components.items() if s.period is not None}
+    run = resolve_run(spec.run, readable, periods, sources, bag)
+
+    components: list[Component] = []
+    for name, component_spec in spec.components.items():
+        interface = interfaces[name]
+        if interface is None:
+            continue
+        parameters = resolve_parameters(name, component_spec, interface, sources, bag)
+        period = component_spec.period if component_spec.period is not None else None
+        steps = 1
+        if run is not None:
+            period = period if period is not None else run.step
+            steps_or_none = _check_period(name, period, run.step, interface, sources, bag)
+            steps = steps_or_none or 1
+        components.append(
+            Component(
+                name=name,
+                kind=component_spec.kind,
+                path=model_path(base, component_spec.path),
+                interface=interface,
+                spec=component_spec,
+                period=period if period is not None else 0.0,
+                period_steps=steps,
+                parameters=parameters,
+                span=sources.key(("components", name)),
+            )
+        )
+
+    connections = _connections(spec, interfaces, sources, bag)
+    by_name = {c.name: c for c in components}
+    _check_drivers(connections, bag)
+    _check_unconnected(components, connections, spec, sources, bag)
+    usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
+    for loop in find_algebraic_loops(components, usable):
+        spans = [c.span for c in usable if f"{c.src.component}.{c.src.port}" in loop]
+        bag.emit(
+            "E035",
+            "algebraic loop: " + " -> ".join([*loop, loop[0]]),
+            spans[0] if spans else Span(loaded.path),
+            hint="break the loop with a component whose output does not depend directly on its "
+            "input (a delay, a state), or declare the dependencies in the model",
+            notes=[Note("part of the loop", s) for s in spans[1:]],
+        )
+    record = _refs(spec.record or [], "record", by_name, sources, bag)
+    _check_plots(spec, by_name, sources, bag)
+    if run is None or bag.has_errors:
+        return None
+    return CompiledSystem(
+        name=spec.name,
+        source=loaded.path,
+        run=run,
+        components=tuple(components),
+        connections=tuple(usable),
+        order=execution_order(components, usable),
+        plots=tuple(spec.plots),
+        record=tuple(record),
+        ros2=spec.ros2,
+        description=spec.description,
+    )
+
+
+def _check_period(
+    name: str,
+    period: float,
+    step: float,
+    interface: ComponentInterface,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> int | None:
+    span = sources.value(("components", name, "period"))
+    steps = is_whole_multiple(period, step)
+    if steps is None:
+        bag.emit(
+            "E041",
+            f"component `{name}`: period {period} is not a whole multiple of the base step {step}",
+            span,
+            hint=f"use e.g. {max(1, round(period / step)) * step:g}",
+        )
+        return None
+    timestep = interface.fact("timestep")
+    if interface.kind == "mujoco" and timestep is not None:
+        physics = float(timestep)
+        if is_whole_multiple(period, physics) is None:
+            bag.emit(
+                "E041",
+                f"component `{name}`: period {period} is not a whole multiple of the scene's "
+                f"physics timestep {physics}",
+                span,
+                hint="change the period or the scene's `<option timestep=...>`",
+            )
+            return None
+    return steps
+
+
+def _connection_texts(
+    index: int, entry: str | ConnectionSpec, sources: SourceMap
+) -> tuple[str, Span, str, Span, float, float] | None:
+    span = sources.value(("connections", index))
+    if isinstance(entry, ConnectionSpec):
+        return (
+            entry.from_,
+            sources.value(("connections", index, "from")),
+            entry.to,
+            sources.value(("connections", index, "to")),
+            entry.factor,
+            entry.offset,
+        )
+    parts = split_connection(entry)
+    if parts is None:
+        return None
+    left, right = parts
+    right_col = entry.find(right, entry.find("->")) if span.col else -1
+    quoted = 1 if span.col and _starts_quoted(span) else 0
+    right_span = (
+        Span(span.file, span.line, span.col + quoted + right_col) if right_col >= 0 else span
+    )
+    left_span = (
+        Span(span.file, span.line, span.col + quoted + entry.find(left)) if span.col else span
+    )
+    return left, left_span, right, right_span, 1.0, 0.0
+
+
+def _starts_quoted(span: Span) -> bool:
+    lines = source_lines(span.file)
+    if 0 < span.line <= len(lines):
+        text = lines[span.line - 1]
+        return span.col - 1 < len(text) and text[span.col - 1] in "'\""
+    return False
+
+
+def _connections(
+    spec: SystemSpec,
+    interfaces: dict[str, ComponentInterface | None],
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> list[Connection]:
+    result = []
+    for index, entry in enumerate(spec.connections):
+        span = sources.value(("connections", index))
+        texts = _connection_texts(index, entry, sources)
+        if texts is None:
+            bag.emit(
+                "E023",
+                f"`{entry}` is not a connection",
+                span,
+                hint="write `source.port -> target.port`",
+            )
+            continue
+        left, left_span, right, right_span, factor, offset = texts
+        src = resolve_endpoint(left, left_span, interfaces, bag)
+        dst = resolve_endpoint(right, right_span, interfaces, bag)
+        if src is None or dst is None:
+            continue
+        connection = _check_connection(src, dst, span, factor, offset, bag)
+        if connection is not None:
+            result.append(connection)
+    return result
+
+
+def _check_connection(
+    src: ResolvedEndpoint,
+    dst: ResolvedEndpoint,
+    span: Span,
+    factor: float,
+    offset: float,
+    bag: DiagnosticBag,
+) -> Connection | None:
+    if src.ref.component == dst.ref.component and src.ref.port == dst.ref.port:
+        bag.emit("E036", f"`{src.ref}` is connected to itself", span)
+        return None
+    ok = check_causality(src, dst, span, bag)
+    ok = check_dtype(src, dst, span, bag) and ok
+    size = check_count(src, dst, span, bag)
+    converted = factor != 1.0 or offset != 0.0
+    ok = check_unit(src, dst, span, bag, converted=converted) and ok
+    if not ok or size is None:
+        return None
+    return Connection(src.ref, dst.ref, src.port, dst.port, size, factor, offset, span)
+
+
+def _covered(connection: Connection) -> set[int] | None:
+    """Flat element indices written at the destination; None = the whole port."""
+    if connection.dst.index is None:
+        return None
+    return {flat_index(connection.dst_port, connection.dst.index)}
+
+
+def _check_drivers(connections: list[Connection], bag: DiagnosticBag) -> None:
+    seen: dict[tuple[str, str], list[Connection]] = defaultdict(list)
+    for connection in connections:
+        key = (connection.dst.component, connection.dst.port)
+        mine = _covered(connection)
+        for earlier in seen[key]:
+            theirs = _covered(earlier)
+            if mine is None or theirs is None or mine & theirs:
+                bag.emit(
+                    "E034",
+                    f"`{connection.dst}` is already driven by `{earlier.src}`",
+                    connection.span,
+                    hint="an input takes one driver; remove one of the connections",
+                    notes=[Note(f"first driven by `{earlier}`", earlier.span)],
+                )
+                break
+        seen[key].append(connection)
+
+
+def _check_unconnected(
+    components: list[Component],
+    connections: list[Connection],
+    spec: SystemSpec,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> None:
+    driven = {(c.dst.component, c.dst.port) for c in connections}
+    for component in components:
+        if component.spec.external:
+            continue
+        explicit = {p.port for p in component.parameters}
+        for port in component.interface.with_causality(Causality.INPUT):
+            if (component.name, port.name) in driven or port.name in explicit:
+                continue
+            start = "its start value" if port.start is not None else "zero"
+            bag.emit(
+                "W030",
+                f"input `{component.name}.{port.name}` is not connected; {start} is used",
+                sources.key(("components", component.name)),
+                hint=f"connect it, or set it under `components.{component.name}.parameters` "
+                "to make the value explicit",
+            )
+    if len(spec.components) > 1:
+        linked = {c.src.component for c in connections} | {c.dst.component for c in connections}
+        for component in components:
+            if component.name not in linked:
+                bag.emit(
+                    "W050",
+                    f"component `{component.name}` has no connections",
+                    sources.key(("components", component.name)),
+                )
+
+
+def _refs(
+    texts: list[str],
+    section: str,
+    components: dict[str, Component],
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> list[PortRef]:
+    interfaces: dict[str, ComponentInterface | None] = {
+        n: c.interface for n, c in components.items()
+    }
+    refs = []
+    for index, text in enumerate(texts):
+        resolved = resolve_endpoint(text, sources.value((section, index)), interfaces, bag)
+        if resolved is not None:
+            refs.append(resolved.ref)
+    return refs
+
+
+def _check_plots(
+    spec: SystemSpec, components: dict[str, Component], sources: SourceMap, bag: DiagnosticBag
+) -> None:
+    interfaces: dict[str, ComponentInterface | None] = {
+        n: c.interface for n, c in components.items()
+    }
+    for index, plot in enumerate(spec.plots):
+        signals = list(plot.xy or ()) + list(plot.y or ())
+        key = "xy" if plot.xy else "y"
+        for position, text in enumerate(signals):
+            span = sources.value(("plots", index, key, position))
+            scratch = DiagnosticBag()
+            if resolve_endpoint(text, span, interfaces, scratch) is None:
+                for diagnostic in scratch:
+                    bag.emit("E045", f"plot: {diagnostic.message}", span, hint=diagnostic.hint)
+        if plot.over is not None:
+            owner = plot.over.split(".", 1)[0]
+            if owner not in components:
+                bag.emit(
+                    "E045",
+                    f"plot reference `{plot.over}` names no component",
+                    sources.value(("plots", index, "over")),
+                    hint="write `<mujoco component>.expected_path`",
+                )

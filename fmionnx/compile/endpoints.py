@@ -1,0 +1,138 @@
+"""Parse and resolve connection endpoints ``component.port[index]`` against real interfaces."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from dataclasses import dataclass
+
+from fmionnx.compile.ir import ComponentInterface, Port, PortRef
+from fmionnx.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
+from fmionnx.spec.model import ENDPOINT_RE
+
+
+@dataclass(frozen=True, slots=True)
+class ResolvedEndpoint:
+    """An endpoint resolved to its port; ``count`` elements flow through it."""
+
+    ref: PortRef
+    port: Port
+    count: int | None
+
+
+def split_endpoint(
+    text: str, components: Mapping[str, object]
+) -> tuple[str, str, str | None] | None:
+    """Split ``a.b.c[2]`` into (component, port, index text) by the longest known component.
+
+    Returns None when the text is not an endpoint at all. When no component name is a prefix,
+    the component is the first dotted part (so the caller can report it as unknown).
+    """
+    match = ENDPOINT_RE.match(text)
+    if match is None:
+        return None
+    name = match.group("name")
+    index = match.group("index")
+    best = ""
+    for component in components:
+        if name.startswith(component + ".") and len(component) > len(best):
+            best = component
+    if not best:
+        best = name.split(".", 1)[0]
+    return best, name[len(best) + 1 :], index
+
+
+def resolve_endpoint(
+    text: str,
+    span: Span,
+    interfaces: Mapping[str, ComponentInterface | None],
+    bag: DiagnosticBag,
+) -> ResolvedEndpoint | None:
+    """Resolve one endpoint; report E020-E023 into ``bag`` and return None on failure.
+
+    A component whose interface could not be read (``None``) makes its endpoints unresolvable
+    without a further diagnostic: its own error was reported already.
+    """
+    parts = split_endpoint(text, interfaces)
+    if parts is None:
+        bag.emit(
+            "E023",
+            f"`{text.strip()}` is not an endpoint",
+            span,
+            hint="write `component.port`, or `component.port[i]` for one element",
+        )
+        return None
+    component, port_name, index_text = parts
+    if component not in interfaces:
+        hint = did_you_mean(component, interfaces) or one_of(interfaces)
+        bag.emit("E020", f"unknown component `{component}` in `{text.strip()}`", span, hint=hint)
+        return None
+    interface = interfaces[component]
+    if interface is None:
+        return None
+    port = interface.port(port_name)
+    if port is None:
+        names = [p.name for p in interface.ports]
+        hint = did_you_mean(port_name, names) or one_of(names)
+        bag.emit(
+            "E021",
+            f"component `{component}` ({interface.kind}) has no port `{port_name}`",
+            span,
+            hint=hint,
+            notes=[Note(f"ports are read from `{interface.path.name}`")],
+        )
+        return None
+    index: tuple[int, ...] | None = None
+    count = port.size
+    if index_text is not None:
+        index = tuple(int(part) for part in index_text.split(","))
+        if not _index_ok(port, index, span, component, bag):
+            return None
+        count = 1
+    return ResolvedEndpoint(PortRef(component, port_name, index), port, count)
+
+
+def _index_ok(
+    port: Port, index: tuple[int, ...], span: Span, component: str, bag: DiagnosticBag
+) -> bool:
+    where = f"`{component}.{port.name}`"
+    if port.is_scalar:
+        bag.emit("E022", f"{where} is a scalar and cannot be indexed", span, hint="drop `[...]`")
+        return False
+    size = port.size
+    if len(index) == 1:
+        if size is not None and index[0] >= size:
+            bag.emit(
+                "E022",
+                f"index {index[0]} is out of range for {where} of shape {port.shape_text()}",
+                span,
+                hint=f"indices are 0-based: 0 to {size - 1}",
+            )
+            return False
+        return True
+    if len(index) != len(port.shape):
+        bag.emit(
+            "E022",
+            f"{where} has {len(port.shape)} dimensions but the index has {len(index)}",
+            span,
+            hint="give one flat index or one index per dimension",
+        )
+        return False
+    for axis, (i, dim) in enumerate(zip(index, port.shape, strict=True)):
+        if isinstance(dim, int) and i >= dim:
+            bag.emit(
+                "E022",
+                f"index {i} on axis {axis} is out of range for {where} of shape {port.shape_text()}",
+                span,
+            )
+            return False
+    return True
+
+
+def flat_index(port: Port, index: tuple[int, ...]) -> int:
+    """Row-major flat element index of ``index`` in ``port`` (a single index is already flat)."""
+    if len(index) == 1:
+        return index[0]
+    flat = 0
+    for i, dim in zip(index, port.shape, strict=True):
+        flat = flat * (dim if isinstance(dim, int) else 1) + i
+    return flat

@@ -1,0 +1,247 @@
+"""Resolve components: read each model's interface, check parameters, periods, run settings."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from fmionnx.compile.ir import (
+    Causality,
+    ComponentInterface,
+    DType,
+    Origin,
+    ParameterValue,
+    Port,
+    RunSettings,
+    Scalar,
+    is_whole_multiple,
+)
+from fmionnx.components.registry import COMPONENT_KINDS
+from fmionnx.diagnostics import DiagnosticBag, Note, did_you_mean, one_of
+from fmionnx.errors import ModelError
+from fmionnx.spec.base import ComponentSpecBase, ParameterLiteral
+from fmionnx.spec.model import RunSpec
+from fmionnx.spec.sourcemap import SourceMap
+
+#: Variables whose value a system file may set before initialization.
+SETTABLE = (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER, Causality.INPUT)
+
+#: The binary folders an FMU needs to run on this machine (FMI 2 and FMI 3 names).
+PLATFORM_FOLDERS = ("linux64", "x86_64-linux")
+
+
+def model_path(base: Path, text: str) -> Path:
+    """A component path relative to the system file's folder (absolute paths kept)."""
+    path = Path(text).expanduser()
+    return path if path.is_absolute() else base / path
+
+
+def read_interface(
+    name: str,
+    spec: ComponentSpecBase,
+    base: Path,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> ComponentInterface | None:
+    """Read a component's interface; a ModelError becomes a diagnostic at its ``path``."""
+    kind = COMPONENT_KINDS[spec.kind]
+    path = model_path(base, spec.path)
+    span = sources.value(("components", name, "path"))
+    try:
+        interface = kind.read_interface(path, spec)
+    except ModelError as exc:
+        bag.emit(exc.code, f"component `{name}`: {exc}", span, hint=exc.hint)
+        return None
+    if spec.kind == "fmu":
+        _check_fmu_usable(name, spec, interface, sources, bag)
+    return interface
+
+
+def _check_fmu_usable(
+    name: str,
+    spec: ComponentSpecBase,
+    interface: ComponentInterface,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> None:
+    offered = (interface.fact("interfaceTypes") or "").split(",")
+    wanted = getattr(spec, "interface", None)
+    if wanted is not None and wanted not in offered:
+        bag.emit(
+            "E016",
+            f"component `{name}`: the FMU does not offer {wanted.upper()} "
+            f"(it offers {', '.join(o.upper() for o in offered if o) or 'nothing'})",
+            sources.value(("components", name, "interface")),
+        )
+    platforms = (interface.fact("platforms") or "").split(",")
+    if not any(folder in platforms for folder in PLATFORM_FOLDERS):
+        has_sources = interface.fact("hasSources") == "true"
+        shipped = ", ".join(p for p in platforms if p) or "none"
+        hint = (
+            f"it ships C sources: `fmionnx build-fmu {spec.path}` compiles it for this machine"
+            if has_sources
+            else "ask the exporter for a Linux x86-64 binary or a source FMU"
+        )
+        bag.emit(
+            "E015",
+            f"component `{name}`: the FMU has no binary for linux x86-64 (it has: {shipped})",
+            sources.value(("components", name, "path")),
+            hint=hint,
+        )
+
+
+def _flatten(value: ParameterLiteral) -> list[Scalar] | None:
+    if isinstance(value, list):
+        flat: list[Scalar] = []
+        for item in value:
+            inner = _flatten(item)
+            if inner is None:
+                return None
+            flat.extend(inner)
+        return flat
+    return [value]
+
+
+def _fits(dtype: DType, value: Scalar) -> bool:
+    if dtype is DType.BOOL:
+        return isinstance(value, bool)
+    if dtype.is_integer:
+        return isinstance(value, int) and not isinstance(value, bool)
+    if dtype.is_float:
+        return isinstance(value, int | float) and not isinstance(value, bool)
+    if dtype is DType.STRING:
+        return isinstance(value, str)
+    return False
+
+
+def resolve_parameters(
+    name: str,
+    spec: ComponentSpecBase,
+    interface: ComponentInterface,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> tuple[ParameterValue, ...]:
+    """Check every ``parameters:`` entry against the interface; return the valid ones."""
+    settable = [p.name for p in interface.ports if p.causality in SETTABLE]
+    resolved = []
+    for key, value in spec.parameters.items():
+        span = sources.key(("components", name, "parameters", key))
+        port = interface.port(key)
+        if port is None:
+            hint = did_you_mean(key, settable) or one_of(settable)
+            bag.emit(
+                "E042", f"component `{name}` has no parameter or input `{key}`", span, hint=hint
+            )
+            continue
+        if port.causality not in SETTABLE:
+            bag.emit(
+                "E044",
+                f"`{name}.{key}` is a {port.causality.value} and cannot be set",
+                span,
+                hint="only parameters and inputs (start values) can be set",
+                notes=_declared(port),
+            )
+            continue
+        flat = _flatten(value)
+        value_span = sources.value(("components", name, "parameters", key))
+        if flat is None or not _check_value(name, port, flat, value_span, bag):
+            continue
+        resolved.append(ParameterValue(key, tuple(flat), value_span))
+    return tuple(resolved)
+
+
+def _declared(port: Port) -> list[Note]:
+    return [Note(f"`{port.name}` is declared here", port.origin)] if port.origin else []
+
+
+def _check_value(
+    name: str, port: Port, flat: list[Scalar], span: object, bag: DiagnosticBag
+) -> bool:
+    from fmionnx.diagnostics import Span
+
+    assert isinstance(span, Span)
+    size = port.size
+    if size is not None and len(flat) != size:
+        bag.emit(
+            "E043",
+            f"`{name}.{port.name}` has shape {port.shape_text()} ({size} element"
+            f"{'s' if size != 1 else ''}) but {len(flat)} value{'s are' if len(flat) != 1 else ' is'} given",
+            span,
+            notes=_declared(port),
+        )
+        return False
+    bad = [v for v in flat if not _fits(port.dtype, v)]
+    if bad:
+        bag.emit(
+            "E043",
+            f"`{name}.{port.name}` is of type {port.dtype}; {bad[0]!r} does not fit",
+            span,
+            hint="write true/false for booleans and whole numbers for integers"
+            if port.dtype is DType.BOOL or port.dtype.is_integer
+            else None,
+            notes=_declared(port),
+        )
+        return False
+    return True
+
+
+def resolve_run(
+    run: RunSpec,
+    interfaces: dict[str, ComponentInterface],
+    periods: dict[str, float],
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> RunSettings | None:
+    """Resolve start/stop/step, recording where each value came from; never guess silently."""
+    origins: list[tuple[str, Origin]] = [("start", Origin.SYSTEM_FILE)]
+    experiments = [i.default_experiment for i in interfaces.values() if i.default_experiment]
+    stop = run.stop
+    if stop is not None:
+        origins.append(("stop", Origin.SYSTEM_FILE))
+    else:
+        stops = {e.stop for e in experiments if e.stop is not None}
+        if len(stops) == 1:
+            stop = stops.pop()
+            origins.append(("stop", Origin.MODEL_DEFAULT))
+        else:
+            bag.emit(
+                "E004",
+                "missing `run.stop`: no single model default experiment gives a stop time",
+                sources.key(("run",)),
+                hint="add `run: {stop: 10, step: 0.01}`",
+            )
+            return None
+    step = run.step
+    if step is not None:
+        origins.append(("step", Origin.SYSTEM_FILE))
+    elif periods:
+        step = min(periods.values())
+        origins.append(("step", Origin.SYSTEM_FILE))
+    else:
+        steps = sorted(e.step for e in experiments if e.step is not None)
+        if steps:
+            step = steps[0]
+            origins.append(("step", Origin.MODEL_DEFAULT))
+        else:
+            bag.emit(
+                "E004",
+                "missing `run.step`: no component period or model default experiment gives one",
+                sources.key(("run",)),
+                hint="add `step:` under `run:` (seconds between two communication points)",
+            )
+            return None
+    if stop <= run.start:
+        bag.emit(
+            "E040",
+            f"`run.stop` ({stop}) must be greater than `run.start` ({run.start})",
+            sources.value(("run", "stop")),
+        )
+        return None
+    if is_whole_multiple(stop - run.start, step, rel=1e-6) is None:
+        bag.emit(
+            "E040",
+            f"the run from {run.start} to {stop} is not a whole number of steps of {step}",
+            sources.value(("run", "step")),
+            hint="choose a step that divides the run length",
+        )
+        return None
+    return RunSettings(run.start, stop, step, tuple(origins))

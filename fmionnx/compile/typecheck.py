@@ -1,0 +1,181 @@
+"""Per-connection checks: causality, element type, element count, unit.
+
+The allowed conversions are data (:data:`LOSSLESS`), documented in ``docs/types.md``:
+numeric types convert into each other (bool as 0/1); float -> integer or bool and
+integer narrowing are allowed with a warning (W031); strings and binaries only connect to
+their own type.
+"""
+
+from __future__ import annotations
+
+from fmionnx.compile.endpoints import ResolvedEndpoint
+from fmionnx.compile.ir import Causality, DType, Port
+from fmionnx.diagnostics import DiagnosticBag, Note, Span
+
+_INT_BITS = {
+    DType.INT8: (True, 8),
+    DType.INT16: (True, 16),
+    DType.INT32: (True, 32),
+    DType.INT64: (True, 64),
+    DType.UINT8: (False, 8),
+    DType.UINT16: (False, 16),
+    DType.UINT32: (False, 32),
+    DType.UINT64: (False, 64),
+}
+
+SOURCE_CAUSALITIES = (Causality.OUTPUT,)
+TARGET_CAUSALITIES = (Causality.INPUT,)
+
+
+def is_lossy(source: DType, target: DType) -> bool:
+    """True when converting ``source`` to ``target`` may lose values (float64->float32 is not)."""
+    if source == target or target.is_float:
+        return False
+    if source.is_float:
+        return True  # float -> integer or bool truncates
+    if target is DType.BOOL:
+        return source is not DType.BOOL
+    if source is DType.BOOL:
+        return False
+    src_signed, src_bits = _INT_BITS[source]
+    dst_signed, dst_bits = _INT_BITS[target]
+    if src_signed and not dst_signed:
+        return True
+    return dst_bits < src_bits + (1 if dst_signed and not src_signed else 0)
+
+
+def _origin_note(port: Port) -> list[Note]:
+    if port.origin is None:
+        return []
+    return [Note(f"`{port.name}` is declared here", port.origin)]
+
+
+def check_causality(
+    src: ResolvedEndpoint, dst: ResolvedEndpoint, span: Span, bag: DiagnosticBag
+) -> bool:
+    """Output -> input only; parameters are set under ``parameters:``, not by connections."""
+    ok = True
+    if src.port.causality not in SOURCE_CAUSALITIES:
+        hint = "swap the two sides" if dst.port.causality is Causality.OUTPUT else None
+        bag.emit(
+            "E030",
+            f"`{src.ref}` is an {src.port.causality.value}, but a connection must start at an output",
+            span,
+            hint=hint,
+            notes=_origin_note(src.port),
+        )
+        ok = False
+    if dst.port.causality not in TARGET_CAUSALITIES:
+        if dst.port.causality in (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER):
+            hint = f"set it under `components.{dst.ref.component}.parameters`"
+        elif dst.port.causality is Causality.OUTPUT and src.port.causality is Causality.INPUT:
+            hint = "swap the two sides"
+        else:
+            hint = None
+        bag.emit(
+            "E030",
+            f"`{dst.ref}` is an {dst.port.causality.value}, but a connection must end at an input",
+            span,
+            hint=hint,
+            notes=_origin_note(dst.port),
+        )
+        ok = False
+    return ok
+
+
+def check_dtype(
+    src: ResolvedEndpoint, dst: ResolvedEndpoint, span: Span, bag: DiagnosticBag
+) -> bool:
+    """Numeric types convert; strings/binaries need the same type. Lossy ones warn."""
+    a, b = src.port.dtype, dst.port.dtype
+    if a == b:
+        return True
+    if a.is_numeric and b.is_numeric:
+        if is_lossy(a, b):
+            bag.emit(
+                "W031",
+                f"`{src.ref}` ({a}) -> `{dst.ref}` ({b}) may lose precision or range",
+                span,
+                hint="convert in the model, or accept the truncation",
+            )
+        return True
+    bag.emit(
+        "E031",
+        f"cannot connect `{src.ref}` of type {a} to `{dst.ref}` of type {b}",
+        span,
+        hint="numeric types convert into each other; strings and binaries only to their own type",
+        notes=_origin_note(dst.port),
+    )
+    return False
+
+
+def check_count(
+    src: ResolvedEndpoint, dst: ResolvedEndpoint, span: Span, bag: DiagnosticBag
+) -> int | None:
+    """Element counts must agree (shapes may differ: ``[1,3]`` -> ``(3,)`` reshapes)."""
+    if src.count is not None and dst.count is not None:
+        if src.count == dst.count:
+            return src.count
+        _count_error(src, dst, span, bag)
+        return None
+    known = src.count if src.count is not None else dst.count
+    symbolic = dst.port if dst.count is None else src.port
+    fixed = 1
+    for dim in symbolic.shape:
+        if isinstance(dim, int):
+            fixed *= dim
+    if known is None:
+        bag.emit(
+            "E032",
+            f"both `{src.ref}` and `{dst.ref}` have symbolic shapes; the element count is unknown",
+            span,
+            hint="give the model a fixed shape",
+        )
+        return None
+    if known % fixed != 0:
+        _count_error(src, dst, span, bag)
+        return None
+    return known
+
+
+def _count_error(
+    src: ResolvedEndpoint, dst: ResolvedEndpoint, span: Span, bag: DiagnosticBag
+) -> None:
+    def described(end: ResolvedEndpoint) -> str:
+        if end.ref.index is not None:
+            return "1 element"
+        return f"{end.count} element{'s' if end.count != 1 else ''} ({end.port.shape_text()})"
+
+    hint = None
+    if src.ref.index is None and src.count and src.count > 1 and dst.count == 1:
+        hint = f"select one element, e.g. `{src.ref}[0]`"
+    elif dst.ref.index is None and dst.count and dst.count > 1 and src.count == 1:
+        hint = f"drive one element, e.g. `{dst.ref}[0]`"
+    bag.emit(
+        "E032",
+        f"`{src.ref}` carries {described(src)} but `{dst.ref}` takes {described(dst)}",
+        span,
+        hint=hint,
+    )
+
+
+def check_unit(
+    src: ResolvedEndpoint,
+    dst: ResolvedEndpoint,
+    span: Span,
+    bag: DiagnosticBag,
+    *,
+    converted: bool,
+) -> bool:
+    """Units must match when both ends declare one, unless the connection converts explicitly."""
+    a, b = src.port.unit, dst.port.unit
+    if a is None or b is None or a == b or converted:
+        return True
+    bag.emit(
+        "E033",
+        f"unit mismatch: `{src.ref}` is in `{a}` but `{dst.ref}` expects `{b}`",
+        span,
+        hint="convert with the long form `{from: ..., to: ..., factor: ..., offset: ...}`",
+        notes=_origin_note(dst.port),
+    )
+    return False

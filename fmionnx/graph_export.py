@@ -1,0 +1,124 @@
+"""Render the compiled dataflow graph as Graphviz DOT, Mermaid or JSON.
+
+Components are nodes styled by kind (FMU, ONNX, MuJoCo) with their rate; connections are edges
+labelled with the ports they join. Several connections between the same two components are
+merged into one edge with one label line per connection, which keeps the picture readable.
+"""
+
+from __future__ import annotations
+
+import json
+from collections import defaultdict
+from typing import Any
+
+from fmionnx.compile.ir import CompiledSystem, Component
+
+_DOT_STYLE = {
+    "fmu": 'shape=box, style="rounded,filled", fillcolor="#dbeafe", color="#1d4ed8"',
+    "onnx": 'shape=box, style="rounded,filled", fillcolor="#f3e8ff", color="#7e22ce"',
+    "mujoco": 'shape=box3d, style="filled", fillcolor="#dcfce7", color="#15803d"',
+}
+_KIND_LABEL = {"fmu": "FMU", "onnx": "ONNX", "mujoco": "MuJoCo"}
+
+
+def _rate(component: Component) -> str:
+    if component.period <= 0:
+        return ""
+    hertz = 1.0 / component.period
+    return f"{hertz:g} Hz" if hertz >= 1 else f"every {component.period:g} s"
+
+
+def _grouped(system: CompiledSystem) -> dict[tuple[str, str], list[str]]:
+    edges: dict[tuple[str, str], list[str]] = defaultdict(list)
+    for connection in system.connections:
+        key = (connection.src.component, connection.dst.component)
+        edges[key].append(f"{connection.src.port_label} → {connection.dst.port_label}")
+    return edges
+
+
+def _dot_quote(text: str) -> str:
+    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def to_dot(system: CompiledSystem) -> str:
+    """Graphviz DOT text (render with ``dot -Tsvg``)."""
+    lines = [
+        f"digraph {_dot_quote(system.name)} {{",
+        "  graph [rankdir=LR, fontname=Helvetica, nodesep=0.6, ranksep=1.1, "
+        f"label={_dot_quote(system.name)}, labelloc=t, fontsize=18];",
+        '  node [fontname=Helvetica, fontsize=12, margin="0.2,0.1"];',
+        '  edge [fontname=Helvetica, fontsize=9, color="#475569", fontcolor="#334155"];',
+    ]
+    for component in system.components:
+        label = (
+            f"<<b>{component.name}</b><br/><font point-size='9'>"
+            f"{_KIND_LABEL.get(component.kind, component.kind)} · {component.path.name}"
+            f"{' · ' + _rate(component) if _rate(component) else ''}</font>>"
+        )
+        style = _DOT_STYLE.get(component.kind, "shape=box")
+        lines.append(f"  {_dot_quote(component.name)} [label={label}, {style}];")
+    for (src, dst), labels in sorted(_grouped(system).items()):
+        label = "\\l".join(labels) + "\\l"
+        lines.append(f"  {_dot_quote(src)} -> {_dot_quote(dst)} [label={_dot_quote(label)}];")
+    lines.append("}")
+    return "\n".join(lines) + "\n"
+
+
+def _mermaid_id(name: str) -> str:
+    return "n_" + "".join(ch if ch.isalnum() else "_" for ch in name)
+
+
+def to_mermaid(system: CompiledSystem) -> str:
+    """Mermaid flowchart text (renders on GitHub and in mkdocs-material)."""
+    shapes = {"fmu": ("[", "]"), "onnx": ("[[", "]]"), "mujoco": ("[(", ")]")}
+    lines = ["flowchart LR"]
+    for component in system.components:
+        left, right = shapes.get(component.kind, ("[", "]"))
+        rate = _rate(component)
+        label = f"{component.name}<br/><small>{_KIND_LABEL.get(component.kind, component.kind)}"
+        label += f" · {rate}</small>" if rate else "</small>"
+        lines.append(f'  {_mermaid_id(component.name)}{left}"{label}"{right}')
+    for (src, dst), labels in sorted(_grouped(system).items()):
+        text = "<br/>".join(labels).replace('"', "'")
+        lines.append(f'  {_mermaid_id(src)} -- "{text}" --> {_mermaid_id(dst)}')
+    for kind, colour in (("fmu", "#dbeafe"), ("onnx", "#f3e8ff"), ("mujoco", "#dcfce7")):
+        members = [_mermaid_id(c.name) for c in system.components if c.kind == kind]
+        if members:
+            lines.append(f"  classDef {kind} fill:{colour}")
+            lines.append(f"  class {','.join(members)} {kind}")
+    return "\n".join(lines) + "\n"
+
+
+def to_json(system: CompiledSystem) -> dict[str, Any]:
+    """A stable JSON description: nodes, edges (one per connection) and the execution order."""
+    return {
+        "version": 1,
+        "name": system.name,
+        "nodes": [
+            {
+                "name": c.name,
+                "kind": c.kind,
+                "model": c.path.name,
+                "period": c.period,
+                "external": c.spec.external,
+            }
+            for c in system.components
+        ],
+        "edges": [
+            {
+                "from": str(c.src),
+                "to": str(c.dst),
+                "source": c.src.component,
+                "target": c.dst.component,
+                "dtype": str(c.src_port.dtype),
+                "size": c.size,
+            }
+            for c in system.connections
+        ],
+        "order": list(system.order),
+    }
+
+
+def to_json_text(system: CompiledSystem) -> str:
+    """:func:`to_json` as indented text."""
+    return json.dumps(to_json(system), indent=2) + "\n"
