@@ -57,6 +57,7 @@ def build_fmu(source: Path, output: Path | None = None) -> Path:
             msg = f"`{source}` has no sources/ folder: there is nothing to compile"
             raise ModelError("E015", msg)
         shutil.rmtree(unpacked / "binaries", ignore_errors=True)
+        (Path(tmp) / "cmake").mkdir()  # fmpy writes CMakeCache.txt into it before cmake runs
         result = subprocess.run(
             [sys.executable, "-c", _BUILD_SCRIPT, str(unpacked), str(Path(tmp) / "cmake")],
             capture_output=True,

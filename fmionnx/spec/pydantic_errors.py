@@ -85,6 +85,14 @@ def _emit(
             hint=hint,
         )
         return
+    if data_loc == ("fmionnx",):
+        bag.emit(
+            "E005",
+            f"format version `{_short(_value_at(data, data_loc))}` is not supported",
+            sources.value(data_loc),
+            hint="this release reads `fmionnx: 1`",
+        )
+        return
     message = str(error.get("msg", "invalid value"))
     message = message.removeprefix("Value error, ")
     value = _value_at(data, data_loc)

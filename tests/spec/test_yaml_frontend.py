@@ -87,10 +87,10 @@ def _load(tmp_path: Path, text: str | bytes) -> tuple[object, list[tuple[str, in
         ),
         pytest.param(
             "fmionnx: 2\nname: x\ncomponents: {}\n",
-            "E003",
+            "E005",
             1,
             10,
-            "format version 2",
+            "format version `2` is not supported",
             id="future-format",
         ),
         pytest.param(
