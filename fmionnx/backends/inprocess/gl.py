@@ -1,0 +1,64 @@
+"""Choose MuJoCo's offscreen OpenGL backend before ``mujoco`` is imported.
+
+MuJoCo binds its GL platform at import time from ``MUJOCO_GL``. An explicit ``MUJOCO_GL`` in
+the environment always wins; otherwise the spec's ``gl`` (``egl`` or ``osmesa``) is used, and
+``auto`` probes EGL then OSMesa in a short child process (a failed GL initialization can abort
+the process that tries it). The probe runs at most once per process.
+"""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+
+_PROBE = (
+    "import mujoco\n"
+    "m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><geom size=\"1\"/></worldbody>"
+    "</mujoco>')\n"
+    "r = mujoco.Renderer(m, 8, 8)\n"
+    "d = mujoco.MjData(m); mujoco.mj_forward(m, d); r.update_scene(d); r.render()\n"
+)
+
+_chosen: str | None = None
+
+
+def _works(backend: str) -> bool:
+    env = dict(os.environ, MUJOCO_GL=backend, PYOPENGL_PLATFORM=backend)
+    try:
+        result = subprocess.run(
+            [sys.executable, "-c", _PROBE], env=env, capture_output=True, timeout=60, check=False
+        )
+    except (OSError, subprocess.TimeoutExpired):
+        return False
+    return result.returncode == 0
+
+
+def choose_gl(preference: str = "auto") -> str:
+    """Set ``MUJOCO_GL`` (and PyOpenGL's platform) for rendering; returns the backend used.
+
+    Raises RuntimeError when ``auto`` finds no working backend.
+    """
+    global _chosen  # noqa: PLW0603 - one decision per process, like MuJoCo's own
+    explicit = os.environ.get("MUJOCO_GL")
+    if explicit:
+        return explicit
+    if _chosen is not None:
+        return _chosen
+    if preference in ("egl", "osmesa"):
+        backend = preference
+    elif "mujoco" in sys.modules:
+        return "unknown"  # too late to choose; MuJoCo picked its own at import time
+    else:
+        working = next((b for b in ("egl", "osmesa") if _works(b)), None)
+        if working is None:
+            msg = (
+                "no offscreen OpenGL backend works (tried EGL and OSMesa); install "
+                "libegl1 + libgl1-mesa-dri, or libosmesa6, or set MUJOCO_GL"
+            )
+            raise RuntimeError(msg)
+        backend = working
+    os.environ["MUJOCO_GL"] = backend
+    os.environ.setdefault("PYOPENGL_PLATFORM", backend)
+    _chosen = backend
+    return backend
