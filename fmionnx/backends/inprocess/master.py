@@ -28,7 +28,7 @@ from fmionnx.backends.inprocess.recorder import Recorder, Track
 from fmionnx.backends.inprocess.runners import Wiring, make_runner
 from fmionnx.backends.inprocess.runners.base import Buffer, Runner
 from fmionnx.backends.inprocess.transfer import Transfer, make_transfer
-from fmionnx.compile.endpoints import flat_index
+from fmionnx.compile.endpoints import flat_index, split_endpoint
 from fmionnx.compile.ir import Causality, CompiledSystem, Component, DType, Port, PortRef
 from fmionnx.errors import RunError
 
@@ -61,6 +61,23 @@ def default_record(system: CompiledSystem) -> tuple[PortRef, ...]:
         for port in component.interface.with_causality(Causality.OUTPUT):
             if (component.name, port.name) in connected and not is_image(port):
                 refs.append(PortRef(component.name, port.name))
+    return tuple(refs)
+
+
+def plot_refs(system: CompiledSystem) -> tuple[PortRef, ...]:
+    """Signals the system's plots draw (they must be recorded to be plotted)."""
+    names = {c.name: c for c in system.components}
+    refs = []
+    for plot in system.plots:
+        for text in (*(plot.xy or ()), *(plot.y or ())):
+            parts = split_endpoint(text, names)
+            if parts is None or parts[0] not in names:
+                continue
+            component, port, index = parts
+            if names[component].interface.port(port) is None:
+                continue
+            parsed = tuple(int(i) for i in index.split(",")) if index else None
+            refs.append(PortRef(component, port, parsed))
     return tuple(refs)
 
 
@@ -188,9 +205,8 @@ class Master:
         """The signals this run records (options, else the system's list, else the default)."""
         if self.options.record is not None:
             return self.options.record
-        if self.system.record:
-            return self.system.record
-        return default_record(self.system)
+        chosen = self.system.record or default_record(self.system)
+        return (*chosen, *plot_refs(self.system))
 
     def _build_tracks(self) -> None:
         """One track for recorded inputs (sampled before a step), one for outputs (after)."""

@@ -1,0 +1,65 @@
+"""``run.json``: what ran, how it ended, how fast, with which library versions."""
+
+from __future__ import annotations
+
+import json
+import platform
+from importlib import metadata
+from pathlib import Path
+from typing import Any
+
+from fmionnx import __version__
+from fmionnx.backends.base import RunResult
+from fmionnx.compile.ir import CompiledSystem
+
+#: Distributions whose versions make a run reproducible.
+VERSIONED = ("fmpy", "onnxruntime", "mujoco", "numpy")
+
+
+def versions() -> dict[str, str]:
+    """fmionnx and the versions of the simulation libraries installed."""
+    found = {"fmionnx": __version__, "python": platform.python_version()}
+    for name in VERSIONED:
+        try:
+            found[name] = metadata.version(name)
+        except metadata.PackageNotFoundError:
+            found[name] = "not installed"
+    return found
+
+
+def run_info(result: RunResult, system: CompiledSystem) -> dict[str, Any]:
+    """The run.json document."""
+    error = result.error
+    return {
+        "system": system.name,
+        "source": system.source.name,
+        "content_hash": system.content_hash,
+        "backend": result.backend,
+        "status": result.status.value,
+        "start_time": result.start,
+        "stop_time": result.stop,
+        "step": result.step,
+        "steps": result.steps_done,
+        "simulated_time": result.simulated_time,
+        "wall_time": round(result.wall_time, 6),
+        "real_time_factor": round(result.real_time_factor, 3)
+        if result.wall_time > 0
+        else None,
+        "settings_origin": {key: origin.value for key, origin in system.run.origins},
+        "error": None
+        if error is None
+        else {
+            "message": str(error),
+            "component": error.component,
+            "port": error.port,
+            "time": error.time,
+        },
+        "columns": ["time", *result.signals],
+        "versions": versions(),
+    }
+
+
+def write_run_json(result: RunResult, system: CompiledSystem, path: Path) -> Path:
+    """Write run.json (indented, keys in a fixed order)."""
+    path.write_text(json.dumps(run_info(result, system), indent=2) + "\n", encoding="utf-8")
+    return path
