@@ -16,6 +16,9 @@ class FileResult:
 
     path: Path
     diagnostics: tuple[Diagnostic, ...]
+    #: True when the interface lock was checked (``validate --locked``); reports that list
+    #: the checks performed (JUnit) mark the lock check skipped otherwise.
+    locked: bool = False
 
     @property
     def worst(self) -> Severity | None:

@@ -1,0 +1,39 @@
+"""Hand-made results for reporter unit tests: two system files, errors, warnings, an info."""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+import pytest
+
+from fmionnx.diagnostics import Note, Span, make
+from fmionnx.reporters import FileResult
+
+
+@pytest.fixture
+def two_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> list[FileResult]:
+    """Results of ``validate a.yaml sub/b.yaml`` run in ``tmp_path``."""
+    monkeypatch.chdir(tmp_path)
+    a = tmp_path / "a.yaml"
+    b = tmp_path / "sub" / "b.yaml"
+    model = tmp_path / "models" / "modelDescription.xml"
+    first = (
+        make(
+            "E031",
+            "cannot connect `net.label_out` (string) to `gain.u` (float64)",
+            Span(a, 7, 5),
+            hint="connect a numeric output",
+            notes=[Note("`u` is declared here", Span(model, 36, 12))],
+        ),
+        make("W030", "input `gain.v` is not connected; its start value is used", Span(a, 5, 3)),
+    )
+    second = (
+        make("E021", "component `plant` has no port `y2`, value: 50%", Span(b, 9, 13)),
+        make("E010", "system file problem without a position", None),
+        make(
+            "I080",
+            "component `plant`: the model file changed, its interface did not",
+            Span(b, 4, 3),
+        ),
+    )
+    return [FileResult(a, first), FileResult(b, second)]
