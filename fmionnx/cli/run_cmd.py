@@ -1,0 +1,256 @@
+"""``fmionnx run``: run a system (or one FMU / ONNX model) in-process and write its results."""
+
+from __future__ import annotations
+
+import sys
+import time
+from pathlib import Path
+from typing import Annotated, Any
+
+import typer
+
+from fmionnx.cli.app import ExitCode, app
+
+#: Exit code of a run stopped by Ctrl-C (128 + SIGINT), as shells report it.
+EXIT_INTERRUPTED = 130
+
+
+def _fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
+    from rich.console import Console
+
+    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
+    return typer.Exit(code)
+
+
+def _parse_pairs(items: list[str], option: str) -> dict[str, str]:
+    pairs = {}
+    for item in items:
+        key, sep, value = item.partition("=")
+        if not sep or not key.strip():
+            raise _fail(f"{option} `{item}` must look like `name=value`")
+        pairs[key.strip()] = value.strip()
+    return pairs
+
+
+@app.command(
+    epilog="Examples:\n\n"
+    "  fmionnx run systems/sign_follower.yaml --out out/demo\n\n"
+    "  fmionnx run systems/sign_follower.yaml --stop-time 10 --param tracker.turnRate=0.6\n\n"
+    "  fmionnx run model.fmu --stop-time 5 --step 0.01 --interface me --out out/model\n\n"
+    "  fmionnx run detector.onnx --input image=frame.npy --out out/detector",
+)
+def run(
+    target: Annotated[Path, typer.Argument(help="System file (.yaml/.ssp), or a .fmu / .onnx.")],
+    out: Annotated[
+        Path | None, typer.Option("--out", "-o", help="Folder for results.csv, run.json, plots.")
+    ] = None,
+    stop_time: Annotated[
+        float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
+    ] = None,
+    param: Annotated[
+        list[str] | None,
+        typer.Option("--param", "-p", help="`component.name=value` set before initialization."),
+    ] = None,
+    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress, no summary.")] = False,
+    record: Annotated[
+        Path | None, typer.Option("--record", help="Also write an MCAP file (frames + signals).")
+    ] = None,
+    step: Annotated[
+        float | None, typer.Option("--step", help="Single FMU: communication step in seconds.")
+    ] = None,
+    interface: Annotated[
+        str | None, typer.Option("--interface", help="Single FMU: `cs` or `me`.")
+    ] = None,
+    inputs: Annotated[
+        list[str] | None,
+        typer.Option("--input", "-i", help="Single ONNX model: `name=file.npy` per input."),
+    ] = None,
+) -> None:
+    """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
+    suffix = target.suffix.lower()
+    if interface is not None and interface not in ("cs", "me"):
+        raise _fail(f"--interface must be `cs` or `me`, not `{interface}`")
+    if (step is not None or interface is not None) and suffix != ".fmu":
+        raise _fail("--step and --interface apply to a single .fmu only")
+    if inputs and suffix != ".onnx":
+        raise _fail("--input applies to a single .onnx model only")
+    if suffix == ".onnx":
+        _run_onnx(target, _parse_pairs(inputs or [], "--input"), out, quiet=quiet)
+        return
+    raise typer.Exit(
+        _run_system(
+            target,
+            out=out,
+            stop_time=stop_time,
+            params=_parse_pairs(param or [], "--param"),
+            quiet=quiet,
+            record=record,
+            step=step,
+            interface=interface,
+        )
+    )
+
+
+def _load(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
+    from fmionnx import session
+    from fmionnx.diagnostics import Severity
+    from fmionnx.errors import DiagnosticError
+    from fmionnx.reporters import FileResult
+    from fmionnx.reporters.text import TextReporter
+
+    try:
+        system = session.load(target, **kwargs)
+    except DiagnosticError as exc:
+        TextReporter().render(
+            [FileResult(target, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
+        )
+        raise typer.Exit(ExitCode.PROBLEMS) from None
+    warnings = tuple(d for d in system.diagnostics if d.severity is not Severity.ERROR)
+    if warnings and not quiet:
+        TextReporter().render([FileResult(target, warnings)], sys.stderr, color=sys.stderr.isatty())
+    return system
+
+
+def _run_system(
+    target: Path,
+    *,
+    out: Path | None,
+    stop_time: float | None,
+    params: dict[str, str],
+    quiet: bool,
+    record: Path | None,
+    step: float | None,
+    interface: str | None,
+) -> int:
+    from rich.console import Console
+
+    from fmionnx.backends.base import RunOptions, RunStatus
+    from fmionnx.errors import DiagnosticError
+    from fmionnx.session import OverrideError, parse_value
+
+    console = Console(stderr=True, highlight=False)
+    kwargs: dict[str, Any] = {}
+    if target.suffix.lower() == ".fmu":
+        kwargs = {"interface": interface, "step": step}
+    system = _load(target, quiet=quiet, **kwargs)
+    try:
+        system = system.with_overrides(
+            stop_time=stop_time, params={k: parse_value(v) for k, v in params.items()}
+        )
+    except OverrideError as exc:
+        raise _fail(str(exc)) from None
+    recorder = None
+    if record is not None:
+        from fmionnx.results.mcap_record import McapRecorder
+
+        recorder = McapRecorder(record)
+    options = RunOptions(frames=recorder)
+    try:
+        result = _with_progress(system, options, quiet=quiet, console=console)
+    except DiagnosticError as exc:
+        if recorder is not None:
+            recorder.finish(None)
+        raise _fail(str(exc.diagnostics[0].message), ExitCode.PROBLEMS) from None
+    files: list[Path] = []
+    if recorder is not None:
+        files.append(recorder.finish(result))
+    if out is not None:
+        from fmionnx.results import write_results
+
+        files[:0] = write_results(result, system.compiled, out, aliases=dict(system.aliases))
+    if not quiet:
+        _summary(console, result, files)
+    if result.status is RunStatus.FAULT and result.error is not None:
+        console.print(f"[bold red]fault:[/] {result.error}")
+    elif result.status is RunStatus.INTERRUPTED:
+        console.print(f"[yellow]interrupted[/] at t={result.simulated_time + result.start:g} s")
+    if out is not None:
+        print(f"Results: {out}")  # the last line names the folder (make demo)
+    if result.status is RunStatus.FAULT:
+        return int(ExitCode.PROBLEMS)
+    if result.status is RunStatus.INTERRUPTED:
+        return EXIT_INTERRUPTED
+    return int(ExitCode.OK)
+
+
+def _with_progress(system: Any, options: Any, *, quiet: bool, console: Any) -> Any:
+    import dataclasses
+
+    if quiet or not console.is_terminal:
+        return system.run(options=options)
+    from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
+
+    stop = system.compiled.run.stop
+    started = time.perf_counter()
+    with Progress(
+        TextColumn("[bold]{task.description}"),
+        BarColumn(),
+        TextColumn("t = {task.fields[sim]:>8.3f} / " + f"{stop:g} s"),
+        TextColumn("RTF {task.fields[rtf]:>6.2f}x"),
+        TimeElapsedColumn(),
+        console=console,
+        transient=True,
+    ) as progress:
+        task = progress.add_task(system.name, total=system.compiled.run.steps, sim=0.0, rtf=0.0)
+
+        def update(done: int, total: int, sim: float) -> None:
+            wall = time.perf_counter() - started
+            simulated = sim - system.compiled.run.start
+            progress.update(task, completed=done, sim=sim, rtf=simulated / wall if wall else 0.0)
+
+        return system.run(options=dataclasses.replace(options, progress=update))
+
+
+def _summary(console: Any, result: Any, files: list[Path]) -> None:
+    from rich.table import Table
+
+    table = Table(title=f"run of {result.system}", show_header=False, title_justify="left")
+    table.add_column(style="bold")
+    table.add_column()
+    colour = {"completed": "green", "fault": "red", "interrupted": "yellow"}[result.status.value]
+    table.add_row("status", f"[{colour}]{result.status.value}[/]")
+    table.add_row("simulated", f"{result.start:g} .. {result.start + result.simulated_time:g} s "
+                  f"({result.steps_done} steps of {result.step:g} s)")
+    table.add_row("wall time", f"{result.wall_time:.3f} s")
+    table.add_row("real-time factor", f"{result.real_time_factor:.2f}x")
+    table.add_row("signals", str(len(result.signals)))
+    for file in files:
+        table.add_row("wrote", str(file))
+    console.print(table)
+
+
+def _run_onnx(target: Path, inputs: dict[str, str], out: Path | None, *, quiet: bool) -> None:
+    import numpy as np
+    from rich.console import Console
+    from rich.table import Table
+
+    from fmionnx.errors import RunError
+    from fmionnx.session import OverrideError, run_onnx_once
+
+    system = _load(target, quiet=quiet)
+    arrays = {}
+    for name, file in inputs.items():
+        try:
+            arrays[name] = np.load(file, allow_pickle=False)
+        except (OSError, ValueError) as exc:
+            raise _fail(f"--input {name}: cannot read `{file}` as a .npy array ({exc})") from None
+    try:
+        outputs = run_onnx_once(system, arrays)
+    except (OverrideError, RunError) as exc:
+        raise _fail(str(exc), ExitCode.PROBLEMS) from None
+    console = Console(highlight=False)
+    table = Table(title=f"outputs of {target.name}")
+    for column in ("output", "dtype", "shape", "values"):
+        table.add_column(column)
+    for name, value in outputs.items():
+        shown = np.array2string(value.reshape(-1)[:8], precision=6, separator=", ")
+        if value.size > 8:
+            shown = shown[:-1] + ", ...]"
+        table.add_row(name, str(value.dtype), str(list(value.shape)), shown)
+    if not quiet:
+        console.print(table)
+    if out is not None:
+        out.mkdir(parents=True, exist_ok=True)
+        for name, value in outputs.items():
+            np.save(out / f"{name}.npy", value)
+        print(f"Results: {out}")  # the last line names the folder (make demo)
