@@ -5,6 +5,8 @@
     >>> result = system.run(stop_time=5.0)
     >>> result["odometry.posX"][-1], result.status
 
+A single FMU's results are named by variable (``result["x"]``), like ``fmpy simulate``.
+
 ``load`` accepts a system file (YAML/SSP) or a single model: an ``.fmu`` becomes a
 one-component system run from its default experiment with every output recorded under its
 variable name; an ``.onnx`` file gives a system whose ``infer`` runs the model once.
@@ -97,7 +99,10 @@ class System:
             chosen = dataclasses.replace(chosen, record=record if record is not None else self.record)
         if progress is not None:
             chosen = dataclasses.replace(chosen, progress=progress)
-        return backend.run(system.compiled, chosen)
+        result = backend.run(system.compiled, chosen)
+        if self.aliases:
+            result.signals = {self.aliases.get(k, k): v for k, v in result.signals.items()}
+        return result
 
 
 def load(
@@ -292,12 +297,21 @@ def _coerce(dtype: DType, value: Scalar) -> Scalar | None:
 def override_parameter(
     system: CompiledSystem, key: str, value: Scalar | list[Scalar]
 ) -> CompiledSystem:
-    """The system with ``component.name = value`` set before initialization."""
-    component_name, _, port_name = key.rpartition(".")
+    """The system with ``component.name = value`` set before initialization.
+
+    A one-model system also accepts the bare variable name (``--param k=2``).
+    """
     names = [c.name for c in system.components]
-    if component_name not in names:
-        hint = did_you_mean(component_name, names) or one_of(names)
-        msg = f"--param `{key}`: no component `{component_name}`; {hint}"
+    owners = [n for n in names if key.startswith(n + ".")]
+    if owners:
+        component_name = max(owners, key=len)
+        port_name = key[len(component_name) + 1 :]
+    elif len(names) == 1:
+        component_name, port_name = names[0], key  # a lone model: plain variable names
+    else:
+        guess = key.split(".", 1)[0]
+        hint = did_you_mean(guess, names) or one_of(names)
+        msg = f"--param `{key}`: no component `{guess}`; {hint}"
         raise OverrideError(msg)
     component = system.component(component_name)
     settable = [

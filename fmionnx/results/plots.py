@@ -39,11 +39,18 @@ def signal_column(text: str) -> str:
     return re.sub(r"\s+", "", text)
 
 
-def _file_name(index: int, signals: list[str], given: str | None) -> str:
-    if given:
+def _file_name(index: int, plot: Any, signals: list[str]) -> str:
+    """``file`` when given; ``trajectory.png`` for an xy plot over a path; else derived."""
+    if plot.file:
+        given = str(plot.file)
         return given if given.endswith((".png", ".svg", ".pdf")) else given + ".png"
-    stem = "_".join(signals[::-1]) if len(signals) == 2 else f"plot{index}"
-    return re.sub(r"[^\w.-]+", "_", stem) + ".png"
+    if plot.xy is not None and plot.over is not None:
+        stem = "trajectory" if index == 0 else f"trajectory{index}"
+    elif plot.xy is not None:
+        stem = f"{signals[1]}_vs_{signals[0]}"
+    else:
+        stem = f"plot{index}"
+    return re.sub(r"[^\w.\[\]-]+", "_", stem) + ".png"
 
 
 def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Path]:
@@ -67,7 +74,7 @@ def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Pa
                 _over_time(axes, result, signals)
             if plot.title:
                 axes.set_title(plot.title)
-            path = out / _file_name(index, signals, plot.file)
+            path = out / _file_name(index, plot, signals)
             figure.tight_layout()
             figure.savefig(path, dpi=120)
             written.append(path)
