@@ -10,7 +10,8 @@ import typer
 
 from fmionnx import api
 from fmionnx.cli.app import ExitCode, app
-from fmionnx.diagnostics import Severity
+from fmionnx.diagnostics import Diagnostic, Severity
+from fmionnx.lock import check_lock
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 
@@ -25,26 +26,41 @@ def _check_format(value: str) -> str:
 @app.command(
     epilog="Examples:\n\n"
     "  fmionnx validate systems/sign_follower.yaml\n\n"
-    "  fmionnx validate systems/*.yaml --format json > report.json",
+    "  fmionnx validate systems/*.yaml --format json > report.json\n\n"
+    "  fmionnx validate --locked --format github systems/*.yaml   # in CI",
 )
 def validate(
     systems: Annotated[list[Path], typer.Argument(help="System files (.yaml, .ssp, .ssd).")],
     output_format: Annotated[
         str,
         typer.Option(
-            "--format", "-f", callback=_check_format, help="Report format: text, json, ..."
+            "--format",
+            "-f",
+            callback=_check_format,
+            help="Report format: text, json, github, sarif, junit.",
         ),
     ] = "text",
     quiet: Annotated[bool, typer.Option("--quiet", "-q", help="Report errors only.")] = False,
+    locked: Annotated[
+        bool,
+        typer.Option(
+            "--locked",
+            help="Also fail when a model's interface differs from `<system>.fmionnx.lock` "
+            "(written by `fmionnx lock`).",
+        ),
+    ] = False,
 ) -> None:
     """Check system files and the models they use; exit 1 when anything is wrong."""
     results = []
     for path in systems:
         result = api.compile_system(path)
         diagnostics = result.diagnostics
+        if locked:
+            merged = [*diagnostics, *check_lock(path)]
+            diagnostics = tuple(sorted(dict.fromkeys(merged), key=Diagnostic.sort_key))
         if quiet:
             diagnostics = tuple(d for d in diagnostics if d.severity is Severity.ERROR)
-        results.append(FileResult(path, diagnostics))
+        results.append(FileResult(path, diagnostics, locked=locked))
     reporter = REPORTER_BY_NAME[output_format]
     reporter.render(results, sys.stdout, color=sys.stdout.isatty())
     worst = max((r.worst for r in results if r.worst is not None), default=None)
