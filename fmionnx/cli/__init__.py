@@ -6,6 +6,7 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     build_cmd,
     graph_cmd,
     inspect_cmd,
+    lock_cmd,
     run_cmd,
     schema_cmd,
     validate_cmd,
