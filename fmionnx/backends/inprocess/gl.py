@@ -47,8 +47,6 @@ def choose_gl(preference: str = "auto") -> str:
         return _chosen
     if preference in ("egl", "osmesa"):
         backend = preference
-    elif "mujoco" in sys.modules:
-        return "unknown"  # too late to choose; MuJoCo picked its own at import time
     else:
         working = next((b for b in ("egl", "osmesa") if _works(b)), None)
         if working is None:
@@ -58,7 +56,21 @@ def choose_gl(preference: str = "auto") -> str:
             )
             raise RuntimeError(msg)
         backend = working
+    late = "mujoco" in sys.modules
     os.environ["MUJOCO_GL"] = backend
     os.environ.setdefault("PYOPENGL_PLATFORM", backend)
+    if late:
+        _switch_context(backend)
     _chosen = backend
     return backend
+
+
+def _switch_context(backend: str) -> None:
+    """MuJoCo was imported before a backend was chosen (e.g. by a model reader that loaded a
+    scene): point its renderer's GL context class at the chosen backend. ``mujoco.Renderer``
+    looks the class up when it is constructed, so this takes effect for new renderers."""
+    import importlib
+
+    module = importlib.import_module(f"mujoco.{backend}")
+    context = importlib.import_module("mujoco.rendering.classic.gl_context")
+    context.GLContext = module.GLContext
