@@ -74,11 +74,11 @@ def run(
         raise _fail("--step and --interface apply to a single .fmu only")
     if inputs and suffix != ".onnx":
         raise _fail("--input applies to a single .onnx model only")
-    if suffix == ".onnx":
-        _run_onnx(target, _parse_pairs(inputs or [], "--input"), out, quiet=quiet)
-        return
-    raise typer.Exit(
-        _run_system(
+    try:
+        if suffix == ".onnx":
+            _run_onnx(target, _parse_pairs(inputs or [], "--input"), out, quiet=quiet)
+            return
+        code = _run_system(
             target,
             out=out,
             stop_time=stop_time,
@@ -88,7 +88,9 @@ def run(
             step=step,
             interface=interface,
         )
-    )
+    except KeyboardInterrupt:
+        raise _fail("interrupted before the run started", EXIT_INTERRUPTED) from None
+    raise typer.Exit(code)
 
 
 def _load(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
@@ -145,6 +147,9 @@ def _run_system(
 
         recorder = McapRecorder(record)
     options = RunOptions(frames=recorder)
+    if not quiet:
+        run = system.compiled.run
+        console.print(f"running {system.name} from {run.start:g} to {run.stop:g} s ...")
     try:
         result = _with_progress(system, options, quiet=quiet, console=console)
     except DiagnosticError as exc:

@@ -73,4 +73,4 @@ def _switch_context(backend: str) -> None:
 
     module = importlib.import_module(f"mujoco.{backend}")
     context = importlib.import_module("mujoco.rendering.classic.gl_context")
-    context.GLContext = module.GLContext
+    setattr(context, "GLContext", module.GLContext)  # noqa: B010 - a foreign module attribute

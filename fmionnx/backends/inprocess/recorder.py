@@ -17,6 +17,9 @@ import numpy.typing as npt
 
 from fmionnx.backends.inprocess.runners.base import Buffer
 
+#: Rows reserved up front; long runs grow by doubling instead of reserving hours of rows.
+CHUNK_ROWS = 1 << 16
+
 
 class FrameSink(Protocol):
     """Receives camera frames as they are rendered (e.g. an MCAP writer)."""
@@ -44,11 +47,18 @@ class Track:
         self.views.append((view, start, start + view.size))
 
     def allocate(self) -> None:
-        """Reserve all rows once, before the loop."""
-        self.rows = np.zeros((self.capacity, len(self.columns)), dtype=np.float64)
+        """Reserve rows before the loop (all of them for runs up to :data:`CHUNK_ROWS`)."""
+        rows = min(self.capacity, CHUNK_ROWS)
+        self.rows = np.zeros((rows, len(self.columns)), dtype=np.float64)
+
+    def _grow(self) -> None:
+        extra = min(max(len(self.rows), CHUNK_ROWS), self.capacity - len(self.rows))
+        self.rows = np.concatenate([self.rows, np.zeros((max(extra, 1), len(self.columns)))])
 
     def sample(self) -> None:
         """Append the current values as the next row."""
+        if self.count == len(self.rows):
+            self._grow()
         row = self.rows[self.count]
         for view, a, b in self.views:
             if b - a == 1:

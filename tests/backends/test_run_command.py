@@ -1,0 +1,106 @@
+"""``fmionnx run`` as a user meets it: exit codes, files written, Ctrl-C, the last line."""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import subprocess
+import sys
+import time
+
+import numpy as np
+from typer.testing import CliRunner
+
+from fmionnx.cli import app
+from fmionnx.results.csvfile import read_csv
+
+CHAIN = """
+fmionnx: 1
+name: chain
+run: {{stop: {stop}, step: 0.001}}
+components:
+  a: {{kind: fmu, path: {gain}, parameters: {{u: 1.0}}}}
+  b: {{kind: fmu, path: {gain}}}
+connections:
+  - a.y -> b.u
+"""
+
+
+def _cli(*args: str) -> subprocess.Popen[str]:
+    code = "import sys; from fmionnx.cli import main; sys.argv[0] = 'fmionnx'; main()"
+    return subprocess.Popen(
+        [sys.executable, "-c", code, *args],
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+        env=dict(os.environ, COLUMNS="200"),
+    )
+
+
+def test_run_writes_results_and_names_the_folder_last(fixture_fmu, write_system, tmp_path) -> None:
+    system = write_system(CHAIN.format(stop=0.5, gain=fixture_fmu("Gain")))
+    out = tmp_path / "out"
+    result = CliRunner().invoke(
+        app, ["run", str(system), "--out", str(out), "--param", "a.k=4"], catch_exceptions=False
+    )
+    assert result.exit_code == 0, result.output
+    assert result.output.strip().splitlines()[-1] == f"Results: {out}"
+    table = read_csv(out / "results.csv")
+    assert list(table) == ["time", "a.y"]
+    assert table["a.y"][-1] == 4.0
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "completed"
+    assert info["steps"] == 500
+    assert set(info["versions"]) >= {"fmionnx", "fmpy", "onnxruntime", "mujoco"}
+
+
+def test_unknown_parameter_is_a_usage_error(fixture_fmu, write_system) -> None:
+    system = write_system(CHAIN.format(stop=0.5, gain=fixture_fmu("Gain")))
+    result = CliRunner().invoke(app, ["run", str(system), "--param", "a.kk=4"])
+    assert result.exit_code == 2
+    assert "did you mean `k`" in result.output
+
+
+def test_fault_exits_1_and_keeps_results_so_far(fixture_fmu, write_system, tmp_path) -> None:
+    system = write_system(
+        f"""
+fmionnx: 1
+name: faulty
+run: {{stop: 1.0, step: 0.01}}
+components:
+  bad: {{kind: fmu, path: {fixture_fmu("Faulty")}, parameters: {{mode: 0, failAt: 0.3}}}}
+  gain: {{kind: fmu, path: {fixture_fmu("Gain")}}}
+connections:
+  - bad.y -> gain.u
+"""
+    )
+    out = tmp_path / "out"
+    result = CliRunner().invoke(app, ["run", str(system), "--out", str(out), "-q"])
+    assert result.exit_code == 1
+    assert "component `bad` at t=0.3 s: fmi2DoStep returned Error" in result.output
+    assert read_csv(out / "results.csv")["time"][-1] == 0.3
+    assert json.loads((out / "run.json").read_text())["error"]["component"] == "bad"
+
+
+def test_ctrl_c_stops_cleanly_writes_results_and_exits_130(
+    fixture_fmu, write_system, tmp_path
+) -> None:
+    system = write_system(CHAIN.format(stop=100000, gain=fixture_fmu("Gain")))
+    out = tmp_path / "out"
+    process = _cli("run", str(system), "--out", str(out))
+    assert process.stderr is not None
+    line = process.stderr.readline()
+    while line and not line.startswith("running chain"):
+        line = process.stderr.readline()
+    assert line.startswith("running chain")
+    time.sleep(1.0)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert stdout.strip().splitlines()[-1] == f"Results: {out}"
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "interrupted"
+    table = read_csv(out / "results.csv")
+    assert table["time"].size == info["steps"] + 1 > 1
+    assert np.all(table["a.y"][1:] == 2.0)

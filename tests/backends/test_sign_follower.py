@@ -1,0 +1,49 @@
+"""The reference scenario end to end: the robot reaches B, having taken every turn."""
+
+from __future__ import annotations
+
+import itertools
+
+import numpy as np
+import pytest
+
+import fmionnx
+from fmionnx.backends.base import RunStatus
+from fmionnx.results.plots import read_path
+from tests.conftest import REPO, built_model
+
+SYSTEM = REPO / "systems" / "sign_follower.yaml"
+GOAL_B = np.array([6.0, 3.0])
+
+
+def distance_to_polyline(points: np.ndarray, path: np.ndarray) -> np.ndarray:
+    """Shortest distance of each point to the piecewise-linear path."""
+    best = np.full(len(points), np.inf)
+    for a, b in itertools.pairwise(path):
+        ab = b - a
+        s = np.clip(((points - a) @ ab) / (ab @ ab), 0.0, 1.0)
+        best = np.minimum(best, np.linalg.norm(points - (a + s[:, None] * ab), axis=1))
+    return best
+
+
+@pytest.fixture(scope="module")
+def run_result():
+    built_model("ReadOdometry.fmu")  # raises with a `make models` hint when missing
+    return fmionnx.load(SYSTEM).run()
+
+
+def test_robot_reaches_b_within_half_a_metre_and_stops(run_result) -> None:
+    assert run_result.status is RunStatus.COMPLETED
+    end = np.array([run_result["odometry.posX"][-1], run_result["odometry.posY"][-1]])
+    assert np.linalg.norm(end - GOAL_B) < 0.5
+    assert run_result["tracker.v"][-1] == 0.0
+    assert run_result["tracker.w"][-1] == 0.0
+
+
+def test_robot_path_stays_within_30_cm_of_the_expected_path(run_result) -> None:
+    path = read_path(REPO / "models" / "world" / "sign_course.path.csv")
+    points = np.column_stack([run_result["odometry.posX"], run_result["odometry.posY"]])
+    assert distance_to_polyline(points, path).max() < 0.3
+    # every corner of the expected path is passed (every turn was taken)
+    for corner in path[1:-1]:
+        assert np.linalg.norm(points - corner, axis=1).min() < 0.3
