@@ -319,7 +319,9 @@ class _Builder:
             if problem is not None:
                 self.emit("E062", f"topic `{spec.topic}` of `{key}`: {problem}", span)
                 continue
-            msgtype = normalize_type(spec.type) if spec.type else None
+            msgtype = (
+                normalize_type(spec.type) if spec.type else self.implied_type(component, port, name)
+            )
             publisher = component.name if port.causality is Causality.OUTPUT else None
             if publisher is None or component.spec.external:
                 publisher = None
@@ -328,6 +330,22 @@ class _Builder:
                 self.set_qos(name, spec.qos, ("topics", key))
             done.add((component.name, port.name))
         return done
+
+    def implied_type(self, component: Component, port: Port, topic: str) -> str | None:
+        """The type of a topic entry without ``type``: the port's role default, the type
+        already chosen for that topic, or None (the port's default type)."""
+        role = ROLE_DEFAULTS.get((component.kind, port.name, port.causality))
+        for connection in self.system.connections:
+            if role is None and (connection.src.component, connection.src.port) == (
+                component.name,
+                port.name,
+            ):
+                dst = self.system.component(connection.dst.component)
+                role = ROLE_DEFAULTS.get((dst.kind, connection.dst.port, Causality.INPUT))
+        if role is not None:
+            return role.msgtype
+        draft = self.drafts.get(topic)
+        return draft.msgtype if draft is not None else None
 
     def default_topics(self, explicit: set[tuple[str, str]]) -> None:
         for connection in self.system.connections:
