@@ -10,7 +10,9 @@ is how GitHub's upload action resolves them against the checkout.
 from __future__ import annotations
 
 import json
+from pathlib import Path
 from typing import TextIO
+from urllib.parse import quote
 
 from fmionnx import __version__
 from fmionnx.diagnostics import CODES, Diagnostic, Severity, Span
@@ -41,10 +43,16 @@ def rules() -> list[JsonValue]:
     ]
 
 
+def artifact_location(path: Path) -> dict[str, JsonValue]:
+    """A percent-encoded URI relative to ``%SRCROOT%``, or a ``file:`` URI outside it."""
+    shown = display_path(path)
+    if Path(shown).is_absolute():
+        return {"uri": Path(shown).as_uri()}
+    return {"uri": quote(shown), "uriBaseId": SRCROOT}
+
+
 def _location(span: Span, message: str | None = None) -> dict[str, JsonValue]:
-    physical: dict[str, JsonValue] = {
-        "artifactLocation": {"uri": display_path(span.file), "uriBaseId": SRCROOT},
-    }
+    physical: dict[str, JsonValue] = {"artifactLocation": artifact_location(span.file)}
     if span.line > 0:
         region: dict[str, JsonValue] = {"startLine": span.line}
         if span.col > 0:

@@ -37,3 +37,11 @@ def two_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> list[FileResul
         ),
     )
     return [FileResult(a, first), FileResult(b, second)]
+
+
+@pytest.fixture(scope="session")
+def case_models() -> Path:
+    """The diagnostics corpus's model folder (real FMUs built from C, a tiny ONNX model)."""
+    from tests.cases.conftest import make_case_models
+
+    return make_case_models()

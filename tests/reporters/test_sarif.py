@@ -6,6 +6,7 @@ from pathlib import Path
 from typing import Any
 
 import jsonschema
+import pytest
 
 from fmionnx.diagnostics import CODES
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
@@ -59,3 +60,17 @@ def test_results_point_at_rules_and_relative_locations(two_files: list[FileResul
     assert related["message"]["text"] == "`u` is declared here"
     no_span = results[3]["locations"][0]["physicalLocation"]
     assert no_span == {"artifactLocation": {"uri": "sub/b.yaml", "uriBaseId": "%SRCROOT%"}}
+
+
+def test_uris_are_percent_encoded_and_absolute_outside_the_working_directory(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from fmionnx.reporters.sarif import artifact_location
+
+    monkeypatch.chdir(tmp_path)
+    assert artifact_location(tmp_path / "my systems" / "a.yaml") == {
+        "uri": "my%20systems/a.yaml",
+        "uriBaseId": "%SRCROOT%",
+    }
+    outside = tmp_path.parent / "models" / "m.xml"
+    assert artifact_location(outside) == {"uri": outside.as_uri()}
