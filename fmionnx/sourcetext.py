@@ -6,9 +6,23 @@ from functools import lru_cache
 from pathlib import Path
 
 
-@lru_cache(maxsize=64)
 def source_lines(path: Path) -> tuple[str, ...]:
-    """The lines of a UTF-8 text file; empty when it cannot be read."""
+    """The lines of a UTF-8 text file; empty when it cannot be read.
+
+    Cached by resolved path, modification time and size, so a file edited (or a relative
+    path seen from another working directory) is read afresh.
+    """
+    try:
+        resolved = path.resolve()
+        stat = resolved.stat()
+    except OSError:
+        return ()
+    return _read(resolved, stat.st_mtime_ns, stat.st_size)
+
+
+@lru_cache(maxsize=64)
+def _read(path: Path, mtime_ns: int, size: int) -> tuple[str, ...]:
+    del mtime_ns, size  # part of the cache key only
     try:
         return tuple(path.read_text(encoding="utf-8").splitlines())
     except (OSError, UnicodeDecodeError):

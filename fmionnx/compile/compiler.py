@@ -8,7 +8,12 @@ from __future__ import annotations
 
 from collections import defaultdict
 
-from fmionnx.compile.endpoints import ResolvedEndpoint, flat_index, resolve_endpoint
+from fmionnx.compile.endpoints import (
+    ResolvedEndpoint,
+    flat_index,
+    resolve_endpoint,
+    split_endpoint,
+)
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
 from fmionnx.compile.ir import (
     Causality,
@@ -68,10 +73,11 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             )
         )
 
-    connections = _connections(spec, interfaces, sources, bag)
+    mentioned: set[tuple[str, str]] = set()
+    connections = _connections(spec, interfaces, sources, bag, mentioned)
     by_name = {c.name: c for c in components}
     _check_drivers(connections, bag)
-    _check_unconnected(components, connections, spec, sources, bag)
+    _check_unconnected(components, mentioned, spec, sources, bag)
     usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
     for loop in find_algebraic_loops(components, usable):
         spans = [c.span for c in usable if f"{c.src.component}.{c.src.port}" in loop]
@@ -175,7 +181,13 @@ def _connections(
     interfaces: dict[str, ComponentInterface | None],
     sources: SourceMap,
     bag: DiagnosticBag,
+    mentioned: set[tuple[str, str]],
 ) -> list[Connection]:
+    """Resolve and check every connection; ``mentioned`` collects every port named by one.
+
+    Ports named by a connection that failed a check are "mentioned" too: warning that such
+    an input is unconnected would only repeat the error.
+    """
     result = []
     for index, entry in enumerate(spec.connections):
         span = sources.value(("connections", index))
@@ -191,6 +203,13 @@ def _connections(
         left, left_span, right, right_span, factor, offset = texts
         src = resolve_endpoint(left, left_span, interfaces, bag)
         dst = resolve_endpoint(right, right_span, interfaces, bag)
+        for end in (src, dst):
+            if end is not None:
+                mentioned.add((end.ref.component, end.ref.port))
+        for text in (left, right):
+            parts = split_endpoint(text, interfaces)
+            if parts is not None:
+                mentioned.add((parts[0], ""))
         if src is None or dst is None:
             continue
         connection = _check_connection(src, dst, span, factor, offset, bag)
@@ -248,12 +267,12 @@ def _check_drivers(connections: list[Connection], bag: DiagnosticBag) -> None:
 
 def _check_unconnected(
     components: list[Component],
-    connections: list[Connection],
+    mentioned: set[tuple[str, str]],
     spec: SystemSpec,
     sources: SourceMap,
     bag: DiagnosticBag,
 ) -> None:
-    driven = {(c.dst.component, c.dst.port) for c in connections}
+    driven = mentioned
     for component in components:
         if component.spec.external:
             continue
@@ -270,7 +289,7 @@ def _check_unconnected(
                 "to make the value explicit",
             )
     if len(spec.components) > 1:
-        linked = {c.src.component for c in connections} | {c.dst.component for c in connections}
+        linked = {component for component, _ in mentioned}
         for component in components:
             if component.name not in linked:
                 bag.emit(

@@ -135,7 +135,9 @@ def resolve_parameters(
         if port.causality not in SETTABLE:
             bag.emit(
                 "E044",
-                f"`{name}.{key}` is a {port.causality.value} and cannot be set",
+                f"`{name}.{key}` is an {port.causality.value} and cannot be set"
+            if port.causality.value[0] in "aeiou"
+            else f"`{name}.{key}` is a {port.causality.value} and cannot be set",
                 span,
                 hint="only parameters and inputs (start values) can be set",
                 notes=_declared(port),

@@ -44,6 +44,10 @@ def is_lossy(source: DType, target: DType) -> bool:
     return dst_bits < src_bits + (1 if dst_signed and not src_signed else 0)
 
 
+def _a(word: str) -> str:
+    return ("an " if word[:1] in "aeiou" else "a ") + word
+
+
 def _origin_note(port: Port) -> list[Note]:
     if port.origin is None:
         return []
@@ -59,7 +63,7 @@ def check_causality(
         hint = "swap the two sides" if dst.port.causality is Causality.OUTPUT else None
         bag.emit(
             "E030",
-            f"`{src.ref}` is an {src.port.causality.value}, but a connection must start at an output",
+            f"`{src.ref}` is {_a(src.port.causality.value)}, but a connection must start at an output",
             span,
             hint=hint,
             notes=_origin_note(src.port),
@@ -74,7 +78,7 @@ def check_causality(
             hint = None
         bag.emit(
             "E030",
-            f"`{dst.ref}` is an {dst.port.causality.value}, but a connection must end at an input",
+            f"`{dst.ref}` is {_a(dst.port.causality.value)}, but a connection must end at an input",
             span,
             hint=hint,
             notes=_origin_note(dst.port),

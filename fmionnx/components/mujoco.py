@@ -21,7 +21,7 @@ class CameraSpec(StrictModel):
 class MujocoSpec(ComponentSpecBase):
     """System-file keys of a ``mujoco`` component."""
 
-    kind: Literal["mujoco"] = "mujoco"  # type: ignore[assignment]
+    kind: Literal["mujoco"] = "mujoco"
     cameras: dict[str, CameraSpec] = Field(
         default_factory=dict,
         description="Cameras to render, by name in the scene; each becomes an output port "
@@ -43,7 +43,12 @@ class MujocoKind:
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the scene's ports."""
-        raise NotImplementedError
+        from fmionnx.components.mujoco_interface import read_mujoco_interface
+
+        cameras = None
+        if isinstance(spec, MujocoSpec):
+            cameras = {name: (c.width, c.height) for name, c in spec.cameras.items()}
+        return read_mujoco_interface(path, cameras)
 
 
 MUJOCO_KIND = MujocoKind()

@@ -14,7 +14,7 @@ from fmionnx.spec.base import ComponentSpecBase
 class OnnxSpec(ComponentSpecBase):
     """System-file keys of an ``onnx`` component."""
 
-    kind: Literal["onnx"] = "onnx"  # type: ignore[assignment]
+    kind: Literal["onnx"] = "onnx"
     providers: list[str] = Field(
         default_factory=lambda: ["CPUExecutionProvider"],
         description="onnxruntime execution providers, in order of preference.",
@@ -34,7 +34,9 @@ class OnnxKind:
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the model's inputs and outputs."""
-        raise NotImplementedError
+        from fmionnx.components.onnx_interface import read_onnx_interface
+
+        return read_onnx_interface(path)
 
 
 ONNX_KIND = OnnxKind()

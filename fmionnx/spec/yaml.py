@@ -133,6 +133,9 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
 
 def _report_marked(exc: MarkedYAMLError, path: Path, bag: DiagnosticBag, code: str) -> None:
     mark = exc.problem_mark or exc.context_mark
+    if exc.problem and "<stream end>" in exc.problem and exc.context_mark is not None:
+        # "expected ']' but got end of file": the opening bracket is the useful position.
+        mark = exc.context_mark
     span = Span(path, mark.line + 1, mark.column + 1) if mark is not None else Span(path, 1, 1)
     problem = exc.problem or "invalid YAML"
     if code == "E007":

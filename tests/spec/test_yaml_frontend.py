@@ -32,7 +32,7 @@ def _load(tmp_path: Path, text: str | bytes) -> tuple[object, list[tuple[str, in
 @pytest.mark.parametrize(
     ("text", "code", "line", "col", "fragment"),
     [
-        pytest.param("fmionnx: 1\nname: [x\n", "E001", 3, 1, "invalid YAML", id="unclosed-flow"),
+        pytest.param("fmionnx: 1\nname: [x\n", "E001", 2, 7, "invalid YAML", id="unclosed-flow"),
         pytest.param("fmionnx: 1\n  name: x\n", "E001", 2, 7, "invalid YAML", id="bad-indent"),
         pytest.param(
             HEADER + "name: again\ncomponents: {}\n",

@@ -1,0 +1,138 @@
+"""Read a MuJoCo scene's ports: named sensors, actuators, sites and the requested cameras.
+
+Sensors, sites and cameras depend on no input within a step (actuators act through the
+physics step), which is what lets a robot's feedback loop through the simulator be ordered
+without an algebraic loop. Nothing is rendered here: validation needs no OpenGL.
+"""
+
+from __future__ import annotations
+
+import hashlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
+from fmionnx.diagnostics import did_you_mean, one_of
+from fmionnx.errors import ModelError
+
+#: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case).
+_SENSOR_UNITS = {
+    "framepos": "m",
+    "jointpos": None,  # slide joints in m, hinges in rad: depends on the joint
+    "velocimeter": "m/s",
+    "gyro": "rad/s",
+    "accelerometer": "m/s2",
+    "framelinvel": "m/s",
+    "frameangvel": "rad/s",
+    "subtreecom": "m",
+    "rangefinder": "m",
+    "touch": "N",
+    "force": "N",
+    "torque": "N.m",
+    "clock": "s",
+}
+
+_MODELS: dict[tuple[str, int, int], tuple[Any, str]] = {}
+
+
+def load_model(path: Path) -> tuple[Any, str]:
+    """The compiled MjModel of the scene at ``path`` and the scene's content hash (cached)."""
+    if not path.exists():
+        msg = f"`{path}` does not exist"
+        raise ModelError("E010", msg)
+    if not path.is_file():
+        msg = f"`{path}` is a directory or special file, not a MuJoCo scene"
+        raise ModelError("E011", msg)
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    if key not in _MODELS:
+        import mujoco
+
+        try:
+            if path.suffix == ".mjb":
+                model = mujoco.MjModel.from_binary_path(str(path))
+            else:
+                model = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as exc:
+            text = " ".join(str(exc).split())
+            msg = f"`{path}` is not a valid MuJoCo scene: {text}"
+            raise ModelError("E012", msg) from None
+        _MODELS[key] = (model, hashlib.sha256(path.read_bytes()).hexdigest())
+    return _MODELS[key]
+
+
+def read_mujoco_interface(
+    path: Path, cameras: Mapping[str, tuple[int, int]] | None
+) -> ComponentInterface:
+    """Ports of the scene; ``cameras`` maps camera name -> (width, height) (None: all, 640x480)."""
+    import mujoco
+
+    model, digest = load_model(path)
+    ports: list[Port] = []
+    for i in range(model.nsensor):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)
+        if not name:
+            continue
+        dim = int(model.sensor_dim[i])
+        kind = mujoco.mjtSensor(int(model.sensor_type[i])).name.removeprefix("mjSENS_").lower()
+        ports.append(
+            Port(
+                name=name,
+                causality=Causality.OUTPUT,
+                dtype=DType.FLOAT64,
+                shape=() if dim == 1 else (dim,),
+                unit=_SENSOR_UNITS.get(kind),
+                description=f"{kind} sensor",
+                depends_on=(),
+            )
+        )
+    for i in range(model.nu):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
+        if not name:
+            continue
+        limited = bool(model.actuator_ctrllimited[i])
+        low, high = model.actuator_ctrlrange[i]
+        description = f"actuator, ctrlrange [{low:g}, {high:g}]" if limited else "actuator"
+        ports.append(
+            Port(name, Causality.INPUT, DType.FLOAT64, (), start=(0.0,), description=description)
+        )
+    for i in range(model.nsite):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i)
+        if name:
+            ports.append(
+                Port(
+                    f"{name}.pos",
+                    Causality.OUTPUT,
+                    DType.FLOAT64,
+                    (3,),
+                    unit="m",
+                    description=f"world position of site {name}",
+                    depends_on=(),
+                )
+            )
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)]
+    names = [n for n in names if n]
+    wanted = cameras if cameras is not None else dict.fromkeys(names, (640, 480))
+    for camera, (width, height) in wanted.items():
+        if camera not in names:
+            hint = did_you_mean(camera, names) or one_of(names)
+            msg = f"camera `{camera}` is not in the scene `{path.name}`"
+            raise ModelError("E018", msg, hint=hint)
+        ports.append(
+            Port(
+                camera,
+                Causality.OUTPUT,
+                DType.UINT8,
+                (height, width, 3),
+                description=f"RGB image of camera {camera}",
+                depends_on=(),
+            )
+        )
+    facts = (
+        ("timestep", repr(float(model.opt.timestep))),
+        ("nbody", str(model.nbody)),
+        ("ngeom", str(model.ngeom)),
+        ("cameras", ",".join(names)),
+    )
+    return ComponentInterface("mujoco", path, tuple(ports), facts, None, digest)
