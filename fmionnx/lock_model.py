@@ -145,7 +145,7 @@ def render_lock(lock: LockFile) -> str:
         lines.append(f"    kind: {yaml_str(entry.kind)}")
         lines.append(f"    path: {yaml_str(entry.path)}")
         if entry.sha256 is not None:
-            lines.append(f"    sha256: {yaml_str(entry.sha256)}")
+            lines.append(f"    sha256: {json.dumps(entry.sha256)}")
         if entry.facts:
             lines.append("    facts:")
             lines.extend(

@@ -19,7 +19,7 @@ components:
   gain:
     kind: fmu
     path: Gain.fmu
-    sha256: aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa
+    sha256: "aaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaaa"
     facts:
       fmiVersion: "2.0"
       guid: "{1234}"
