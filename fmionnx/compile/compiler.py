@@ -93,7 +93,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     _check_plots(spec, by_name, sources, bag)
     if run is None or bag.has_errors:
         return None
-    return CompiledSystem(
+    system = CompiledSystem(
         name=spec.name,
         source=loaded.path,
         run=run,
@@ -105,6 +105,15 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         ros2=spec.ros2,
         description=spec.description,
     )
+    if spec.ros2 is not None:
+        # The ROS 2 section is checked like the rest of the file; the mapping module is only
+        # imported when a system has one (it brings the message definitions and DDS).
+        from fmionnx.backends.ros2.mapping import check_ros2
+
+        bag.extend(check_ros2(system, sources))
+        if bag.has_errors:
+            return None
+    return system
 
 
 def _check_period(
