@@ -6,6 +6,7 @@ from collections.abc import Callable, Mapping
 from pathlib import Path
 
 from fmionnx.diagnostics import DiagnosticBag, Span, one_of
+from fmionnx.spec.ssp import load_ssp_system
 from fmionnx.spec.yaml import LoadedSpec, load_yaml_system
 
 FrontEnd = Callable[[Path, DiagnosticBag], LoadedSpec]
@@ -13,6 +14,8 @@ FrontEnd = Callable[[Path, DiagnosticBag], LoadedSpec]
 FRONTENDS: Mapping[str, FrontEnd] = {
     ".yaml": load_yaml_system,
     ".yml": load_yaml_system,
+    ".ssp": load_ssp_system,
+    ".ssd": load_ssp_system,
 }
 
 

@@ -1,0 +1,262 @@
+"""SSP front end: ``.ssp`` archives and loose ``.ssd`` files -> :class:`SystemSpec` + spans.
+
+The result is the same raw model the YAML front end produces, so one compiler and one IR
+serve both formats. Steps: unpack the archive (safely, into a cache folder keyed by its
+hash), parse the SSD without entities or network, validate it against the XSD of its SSP
+version (E070), read it into typed records, flatten nested systems and bindings, and build
+the plain data a YAML file would have held, recording for every key path the line of the
+SSD (or ``.ssv``) element it came from. See ``docs/ssp.md`` for what is supported.
+"""
+
+from __future__ import annotations
+
+import json
+import re
+from pathlib import Path
+from typing import Any
+
+from pydantic import ValidationError
+
+from fmionnx.diagnostics import DiagnosticBag, Severity, Span
+from fmionnx.errors import ModelError
+from fmionnx.spec.model import SystemSpec
+from fmionnx.spec.pydantic_errors import report_validation_error
+from fmionnx.spec.sourcemap import SourceMap
+from fmionnx.spec.ssp_archive import SSD_NAME, unpack_ssp
+from fmionnx.spec.ssp_flatten import FlatSystem, flatten
+from fmionnx.spec.ssp_params import resolve_uri
+from fmionnx.spec.ssp_tree import Annotation, Document, Element, read_document, report_unread
+from fmionnx.spec.ssp_xml import parse_xml, validate
+from fmionnx.spec.yaml import LoadedSpec
+
+#: Component MIME types and the kinds they select (docs/ssp.md). SSP itself defines only the
+#: FMU type; the ONNX and MuJoCo types are ours.
+KIND_BY_MIME = {
+    "application/x-fmu-sharedlibrary": "fmu",
+    "application/x-onnx": "onnx",
+    "application/x-mujoco+xml": "mujoco",
+}
+MIME_BY_KIND = {kind: mime for mime, kind in KIND_BY_MIME.items()}
+#: SSD ``implementation`` attribute -> FMU ``interface`` option.
+INTERFACE_BY_IMPLEMENTATION = {"CoSimulation": "cs", "ModelExchange": "me"}
+#: Keys of the component spec that come from SSD elements, never from our annotation.
+_STRUCTURAL_KEYS = ("kind", "path")
+#: Keys our system-level annotation may carry.
+SYSTEM_ANNOTATION_KEYS = ("description", "run", "record", "plots", "ros2")
+
+
+def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
+    """Load an ``.ssp`` archive or a loose ``.ssd`` file; every problem goes into ``bag``."""
+    sources = SourceMap(path)
+    if path.suffix.lower() == ".ssp":
+        try:
+            root: Path | None = unpack_ssp(path)
+        except ModelError as exc:
+            bag.emit(exc.code, f"`{path.name}`: {exc}", Span(path), hint=exc.hint)
+            return LoadedSpec(None, sources, path)
+        assert root is not None
+        ssd = root / SSD_NAME
+        if not ssd.is_file():
+            bag.emit(
+                "E072",
+                f"`{path.name}` has no `{SSD_NAME}` at its root",
+                Span(path),
+                hint="an SSP archive holds the system structure as SystemStructure.ssd",
+            )
+            return LoadedSpec(None, sources, path)
+    else:
+        root, ssd = None, path
+        if not path.is_file():
+            code = "E010" if not path.exists() else "E011"
+            bag.emit(code, f"system file `{path}` does not exist or is not a file", Span(path))
+            return LoadedSpec(None, sources, path)
+    sources = SourceMap(ssd)
+    errors_before = _errors(bag)
+    tree = parse_xml(ssd, bag)
+    if tree is None or not validate(tree, "ssd", ssd, bag):
+        return LoadedSpec(None, sources, path)
+    report_unread(tree, ssd, bag)
+    document = read_document(tree)
+    flat = flatten(document, ssd, root, bag)
+    data = _system_data(document, flat, ssd, root, sources, bag)
+    if data is None or _errors(bag) > errors_before:
+        return LoadedSpec(None, sources, path)
+    try:
+        spec = SystemSpec.model_validate(data)
+    except ValidationError as exc:
+        report_validation_error(exc, data, sources, bag)
+        return LoadedSpec(None, sources, path)
+    return LoadedSpec(spec, sources, path)
+
+
+def _errors(bag: DiagnosticBag) -> int:
+    return sum(1 for d in bag if d.severity is Severity.ERROR)
+
+
+def _json_object(annotation: Annotation, ssd: Path, bag: DiagnosticBag) -> dict[str, Any] | None:
+    span = Span(ssd, annotation.line)
+    try:
+        value = json.loads(annotation.text) if annotation.text else {}
+    except json.JSONDecodeError as exc:
+        bag.emit("E003", f"the `org.fmionnx` annotation is not valid JSON: {exc.msg}", span)
+        return None
+    if not isinstance(value, dict):
+        bag.emit("E003", "the `org.fmionnx` annotation must hold a JSON object", span)
+        return None
+    return value
+
+
+def system_name(text: str, span: Span, bag: DiagnosticBag) -> str:
+    """The SSD name as a system-file name (``[A-Za-z_][\\w-]*``), warning when changed."""
+    name = re.sub(r"[^\w-]", "_", text) or "system"
+    if not re.match(r"[A-Za-z_]", name):
+        name = "_" + name
+    if name != text:
+        bag.emit("W070", f"system name `{text}` is used as `{name}`", span)
+    return name
+
+
+def _system_data(
+    document: Document,
+    flat: FlatSystem,
+    ssd: Path,
+    root: Path | None,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> dict[str, Any] | None:
+    top = Span(ssd, document.line)
+    sources.record((), top)
+    annotation: dict[str, Any] = {}
+    annotation_span = top
+    if document.annotation is not None:
+        annotation_span = Span(ssd, document.annotation.line)
+        parsed = _json_object(document.annotation, ssd, bag)
+        if parsed is None:
+            return None
+        annotation = parsed
+    for key in annotation:
+        if key not in SYSTEM_ANNOTATION_KEYS:
+            bag.emit(
+                "E002",
+                f"unknown key `{key}` in the system's `org.fmionnx` annotation",
+                annotation_span,
+                hint=f"expected one of {', '.join(SYSTEM_ANNOTATION_KEYS)}",
+            )
+            return None
+        sources.record((key,), annotation_span, annotation_span)
+    run: dict[str, Any] = {}
+    if document.start is not None:
+        run["start"] = document.start
+    if document.stop is not None:
+        run["stop"] = document.stop
+    if document.root.step is not None:
+        run["step"] = document.root.step
+    extra_run = annotation.pop("run", {})
+    sources.record(("run",), annotation_span if extra_run else top, top)
+    data: dict[str, Any] = {
+        "fmionnx": 1,
+        "name": system_name(document.name, top, bag),
+        # A non-mapping `run` is left for the schema check to report.
+        "run": {**run, **extra_run} if isinstance(extra_run, dict) else extra_run,
+        **annotation,
+    }
+    sources.record(("fmionnx",), top, top)
+    sources.record(("name",), top, top)
+    components: dict[str, Any] = {}
+    sources.record(("components",), Span(ssd, document.root.line), Span(ssd, document.root.line))
+    for name, element in flat.components.items():
+        entry = _component(name, element, flat, ssd, root, sources, bag)
+        if entry is not None:
+            components[name] = entry
+    data["components"] = components
+    sources.record(("connections",), Span(ssd, document.root.line))
+    data["connections"] = _connections(flat, ssd, sources)
+    return data
+
+
+def _component(
+    name: str,
+    element: Element,
+    flat: FlatSystem,
+    ssd: Path,
+    root: Path | None,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> dict[str, Any] | None:
+    span = Span(ssd, element.line)
+    key: tuple[str, ...] = ("components", name)
+    sources.record(key, span, span)
+    kind = KIND_BY_MIME.get(element.type)
+    if kind is None:
+        bag.emit(
+            "E071",
+            f"component `{name}` has type `{element.type}`, which fmionnx cannot run",
+            span,
+            hint=f"supported types: {', '.join(KIND_BY_MIME)}",
+        )
+        return None
+    if element.source is None:
+        bag.emit("E072", f"component `{name}` has no `source`", span)
+        return None
+    model = resolve_uri(element.source, ssd.parent, root, span, bag)
+    if model is None:
+        return None
+    entry: dict[str, Any] = {"kind": kind, "path": str(model)}
+    for field_name in ("kind", "path"):
+        sources.record((*key, field_name), span, span)
+    if kind == "fmu" and element.implementation in INTERFACE_BY_IMPLEMENTATION:
+        entry["interface"] = INTERFACE_BY_IMPLEMENTATION[element.implementation]
+        sources.record((*key, "interface"), span, span)
+    parameters: dict[str, Any] = {}
+    if element.annotation is not None:
+        options = _json_object(element.annotation, ssd, bag)
+        if options is None:
+            return None
+        option_span = Span(ssd, element.annotation.line)
+        for option in options:
+            if option in _STRUCTURAL_KEYS:
+                bag.emit(
+                    "E002",
+                    f"`{option}` of component `{name}` comes from the SSD element, not from "
+                    "the annotation",
+                    option_span,
+                )
+                return None
+            sources.record((*key, option), option_span, option_span)
+        extra = options.pop("parameters", {})
+        if isinstance(extra, dict):
+            parameters.update(extra)
+            for parameter in extra:
+                sources.record((*key, "parameters", parameter), option_span, option_span)
+        entry.update(options)
+    bound = flat.parameters.get(name, {})
+    for parameter, value in bound.items():
+        parameters[parameter] = value.value
+        sources.record((*key, "parameters", parameter), value.span, value.span)
+    if parameters:
+        entry["parameters"] = parameters
+        if (*key, "parameters") not in sources.spans:
+            sources.record((*key, "parameters"), span, span)
+    return entry
+
+
+def _connections(flat: FlatSystem, ssd: Path, sources: SourceMap) -> list[Any]:
+    result: list[Any] = []
+    for index, connection in enumerate(flat.connections):
+        # Column 0: the compiler computes columns inside one-line YAML connections only.
+        span = Span(ssd, connection.line)
+        for path in (("connections", index), ("connections", index, "from")):
+            sources.record(path, span, span)
+        sources.record(("connections", index, "to"), span, span)
+        if connection.factor == 1.0 and connection.offset == 0.0:
+            result.append(f"{connection.src} -> {connection.dst}")
+        else:
+            result.append(
+                {
+                    "from": connection.src,
+                    "to": connection.dst,
+                    "factor": connection.factor,
+                    "offset": connection.offset,
+                }
+            )
+    return result

@@ -1,0 +1,66 @@
+"""Unpack ``.ssp`` archives safely into a cache folder keyed by the archive's content hash.
+
+The same archive is extracted once; its resources (FMUs, ONNX models, scenes, ``.ssv``) then
+have stable absolute paths the compiled system can refer to. Extraction goes to a fresh
+temporary folder that is renamed into place only when complete, so a refused (hostile) or
+interrupted archive never leaves a half-filled cache entry, and nothing is written outside
+the cache folder (:func:`fmionnx.archive.safe_extract` refuses ``..``, absolute paths, links
+and zip bombs with E017).
+"""
+
+from __future__ import annotations
+
+import hashlib
+import os
+import shutil
+import tempfile
+from pathlib import Path
+
+from fmionnx.archive import safe_extract
+
+#: Name of the system structure inside an SSP archive (SSP 1.0, section 7).
+SSD_NAME = "SystemStructure.ssd"
+
+
+def cache_root() -> Path:
+    """Where archives are unpacked: ``$FMIONNX_CACHE/ssp`` or the XDG cache folder."""
+    explicit = os.environ.get("FMIONNX_CACHE")
+    if explicit:
+        return Path(explicit).expanduser() / "ssp"
+    xdg = os.environ.get("XDG_CACHE_HOME")
+    base = Path(xdg).expanduser() if xdg else Path.home() / ".cache"
+    return base / "fmionnx" / "ssp"
+
+
+def file_digest(path: Path) -> str:
+    """sha256 of a file's bytes (hex)."""
+    digest = hashlib.sha256()
+    with path.open("rb") as stream:
+        while chunk := stream.read(1 << 20):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def unpack_ssp(path: Path) -> Path:
+    """The folder holding the unpacked archive (extracted now or earlier).
+
+    Raises :class:`fmionnx.errors.ModelError` (E010/E012/E017) for missing, corrupt or
+    hostile archives.
+    """
+    folder = cache_root() / file_digest(path)[:24]
+    if folder.is_dir():
+        return folder
+    folder.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=".unpack-", dir=folder.parent))
+    try:
+        safe_extract(path, staging)
+        try:
+            staging.rename(folder)
+        except OSError:
+            # Another process unpacked the same archive meanwhile: theirs is as good.
+            if not folder.is_dir():
+                raise
+    finally:
+        if staging.exists():
+            shutil.rmtree(staging, ignore_errors=True)
+    return folder

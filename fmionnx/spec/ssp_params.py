@@ -1,0 +1,172 @@
+"""Parameter values of SSP bindings: inline ``ssv:ParameterSet``, ``.ssv`` files, ``.ssm`` maps.
+
+A binding yields ``(name, value, span)`` entries with the binding's ``prefix`` applied and the
+mapping's renames and linear transformations done, ready to be matched against the element the
+binding belongs to. Values keep their SSV type: ``Real`` -> float, ``Integer`` -> int,
+``Boolean`` -> bool, ``String`` -> str.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+from urllib.parse import unquote, urlparse
+
+from fmionnx.diagnostics import DiagnosticBag, Span
+from fmionnx.spec.base import ScalarLiteral
+from fmionnx.spec.ssp_tree import Binding, Transformation
+from fmionnx.spec.ssp_xml import parse_xml, tag, validate
+
+
+@dataclass(frozen=True, slots=True)
+class BoundValue:
+    """One parameter value from a binding, named as in the bound element."""
+
+    name: str
+    value: ScalarLiteral
+    span: Span
+
+
+def resolve_uri(
+    text: str, base: Path, root: Path | None, span: Span, bag: DiagnosticBag
+) -> Path | None:
+    """A relative ``source`` URI as a path under ``base``; None (E071/E017) otherwise.
+
+    ``root`` is the unpacked archive: a resource may not point outside it.
+    """
+    parsed = urlparse(text)
+    if parsed.scheme or parsed.netloc:
+        bag.emit(
+            "E071",
+            f"`{text}`: only relative references into the SSP are supported (no URI schemes)",
+            span,
+        )
+        return None
+    path = (base / unquote(parsed.path)).resolve()
+    if root is not None and not path.is_relative_to(root.resolve()):
+        bag.emit("E017", f"`{text}` points outside the SSP archive", span)
+        return None
+    if not path.is_file():
+        bag.emit("E072", f"`{text}` does not exist in the SSP", span)
+        return None
+    return path
+
+
+def _scalar(node: Any, span: Span, bag: DiagnosticBag) -> ScalarLiteral | None:
+    for kind in ("Real", "Integer", "Boolean", "String"):
+        typed = node.find(tag("ssv", kind))
+        if typed is None:
+            continue
+        text = str(typed.get("value", ""))
+        try:
+            if kind == "Real":
+                return float(text)
+            if kind == "Integer":
+                return int(text)
+        except ValueError:
+            bag.emit("E003", f"`{text}` is not a valid {kind} value", span)
+            return None
+        if kind == "Boolean":
+            return text.strip() in {"true", "1"}
+        return text
+    bag.emit(
+        "E071",
+        "only Real, Integer, Boolean and String parameter values are supported",
+        span,
+        hint="enumeration and binary values are not supported yet",
+    )
+    return None
+
+
+def read_parameter_set(element: Any, file: Path, bag: DiagnosticBag) -> list[BoundValue]:
+    """The parameters of a ``ssv:ParameterSet`` element (inline or a file's root)."""
+    values = []
+    for node in element.iterfind(f"{tag('ssv', 'Parameters')}/{tag('ssv', 'Parameter')}"):
+        span = Span(file, node.sourceline)
+        value = _scalar(node, span, bag)
+        if value is not None:
+            values.append(BoundValue(node.get("name"), value, span))
+    return values
+
+
+@dataclass(frozen=True, slots=True)
+class _Entry:
+    target: str
+    transformation: Transformation | None
+    span: Span
+
+
+def read_mapping(element: Any, file: Path, bag: DiagnosticBag) -> dict[str, _Entry]:
+    """``source name -> entry`` of a ``ssm:ParameterMapping`` element."""
+    entries: dict[str, _Entry] = {}
+    for node in element.iterfind(tag("ssm", "MappingEntry")):
+        span = Span(file, node.sourceline)
+        linear = node.find(tag("ssc", "LinearTransformation"))
+        transformation = None
+        if linear is not None:
+            transformation = Transformation(
+                float(linear.get("factor", "1")), float(linear.get("offset", "0"))
+            )
+        elif len(node):
+            bag.emit("E071", "only linear transformations are supported in mappings", span)
+            continue
+        entries[node.get("source")] = _Entry(node.get("target"), transformation, span)
+    return entries
+
+
+def _apply(value: BoundValue, entry: _Entry | None, bag: DiagnosticBag) -> BoundValue:
+    if entry is None:
+        return value
+    result = value.value
+    if entry.transformation is not None:
+        if isinstance(result, bool) or not isinstance(result, int | float):
+            bag.emit(
+                "E071",
+                f"a linear transformation applies to Real values, not to `{value.name}`",
+                entry.span,
+            )
+        else:
+            result = entry.transformation.factor * result + entry.transformation.offset
+    return BoundValue(entry.target, result, value.span)
+
+
+def _load(
+    source: str, base: Path, root: Path | None, kind: str, span: Span, bag: DiagnosticBag
+) -> tuple[Any, Path] | None:
+    path = resolve_uri(source, base, root, span, bag)
+    if path is None:
+        return None
+    tree = parse_xml(path, bag)
+    if tree is None or not validate(tree, kind, path, bag):
+        return None
+    return tree.getroot(), path
+
+
+def binding_values(
+    binding: Binding, ssd: Path, root: Path | None, bag: DiagnosticBag
+) -> list[BoundValue]:
+    """Every value a binding sets, renamed by its mapping and prefixed by its ``prefix``."""
+    span = Span(ssd, binding.line)
+    base = ssd.parent
+    values: list[BoundValue] = []
+    if binding.inline is not None:
+        values = read_parameter_set(binding.inline, ssd, bag)
+    elif binding.source is not None:
+        loaded = _load(binding.source, base, root, "ssv", span, bag)
+        if loaded is None:
+            return []
+        values = read_parameter_set(loaded[0], loaded[1], bag)
+    mapping: dict[str, _Entry] = {}
+    if binding.inline_mapping is not None:
+        mapping = read_mapping(binding.inline_mapping, ssd, bag)
+    elif binding.mapping_source is not None:
+        loaded = _load(binding.mapping_source, base, root, "ssm", span, bag)
+        if loaded is not None:
+            mapping = read_mapping(loaded[0], loaded[1], bag)
+    # The prefix is prepended before mapping and name resolution (SSD XSD, `prefix`).
+    result = []
+    for value in values:
+        full = BoundValue(binding.prefix + value.name, value.value, value.span)
+        result.append(_apply(full, mapping.get(full.name), bag))
+    return result

@@ -1,0 +1,126 @@
+"""Safe XML parsing and XSD validation of SSP files (``.ssd``, ``.ssv``, ``.ssm``).
+
+SSP files come from other people and other tools, so they are parsed without entity
+expansion, DTD loading or network access. Each file is validated against the Modelica
+Association schema of *its* version: SSP 1.0 and 2.0 (files written by OMSimulator and
+easySSP today say ``version="2.0"`` but keep the ``SSP1`` namespaces). The schemas come from
+the ``pyssp-standard`` package, which ships both; fmpy ships only 1.0.
+"""
+
+from __future__ import annotations
+
+import functools
+import importlib.resources
+from pathlib import Path
+from typing import Any
+
+from lxml import etree
+
+from fmionnx.diagnostics import DiagnosticBag, Span
+
+SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
+SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
+SSV_NS = "http://ssp-standard.org/SSP1/SystemStructureParameterValues"
+SSM_NS = "http://ssp-standard.org/SSP1/SystemStructureParameterMapping"
+SSB_NS = "http://ssp-standard.org/SSP1/SystemStructureSignalDictionary"
+NS = {"ssd": SSD_NS, "ssc": SSC_NS, "ssv": SSV_NS, "ssm": SSM_NS, "ssb": SSB_NS}
+
+#: Schema file of each SSP file kind (same names in both versions' folders).
+_SCHEMA_FILES = {
+    "ssd": "SystemStructureDescription.xsd",
+    "ssv": "SystemStructureParameterValues.xsd",
+    "ssm": "SystemStructureParameterMapping.xsd",
+}
+#: Folder of each supported major version inside ``pyssp_standard/resources``.
+_VERSION_FOLDERS = {"1": "", "2": "ssp2/"}
+
+#: Upper bound of one SSP XML file; SSDs of large systems are a few MB.
+MAX_XML_BYTES = 64 * 1024 * 1024
+
+
+def tag(ns: str, name: str) -> str:
+    """Clark notation ``{namespace}name`` for lxml lookups."""
+    return f"{{{NS[ns]}}}{name}"
+
+
+def short(text: str) -> str:
+    """Replace namespace URIs in validator messages by their usual prefixes."""
+    for prefix, uri in NS.items():
+        text = text.replace(f"{{{uri}}}", f"{prefix}:")
+    return text
+
+
+def _parser() -> Any:
+    return etree.XMLParser(
+        resolve_entities=False,
+        no_network=True,
+        load_dtd=False,
+        dtd_validation=False,
+        huge_tree=False,
+        remove_blank_text=False,
+    )
+
+
+def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
+    """Parse an SSP XML file safely; None (and E010/E001 diagnostics) on failure."""
+    try:
+        size = path.stat().st_size
+    except OSError:
+        bag.emit("E010", f"`{path.name}` does not exist", Span(path))
+        return None
+    if size > MAX_XML_BYTES:
+        bag.emit("E003", f"`{path.name}` is larger than {MAX_XML_BYTES} bytes", Span(path))
+        return None
+    try:
+        return etree.parse(str(path), _parser())
+    except etree.XMLSyntaxError as exc:
+        line, col = exc.position if exc.position else (1, 0)
+        bag.emit("E001", f"`{path.name}` is not well-formed XML: {exc.msg}", Span(path, line, col))
+        return None
+    except OSError as exc:
+        bag.emit("E010", f"cannot read `{path.name}`: {exc}", Span(path))
+        return None
+
+
+@functools.cache
+def schema(kind: str, major: str) -> Any:
+    """The compiled XSD of an SSP file kind (``ssd``/``ssv``/``ssm``) and major version."""
+    base = importlib.resources.files("pyssp_standard") / "resources"
+    resource = base / (_VERSION_FOLDERS[major] + _SCHEMA_FILES[kind])
+    with importlib.resources.as_file(resource) as file:
+        document = etree.parse(str(file), _parser())
+        return etree.XMLSchema(document)
+
+
+def major_version(root: Any, path: Path, bag: DiagnosticBag) -> str | None:
+    """The major SSP version (``"1"``/``"2"``) of a file's root, or None with E071."""
+    version = str(root.get("version") or "")
+    major = version.split(".", 1)[0]
+    if major not in _VERSION_FOLDERS:
+        bag.emit(
+            "E071",
+            f"SSP version `{version}` of `{path.name}` is not supported",
+            Span(path, root.sourceline or 1),
+            hint="fmionnx reads SSP 1.0 and 2.0 files",
+        )
+        return None
+    return major
+
+
+def validate(tree: Any, kind: str, path: Path, bag: DiagnosticBag) -> bool:
+    """Validate a parsed file against its version's XSD; each error becomes E070."""
+    root = tree.getroot()
+    major = major_version(root, path, bag)
+    if major is None:
+        return False
+    xsd = schema(kind, major)
+    if xsd.validate(tree):
+        return True
+    for entry in xsd.error_log:
+        bag.emit(
+            "E070",
+            f"{path.name} does not follow the SSP {major}.0 schema: {short(entry.message)}",
+            Span(path, entry.line, 0),
+            hint="fix the file in the tool that wrote it, or by hand",
+        )
+    return False

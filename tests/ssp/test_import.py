@@ -1,0 +1,245 @@
+"""The SSP front end: SSDs from other tools become the same SystemSpec a YAML file gives."""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+import fmionnx
+from fmionnx import api
+from fmionnx.diagnostics import DiagnosticBag
+from fmionnx.spec.frontends import load_system
+from fmionnx.spec.model import ConnectionSpec
+from tests.ssp.conftest import SSP_NAMESPACES, write_ssp
+
+
+def ssd(body: str, *, version: str = "1.0", after: str = "") -> str:
+    """A minimal SSD around ``body`` (the root system's content)."""
+    return (
+        '<?xml version="1.0" encoding="UTF-8"?>\n'
+        f'<ssd:SystemStructureDescription {SSP_NAMESPACES} name="sys" version="{version}">\n'
+        f'<ssd:System name="root">\n{body}\n</ssd:System>\n{after}'
+        "</ssd:SystemStructureDescription>\n"
+    )
+
+
+def gain(name: str, source: str = "resources/Gain.fmu", extra: str = "") -> str:
+    return (
+        f'<ssd:Component name="{name}" type="application/x-fmu-sharedlibrary" '
+        f'source="{source}">{extra}</ssd:Component>'
+    )
+
+
+def load(path: Path) -> tuple[object, list[tuple[str, int, str]]]:
+    bag = DiagnosticBag()
+    loaded = load_system(path, bag)
+    found = [(d.code, d.span.line if d.span else 0, d.message) for d in bag.sorted()]
+    return loaded.spec, found
+
+
+@pytest.fixture
+def loose(tmp_path: Path, fixture_fmu: Callable[[str], Path]) -> Callable[[str], Path]:
+    """Write a loose ``.ssd`` beside ``resources/Gain.fmu``."""
+    (tmp_path / "resources").mkdir()
+    (tmp_path / "resources" / "Gain.fmu").write_bytes(fixture_fmu("Gain").read_bytes())
+
+    def write(text: str) -> Path:
+        path = tmp_path / "system.ssd"
+        path.write_text(text, encoding="utf-8")
+        return path
+
+    return write
+
+
+def test_nested_systems_flatten_to_dotted_component_names(foreign_ssp: Path) -> None:
+    spec, found = load(foreign_ssp)
+    assert spec is not None, found
+    assert list(spec.components) == ["integ", "gain1", "ctrl.gain2", "tail"]
+
+
+def test_ssv_with_prefix_and_ssm_mapping_set_parameters(foreign_ssp: Path) -> None:
+    spec, _ = load(foreign_ssp)
+    assert spec.components["gain1"].parameters == {"k": 3.0}
+    assert spec.components["ctrl.gain2"].parameters == {"k": 4.0}
+    assert spec.components["integ"].parameters == {"u": 1.0}
+
+
+def test_system_connectors_resolve_to_component_connectors_with_transforms(
+    foreign_ssp: Path,
+) -> None:
+    spec, _ = load(foreign_ssp)
+    first, through_ctrl_in, through_ctrl_out = spec.connections
+    assert first == "integ.x -> gain1.u"
+    assert isinstance(through_ctrl_in, ConnectionSpec)
+    assert (through_ctrl_in.from_, through_ctrl_in.to) == ("gain1.y", "ctrl.gain2.u")
+    assert (through_ctrl_in.factor, through_ctrl_in.offset) == (2.0, 1.0)
+    assert isinstance(through_ctrl_out, ConnectionSpec)
+    # km -> m through ssd:Units.
+    assert (through_ctrl_out.from_, through_ctrl_out.to) == ("ctrl.gain2.y", "tail.u")
+    assert (through_ctrl_out.factor, through_ctrl_out.offset) == (1000.0, 0.0)
+
+
+def test_run_times_come_from_default_experiment_and_omsimulator_step(foreign_ssp: Path) -> None:
+    spec, _ = load(foreign_ssp)
+    assert (spec.run.start, spec.run.stop, spec.run.step) == (0.0, 1.0, 0.01)
+
+
+def test_foreign_ssp_compiles_and_runs_with_expected_results(foreign_ssp: Path) -> None:
+    result = api.compile_system(foreign_ssp)
+    assert result.ok, result.diagnostics
+    run = fmionnx.load(foreign_ssp).run()
+    x, y1, y2 = run["integ.x"][-1], run["gain1.y"][-1], run["ctrl.gain2.y"][-1]
+    assert x == pytest.approx(1.0)
+    assert y1 == pytest.approx(3.0 * x)
+    assert y2 == pytest.approx(4.0 * (2.0 * y1 + 1.0))
+
+
+def test_unit_conversion_without_declared_unit_is_a_warning(loose) -> None:
+    connectors = (
+        '<ssd:Connectors><ssd:Connector name="{p}" kind="{k}"><ssc:Real unit="{u}"/>'
+        "</ssd:Connector></ssd:Connectors>"
+    )
+    body = (
+        "<ssd:Elements>"
+        + gain("a", extra=connectors.format(p="y", k="output", u="mm"))
+        + gain("b", extra=connectors.format(p="u", k="input", u="m"))
+        + "</ssd:Elements><ssd:Connections>"
+        '<ssd:Connection startElement="a" startConnector="y" endElement="b" endConnector="u"/>'
+        "</ssd:Connections>"
+    )
+    spec, found = load(loose(ssd(body)))
+    assert spec.connections == ["a.y -> b.u"]
+    assert (
+        "W070",
+        4,
+        "unit `mm` is not declared in `ssd:Units`; no unit conversion from `mm` to `m` is applied",
+    ) in found
+
+
+def test_xsd_violation_is_e070_at_its_line(loose) -> None:
+    body = "<ssd:Elements>\n" + gain("a") + "\n<ssd:Bogus/>\n</ssd:Elements>"
+    spec, found = load(loose(ssd(body)))
+    assert spec is None
+    codes = [(code, line) for code, line, _ in found]
+    assert ("E070", 6) in codes
+    assert "ssd:Bogus" in found[0][2]
+
+
+def test_ssp_2_0_file_validates_against_the_2_0_schema(loose) -> None:
+    body = f"<ssd:Elements>{gain('a')}</ssd:Elements>"
+    spec, found = load(loose(ssd(body, version="2.0")))
+    assert spec is not None, found
+    spec, found = load(loose(ssd(body, version="3.0")))
+    assert spec is None
+    assert found[0][0] == "E071"
+
+
+def test_signal_dictionary_is_unsupported_e071_at_its_line(loose) -> None:
+    body = (
+        f"<ssd:Elements>{gain('a')}</ssd:Elements>\n"
+        '<ssd:SignalDictionaries><ssd:SignalDictionary name="d" source="d.ssb"/>'
+        "</ssd:SignalDictionaries>"
+    )
+    spec, found = load(loose(ssd(body)))
+    assert spec is None
+    assert [(c, line) for c, line, _ in found] == [("E071", 5)]
+
+
+def test_unknown_component_type_is_e071(loose) -> None:
+    body = (
+        '<ssd:Elements><ssd:Component name="m" type="application/x-matlab" '
+        'source="resources/Gain.fmu"/></ssd:Elements>'
+    )
+    spec, found = load(loose(ssd(body)))
+    assert spec is None
+    assert found[0][0] == "E071"
+    assert "application/x-onnx" in found[0][2] or "x-matlab" in found[0][2]
+
+
+def test_connection_to_a_missing_element_is_e072(loose) -> None:
+    body = (
+        f"<ssd:Elements>{gain('a')}</ssd:Elements>\n<ssd:Connections>\n"
+        '<ssd:Connection startElement="a" startConnector="y" endElement="nope" '
+        'endConnector="u"/>\n</ssd:Connections>'
+    )
+    spec, found = load(loose(ssd(body)))
+    assert spec is None
+    assert [(c, line) for c, line, _ in found] == [("E072", 6)]
+
+
+def test_component_source_outside_the_archive_is_refused(tmp_path: Path) -> None:
+    body = f"<ssd:Elements>{gain('a', source='../../outside.fmu')}</ssd:Elements>"
+    archive = write_ssp(tmp_path / "bad.ssp", {"SystemStructure.ssd": ssd(body)})
+    spec, found = load(archive)
+    assert spec is None
+    assert found[0][0] == "E017"
+
+
+def test_unknown_port_in_ssd_points_at_the_connection_line(loose) -> None:
+    body = (
+        f"<ssd:Elements>{gain('a')}{gain('b')}</ssd:Elements>\n<ssd:Connections>\n"
+        '<ssd:Connection startElement="a" startConnector="yy" endElement="b" '
+        'endConnector="u"/>\n</ssd:Connections>'
+    )
+    path = loose(ssd(body, after='<ssd:DefaultExperiment stopTime="1"/>'))
+    result = api.compile_system(path)
+    errors = [d for d in result.diagnostics if d.code == "E021"]
+    assert errors, result.diagnostics
+    assert errors[0].span is not None
+    assert (errors[0].span.file, errors[0].span.line) == (path, 6)
+    assert errors[0].hint == "did you mean `y`?"
+
+
+def test_bad_parameter_points_into_the_ssv_file(tmp_path: Path, fixture_fmu) -> None:
+    binding = (
+        '<ssd:ParameterBindings><ssd:ParameterBinding source="resources/a.ssv"/>'
+        "</ssd:ParameterBindings>"
+    )
+    ssv = (
+        '<?xml version="1.0"?>\n<ssv:ParameterSet '
+        'xmlns:ssv="http://ssp-standard.org/SSP1/SystemStructureParameterValues" '
+        'version="1.0" name="a">\n<ssv:Parameters>\n'
+        '<ssv:Parameter name="kk"><ssv:Real value="1"/></ssv:Parameter>\n'
+        "</ssv:Parameters></ssv:ParameterSet>\n"
+    )
+    body = f"<ssd:Elements>{gain('a', extra=binding)}</ssd:Elements>"
+    archive = write_ssp(
+        tmp_path / "p.ssp",
+        {
+            "SystemStructure.ssd": ssd(body, after='<ssd:DefaultExperiment stopTime="1"/>'),
+            "resources/Gain.fmu": fixture_fmu("Gain"),
+            "resources/a.ssv": ssv,
+        },
+    )
+    result = api.compile_system(archive)
+    errors = [d for d in result.diagnostics if d.code == "E042"]
+    assert errors, result.diagnostics
+    assert errors[0].span is not None
+    assert (errors[0].span.file.name, errors[0].span.line) == ("a.ssv", 4)
+
+
+def test_external_entities_are_not_expanded(loose, tmp_path: Path) -> None:
+    secret = tmp_path / "secret.txt"
+    secret.write_text("TOPSECRET", encoding="utf-8")
+    text = (
+        ssd(f"<ssd:Elements>{gain('a')}</ssd:Elements>")
+        .replace(
+            "<ssd:SystemStructureDescription",
+            f'<!DOCTYPE x [<!ENTITY s SYSTEM "file://{secret}">]>\n<ssd:SystemStructureDescription',
+            1,
+        )
+        .replace('name="sys"', 'name="sys&s;"')
+    )
+    spec, found = load(loose(text))
+    assert "TOPSECRET" not in repr(spec)
+    assert all("TOPSECRET" not in message for _, _, message in found)
+
+
+def test_missing_ssd_in_archive_is_e072(tmp_path: Path) -> None:
+    archive = write_ssp(tmp_path / "empty.ssp", {"resources/readme.txt": "x"})
+    spec, found = load(archive)
+    assert spec is None
+    assert found[0][0] == "E072"
+    assert "SystemStructure.ssd" in found[0][2]
