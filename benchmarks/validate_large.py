@@ -8,6 +8,7 @@ that of a full, successful validation, not of an early exit. Then times
 
 * ``api.compile_system`` in-process (best of ``--repeat`` runs: the cost of the checks),
 * ``fmionnx validate`` as a fresh process (what CI and pre-commit pay, imports included),
+* ``fmionnx validate --locked`` likewise, after ``fmionnx lock``,
 
 and prints a table. A benchmark, not a test: run ``python benchmarks/validate_large.py``.
 """
@@ -27,6 +28,7 @@ from onnx import TensorProto, helper
 from fmionnx import api
 from fmionnx.build import build_fmu
 from fmionnx.diagnostics import Severity
+from fmionnx.lock import lock_system
 
 REPO = Path(__file__).resolve().parent.parent
 COMPONENTS = 200
@@ -118,6 +120,18 @@ def main() -> None:
             )
             cli.append(time.perf_counter() - start)
         compiled = result.system
+        lock_system(system)
+        locked = []
+        for _ in range(3):
+            start = time.perf_counter()
+            done_locked = subprocess.run(
+                [sys.executable, "-c", CLI, "validate", "--quiet", "--locked", str(system)],
+                capture_output=True,
+                text=True,
+                check=False,
+                cwd=folder,
+            )
+            locked.append(time.perf_counter() - start)
     rows = [
         ("components", f"{COMPONENTS}"),
         ("connections", f"{CONNECTIONS}"),
@@ -127,6 +141,8 @@ def main() -> None:
         ("in-process compile_system, first run", f"{times[0]:.3f} s"),
         ("fmionnx validate (new process), best of 3", f"{min(cli):.3f} s"),
         ("fmionnx validate exit code", f"{done.returncode}"),
+        ("fmionnx validate --locked (new process), best of 3", f"{min(locked):.3f} s"),
+        ("fmionnx validate --locked exit code", f"{done_locked.returncode}"),
         ("target", "< 2 s"),
     ]
     width = max(len(name) for name, _ in rows)

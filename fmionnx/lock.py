@@ -79,7 +79,7 @@ def check_lock(system: Path) -> list[Diagnostic]:
         if entry is None:
             bag.emit(
                 "E081",
-                f"component `{name}` is not in the lock `{locked.sources.file.name}`",
+                f"component `{name}` is not in the lock `{locked.path.name}`",
                 span,
                 hint=f"run `fmionnx lock {system}` to add it, and commit the lock file",
             )
@@ -87,7 +87,7 @@ def check_lock(system: Path) -> list[Diagnostic]:
         interface = read_interface(name, spec, system.parent, loaded.sources, scratch)
         if interface is None:
             continue
-        found = compare(name, spec.kind, entry, interface, span, LockContext(locked.sources, name))
+        found = compare(name, spec.kind, entry, interface, span, LockContext(locked, name))
         if found is not None:
             bag.add(found)
     return bag.sorted()

@@ -15,6 +15,7 @@ from dataclasses import dataclass
 from fmionnx.compile.ir import ComponentInterface, Port
 from fmionnx.diagnostics import Diagnostic, Note, Span, make
 from fmionnx.lock_model import UNLOCKED, LockedComponent, LockedPort
+from fmionnx.lock_read import LoadedLock
 from fmionnx.spec.sourcemap import SourceMap
 
 #: Facts whose change changes how a system uses the model.
@@ -23,10 +24,15 @@ INTERFACE_FACTS = ("fmiVersion", "interfaceTypes")
 
 @dataclass(frozen=True)
 class LockContext:
-    """Where the entry is: the lock's source map and the component's key path in it."""
+    """Where the entry is: the lock and the component's key path in it."""
 
-    sources: SourceMap
+    lock: LoadedLock
     name: str
+
+    @property
+    def sources(self) -> SourceMap:
+        """Positions in the lock file (parsed on first use)."""
+        return self.lock.sources
 
     def at(self, *path: str | int) -> Span:
         """Span of a value under this component's entry."""
@@ -41,25 +47,21 @@ def _signature(port: LockedPort) -> tuple[str, str, tuple[int | str, ...], str |
     return (port.causality.value, port.dtype.value, tuple(port.shape), port.unit)
 
 
-def _port_changes(locked: LockedPort, current: Port, where: Span) -> list[Note]:
+def _port_changes(locked: LockedPort, current: Port) -> list[str]:
     now = LockedPort.of(current)
-    notes = []
+    changes = []
     name = f"`{locked.name}`"
     if now.causality is not locked.causality:
-        notes.append(
-            Note(f"{name}: causality changed from {locked.causality} to {now.causality}", where)
-        )
+        changes.append(f"{name}: causality changed from {locked.causality} to {now.causality}")
     if now.dtype is not locked.dtype:
-        notes.append(Note(f"{name}: type changed from {locked.dtype} to {now.dtype}", where))
+        changes.append(f"{name}: type changed from {locked.dtype} to {now.dtype}")
     if now.shape != locked.shape:
-        notes.append(
-            Note(f"{name}: shape changed from {locked.shape_text()} to {now.shape_text()}", where)
-        )
+        changes.append(f"{name}: shape changed from {locked.shape_text()} to {now.shape_text()}")
     if now.unit != locked.unit:
         before = f"`{locked.unit}`" if locked.unit else "no unit"
         after = f"`{now.unit}`" if now.unit else "no unit"
-        notes.append(Note(f"{name}: unit changed from {before} to {after}", where))
-    return notes
+        changes.append(f"{name}: unit changed from {before} to {after}")
+    return changes
 
 
 def _renames(
@@ -95,7 +97,10 @@ def port_notes(
         if now is None:
             removed.append((index, port))
         else:
-            notes.extend(_port_changes(port, now, ctx.at("ports", index)))
+            changes = _port_changes(port, now)
+            if changes:  # positions are looked up only for a difference (see LoadedLock)
+                where = ctx.at("ports", index)
+                notes.extend(Note(change, where) for change in changes)
     known = {p.name for p in locked.ports}
     added = [p for p in interface.ports if p.causality not in UNLOCKED and p.name not in known]
     renamed = _renames(removed, added)
@@ -147,7 +152,7 @@ def compare(
     ctx: LockContext,
 ) -> Diagnostic | None:
     """E080, I080 or None (identical) for one component."""
-    lock_file = ctx.sources.file.name
+    lock_file = ctx.lock.path.name
     notes: list[Note] = []
     if kind != locked.kind:
         notes.append(Note(f"kind changed from `{locked.kind}` to `{kind}`", ctx.at("kind")))

@@ -7,10 +7,11 @@ for the user they all mean one thing: the lock cannot be trusted, regenerate it.
 
 from __future__ import annotations
 
-from dataclasses import dataclass
 from pathlib import Path
 
 from pydantic import ValidationError
+from ruamel.yaml import YAML
+from ruamel.yaml.error import YAMLError
 
 from fmionnx.diagnostics import DiagnosticBag, Span
 from fmionnx.lock_model import LOCK_VERSION, LockFile
@@ -19,12 +20,40 @@ from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import parse_yaml, read_text
 
 
-@dataclass(frozen=True)
 class LoadedLock:
-    """A parsed lock and where each of its keys and items is."""
+    """A parsed lock; where its keys and items are is worked out only when first asked.
 
-    lock: LockFile
-    sources: SourceMap
+    Positions need ruamel's round-trip parser, which is slow on the lock of a large system;
+    the lock is first read with the (C) safe loader and re-parsed for positions only when a
+    finding must point into it.
+    """
+
+    def __init__(self, lock: LockFile, path: Path, sources: SourceMap | None = None) -> None:
+        self.lock = lock
+        self.path = path
+        self._sources = sources
+
+    @property
+    def sources(self) -> SourceMap:
+        """Positions of every key and item of the lock file."""
+        if self._sources is None:
+            sources = SourceMap(self.path)
+            parse_yaml(
+                self.path.read_text(encoding="utf-8-sig"), self.path, sources, DiagnosticBag()
+            )
+            self._sources = sources
+        return self._sources
+
+
+def _fast(path: Path) -> LockFile | None:
+    """The lock when it reads and validates cleanly with the safe loader, else None."""
+    try:
+        data = YAML(typ="safe", pure=False).load(path.read_text(encoding="utf-8-sig"))
+        if isinstance(data, dict) and data.get("fmionnx-lock") == LOCK_VERSION:
+            return LockFile.model_validate(data)
+    except (OSError, UnicodeDecodeError, YAMLError, ValidationError):
+        return None
+    return None
 
 
 def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None:
@@ -37,6 +66,9 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
             hint=f"run `fmionnx lock {system}` and commit `{path.name}`",
         )
         return None
+    fast = _fast(path)
+    if fast is not None:
+        return LoadedLock(fast, path)
     regenerate = f"regenerate it with `fmionnx lock {system}`"
     scratch = DiagnosticBag()
     sources = SourceMap(path)
@@ -70,4 +102,4 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
         )
     if lock is None:
         return None
-    return LoadedLock(lock, sources)
+    return LoadedLock(lock, path, sources)

@@ -14,7 +14,7 @@ SPAN = Span(Path("system.yaml"), 5, 3)
 def check(tmp_path: Path, now: ComponentInterface, kind: str = "fmu") -> Diagnostic | None:
     loaded = write_and_read(tmp_path, GAIN)
     entry = loaded.lock.components["gain"]
-    return compare("gain", kind, entry, now, SPAN, LockContext(loaded.sources, "gain"))
+    return compare("gain", kind, entry, now, SPAN, LockContext(loaded, "gain"))
 
 
 def notes(diagnostic: Diagnostic | None) -> list[str]:
