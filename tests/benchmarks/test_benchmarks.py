@@ -1,0 +1,148 @@
+"""Smoke tests: every benchmark runs on a tiny size and reports what it measured.
+
+Behaviour only: which loops ran, that they computed the same thing, what the tables and the
+JSON contain. Wall times are never asserted (they depend on the machine and its load).
+"""
+
+from __future__ import annotations
+
+import io
+import json
+from pathlib import Path
+
+import pytest
+from rich.console import Console
+
+from benchmarks import chain, report, run, scenario
+from tests.conftest import built_model
+
+TINY_STEPS = 20
+
+
+@pytest.fixture(scope="module")
+def gain(tmp_path_factory: pytest.TempPathFactory):
+    with chain.built_gain(tmp_path_factory.mktemp("gain")) as built:
+        yield built
+
+
+def test_chain_system_file_compiles_to_n_fmus_connected_in_a_row(gain, tmp_path: Path) -> None:
+    import fmionnx
+
+    fmu, unzipped = gain
+    path = tmp_path / "chain.yaml"
+    path.write_text(chain.system_text(chain.Chain(fmu, unzipped, 4, TINY_STEPS)), encoding="utf-8")
+    system = fmionnx.load(path).compiled
+    assert [c.name for c in system.components] == ["g0", "g1", "g2", "g3"]
+    assert [str(c) for c in system.connections] == ["g0.y -> g1.u", "g1.y -> g2.u", "g2.y -> g3.u"]
+
+
+@pytest.mark.parametrize("n", [1, 3])
+def test_every_applicable_loop_ends_with_the_tail_output_two_to_the_n(gain, n: int) -> None:
+    fmu, unzipped = gain
+    outcomes = chain.measure(chain.Chain(fmu, unzipped, n, TINY_STEPS), repeats=2)
+    assert [o.contender for o in outcomes] == list(chain.CONTENDERS)
+    for outcome in outcomes:
+        if outcome.skipped is None:
+            assert len(outcome.samples) == 2
+            assert outcome.correct, (outcome.contender, [s.final for s in outcome.samples])
+            assert all(s.steps >= TINY_STEPS - 1 for s in outcome.samples)
+    ran = {o.contender for o in outcomes if o.skipped is None}
+    assert {chain.FMIONNX, chain.FMPY_LOOP, chain.CTYPES_FLOOR} <= ran
+    assert (chain.SIMULATE_FMU in ran) == (n == 1)
+
+
+def test_libcosim_runs_here_or_says_why_not(gain) -> None:
+    fmu, unzipped = gain
+    (outcome,) = chain.measure(chain.Chain(fmu, unzipped, 2, TINY_STEPS), 1, [chain.LIBCOSIM])
+    problem = chain.libcosim_problem()
+    if problem is None:
+        assert outcome.skipped is None
+        assert outcome.correct
+    else:
+        assert outcome.skipped == problem
+
+
+def _outcome(name: str, n: int, micros: float) -> chain.Outcome:
+    sample = chain.Sample(micros * 1e-6 * 100, 100, chain.GAIN**n)
+    return chain.Outcome(name, n, [sample], expected=chain.GAIN**n)
+
+
+def test_rows_give_ratios_to_the_floor_and_to_fmionnx() -> None:
+    outcomes = [
+        _outcome(chain.CTYPES_FLOOR, 10, 10.0),
+        _outcome(chain.FMIONNX, 10, 15.0),
+        _outcome(chain.FMPY_LOOP, 10, 30.0),
+        chain.Outcome(chain.SIMULATE_FMU, 10, skipped="one FMU only"),
+        _outcome(chain.LIBCOSIM, 10, 12.0),
+    ]
+    rows = {r["contender"]: r for r in report.chain_rows(outcomes)}
+    assert rows[chain.FMIONNX]["vs_floor"] == pytest.approx(1.5)
+    assert rows[chain.FMPY_LOOP]["vs_fmionnx"] == pytest.approx(2.0)
+    assert rows[chain.FMIONNX]["us_per_fmu_step"] == pytest.approx(1.5)
+    assert rows[chain.SIMULATE_FMU]["median_us_per_step"] is None
+    targets = {t["target"]: t["met"] for t in report.chain_targets(outcomes)}
+    assert targets == {
+        "N=10: fmionnx / fmpy loop": True,
+        "N=10: fmionnx / ctypes floor": True,
+        "N=10: fmionnx / libcosimpy": False,
+    }
+
+
+def test_quick_run_prints_the_tables_and_writes_results_json(tmp_path: Path) -> None:
+    out = tmp_path / "bench" / "results.json"
+    text = io.StringIO()
+    run.main(["--quick", "--skip-scenario", "--out", str(out)], Console(file=text, width=200))
+    document = json.loads(out.read_text(encoding="utf-8"))
+    assert {"date", "machine", "chain", "scenario", "targets", "external"} <= set(document)
+    assert document["machine"]["cores"] >= 1
+    assert "fmpy" in document["machine"]["packages"]
+    assert {r["n"] for r in document["chain"]["rows"]} == {1, 3}
+    printed = text.getvalue()
+    assert "Master overhead" in printed
+    assert "Targets" in printed
+
+
+def test_other_benchmark_scripts_are_found_by_name(tmp_path: Path) -> None:
+    for name in ("validate_large.py", "ros2_wire.py", "ros2_nodes.py", "chain.py"):
+        (tmp_path / name).write_text("", encoding="utf-8")
+    assert [p.name for p in run.external_scripts(tmp_path)] == [
+        "validate_large.py",
+        "ros2_nodes.py",
+        "ros2_wire.py",
+    ]
+
+
+@pytest.mark.parametrize(
+    ("filename", "name", "category"),
+    [
+        ("~", "<built-in method mujoco._functions.mj_step2>", scenario.PHYSICS),
+        ("~", "<built-in method mujoco._functions.mjr_render>", scenario.RENDERING),
+        ("/x/onnxruntime/capi/session.py", "run", scenario.INFERENCE),
+        ("/x/fmionnx/backends/inprocess/runners/fmu.py", "step", scenario.FMUS),
+        ("/x/fmionnx/backends/inprocess/transfer.py", "scalar_copy", scenario.MASTER),
+        ("~", "<built-in method math.isnan>", None),
+    ],
+)
+def test_profiled_functions_fall_into_categories(filename: str, name: str, category: str | None) -> None:
+    assert scenario.categorize(filename, name) == category
+
+
+def test_reference_scenario_measures_both_loops_and_every_category() -> None:
+    for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
+        built_model(name)
+    real = scenario.real_time(0.2, 1)
+    assert real.simulated == pytest.approx(0.2)
+    assert len(real.fmionnx) == len(real.handwritten) == 1
+    timers = scenario.timed_breakdown(0.2)
+    # 100 physics steps, 20 steps of each FMU, 2 detector runs, 2 rendered frames
+    assert timers.calls == {
+        scenario.PHYSICS: 100,
+        scenario.FMUS: 40,
+        scenario.INFERENCE: 2,
+        scenario.RENDERING: 2,
+    }
+    assert timers.seconds[scenario.MASTER] >= 0.0
+    prof = scenario.profile(0.2)
+    assert prof.seconds.get(scenario.PHYSICS, 0.0) > 0.0
+    assert prof.seconds.get(scenario.FMUS, 0.0) > 0.0
+    assert prof.top
