@@ -1,1 +1,145 @@
-"""``fmionnx inspect`` (being written)."""
+"""``fmionnx inspect``: show what a model file offers (ports and facts), without a system file."""
+
+from __future__ import annotations
+
+import enum
+import json
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+from rich import box
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+from rich.text import Text
+
+from fmionnx.cli.app import ExitCode, app
+from fmionnx.compile.ir import ComponentInterface, Port
+from fmionnx.components.describe import interface_to_dict
+from fmionnx.components.fmu_files import MODEL_DESCRIPTION
+from fmionnx.components.registry import COMPONENT_KINDS, kind_for_path
+from fmionnx.errors import ModelError
+
+#: Columns of the port table, in order.
+COLUMNS = ("name", "causality", "type", "shape", "unit", "start", "description")
+
+#: Start values longer than this are shortened in the table (the JSON has them all).
+_MAX_START_VALUES = 6
+
+
+class InspectFormat(enum.StrEnum):
+    """Output formats of ``inspect``."""
+
+    TEXT = "text"
+    JSON = "json"
+
+
+def _start_text(port: Port) -> str:
+    if port.start is None:
+        return ""
+    values = [f"{v:g}" if isinstance(v, float) else str(v) for v in port.start]
+    if port.is_scalar and len(values) == 1:
+        return values[0]
+    shown = values[:_MAX_START_VALUES]
+    more = ", ..." if len(values) > _MAX_START_VALUES else ""
+    return "[" + ", ".join(shown) + more + "]"
+
+
+def port_rows(interface: ComponentInterface) -> list[tuple[str, ...]]:
+    """One row of :data:`COLUMNS` per port."""
+    return [
+        (
+            port.name,
+            port.causality.value,
+            port.dtype.value,
+            port.shape_text(),
+            port.unit or "",
+            _start_text(port),
+            port.description,
+        )
+        for port in interface.ports
+    ]
+
+
+def render_plain(interface: ComponentInterface) -> str:
+    """Aligned plain text for pipes and files: facts, then the port table."""
+    lines = [f"{interface.kind}: {interface.path}"]
+    width = max((len(k) for k, _ in interface.facts), default=0)
+    lines += [f"  {key.ljust(width)}  {value}" for key, value in interface.facts]
+    if interface.content_hash:
+        lines.append(f"  {'sha256'.ljust(width)}  {interface.content_hash}")
+    rows = [tuple(c.upper() for c in COLUMNS), *port_rows(interface)]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(COLUMNS))]
+    lines.append("")
+    lines += [
+        "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip() for row in rows
+    ]
+    return "\n".join(lines) + "\n"
+
+
+def render_rich(interface: ComponentInterface, console: Console) -> None:
+    """The same content as :func:`render_plain` with a rich table, for terminals."""
+    console.print(f"[bold]{interface.kind}[/]: {escape(str(interface.path))}")
+    facts = Table.grid(padding=(0, 2))
+    for key, value in interface.facts:
+        facts.add_row(Text("  " + key, style="dim"), Text(value))
+    if interface.content_hash:
+        facts.add_row(Text("  sha256", style="dim"), Text(interface.content_hash))
+    console.print(facts)
+    table = Table(box=box.SIMPLE_HEAD, header_style="bold")
+    for column in COLUMNS:
+        table.add_column(column, overflow="fold")
+    for row in port_rows(interface):
+        table.add_row(*(Text(cell) for cell in row))
+    console.print(table)
+
+
+def _fail(code: str | None, message: str, hint: str | None = None) -> typer.Exit:
+    err = Console(stderr=True, highlight=False)
+    label = f"error[{code}]" if code else "error"
+    err.print(f"[bold red]{label}[/]: {escape(message)}", soft_wrap=True)
+    if hint:
+        err.print(f"  hint: {hint}", markup=False, soft_wrap=True)
+    return typer.Exit(ExitCode.PROBLEMS)
+
+
+@app.command(
+    epilog="Examples:\n\n"
+    "  fmionnx inspect build/models/ReadOdometry.fmu\n\n"
+    "  fmionnx inspect build/models/sign_detector.onnx --format json\n\n"
+    "  fmionnx inspect models/world/sign_course.xml   # a MuJoCo scene\n\n"
+    "  fmionnx inspect path/to/unpacked_fmu/",
+)
+def inspect(
+    path: Annotated[
+        Path, typer.Argument(help="Model file: .fmu (or unpacked FMU folder), .onnx, MuJoCo .xml.")
+    ],
+    output_format: Annotated[
+        InspectFormat, typer.Option("--format", "-f", help="text (default) or json.")
+    ] = InspectFormat.TEXT,
+) -> None:
+    """Show a model's ports (name, causality, type, shape, unit, start) and facts."""
+    if path.name == MODEL_DESCRIPTION:  # an unpacked FMU's description, not a MuJoCo scene
+        path = path.parent
+    kind = kind_for_path(path)
+    if kind is None:
+        if not path.exists():
+            raise _fail("E010", f"`{path}` does not exist")
+        suffixes = sorted({s for k in COMPONENT_KINDS.values() for s in k.suffixes})
+        raise _fail(
+            "E014",
+            f"cannot tell what kind of model `{path}` is",
+            f"expected a file ending in {', '.join(suffixes)} or an unpacked FMU folder",
+        )
+    try:
+        interface = kind.read_interface(path, None)
+    except ModelError as exc:
+        raise _fail(exc.code, str(exc), exc.hint) from None
+    if output_format is InspectFormat.JSON:
+        sys.stdout.write(json.dumps(interface_to_dict(interface), indent=2) + "\n")
+    elif sys.stdout.isatty():
+        render_rich(interface, Console(highlight=False))
+    else:
+        sys.stdout.write(render_plain(interface))

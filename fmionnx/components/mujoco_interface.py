@@ -7,13 +7,14 @@ without an algebraic loop. Nothing is rendered here: validation needs no OpenGL.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
-from fmionnx.diagnostics import did_you_mean, one_of
+from fmionnx.diagnostics import Span, did_you_mean, one_of
 from fmionnx.errors import ModelError
 
 #: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case).
@@ -32,6 +33,26 @@ _SENSOR_UNITS = {
     "torque": "N.m",
     "clock": "s",
 }
+
+#: Joint sensors whose unit follows the joint type: (sensor, mjtJoint name) -> unit.
+_JOINT_UNITS = {
+    ("jointpos", "hinge"): "rad",
+    ("jointpos", "slide"): "m",
+    ("jointvel", "hinge"): "rad/s",
+    ("jointvel", "slide"): "m/s",
+}
+
+
+def _sensor_unit(model: Any, sensor: int, kind: str) -> str | None:
+    """The unit of a sensor's value, when its type (and for joints, the joint type) fixes it."""
+    if kind in ("jointpos", "jointvel"):
+        import mujoco
+
+        joint = int(model.sensor_objid[sensor])
+        joint_type = mujoco.mjtJoint(int(model.jnt_type[joint])).name.removeprefix("mjJNT_")
+        return _JOINT_UNITS.get((kind, joint_type.lower()))
+    return _SENSOR_UNITS.get(kind)
+
 
 _MODELS: dict[tuple[str, int, int], tuple[Any, str]] = {}
 
@@ -82,7 +103,7 @@ def read_mujoco_interface(
                 causality=Causality.OUTPUT,
                 dtype=DType.FLOAT64,
                 shape=() if dim == 1 else (dim,),
-                unit=_SENSOR_UNITS.get(kind),
+                unit=_sensor_unit(model, i, kind),
                 description=f"{kind} sensor",
                 depends_on=(),
             )
@@ -135,4 +156,20 @@ def read_mujoco_interface(
         ("ngeom", str(model.ngeom)),
         ("cameras", ",".join(names)),
     )
+    _check_unique(ports, path)
+    origin = Span(Path(path.name))
+    ports = [dataclasses.replace(p, origin=origin) for p in ports]
     return ComponentInterface("mujoco", path, tuple(ports), facts, None, digest)
+
+
+def _check_unique(ports: list[Port], path: Path) -> None:
+    """MuJoCo names are unique per object type only; as ports they share one namespace."""
+    seen: dict[str, str] = {}
+    for port in ports:
+        if port.name in seen:
+            msg = (
+                f"`{path.name}`: the name `{port.name}` is used by a {seen[port.name]} and a "
+                f"{port.description}; port names must be unique"
+            )
+            raise ModelError("E013", msg, hint="rename one of them in the scene")
+        seen[port.name] = port.description

@@ -7,6 +7,8 @@ from pathlib import Path
 from typing import Any
 
 from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
+from fmionnx.components.cache import cached_interface, file_identity
+from fmionnx.diagnostics import Span
 from fmionnx.errors import ModelError
 
 #: ONNX ``TensorProto.DataType`` numbers -> fmionnx dtypes.
@@ -25,8 +27,6 @@ _DTYPES = {
     13: DType.UINT64,
 }
 
-_CACHE: dict[tuple[str, int, int], ComponentInterface] = {}
-
 
 def read_onnx_interface(path: Path) -> ComponentInterface:
     """The ports and facts of the ONNX model at ``path``."""
@@ -36,11 +36,7 @@ def read_onnx_interface(path: Path) -> ComponentInterface:
     if not path.is_file():
         msg = f"`{path}` is a directory or special file, not an ONNX model"
         raise ModelError("E011", msg)
-    stat = path.stat()
-    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
-    if key not in _CACHE:
-        _CACHE[key] = _read(path)
-    return _CACHE[key]
+    return cached_interface(("onnx", *file_identity(path)), path, lambda: _read(path))
 
 
 def _read(path: Path) -> ComponentInterface:
@@ -101,8 +97,12 @@ def _port(value: Any, causality: Causality, path: Path, depends: tuple[str, ...]
         shape=tuple(shape),
         description=value.doc_string or "",
         depends_on=depends,
+        origin=Span(Path(path.name)),
     )
 
 
 def _signature(ports: list[Port]) -> str:
-    return "; ".join(f"{p.causality.value} {p.name}: {p.dtype}{p.shape_text()}" for p in ports)
+    return "; ".join(
+        f"{p.causality.value} {p.name}: {p.dtype}{'' if p.is_scalar else p.shape_text()}"
+        for p in ports
+    )
