@@ -9,6 +9,7 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     lock_cmd,
     run_cmd,
     schema_cmd,
+    ssp_cmd,
     validate_cmd,
 )
 from fmionnx.cli.app import app

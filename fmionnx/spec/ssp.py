@@ -153,7 +153,13 @@ def _system_data(
         run["step"] = document.root.step
     extra_run = annotation.pop("run", {})
     sources.record(("run",), annotation_span if extra_run else top, top)
+    if document.root.description:
+        data_description = {"description": document.root.description}
+        sources.record(("description",), Span(ssd, document.root.line))
+    else:
+        data_description = {}
     data: dict[str, Any] = {
+        **data_description,
         "fmionnx": 1,
         "name": system_name(document.name, top, bag),
         # A non-mapping `run` is left for the schema check to report.

@@ -81,6 +81,7 @@ class Element:
     name: str
     is_system: bool
     line: int
+    description: str = ""
     type: str = ""
     source: str | None = None
     implementation: str = "any"
@@ -197,7 +198,12 @@ def _connection(node: Any) -> Connection:
 def read_element(node: Any) -> Element:
     """Read a ``ssd:System`` or ``ssd:Component`` (recursively for systems)."""
     is_system = node.tag == tag("ssd", "System")
-    element = Element(name=node.get("name"), is_system=is_system, line=node.sourceline)
+    element = Element(
+        name=node.get("name"),
+        is_system=is_system,
+        line=node.sourceline,
+        description=node.get("description") or "",
+    )
     element.connectors = _connectors(node)
     element.bindings = _bindings(node)
     element.annotation, element.step = _annotation(node, "ssd:Annotations")

@@ -1,0 +1,99 @@
+"""``fmionnx export`` (system -> SSP) and ``fmionnx convert`` (SSP -> YAML system file)."""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from fmionnx.cli.app import ExitCode, app
+from fmionnx.diagnostics import DiagnosticBag, Severity
+from fmionnx.errors import FmionnxError
+from fmionnx.reporters import REPORTER_BY_NAME, FileResult
+from fmionnx.spec.frontends import load_system
+
+OutputOption = Annotated[Path, typer.Option("--output", "-o", help="File to write.")]
+
+
+def _report(path: Path, bag: DiagnosticBag, *, errors_only: bool = False) -> None:
+    shown = tuple(d for d in bag.sorted() if not errors_only or d.severity is Severity.ERROR)
+    if shown:
+        REPORTER_BY_NAME["text"].render(
+            [FileResult(path, shown)], sys.stderr, color=sys.stderr.isatty()
+        )
+
+
+@app.command(
+    epilog="Examples:\n\n"
+    "  fmionnx export systems/sign_follower.yaml -o sign_follower.ssp\n\n"
+    "  fmionnx export vendor.ssp -o normalized.ssp",
+)
+def export(
+    system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp, .ssd).")],
+    output: OutputOption,
+) -> None:
+    """Write a system as an SSP 1.0 archive (SSD, models under resources/, parameters as .ssv).
+
+    The system is compiled first: a system with errors is not exported. See docs/ssp.md.
+    """
+    from fmionnx.compile.compiler import compile_spec
+    from fmionnx.export.ssp_writer import export_ssp
+
+    if output.suffix.lower() != ".ssp":
+        typer.echo(f"error: the output must end in .ssp (got `{output.name}`)", err=True)
+        raise typer.Exit(ExitCode.USAGE)
+    bag = DiagnosticBag()
+    loaded = load_system(system, bag)
+    compiled = compile_spec(loaded, bag) if loaded.spec is not None else None
+    if loaded.spec is None or compiled is None or bag.has_errors:
+        _report(system, bag, errors_only=True)
+        typer.echo("not exported: fix the errors above first", err=True)
+        raise typer.Exit(ExitCode.PROBLEMS)
+    try:
+        export_ssp(loaded.spec, loaded.path.parent, output, compiled)
+    except FmionnxError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(ExitCode.PROBLEMS) from None
+    typer.echo(f"wrote {output}")
+
+
+@app.command(
+    epilog="Examples:\n\n"
+    "  fmionnx convert vendor.ssp -o systems/vendor.yaml   # models go to systems/vendor_files/",
+)
+def convert(
+    system: Annotated[Path, typer.Argument(help="System file (.ssp, .ssd, .yaml).")],
+    output: OutputOption,
+) -> None:
+    """Write a system (usually an SSP) as a YAML system file.
+
+    Only the system file is read; run `fmionnx validate` on the result to check the models.
+    Models inside an .ssp archive are copied to `<output stem>_files/` beside the YAML file.
+    """
+    from fmionnx.export.yaml_writer import write_yaml_system
+
+    if output.suffix.lower() not in {".yaml", ".yml"}:
+        typer.echo(f"error: the output must end in .yaml (got `{output.name}`)", err=True)
+        raise typer.Exit(ExitCode.USAGE)
+    bag = DiagnosticBag()
+    loaded = load_system(system, bag)
+    if loaded.spec is None or bag.has_errors:
+        _report(system, bag, errors_only=True)
+        typer.echo("not converted: fix the errors above first", err=True)
+        raise typer.Exit(ExitCode.PROBLEMS)
+    _report(system, bag)
+    archive_root = loaded.sources.file.parent if system.suffix.lower() == ".ssp" else None
+    try:
+        write_yaml_system(
+            loaded.spec,
+            loaded.path.parent,
+            output,
+            archive_root=archive_root,
+            header=f"# Converted from {system.name} by `fmionnx convert`.\n",
+        )
+    except FmionnxError as exc:
+        typer.echo(f"error: {exc}", err=True)
+        raise typer.Exit(ExitCode.PROBLEMS) from None
+    typer.echo(f"wrote {output}")

@@ -1,0 +1,299 @@
+"""Write a system as an SSP 1.0 archive that FMPy, libcosim and OMSimulator can open.
+
+The archive holds ``SystemStructure.ssd`` (validated against the SSP 1.0 XSD before it is
+packed), the models under ``resources/`` and one ``.ssv`` per component with scalar
+parameters. SSP 1.0 is written because FMPy reads only 1.0 and every 2.0 reader reads 1.0.
+What SSP cannot say (component periods, ONNX/MuJoCo options, array parameters, the base
+step, record/plots/ros2 sections) goes into ``org.fmionnx`` annotations as JSON, so that
+``fmionnx convert`` gives the system file back. The layout is flat: one root system whose
+components keep their (possibly dotted) names; connections are component to component.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from lxml import etree
+
+from fmionnx.archive import write_deterministic_zip
+from fmionnx.compile.endpoints import split_endpoint
+from fmionnx.compile.ir import Causality, CompiledSystem, DType, Port
+from fmionnx.compile.resolve import model_path
+from fmionnx.errors import FmionnxError, ModelError
+from fmionnx.spec.base import ComponentSpecBase
+from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
+from fmionnx.spec.ssp import MIME_BY_KIND
+from fmionnx.spec.ssp_archive import SSD_NAME
+from fmionnx.spec.ssp_tree import FMIONNX_ANNOTATION
+from fmionnx.spec.ssp_xml import NS, schema
+
+#: Namespace of the element inside our annotations (never fetched; a name only).
+FMIONNX_NS = "https://fmionnx.dev/ssp/1"
+SSP_VERSION = "1.0"
+#: A MuJoCo scene is packed with its folder (meshes, textures, expected path); cap its size.
+MAX_SCENE_FOLDER_BYTES = 512 * 1024**2
+
+_IMPLEMENTATION = {"cs": "CoSimulation", "me": "ModelExchange"}
+_NSMAP = {"ssd": NS["ssd"], "ssc": NS["ssc"], "ssv": NS["ssv"], "fmionnx": FMIONNX_NS}
+
+
+class ExportError(FmionnxError):
+    """The system cannot be written as SSP (a model file is missing, the output unwritable)."""
+
+
+def _q(prefix: str, name: str) -> str:
+    return f"{{{_NSMAP[prefix]}}}{name}"
+
+
+def _sub(parent: Any, prefix: str, local: str, /, **attributes: str) -> Any:
+    return etree.SubElement(parent, _q(prefix, local), attributes)
+
+
+def _annotation(parent: Any, payload: dict[str, Any]) -> None:
+    annotations = _sub(parent, "ssd", "Annotations")
+    annotation = _sub(annotations, "ssc", "Annotation", type=FMIONNX_ANNOTATION)
+    options = _sub(annotation, "fmionnx", "Options")
+    options.text = json.dumps(payload, sort_keys=True)
+
+
+def _type_element(parent: Any, port: Port | None) -> None:
+    """The connector's ``ssc:`` type from the compiled port (omitted without one)."""
+    if port is None:
+        return
+    if port.dtype.is_float:
+        typed = _sub(parent, "ssc", "Real")
+        if port.unit:
+            typed.set("unit", port.unit)
+    elif port.dtype.is_integer:
+        _sub(parent, "ssc", "Integer")
+    elif port.dtype is DType.BOOL:
+        _sub(parent, "ssc", "Boolean")
+    elif port.dtype is DType.STRING:
+        _sub(parent, "ssc", "String")
+    else:
+        _sub(parent, "ssc", "Binary")
+
+
+_KIND_BY_CAUSALITY = {
+    Causality.INPUT: "input",
+    Causality.OUTPUT: "output",
+    Causality.PARAMETER: "parameter",
+    Causality.STRUCTURAL_PARAMETER: "parameter",
+    Causality.CALCULATED_PARAMETER: "calculatedParameter",
+}
+
+
+class _Writer:
+    def __init__(self, spec: SystemSpec, base: Path, system: CompiledSystem | None) -> None:
+        self.spec = spec
+        self.base = base
+        self.system = system
+        # component -> connector label -> (kind, port or None)
+        self.connectors: dict[str, dict[str, tuple[str, Port | None]]] = {
+            name: {} for name in spec.components
+        }
+
+    def _port(self, component: str, port: str) -> Port | None:
+        if self.system is None:
+            return None
+        interface = self.system.component(component).interface
+        return interface.port(port)
+
+    def _endpoint(self, text: str, default_kind: str) -> tuple[str, str]:
+        parts = split_endpoint(text, self.spec.components)
+        if parts is None or parts[0] not in self.spec.components:
+            msg = f"connection endpoint `{text}` names no component of the system"
+            raise ExportError(msg)
+        component, port, index = parts
+        label = port if index is None else f"{port}[{index.replace(' ', '')}]"
+        found = self._port(component, port)
+        kind = _KIND_BY_CAUSALITY.get(found.causality, default_kind) if found else default_kind
+        self.connectors[component].setdefault(label, (kind, found))
+        return component, label
+
+    def connections(self, parent: Any) -> None:
+        entries = []
+        for entry in self.spec.connections:
+            if isinstance(entry, ConnectionSpec):
+                left, right, factor, offset = entry.from_, entry.to, entry.factor, entry.offset
+            else:
+                parts = split_connection(entry)
+                if parts is None:
+                    msg = f"`{entry}` is not a connection"
+                    raise ExportError(msg)
+                (left, right), factor, offset = parts, 1.0, 0.0
+            src = self._endpoint(left, "output")
+            dst = self._endpoint(right, "input")
+            entries.append((src, dst, factor, offset))
+        if not entries:
+            return
+        connections = _sub(parent, "ssd", "Connections")
+        for src, dst, factor, offset in entries:
+            node = _sub(
+                connections,
+                "ssd",
+                "Connection",
+                startElement=src[0],
+                startConnector=src[1],
+                endElement=dst[0],
+                endConnector=dst[1],
+            )
+            if factor != 1.0 or offset != 0.0:
+                _sub(node, "ssc", "LinearTransformation", factor=repr(factor), offset=repr(offset))
+
+    def component(self, parent: Any, name: str, spec: ComponentSpecBase, staging: Path) -> None:
+        source = self._pack(name, spec, staging)
+        node = _sub(parent, "ssd", "Component", name=name, type=MIME_BY_KIND[spec.kind])
+        node.set("source", source)
+        interface = getattr(spec, "interface", None)
+        if interface is not None:
+            node.set("implementation", _IMPLEMENTATION[interface])
+        if self.connectors[name]:
+            connectors = _sub(node, "ssd", "Connectors")
+            for label, (kind, port) in self.connectors[name].items():
+                connector = _sub(connectors, "ssd", "Connector", name=label, kind=kind)
+                _type_element(connector, port)
+        scalars = {k: v for k, v in spec.parameters.items() if not isinstance(v, list)}
+        arrays = {k: v for k, v in spec.parameters.items() if isinstance(v, list)}
+        if scalars:
+            ssv = f"resources/{name}.ssv"
+            ports = {key: self._port(name, key) for key in scalars}
+            _write_ssv(staging / ssv, name, scalars, ports)
+            bindings = _sub(node, "ssd", "ParameterBindings")
+            _sub(bindings, "ssd", "ParameterBinding", source=ssv)
+        options = spec.model_dump(mode="json", by_alias=True, exclude_defaults=True)
+        for key in ("kind", "path", "parameters", "interface"):
+            options.pop(key, None)
+        if arrays:
+            options["parameters"] = arrays
+        if options:
+            _annotation(node, options)
+
+    def _pack(self, name: str, spec: ComponentSpecBase, staging: Path) -> str:
+        """Copy the component's model under ``resources/``; its path inside the archive."""
+        source = model_path(self.base, spec.path)
+        if not source.exists():
+            msg = f"component `{name}`: `{source}` does not exist"
+            raise ExportError(msg)
+        if spec.kind == "mujoco":
+            folder = f"resources/{name}"
+            _copy_scene_folder(source.parent, staging / folder)
+            return f"{folder}/{source.name}"
+        suffix = ".fmu" if spec.kind == "fmu" else source.suffix or ".onnx"
+        target = f"resources/{name}{suffix}"
+        (staging / "resources").mkdir(exist_ok=True)
+        if source.is_dir():
+            write_deterministic_zip(source, staging / target)
+        else:
+            shutil.copyfile(source, staging / target)
+        return target
+
+
+def _copy_scene_folder(folder: Path, target: Path) -> None:
+    total = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
+    if total > MAX_SCENE_FOLDER_BYTES:
+        msg = (
+            f"the MuJoCo scene folder `{folder}` holds {total} bytes; keep a scene with its "
+            f"assets in a folder of at most {MAX_SCENE_FOLDER_BYTES} bytes to export it"
+        )
+        raise ExportError(msg)
+    shutil.copytree(folder, target, ignore=shutil.ignore_patterns(".*", "__pycache__"))
+
+
+def _ssv_type(value: Any, port: Port | None) -> tuple[str, str]:
+    """SSV element and value text; the port's type wins (libcosim rejects Integer for Real)."""
+    if port is not None and port.dtype.is_float and not isinstance(value, bool | str):
+        return "Real", repr(float(value))
+    if isinstance(value, bool):
+        return "Boolean", "true" if value else "false"
+    if isinstance(value, int):
+        return "Integer", str(value)
+    if isinstance(value, float):
+        return "Real", repr(value)
+    return "String", str(value)
+
+
+def _write_ssv(
+    path: Path, name: str, values: dict[str, Any], ports: dict[str, Port | None]
+) -> None:
+    root = etree.Element(_q("ssv", "ParameterSet"), nsmap={"ssv": NS["ssv"]})
+    root.set("version", SSP_VERSION)
+    root.set("name", name)
+    parameters = _sub(root, "ssv", "Parameters")
+    for key, value in values.items():
+        parameter = _sub(parameters, "ssv", "Parameter", name=key)
+        element, text = _ssv_type(value, ports.get(key))
+        _sub(parameter, "ssv", element, value=text)
+    _check(root, "ssv", path.name)
+    path.parent.mkdir(parents=True, exist_ok=True)
+    etree.ElementTree(root).write(
+        str(path), xml_declaration=True, encoding="UTF-8", pretty_print=True
+    )
+
+
+def _check(root: Any, kind: str, name: str) -> None:
+    """Every file we write validates against the SSP 1.0 XSD; anything else is our bug."""
+    xsd = schema(kind, "1")
+    if not xsd.validate(etree.ElementTree(root)):
+        problems = "; ".join(str(e.message) for e in xsd.error_log)
+        msg = f"internal error: the {name} fmionnx wrote does not validate: {problems}"
+        raise FmionnxError(msg)
+
+
+def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSystem | None) -> Any:
+    """The SSD element tree; models and ``.ssv`` files are written under ``staging``."""
+    writer = _Writer(spec, base, system)
+    root = etree.Element(_q("ssd", "SystemStructureDescription"), nsmap=_NSMAP)
+    root.set("version", SSP_VERSION)
+    root.set("name", spec.name)
+    root.set("generationTool", "fmionnx")
+    top = _sub(root, "ssd", "System", name=spec.name)
+    if spec.description:
+        top.set("description", spec.description)
+    elements = _sub(top, "ssd", "Elements")
+    # Connections first: they decide which connectors each component declares.
+    scratch = etree.Element("scratch")
+    writer.connections(scratch)
+    for name, component in spec.components.items():
+        writer.component(elements, name, component, staging)
+    for child in scratch:
+        top.append(child)
+    experiment = _sub(root, "ssd", "DefaultExperiment", startTime=repr(spec.run.start))
+    if spec.run.stop is not None:
+        experiment.set("stopTime", repr(spec.run.stop))
+    settings = spec.model_dump(
+        mode="json", by_alias=True, exclude_defaults=True, include={"record", "plots", "ros2"}
+    )
+    if spec.run.step is not None:
+        settings["run"] = {"step": spec.run.step}
+    if settings:
+        _annotation(root, settings)
+    _check(root, "ssd", SSD_NAME)
+    return root
+
+
+def export_ssp(
+    spec: SystemSpec, base: Path, output: Path, system: CompiledSystem | None = None
+) -> None:
+    """Write ``spec`` (paths relative to ``base``) as an SSP archive at ``output``.
+
+    ``system`` (the compiled IR, when available) adds connector kinds, types and units. The
+    archive appears at ``output`` only when complete. Raises :class:`ExportError`.
+    """
+    output.parent.mkdir(parents=True, exist_ok=True)
+    staging = Path(tempfile.mkdtemp(prefix=".export-", dir=output.parent))
+    try:
+        root = build_ssd(spec, base, staging, system)
+        etree.ElementTree(root).write(
+            str(staging / SSD_NAME), xml_declaration=True, encoding="UTF-8", pretty_print=True
+        )
+        write_deterministic_zip(staging, output)
+    except (OSError, ModelError) as exc:
+        msg = f"cannot write `{output}`: {exc}"
+        raise ExportError(msg) from None
+    finally:
+        shutil.rmtree(staging, ignore_errors=True)

@@ -1,0 +1,131 @@
+"""Write a raw :class:`SystemSpec` back as a YAML system file (``fmionnx convert``).
+
+The raw spec, not the compiled IR, is written: it is what the user (or the other tool)
+said, with defaults left out, so the file stays as short as a hand-written one. Component
+paths are rewritten relative to the new file; models that live only inside an unpacked SSP
+archive are copied next to it first (``<stem>_files/``, same layout as in the archive).
+Both the YAML file and that folder appear only when everything was written.
+"""
+
+from __future__ import annotations
+
+import io
+import os
+import shutil
+import tempfile
+from pathlib import Path
+from typing import Any
+
+from ruamel.yaml import YAML
+
+from fmionnx.compile.resolve import model_path
+from fmionnx.errors import FmionnxError
+from fmionnx.spec.model import ConnectionSpec, SystemSpec
+from fmionnx.spec.ssp_archive import SSD_NAME
+
+
+class ConvertError(FmionnxError):
+    """The YAML file (or its resource folder) cannot be written."""
+
+
+def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
+    """Plain data of ``spec`` in system-file key order, with ``paths`` per component."""
+    data: dict[str, Any] = {"fmionnx": spec.fmionnx, "name": spec.name}
+    if spec.description:
+        data["description"] = spec.description
+    run = spec.run.model_dump(mode="json", exclude_none=True)
+    if run:
+        data["run"] = run
+    components: dict[str, Any] = {}
+    for name, component in spec.components.items():
+        options = component.model_dump(mode="json", by_alias=True, exclude_defaults=True)
+        options.pop("kind", None)
+        options.pop("path", None)
+        components[name] = {"kind": component.kind, "path": paths[name], **options}
+    data["components"] = components
+    connections: list[Any] = []
+    for entry in spec.connections:
+        if isinstance(entry, ConnectionSpec) and (entry.factor != 1.0 or entry.offset != 0.0):
+            connections.append(entry.model_dump(mode="json", by_alias=True))
+        elif isinstance(entry, ConnectionSpec):
+            connections.append(f"{entry.from_} -> {entry.to}")
+        else:
+            connections.append(entry)
+    if connections:
+        data["connections"] = connections
+    extra = spec.model_dump(
+        mode="json", by_alias=True, exclude_defaults=True, include={"record", "plots", "ros2"}
+    )
+    data.update(extra)
+    return data
+
+
+def dump_yaml(data: dict[str, Any], header: str = "") -> str:
+    """YAML text of plain data (block style, floats round-trip exactly)."""
+    yaml = YAML(typ="safe", pure=True)
+    yaml.default_flow_style = False
+    yaml.sort_base_mapping_type_on_output = False  # type: ignore[assignment]
+    stream = io.StringIO()
+    yaml.dump(data, stream)
+    return header + stream.getvalue()
+
+
+def _relative(target: Path, folder: Path) -> str:
+    return Path(os.path.relpath(target.resolve(), folder.resolve())).as_posix()
+
+
+def write_yaml_system(
+    spec: SystemSpec,
+    base: Path,
+    output: Path,
+    *,
+    archive_root: Path | None = None,
+    header: str = "",
+) -> None:
+    """Write ``spec`` (paths relative to ``base``) to ``output`` atomically.
+
+    ``archive_root`` is the unpacked SSP the spec's models live in; its content is copied to
+    ``<stem>_files/`` beside ``output``.
+    """
+    folder = output.parent.resolve()
+    folder.mkdir(parents=True, exist_ok=True)
+    files = folder / f"{output.stem}_files"
+    staging: Path | None = None
+    temporary: Path | None = None
+    try:
+        paths: dict[str, str] = {}
+        if archive_root is not None:
+            staging = Path(tempfile.mkdtemp(prefix=".convert-", dir=folder))
+            ignore = shutil.ignore_patterns(SSD_NAME)
+            shutil.copytree(archive_root, staging, dirs_exist_ok=True, ignore=ignore)
+        for name, component in spec.components.items():
+            source = model_path(base, component.path).resolve()
+            if archive_root is not None and source.is_relative_to(archive_root.resolve()):
+                inside = source.relative_to(archive_root.resolve())
+                paths[name] = _relative(files / inside, folder)
+            else:
+                paths[name] = _relative(source, folder)
+        text = dump_yaml(spec_data(spec, paths), header)
+        with tempfile.NamedTemporaryFile(
+            "w", encoding="utf-8", dir=folder, prefix=".convert-", suffix=".yaml", delete=False
+        ) as stream:
+            stream.write(text)
+            temporary = Path(stream.name)
+        if output.is_dir():
+            msg = f"`{output}` is a folder"
+            raise IsADirectoryError(msg)
+        if staging is not None:
+            if files.exists():
+                shutil.rmtree(files)
+            staging.rename(files)
+            staging = None
+        temporary.replace(output)
+        temporary = None
+    except OSError as exc:
+        msg = f"cannot write `{output}`: {exc}"
+        raise ConvertError(msg) from None
+    finally:
+        if staging is not None:
+            shutil.rmtree(staging, ignore_errors=True)
+        if temporary is not None:
+            temporary.unlink(missing_ok=True)
