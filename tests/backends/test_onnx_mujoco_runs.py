@@ -149,7 +149,7 @@ components:
   source: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{u: 1.0}}}}
 connections:
   - source.y -> world.push
-  - world.x[0] -> source.v[0]
+  - world.x -> source.v[0]
 """
     )
     result = fmionnx.load(path).run()

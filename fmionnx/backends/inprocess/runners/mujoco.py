@@ -90,9 +90,15 @@ class MujocoRunner:
             if port.name in self._camera_specs:
                 self._add_camera(port.name, start)
                 continue
+            if port.name.endswith(".pos"):
+                site = mj.mj_name2id(model, mj.mjtObj.mjOBJ_SITE, port.name.removesuffix(".pos"))
+                if site >= 0:
+                    # A row view of site_xpos: MuJoCo updates it in place at every step.
+                    self._outputs[port.name] = data.site_xpos[site]
+                    continue
             sensor = mj.mj_name2id(model, mj.mjtObj.mjOBJ_SENSOR, port.name)
             if sensor < 0:
-                raise fault(name, "no sensor or camera of this name", time=start, port=port.name)
+                raise fault(name, "no sensor, site or camera of this name", time=start, port=port.name)
             adr, dim = int(model.sensor_adr[sensor]), int(model.sensor_dim[sensor])
             self._outputs[port.name] = data.sensordata[adr : adr + dim]
         self._apply_ctrl()
