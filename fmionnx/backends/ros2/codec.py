@@ -125,7 +125,8 @@ class TopicCodec:
         kind, extra = self._plans[field.port]
         flat = value.reshape(-1)
         if kind == "image":
-            _fill_image(message, value)
+            # Decoded values are flat; a node may forward them as they are.
+            _fill_image(message, value.reshape(field.shape) if value.ndim == 1 else value)
         elif kind == "scalar":
             _set(message, field.paths[0], _scalar(flat[0], extra))
         elif kind == "elements":
