@@ -6,6 +6,7 @@ import hashlib
 import os
 import shutil
 import time
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
@@ -394,3 +395,17 @@ def test_schema_violation_is_e012(tmp_path: Path) -> None:
 def test_other_root_element_is_e012(tmp_path: Path) -> None:
     folder = fmu_folder(tmp_path, "T", "<html/>")
     assert _code(folder) == "E012"
+
+
+def test_corrupt_member_is_e012(tmp_path: Path) -> None:
+    xml = fmi2([scalar("u", 0, "input")]).encode()
+    path = tmp_path / "crc.fmu"
+    with zipfile.ZipFile(path, "w", compression=zipfile.ZIP_STORED) as archive:
+        archive.writestr("modelDescription.xml", xml)
+    data = bytearray(path.read_bytes())
+    at = data.index(b'name="u"')
+    data[at + 6] ^= 0x01  # same length, different bytes: the CRC no longer matches
+    path.write_bytes(bytes(data))
+    with pytest.raises(ModelError, match="is corrupt") as info:
+        FMU_KIND.read_interface(path, None)
+    assert info.value.code == "E012"
