@@ -58,8 +58,9 @@ def to_dot(system: CompiledSystem) -> str:
         style = _DOT_STYLE.get(component.kind, "shape=box")
         lines.append(f"  {_dot_quote(component.name)} [label={label}, {style}];")
     for (src, dst), labels in sorted(_grouped(system).items()):
-        label = "\\l".join(labels) + "\\l"
-        lines.append(f"  {_dot_quote(src)} -> {_dot_quote(dst)} [label={_dot_quote(label)}];")
+        # Escape each line, then join with DOT's left-justified line break `\l`.
+        label = '"' + "".join(_dot_quote(text)[1:-1] + "\\l" for text in labels) + '"'
+        lines.append(f"  {_dot_quote(src)} -> {_dot_quote(dst)} [label={label}];")
     lines.append("}")
     return "\n".join(lines) + "\n"
 

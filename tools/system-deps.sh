@@ -1,11 +1,13 @@
 #!/usr/bin/env bash
 # Installs the Debian packages fmionnx needs when they are missing: a C toolchain and cmake
-# (FMUs are compiled from source), EGL/Mesa (MuJoCo renders offscreen without display or GPU).
+# (FMUs are compiled from source), EGL/Mesa (MuJoCo renders offscreen without display or GPU),
+# Graphviz (`fmionnx graph --format svg|png`).
 set -euo pipefail
 need=()
 command -v gcc >/dev/null || need+=(gcc)
 command -v cmake >/dev/null || need+=(cmake)
 command -v make >/dev/null || need+=(make)
+command -v dot >/dev/null || need+=(graphviz)
 ldconfig -p 2>/dev/null | grep -q 'libEGL.so.1' || need+=(libegl1)
 ldconfig -p 2>/dev/null | grep -q 'libEGL_mesa.so.0' || need+=(libegl-mesa0 libgl1-mesa-dri)
 ldconfig -p 2>/dev/null | grep -q 'libOSMesa.so' || need+=(libosmesa6)

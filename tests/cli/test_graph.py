@@ -1,0 +1,85 @@
+"""``fmionnx graph`` on the reference system: text formats are golden, images render."""
+
+from __future__ import annotations
+
+import json
+import os
+import shutil
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from fmionnx.cli.app import app
+from tests.conftest import REPO
+
+SYSTEM = REPO / "systems" / "sign_follower.yaml"
+GOLDEN = Path(__file__).resolve().parent / "golden"
+
+
+@pytest.mark.parametrize(
+    ("fmt", "golden"),
+    [
+        ("dot", "sign_follower.dot"),
+        ("mermaid", "sign_follower.mmd"),
+        ("json", "sign_follower.graph.json"),
+    ],
+)
+def test_text_formats_match_their_golden_files(fmt: str, golden: str) -> None:
+    result = CliRunner().invoke(
+        app, ["graph", str(SYSTEM), "--format", fmt], catch_exceptions=False
+    )
+    assert result.exit_code == 0, result.output
+    path = GOLDEN / golden
+    if os.environ.get("UPDATE_GOLDEN") == "1":
+        path.write_text(result.output, encoding="utf-8")
+    assert result.output == path.read_text(encoding="utf-8")
+
+
+def test_json_graph_has_the_papers_shape() -> None:
+    result = CliRunner().invoke(app, ["graph", str(SYSTEM), "-f", "json"], catch_exceptions=False)
+    graph = json.loads(result.output)
+    kinds = {node["name"]: node["kind"] for node in graph["nodes"]}
+    assert kinds == {"world": "mujoco", "odometry": "fmu", "detector": "onnx", "tracker": "fmu"}
+    pairs = {(edge["source"], edge["target"]) for edge in graph["edges"]}
+    assert pairs == {
+        ("world", "odometry"),
+        ("world", "detector"),
+        ("odometry", "tracker"),
+        ("detector", "tracker"),
+        ("tracker", "world"),
+    }
+    order = graph["order"]
+    # odometry and the detector feed through to their outputs, so the tracker must follow
+    # them; the world's sensors and the tracker's commands do not feed through, so those
+    # edges are cut and declaration order (world first) breaks the tie.
+    assert order == ["world", "odometry", "detector", "tracker"]
+
+
+@pytest.mark.skipif(
+    shutil.which("dot") is None, reason="Graphviz is installed by tools/system-deps.sh"
+)
+@pytest.mark.parametrize("fmt", ["svg", "png"])
+def test_images_are_rendered_with_graphviz(fmt: str, tmp_path: Path) -> None:
+    out = tmp_path / f"graph.{fmt}"
+    result = CliRunner().invoke(
+        app, ["graph", str(SYSTEM), "-f", fmt, "-o", str(out)], catch_exceptions=False
+    )
+    assert result.exit_code == 0, result.output
+    data = out.read_bytes()
+    assert data.startswith(b"\x89PNG") if fmt == "png" else b"<svg" in data and b"tracker" in data
+
+
+def test_image_format_without_output_is_a_usage_error() -> None:
+    result = CliRunner().invoke(app, ["graph", str(SYSTEM), "-f", "svg"])
+    assert result.exit_code == 2
+
+
+def test_a_broken_system_prints_diagnostics_and_exits_1(tmp_path: Path) -> None:
+    broken = tmp_path / "broken.yaml"
+    broken.write_text(
+        "fmionnx: 1\nname: b\ncomponents:\n  a: {kind: fmu, path: missing.fmu}\n", encoding="utf-8"
+    )
+    result = CliRunner().invoke(app, ["graph", str(broken)], catch_exceptions=False)
+    assert result.exit_code == 1
+    assert "E010" in result.output
