@@ -297,7 +297,7 @@ _UNSUPPORTED = {
     "BooleanMappingTransformation": "boolean mapping transformations",
     "IntegerMappingTransformation": "integer mapping transformations",
     "EnumerationMappingTransformation": "enumeration mapping transformations",
-    "Dimension": "array connectors (SSP 2.0 dimensions)",
+    "Dimensions": "array connectors (SSP 2.0 dimensions)",
     "Clock": "clocked connectors",
 }
 

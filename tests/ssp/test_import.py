@@ -243,3 +243,84 @@ def test_missing_ssd_in_archive_is_e072(tmp_path: Path) -> None:
     assert spec is None
     assert found[0][0] == "E072"
     assert "SystemStructure.ssd" in found[0][2]
+
+
+def _onnx_and_mujoco(options: str) -> str:
+    annotation = (
+        '<ssd:Annotations><ssc:Annotation type="org.fmionnx">'
+        f'<fx:Options xmlns:fx="https://fmionnx.dev/ssp/1">{options}</fx:Options>'
+        "</ssc:Annotation></ssd:Annotations>"
+    )
+    return ssd(
+        "<ssd:Elements>\n"
+        '<ssd:Component name="det" type="application/x-onnx" source="resources/Gain.fmu">'
+        f"\n{annotation}</ssd:Component>\n"
+        '<ssd:Component name="world" type="application/x-mujoco+xml" '
+        'source="resources/Gain.fmu"/>\n'
+        "</ssd:Elements>"
+    )
+
+
+def test_onnx_and_mujoco_components_take_kind_and_options_from_our_annotation(loose) -> None:
+    spec, found = load(loose(_onnx_and_mujoco('{"period": 0.1, "threads": 2}')))
+    assert spec is not None, found
+    assert spec.components["det"].kind == "onnx"
+    assert (spec.components["det"].period, spec.components["det"].threads) == (0.1, 2)
+    assert spec.components["world"].kind == "mujoco"
+
+
+def test_unknown_option_in_annotation_is_e002_at_the_annotation(loose) -> None:
+    spec, found = load(loose(_onnx_and_mujoco('{"thread": 2}')))
+    assert spec is None
+    assert [(c, line) for c, line, _ in found] == [("E002", 6)]
+
+
+def test_annotation_that_is_not_json_is_e003(loose) -> None:
+    spec, found = load(loose(_onnx_and_mujoco("period = 0.1")))
+    assert spec is None
+    assert [(c, line) for c, line, _ in found] == [("E003", 6)]
+
+
+def test_system_parameter_connector_binds_through_connections(loose) -> None:
+    body = (
+        '<ssd:Connectors><ssd:Connector name="gainK" kind="parameter"/></ssd:Connectors>'
+        "<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>"
+        '<ssv:ParameterSet version="1.0" name="p"><ssv:Parameters>'
+        '<ssv:Parameter name="gainK"><ssv:Real value="5"/></ssv:Parameter>'
+        "</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>"
+        f"</ssd:ParameterBindings><ssd:Elements>{gain('a')}</ssd:Elements><ssd:Connections>"
+        '<ssd:Connection startConnector="gainK" endElement="a" endConnector="k"/>'
+        "</ssd:Connections>"
+    )
+    spec, found = load(loose(ssd(body)))
+    assert spec is not None, found
+    assert spec.components["a"].parameters == {"k": 5.0}
+    assert spec.connections == []
+
+
+def test_outer_binding_overrides_inner_binding(loose) -> None:
+    inner = (
+        "<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>"
+        '<ssv:ParameterSet version="1.0" name="i"><ssv:Parameters>'
+        '<ssv:Parameter name="k"><ssv:Real value="1"/></ssv:Parameter>'
+        "</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>"
+        "</ssd:ParameterBindings>"
+    )
+    outer = inner.replace('name="k"', 'name="a.k"').replace('value="1"', 'value="7"')
+    spec, found = load(loose(ssd(f"{outer}<ssd:Elements>{gain('a', extra=inner)}</ssd:Elements>")))
+    assert spec is not None, found
+    assert spec.components["a"].parameters == {"k": 7.0}
+
+
+def test_validate_and_graph_commands_read_ssp(foreign_ssp: Path) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    runner = CliRunner()
+    result = runner.invoke(app, ["validate", str(foreign_ssp)])
+    assert result.exit_code == 0, result.output
+    assert "W070" in result.output
+    result = runner.invoke(app, ["graph", str(foreign_ssp), "--format", "mermaid"])
+    assert result.exit_code == 0, result.output
+    assert "ctrl.gain2" in result.output
