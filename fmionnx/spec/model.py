@@ -99,7 +99,11 @@ class TopicSpec(StrictModel):
 
     topic: str
     type: str | None = Field(default=None, description="e.g. `geometry_msgs/msg/Twist`.")
-    field: str | None = Field(default=None, description="Field path inside the message.")
+    field: str | list[str] | None = Field(
+        default=None,
+        description="Field path inside the message, or one path per element of an array port "
+        "(e.g. `[pose.pose.orientation.w, pose.pose.orientation.x, ...]`).",
+    )
     qos: str | QosSpec | None = Field(
         default=None, description="`default`, `sensor_data` or an explicit profile."
     )
@@ -109,6 +113,11 @@ class Ros2Spec(StrictModel):
     """The ``ros2:`` section: only what differs from the defaults."""
 
     namespace: str = Field(default="", description="Namespace of every node, e.g. `/robot1`.")
+    distro: Literal["humble", "iron", "jazzy", "kilted"] = Field(
+        default="humble",
+        description="ROS 2 distribution whose message definitions and discovery format to use "
+        "(`--ros-distro` overrides it).",
+    )
     nodes: dict[str, str] = Field(
         default_factory=dict, description="Node name per component (default: the component name)."
     )

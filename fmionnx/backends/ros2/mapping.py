@@ -311,8 +311,11 @@ class _Builder:
                         hint=f"set the topic on `{driven[0].src.component}.{driven[0].src.port}`",
                     )
                     continue
-            topic_text, field_path = _split_field(spec.topic)
-            if spec.field is not None:
+            topic_text, text_path = _split_field(spec.topic)
+            field_path: str | tuple[str, ...] | None = text_path
+            if isinstance(spec.field, list):
+                field_path = tuple(spec.field)
+            elif spec.field is not None:
                 field_path = spec.field
             name = expand_topic(topic_text, self.namespace, self.node_names[component.name])
             problem = topic_problem(name)
