@@ -109,8 +109,9 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         # The ROS 2 section is checked like the rest of the file; the mapping module is only
         # imported when a system has one (it brings the message definitions and DDS).
         from fmionnx.backends.ros2.mapping import check_ros2
+        from fmionnx.backends.ros2.messages import RosDistro
 
-        bag.extend(check_ros2(system, sources))
+        bag.extend(check_ros2(system, sources, RosDistro(spec.ros2.distro)))
         if bag.has_errors:
             return None
     return system
