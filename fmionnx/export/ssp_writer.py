@@ -28,6 +28,7 @@ from fmionnx.spec.base import ComponentSpecBase
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.ssp import MIME_BY_KIND
 from fmionnx.spec.ssp_archive import SSD_NAME
+from fmionnx.spec.ssp_names import port_label_to_fmi
 from fmionnx.spec.ssp_tree import FMIONNX_ANNOTATION
 from fmionnx.spec.ssp_xml import NS, schema
 
@@ -110,6 +111,8 @@ class _Writer:
             raise ExportError(msg)
         component, port, index = parts
         label = port if index is None else f"{port}[{index.replace(' ', '')}]"
+        if self.spec.components[component].kind == "fmu":
+            label = port_label_to_fmi(label)
         found = self._port(component, port)
         kind = _KIND_BY_CAUSALITY.get(found.causality, default_kind) if found else default_kind
         self.connectors[component].setdefault(label, (kind, found))

@@ -16,10 +16,12 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmionnx.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.spec.ssp_names import fmi_to_port_label
 from fmionnx.spec.ssp_params import BoundValue, binding_values
 from fmionnx.spec.ssp_tree import Connection, Connector, Document, Element, Unit
 
 Pin = tuple[tuple[str, ...], str]
+FMU_MIME = "application/x-fmu-sharedlibrary"
 
 
 @dataclass(frozen=True, slots=True)
@@ -189,12 +191,34 @@ class _Flattener:
             return
         if target[0] in self.components:
             flat.connections.append(
-                FlatConnection(_text(source), _text(target), factor, offset, edge.line)
+                FlatConnection(
+                    self._text(source, edge.line),
+                    self._text(target, edge.line),
+                    factor,
+                    offset,
+                    edge.line,
+                )
             )
             return
         reached.add(target)
         for following in self.edges.get(target, []):
             self._follow(source, following, factor, offset, (*seen, target), flat, reached)
+
+    def _text(self, pin: Pin, line: int) -> str:
+        """``comp.port[i]`` of a component pin, FMI 2 element names made 0-based."""
+        label = pin[1]
+        if self.components[pin[0]].type == FMU_MIME:
+            shifted = fmi_to_port_label(label)
+            if shifted is None:
+                self.bag.emit(
+                    "E072",
+                    f"connector `{label}` of FMU component `{'.'.join(pin[0])}`: FMI element "
+                    "names count from 1",
+                    self.span(line),
+                )
+            else:
+                label = shifted
+        return ".".join(pin[0]) + "." + label
 
     # --- parameters
     def bind_parameters(self, flat: FlatSystem) -> None:
@@ -256,10 +280,6 @@ class _Flattener:
 def _conversion(source: Unit, target: Unit) -> tuple[float, float]:
     # value_SI = f * x + o on both sides, so x_target = (f_s * x + o_s - o_t) / f_t.
     return source.factor / target.factor, (source.offset - target.offset) / target.factor
-
-
-def _text(pin: Pin) -> str:
-    return ".".join(pin[0]) + "." + pin[1]
 
 
 def flatten(document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag) -> FlatSystem:

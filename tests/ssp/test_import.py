@@ -324,3 +324,19 @@ def test_validate_and_graph_commands_read_ssp(foreign_ssp: Path) -> None:
     result = runner.invoke(app, ["graph", str(foreign_ssp), "--format", "mermaid"])
     assert result.exit_code == 0, result.output
     assert "ctrl.gain2" in result.output
+
+
+def test_fmi2_element_connector_names_count_from_one(loose) -> None:
+    body = (
+        f"<ssd:Elements>{gain('a')}{gain('b')}</ssd:Elements>\n<ssd:Connections>\n"
+        '<ssd:Connection startElement="a" startConnector="w[1]" endElement="b" '
+        'endConnector="v[3]"/>\n</ssd:Connections>'
+    )
+    path = loose(ssd(body, after='<ssd:DefaultExperiment stopTime="1"/>'))
+    spec, found = load(path)
+    assert spec is not None, found
+    assert spec.connections == ["a.w[0] -> b.v[2]"]
+    assert api.compile_system(path).ok
+    spec, found = load(loose(ssd(body.replace("w[1]", "w[0]"))))
+    assert spec is None
+    assert [(c, line) for c, line, _ in found] == [("E072", 6)]

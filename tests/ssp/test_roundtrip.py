@@ -9,6 +9,7 @@ origins of run settings are left out: they say where things are, not what runs.
 
 from __future__ import annotations
 
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -98,6 +99,9 @@ def test_round_trip_keeps_array_parameters_and_indexed_connections(
     original = fingerprint(compiled(system))
     assert fingerprint(compiled(archive)) == original
     assert fingerprint(compiled(back)) == original
+    with zipfile.ZipFile(archive) as members:
+        text = members.read("SystemStructure.ssd").decode()
+    assert 'startConnector="w[3]"' in text  # FMI 2 element name of `a.w[2]`
 
 
 @pytest.mark.slow
