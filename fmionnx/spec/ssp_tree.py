@@ -302,6 +302,9 @@ _UNSUPPORTED = {
 }
 
 
+_READ_ANNOTATIONS = {FMIONNX_ANNOTATION, OMS_ANNOTATION}
+
+
 def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
     """W070 for harmless elements fmionnx skips, E071 for those that change the result."""
     warned: set[str] = set()
@@ -317,7 +320,15 @@ def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
         ):
             continue
         local = etree_local(node.tag)
-        if local in _UNSUPPORTED:
+        kind = node.get("type") if node.tag == tag("ssc", "Annotation") else None
+        if kind is not None and kind not in _READ_ANNOTATIONS and kind not in warned:
+            warned.add(kind)
+            bag.emit(
+                "W070",
+                f"annotations of type `{kind}` are ignored",
+                Span(file, node.sourceline),
+            )
+        elif local in _UNSUPPORTED:
             bag.emit(
                 "E071",
                 f"{_UNSUPPORTED[local]} are not supported yet (`{short(node.tag)}`)",

@@ -340,3 +340,16 @@ def test_fmi2_element_connector_names_count_from_one(loose) -> None:
     spec, found = load(loose(ssd(body.replace("w[1]", "w[0]"))))
     assert spec is None
     assert [(c, line) for c, line, _ in found] == [("E072", 6)]
+
+
+def test_other_tools_annotations_are_ignored_with_one_warning_per_type(loose) -> None:
+    note = (
+        '<ssd:Annotations><ssc:Annotation type="com.vendor"><v:x xmlns:v="urn:v"/>'
+        "</ssc:Annotation></ssd:Annotations>"
+    )
+    body = f"<ssd:Elements>{gain('a', extra=note)}{gain('b', extra=note)}</ssd:Elements>"
+    spec, found = load(loose(ssd(body)))
+    assert spec is not None
+    assert [(c, m) for c, _, m in found] == [
+        ("W070", "annotations of type `com.vendor` are ignored")
+    ]
