@@ -43,7 +43,11 @@ def resolve_uri(
             span,
         )
         return None
-    path = (base / unquote(parsed.path)).resolve()
+    try:
+        path = (base / unquote(parsed.path)).resolve()
+    except (ValueError, OSError):
+        bag.emit("E072", f"`{text}` is not a usable file reference", span)
+        return None
     if root is not None and not path.is_relative_to(root.resolve()):
         bag.emit("E017", f"`{text}` points outside the SSP archive", span)
         return None
