@@ -11,7 +11,6 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
-
 BuildFmu = Callable[[str], Path]
 
 
