@@ -11,6 +11,7 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
+
 BuildFmu = Callable[[str], Path]
 
 
