@@ -3,9 +3,7 @@
 from __future__ import annotations
 
 import hashlib
-import shutil
 import socket
-import tempfile
 from pathlib import Path
 
 import pytest
@@ -39,28 +37,15 @@ def _tree_hash(folder: Path) -> str:
     return digest.hexdigest()[:16]
 
 
-def assemble_fixture_source(name: str, destination: Path) -> Path:
-    """Lay out the source FMU ``<name>`` in ``destination``: its folder plus the shared glue.
-
-    The FMI 2 fixtures share one implementation of the FMI functions
-    (``tests/fixtures/fmus/common``); each model folder holds only its model and description.
-    """
-    shutil.copytree(FIXTURES / "fmus" / name, destination)
-    if (destination / "sources" / "model.h").exists():
-        for shared in (FIXTURES / "fmus" / "common").iterdir():
-            shutil.copy(shared, destination / "sources" / shared.name)
-    return destination
-
-
 def build_fixture_fmu(name: str) -> Path:
     """Build ``tests/fixtures/fmus/<name>`` into a binary FMU, cached by source hash."""
     from fmionnx.build import build_fmu
 
-    digest = _tree_hash(FIXTURES / "fmus" / name) + _tree_hash(FIXTURES / "fmus" / "common")
-    output = FIXTURE_BUILD / f"{name}-{hashlib.sha256(digest.encode()).hexdigest()[:16]}.fmu"
+    source = FIXTURES / "fmus" / name
+    digest = _tree_hash(source)
+    output = FIXTURE_BUILD / f"{name}-{digest}.fmu"
     if not output.exists():
-        with tempfile.TemporaryDirectory() as tmp:
-            build_fmu(assemble_fixture_source(name, Path(tmp) / name), output)
+        build_fmu(source, output)
     return output
 
 

@@ -11,6 +11,8 @@ import pytest
 from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
+FMUS = Path(__file__).resolve().parent.parent / "fixtures" / "fmus"
+FMI2_FIXTURES = ("Gain", "Integrator", "Faulty")
 
 BuildFmu = Callable[[str], Path]
 
@@ -24,6 +26,12 @@ def _inputs(**columns: tuple[float, ...] | float) -> np.ndarray:
     ]
     rows = [(t, *(columns[n] for n in names)) for t in (0.0, 10.0)]
     return np.array(rows, dtype=dtype)
+
+
+def test_fmi2_glue_copies_are_identical() -> None:
+    for file in ("fmi2_glue.c", "fmi2_glue.h"):
+        texts = {name: (FMUS / name / "sources" / file).read_text() for name in FMI2_FIXTURES}
+        assert len(set(texts.values())) == 1, f"{file} differs between {sorted(texts)}"
 
 
 @pytest.mark.parametrize("name", ["Gain", "Integrator", "Faulty", "Vector3"])

@@ -14,7 +14,7 @@ from typer.testing import CliRunner
 
 from fmionnx.build import build_fmu
 from fmionnx.cli.app import app
-from tests.conftest import assemble_fixture_source, build_fixture_fmu
+from tests.conftest import FIXTURES, build_fixture_fmu
 
 SYSTEM = """\
 fmionnx: 1
@@ -52,7 +52,7 @@ def gain_fmu() -> Path:
 @pytest.fixture
 def project(gain_fmu: Path, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A system of real models in ``tmp_path`` (the working directory), locked."""
-    assemble_fixture_source("Gain", tmp_path / "src" / "Gain")
+    shutil.copytree(FIXTURES / "fmus" / "Gain", tmp_path / "src" / "Gain")
     shutil.copy(gain_fmu, tmp_path / "Gain.fmu")
     shutil.copy(build_fixture_fmu("Integrator"), tmp_path / "Integrator.fmu")
     make_onnx(tmp_path / "net.onnx")
