@@ -15,8 +15,9 @@ from fmionnx.compile.ir import (
     Scalar,
     is_whole_multiple,
 )
+from fmionnx.compile.typecheck import declared_note
 from fmionnx.components.registry import COMPONENT_KINDS
-from fmionnx.diagnostics import DiagnosticBag, Note, did_you_mean, one_of
+from fmionnx.diagnostics import DiagnosticBag, did_you_mean, one_of
 from fmionnx.errors import ModelError
 from fmionnx.spec.base import ComponentSpecBase, ParameterLiteral
 from fmionnx.spec.model import RunSpec
@@ -140,7 +141,7 @@ def resolve_parameters(
             else f"`{name}.{key}` is a {port.causality.value} and cannot be set",
                 span,
                 hint="only parameters and inputs (start values) can be set",
-                notes=_declared(port),
+                notes=declared_note(port),
             )
             continue
         flat = _flatten(value)
@@ -149,10 +150,6 @@ def resolve_parameters(
             continue
         resolved.append(ParameterValue(key, tuple(flat), value_span))
     return tuple(resolved)
-
-
-def _declared(port: Port) -> list[Note]:
-    return [Note(f"`{port.name}` is declared here", port.origin)] if port.origin else []
 
 
 def _check_value(
@@ -168,7 +165,7 @@ def _check_value(
             f"`{name}.{port.name}` has shape {port.shape_text()} ({size} element"
             f"{'s' if size != 1 else ''}) but {len(flat)} value{'s are' if len(flat) != 1 else ' is'} given",
             span,
-            notes=_declared(port),
+            notes=declared_note(port),
         )
         return False
     bad = [v for v in flat if not _fits(port.dtype, v)]
@@ -180,7 +177,7 @@ def _check_value(
             hint="write true/false for booleans and whole numbers for integers"
             if port.dtype is DType.BOOL or port.dtype.is_integer
             else None,
-            notes=_declared(port),
+            notes=declared_note(port),
         )
         return False
     return True

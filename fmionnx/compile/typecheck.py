@@ -48,10 +48,18 @@ def _a(word: str) -> str:
     return ("an " if word[:1] in "aeiou" else "a ") + word
 
 
-def _origin_note(port: Port) -> list[Note]:
-    if port.origin is None:
+def declared_note(port: Port) -> list[Note]:
+    """A note pointing at the port's declaration in its model file.
+
+    A declaration inside an archive (``Gain.fmu/modelDescription.xml``) is no file anyone
+    can open, so it is named in the text instead of given as a location.
+    """
+    origin = port.origin
+    if origin is None:
         return []
-    return [Note(f"`{port.name}` is declared here", port.origin)]
+    if origin.file.is_file():
+        return [Note(f"`{port.name}` is declared here", origin)]
+    return [Note(f"`{port.name}` is declared at {origin}")]
 
 
 def check_causality(
@@ -66,7 +74,7 @@ def check_causality(
             f"`{src.ref}` is {_a(src.port.causality.value)}, but a connection must start at an output",
             span,
             hint=hint,
-            notes=_origin_note(src.port),
+            notes=declared_note(src.port),
         )
         ok = False
     if dst.port.causality not in TARGET_CAUSALITIES:
@@ -81,7 +89,7 @@ def check_causality(
             f"`{dst.ref}` is {_a(dst.port.causality.value)}, but a connection must end at an input",
             span,
             hint=hint,
-            notes=_origin_note(dst.port),
+            notes=declared_note(dst.port),
         )
         ok = False
     return ok
@@ -108,7 +116,7 @@ def check_dtype(
         f"cannot connect `{src.ref}` of type {a} to `{dst.ref}` of type {b}",
         span,
         hint="numeric types convert into each other; strings and binaries only to their own type",
-        notes=_origin_note(dst.port),
+        notes=declared_note(dst.port),
     )
     return False
 
@@ -180,6 +188,6 @@ def check_unit(
         f"unit mismatch: `{src.ref}` is in `{a}` but `{dst.ref}` expects `{b}`",
         span,
         hint="convert with the long form `{from: ..., to: ..., factor: ..., offset: ...}`",
-        notes=_origin_note(dst.port),
+        notes=declared_note(dst.port),
     )
     return False
