@@ -8,7 +8,8 @@ Three measurements of the stepping loop (setup such as GL contexts and ONNX sess
 * **timers**: one run whose runners' ``step``/``produce`` are wrapped in ``perf_counter``
   timers, so each category is measured directly: physics (MuJoCo runner step), rendering
   (camera ``produce``), inference (ONNX runner step), FMUs (FMU runner steps: the FMI calls
-  and the runner's code around them); *master* is the rest of the loop (schedule, transfers,
+  and the runner's code around them; for FMUs the native kernel steps, the group's step, which
+  includes their transfers); *master* is the rest of the loop (schedule, transfers,
   recording, the timers' own calls);
 * **profile**: one cProfile run of the loop, self time grouped by module into the same
   categories; a builtin (numpy, ``isnan``...) is charged to the module that called it.
@@ -132,8 +133,13 @@ class Breakdown:
 
 
 def _timed(
-    fn: Callable[..., None], category: str, seconds: dict[str, float], calls: dict[str, int]
+    fn: Callable[..., None],
+    category: str,
+    seconds: dict[str, float],
+    calls: dict[str, int],
+    weight: int = 1,
 ) -> Callable[..., None]:
+    """``fn`` timed into ``category``; one call counts as ``weight`` steps (native groups)."""
     clock = time.perf_counter
 
     def timed(*args: Any) -> None:
@@ -142,7 +148,7 @@ def _timed(
             fn(*args)
         finally:
             seconds[category] += clock() - started
-            calls[category] += 1
+            calls[category] += weight
 
     return timed
 
@@ -165,6 +171,17 @@ def timed_breakdown(stop_time: float | None) -> Breakdown:
             runner.step = _timed(runner.step, step_category, seconds, calls)
             runner.produce = _timed(runner.produce, produce_category, seconds, calls)
             return super()._due(component)
+
+        def _entries(self, dues: Any) -> Any:
+            """FMUs stepped by the native kernel bypass ``runner.step``: time their group."""
+            from fmionnx.backends.inprocess.native.group import NativeGroup
+
+            entries = super()._entries(dues)
+            for due, _period in entries:
+                group = getattr(due.step, "__self__", None)
+                if isinstance(group, NativeGroup):
+                    due.step = _timed(due.step, FMUS, seconds, calls, len(group.names))
+            return entries
 
     compiled = load_system(stop_time).compiled
     result = TimedMaster(compiled, RunOptions()).run()
@@ -189,6 +206,7 @@ MODULE_RULES: tuple[tuple[str, str], ...] = (
     ("onnxruntime", INFERENCE),
     ("runners/onnx", INFERENCE),
     ("runners/fmu", FMUS),
+    ("inprocess/native", FMUS),
     ("fmpy", FMUS),
     ("inprocess/master", MASTER),
     ("inprocess/transfer", MASTER),

@@ -66,6 +66,9 @@ class RunResult:
     time: npt.NDArray[np.float64]
     signals: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)
     error: RunError | None = None
+    #: Backend-specific facts about how the run executed (e.g. the in-process ``native``
+    #: kernel), written to run.json as ``execution``.
+    details: dict[str, str | int | bool | None] = field(default_factory=dict)
 
     @property
     def simulated_time(self) -> float:

@@ -54,6 +54,7 @@ def run_info(result: RunResult, system: CompiledSystem) -> dict[str, Any]:
             "port": error.port,
             "time": error.time,
         },
+        "execution": dict(result.details),
         "columns": ["time", *result.signals],
         "versions": versions(),
     }

@@ -40,13 +40,10 @@ def nan_error(connection: Connection, t: float) -> RunError:
     )
 
 
-def make_transfer(
-    connection: Connection,
-    src_runner: Runner,
-    dst_runner: Runner,
-    before_read: Callable[[], None] | None = None,
-) -> Transfer:
-    """A closure copying one connection's values from producer to consumer buffers."""
+def connection_views(
+    connection: Connection, src_runner: Runner, dst_runner: Runner
+) -> tuple[Buffer, Buffer]:
+    """The producer and consumer elements a connection copies between (same size)."""
     src_buffer = src_runner.output_buffer(connection.src.port)
     dst_buffer = dst_runner.input_buffer(connection.dst.port)
     size = connection.size
@@ -55,6 +52,17 @@ def make_transfer(
     if src.size != dst.size:
         msg = f"{connection}: {src.size} elements cannot feed {dst.size}"
         raise RunError(msg, component=connection.dst.component, port=connection.dst.port)
+    return src, dst
+
+
+def make_transfer(
+    connection: Connection,
+    src_runner: Runner,
+    dst_runner: Runner,
+    before_read: Callable[[], None] | None = None,
+) -> Transfer:
+    """A closure copying one connection's values from producer to consumer buffers."""
+    src, dst = connection_views(connection, src_runner, dst_runner)
     factor, offset = connection.factor, connection.offset
     identity = factor == 1.0 and offset == 0.0
     check_nan = np.issubdtype(src.dtype, np.floating)

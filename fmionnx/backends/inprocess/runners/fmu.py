@@ -13,6 +13,8 @@ import ctypes
 import shutil
 import tempfile
 from collections import deque
+from collections.abc import Callable
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -32,6 +34,16 @@ from fmionnx.errors import RunError
 
 _STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 _FMI_WARNING = 1
+
+
+@dataclass(frozen=True)
+class Fmi2CsCalls:
+    """What :meth:`FmuRunner.step` calls for FMI 2 co-simulation: set, doStep, get."""
+
+    instance: ctypes.c_void_p
+    set_calls: tuple[RawCall, ...]
+    do_step: Callable[..., int]
+    get_calls: tuple[RawCall, ...]
 
 
 def status_label(status: int) -> str:
@@ -223,6 +235,20 @@ class FmuRunner:
                 return group.views[port]
         msg = f"{self.component.name}.{port} is not a numeric output of this FMU"
         raise KeyError(msg)
+
+    def fmi2_cs_calls(self) -> Fmi2CsCalls | None:
+        """The prepared per-step calls of an FMI 2 co-simulation instance (after ``setup``).
+
+        A native stepper (:mod:`fmionnx.backends.inprocess.native`) makes the same calls with
+        the same arrays; None for model exchange, FMI 3, or before setup.
+        """
+        if self.fmi3 or self._me is not None or self._instance is None:
+            return None
+        if self.interface_type != "cs" or getattr(self, "_do_step", None) is None:
+            return None
+        return Fmi2CsCalls(
+            self._instance, tuple(self._set_calls), self._do_step, tuple(self._get_calls)
+        )
 
     # -- stepping -------------------------------------------------------------------------------
 
