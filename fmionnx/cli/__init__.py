@@ -7,6 +7,7 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     graph_cmd,
     inspect_cmd,
     lock_cmd,
+    node_cmd,
     run_cmd,
     schema_cmd,
     ssp_cmd,

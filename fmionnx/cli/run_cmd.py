@@ -37,7 +37,8 @@ def _parse_pairs(items: list[str], option: str) -> dict[str, str]:
     "  fmionnx run systems/sign_follower.yaml --out out/demo\n\n"
     "  fmionnx run systems/sign_follower.yaml --stop-time 10 --param tracker.turnRate=0.6\n\n"
     "  fmionnx run model.fmu --stop-time 5 --step 0.01 --interface me --out out/model\n\n"
-    "  fmionnx run detector.onnx --input image=frame.npy --out out/detector",
+    "  fmionnx run detector.onnx --input image=frame.npy --out out/detector\n\n"
+    "  fmionnx run systems/sign_follower.yaml --backend ros2 --sync lockstep --out out/ros2",
 )
 def run(
     target: Annotated[Path, typer.Argument(help="System file (.yaml/.ssp), or a .fmu / .onnx.")],
@@ -65,6 +66,21 @@ def run(
         list[str] | None,
         typer.Option("--input", "-i", help="Single ONNX model: `name=file.npy` per input."),
     ] = None,
+    backend: Annotated[
+        str, typer.Option("--backend", help="`inprocess` (default) or `ros2` (one node each).")
+    ] = "inprocess",
+    sync: Annotated[
+        str, typer.Option("--sync", help="ROS 2: `lockstep` (reproducible) or `free`.")
+    ] = "lockstep",
+    ros_distro: Annotated[
+        str, typer.Option("--ros-distro", help="ROS 2: humble, iron, jazzy or kilted.")
+    ] = "humble",
+    middleware: Annotated[
+        str, typer.Option("--middleware", help="ROS 2: `dds` (Cyclone DDS) or `rclpy`.")
+    ] = "dds",
+    rtf: Annotated[
+        float, typer.Option("--rtf", help="ROS 2 free run: simulator pace (x real time).")
+    ] = 1.0,
 ) -> None:
     """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
     suffix = target.suffix.lower()
@@ -74,6 +90,7 @@ def run(
         raise _fail("--step and --interface apply to a single .fmu only")
     if inputs and suffix != ".onnx":
         raise _fail("--input applies to a single .onnx model only")
+    ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record)
     try:
         if suffix == ".onnx":
             _run_onnx(target, _parse_pairs(inputs or [], "--input"), out, quiet=quiet)
@@ -87,10 +104,53 @@ def run(
             record=record,
             step=step,
             interface=interface,
+            ros2=ros2,
         )
     except KeyboardInterrupt:
         raise _fail("interrupted before the run started", EXIT_INTERRUPTED) from None
     raise typer.Exit(code)
+
+
+def _ros2_options(
+    backend: str,
+    sync: str,
+    distro: str,
+    middleware: str,
+    rtf: float,
+    suffix: str,
+    record: Path | None,
+) -> Any:
+    """The ROS 2 backend's options, or None for the in-process backend (usage errors exit 2)."""
+    if backend not in ("inprocess", "ros2"):
+        raise _fail(f"--backend must be `inprocess` or `ros2`, not `{backend}`")
+    if backend == "inprocess":
+        return None
+    from fmionnx.backends.ros2.messages import RosDistro
+    from fmionnx.backends.ros2.node import SyncMode
+    from fmionnx.backends.ros2.supervisor import Ros2Options
+
+    if sync not in {m.value for m in SyncMode}:
+        raise _fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
+    if distro not in {d.value for d in RosDistro}:
+        raise _fail(f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}")
+    if middleware == "rclpy":
+        import importlib.util
+
+        reason = (
+            "rclpy is not importable here"
+            if importlib.util.find_spec("rclpy") is None
+            else "the rclpy middleware is not implemented yet"
+        )
+        raise _fail(f"--middleware rclpy: {reason}; use `--middleware dds` (the default)")
+    if middleware != "dds":
+        raise _fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
+    if suffix in (".fmu", ".onnx"):
+        raise _fail("--backend ros2 runs system files, not a single model")
+    if record is not None:
+        raise _fail("--record (MCAP) is not available with --backend ros2 yet")
+    if rtf < 0:
+        raise _fail("--rtf must be >= 0 (0: as fast as possible)")
+    return Ros2Options(sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf)
 
 
 def _load(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
@@ -123,11 +183,14 @@ def _run_system(
     record: Path | None,
     step: float | None,
     interface: str | None,
+    ros2: Any = None,
 ) -> int:
+    import dataclasses
+
     from rich.console import Console
 
     from fmionnx.backends.base import RunOptions, RunStatus
-    from fmionnx.errors import DiagnosticError
+    from fmionnx.errors import DiagnosticError, FmionnxError
     from fmionnx.session import OverrideError, parse_value
 
     console = Console(stderr=True, highlight=False)
@@ -147,15 +210,29 @@ def _run_system(
 
         recorder = McapRecorder(record)
     options = RunOptions(frames=recorder)
+    run_fn = system.run
+    if ros2 is not None:
+        from fmionnx.backends.ros2.supervisor import run_ros2
+
+        ros2 = dataclasses.replace(
+            ros2, out=out, stop_time=stop_time, params=tuple(f"{k}={v}" for k, v in params.items())
+        )
+
+        def run_fn(*, options: RunOptions) -> Any:
+            return run_ros2(system.compiled, dataclasses.replace(ros2, run=options))
+
     if not quiet:
         run = system.compiled.run
-        console.print(f"running {system.name} from {run.start:g} to {run.stop:g} s ...")
+        where = "" if ros2 is None else f" as ROS 2 nodes ({ros2.sync.value})"
+        console.print(f"running {system.name}{where} from {run.start:g} to {run.stop:g} s ...")
     try:
-        result = _with_progress(system, options, quiet=quiet, console=console)
+        result = _with_progress(run_fn, system, options, quiet=quiet, console=console)
     except DiagnosticError as exc:
         if recorder is not None:
             recorder.finish(None)
         raise _fail(str(exc.diagnostics[0].message), ExitCode.PROBLEMS) from None
+    except FmionnxError as exc:  # ROS 2: a bad ROS_DOMAIN_ID, DDS refusing to start
+        raise _fail(str(exc), ExitCode.PROBLEMS) from None
     files: list[Path] = []
     if recorder is not None:
         files.append(recorder.finish(result))
@@ -178,11 +255,11 @@ def _run_system(
     return int(ExitCode.OK)
 
 
-def _with_progress(system: Any, options: Any, *, quiet: bool, console: Any) -> Any:
+def _with_progress(run_fn: Any, system: Any, options: Any, *, quiet: bool, console: Any) -> Any:
     import dataclasses
 
     if quiet or not console.is_terminal:
-        return system.run(options=options)
+        return run_fn(options=options)
     from rich.progress import BarColumn, Progress, TextColumn, TimeElapsedColumn
 
     stop = system.compiled.run.stop
@@ -203,7 +280,7 @@ def _with_progress(system: Any, options: Any, *, quiet: bool, console: Any) -> A
             simulated = sim - system.compiled.run.start
             progress.update(task, completed=done, sim=sim, rtf=simulated / wall if wall else 0.0)
 
-        return system.run(options=dataclasses.replace(options, progress=update))
+        return run_fn(options=dataclasses.replace(options, progress=update))
 
 
 def _summary(console: Any, result: Any, files: list[Path]) -> None:

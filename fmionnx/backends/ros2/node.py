@@ -1,0 +1,474 @@
+"""One component as a ROS 2 node: its in-process runner between DDS readers and writers.
+
+The node reuses the in-process pieces unchanged: the component's runner
+(:func:`~fmionnx.backends.inprocess.runners.make_runner`), the connection transfers
+(:func:`~fmionnx.backends.inprocess.transfer.make_transfer`: element selection,
+``factor*x+offset``, dtype conversion, NaN check) and the recorder tracks. What differs is where
+a producer's value comes from: a *proxy* buffer per producer port, shaped and typed like the
+producer's own output buffer, filled from the decoded message. A lockstep node therefore feeds
+its runner exactly the bytes the in-process master would.
+
+Time: every node follows ``/clock``. ``lockstep``: the supervisor publishes ``t_n`` and waits
+for ``/fmionnx/done`` from every node due at ``n``; a due node reads, per subscribed topic, the
+sample number :meth:`TopicSchedule.count_before` names (the producer's step-``n`` value when it
+runs earlier in the order, else the held one), steps, publishes, reports done. ``free``: the
+simulator node steps at its own pace (``rtf`` times real time) and publishes ``/clock``; every
+other node steps at its grid points once the clock has passed them, with the newest value of
+each input, after every input delivered a first sample.
+"""
+
+from __future__ import annotations
+
+import enum
+import logging
+import signal
+import time
+from collections import deque
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType
+
+import numpy as np
+
+from fmionnx.backends.inprocess.runners import Wiring, make_runner
+from fmionnx.backends.inprocess.runners.base import Buffer, Runner
+from fmionnx.backends.inprocess.transfer import Transfer, make_transfer
+from fmionnx.backends.ros2.codec import TopicCodec
+from fmionnx.backends.ros2.control import (
+    CLOCK_DDS,
+    CONTROL_READER_QOS,
+    CONTROL_WRITER_QOS,
+    DONE_DDS,
+    DONE_TYPE,
+    READY_DDS,
+    READY_TYPE,
+    StepClock,
+    encode_ready,
+)
+from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
+from fmionnx.backends.ros2.env import from_environment
+from fmionnx.backends.ros2.mapping import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
+from fmionnx.backends.ros2.messages import RosDistro
+from fmionnx.backends.ros2.names import dds_topic
+from fmionnx.backends.ros2.qos import QosProfile, Reliability
+from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
+from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
+from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
+from fmionnx.compile.ir import CompiledSystem, Component, DType
+from fmionnx.errors import FmionnxError, RunError
+
+log = logging.getLogger("fmionnx.node")
+
+#: Seconds a writer waits for the readers of the run before publishing its first sample.
+MATCH_TIMEOUT = 60.0
+
+
+class SyncMode(enum.StrEnum):
+    """How nodes share simulated time."""
+
+    LOCKSTEP = "lockstep"
+    FREE = "free"
+
+
+class NodeError(FmionnxError):
+    """The node cannot start (unknown component, external component, unmappable system)."""
+
+
+@dataclass(frozen=True)
+class NodeOptions:
+    """How one node runs; the supervisor passes the same to all of them."""
+
+    sync: SyncMode = SyncMode.LOCKSTEP
+    distro: RosDistro = RosDistro.HUMBLE
+    record_dir: Path | None = None
+    supervised: bool = False
+    rtf: float = 1.0
+
+
+def clock_source(system: CompiledSystem, plan: Ros2Plan) -> str | None:
+    """The component whose node publishes ``/clock`` in a free run: the first simulator."""
+    running = {n.component for n in plan.nodes}
+    for name in system.order:
+        if name in running and system.component(name).kind == "mujoco":
+            return name
+    return None
+
+
+class ProxyRunner:
+    """Stands in for a producer in another process: its output buffers, filled from DDS."""
+
+    def __init__(self, component: Component) -> None:
+        self.component = component
+        self.lazy_outputs: frozenset[str] = frozenset()
+        self._buffers: dict[str, Buffer] = {}
+
+    def output_buffer(self, port: str) -> Buffer:
+        """A flat buffer typed like the producer's port (made on first use)."""
+        buffer = self._buffers.get(port)
+        if buffer is None:
+            spec = self.component.port(port)
+            dtype = np.float64 if spec.dtype in (DType.STRING, DType.BINARY) else spec.dtype.value
+            buffer = np.zeros(spec.size or 1, dtype=dtype)
+            self._buffers[port] = buffer
+        return buffer
+
+    def has(self, port: str) -> bool:
+        """Whether a transfer reads ``port``."""
+        return port in self._buffers
+
+    # The rest of the runner protocol: a proxy never runs anything.
+    def instantiate(self) -> None:
+        """Nothing to load."""
+
+    def setup(self, start: float, stop: float) -> None:
+        """Nothing to initialise."""
+
+    def input_buffer(self, port: str) -> Buffer:
+        """A proxy has no inputs."""
+        raise KeyError(port)
+
+    def step(self, t: float, h: float) -> None:
+        """A proxy never steps."""
+
+    def produce(self, port: str) -> None:
+        """Nothing is lazy."""
+
+    def terminate(self) -> None:
+        """Nothing to free."""
+
+
+@dataclass
+class Inbox:
+    """One subscribed topic: its reader, the samples not yet used, where values go."""
+
+    topic: TopicPlan
+    reader: RawReader
+    codec: TopicCodec
+    schedule: TopicSchedule | None
+    sinks: list[tuple[str, Buffer]]
+    queue: deque[tuple[int, bytes]] = field(default_factory=deque)
+    received: int = 0
+    used: int = 0
+
+    def drain(self) -> None:
+        """Move every waiting sample into the queue, numbered from 1."""
+        while True:
+            samples = self.reader.take(256)
+            for data in samples:
+                self.received += 1
+                self.queue.append((self.received, data))
+            if len(samples) < 256:
+                return
+
+    def _apply(self, index: int, data: bytes) -> None:
+        if index == self.used:
+            return
+        values, _ = self.codec.decode(data)
+        for port, buffer in self.sinks:
+            np.copyto(buffer, values[port].reshape(buffer.shape), casting="unsafe")
+        self.used = index
+
+    def exact(self, needed: int) -> None:
+        """Lockstep: load sample number ``needed``, waiting for it (held values: no decode)."""
+        while True:
+            self.drain()
+            while self.queue and self.queue[0][0] < needed:
+                self.queue.popleft()
+            if self.queue:
+                index, data = self.queue[0]
+                self._apply(index, data)
+                return
+            if needed <= self.used:
+                return
+            self.reader.wait(0.5)
+
+    def newest(self) -> None:
+        """Free run (and topics from outside the run): load the newest sample, if any."""
+        self.drain()
+        if self.queue:
+            index, data = self.queue[-1]
+            self.queue.clear()
+            self._apply(index, data)
+
+
+@dataclass
+class Outbox:
+    """One published topic: its writer, codec, the ports that fill it."""
+
+    topic: TopicPlan
+    writer: RawWriter
+    codec: TopicCodec
+    schedule: TopicSchedule
+    values: dict[str, Buffer]
+    lazy: tuple[str, ...]
+    readers: int
+
+
+def _wiring(system: CompiledSystem, component: Component) -> Wiring:
+    incoming = system.inputs_of(component.name)
+    sizes: dict[str, int] = {}
+    for connection in incoming:
+        sizes[connection.dst.port] = sizes.get(connection.dst.port, 0) + connection.size
+    return Wiring(frozenset(c.dst.port for c in incoming), sizes)
+
+
+def _terminate_on_sigterm() -> None:
+    """SIGTERM ends the node like Ctrl-C: results so far are saved, DDS entities deleted."""
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    signal.signal(signal.SIGTERM, handler)
+
+
+class Node:
+    """The node of one component; :meth:`run` returns the process exit code."""
+
+    def __init__(
+        self, system: CompiledSystem, plan: Ros2Plan, component: str, options: NodeOptions
+    ) -> None:
+        if component not in {c.name for c in system.components}:
+            names = ", ".join(c.name for c in system.components)
+            msg = f"the system has no component `{component}` (it has {names})"
+            raise NodeError(msg)
+        if component in plan.external:
+            msg = f"component `{component}` is `external: true`: its topics come from outside"
+            raise NodeError(msg)
+        self.system = system
+        self.plan = plan
+        self.component = system.component(component)
+        self.node_plan: NodePlan = plan.node(component)
+        self.options = options
+        self.clock = StepClock(system.run, plan.distro)
+        self.position = system.order.index(component)
+        self.is_clock_source = (
+            options.sync is SyncMode.FREE and clock_source(system, plan) == component
+        )
+        self.steps_done = 0
+        self.inboxes: list[Inbox] = []
+        self.outboxes: list[Outbox] = []
+        self.transfers: tuple[Transfer, ...] = ()
+        self.recording: NodeRecording | None = None
+        self.runner: Runner | None = None
+
+    # -- set-up --------------------------------------------------------------------------------
+
+    def _qos(self, profile: QosProfile, *, reader: bool) -> QosProfile:
+        """Lockstep: reliable, and readers keep every sample (a count must never skip one)."""
+        if self.options.sync is not SyncMode.LOCKSTEP:
+            return profile
+        return QosProfile(Reliability.RELIABLE, profile.durability, max(profile.depth, 64), reader)
+
+    def _open(self, participant: Participant, runner: Runner) -> None:
+        system, plan, name = self.system, self.plan, self.component.name
+        distro = plan.distro
+        schedules = topic_schedules(system, plan)
+        proxies: dict[str, ProxyRunner] = {}
+        transfers = []
+        for connection in system.inputs_of(name):
+            src = connection.src.component
+            proxy = proxies.setdefault(src, ProxyRunner(system.component(src)))
+            transfers.append(make_transfer(connection, proxy, runner))
+        self.transfers = tuple(transfers)
+        for topic_name in self.node_plan.subscribes:
+            topic = plan.topic(topic_name)
+            sinks: dict[tuple[str, str], tuple[str, Buffer]] = {}
+            for sub in plan.subscriptions:
+                if sub.component != name or sub.topic != topic_name:
+                    continue
+                if sub.connection_index < 0:  # a topic mapped onto one of this node's inputs
+                    buffer = runner.input_buffer(sub.src_port)
+                    sinks[("", sub.src_port)] = (sub.src_port, buffer)
+                else:
+                    source = system.connections[sub.connection_index].src.component
+                    buffer = proxies[source].output_buffer(sub.src_port)
+                    sinks[(source, sub.src_port)] = (sub.src_port, buffer)
+            reader = participant.reader(
+                dds_topic(topic_name), topic.msgtype, self._qos(topic.qos, reader=True)
+            )
+            codec = TopicCodec(topic.msgtype, topic.fields, distro, frame_id=topic.frame_id)
+            schedule = schedules.get(topic_name) if topic.publisher is not None else None
+            self.inboxes.append(Inbox(topic, reader, codec, schedule, list(sinks.values())))
+        for topic_name in self.node_plan.publishes:
+            topic = plan.topic(topic_name)
+            writer = participant.writer(
+                dds_topic(topic_name), topic.msgtype, self._qos(topic.qos, reader=False)
+            )
+            codec = TopicCodec(topic.msgtype, topic.fields, distro, frame_id=topic.frame_id)
+            values = {f.port: runner.output_buffer(f.port) for f in topic.fields}
+            lazy = tuple(f.port for f in topic.fields if f.port in runner.lazy_outputs)
+            readers = len({s.component for s in plan.subscriptions if s.topic == topic_name})
+            self.outboxes.append(
+                Outbox(topic, writer, codec, schedules[topic_name], values, lazy, readers)
+            )
+
+    def _readers_matched(self) -> None:
+        for box in self.outboxes:
+            if not box.writer.wait_for_readers(box.readers, MATCH_TIMEOUT):
+                log.warning("topic %s: only %d of %d readers matched", box.topic.name,
+                            box.writer.matched(), box.readers)
+
+    # -- stepping ------------------------------------------------------------------------------
+
+    def _publish(self, runner: Runner, n: int | None, stamp: float) -> None:
+        for box in self.outboxes:
+            due = box.schedule.published_at_init() if n is None else box.schedule.published_at(n)
+            if not due:
+                continue
+            for port in box.lazy:
+                runner.produce(port)
+            box.writer.write(box.codec.encode(box.values, stamp))
+
+    def _step(self, runner: Runner, n: int, *, exact: bool) -> None:
+        t = self.system.run.time_at(n)
+        for inbox in self.inboxes:
+            if exact and inbox.schedule is not None:
+                inbox.exact(inbox.schedule.count_before(n, self.position))
+            else:
+                inbox.newest()
+        for transfer in self.transfers:
+            transfer(t)
+        recording = self.recording
+        if recording is not None and recording.before is not None:
+            recording.before.sample()
+        h = self.component.period_steps * self.system.run.step
+        runner.step(t, h)
+        if recording is not None and recording.after is not None:
+            recording.after.sample()
+        self.steps_done = n + self.component.period_steps
+        self._publish(runner, n, t + h)
+
+    # -- time ----------------------------------------------------------------------------------
+
+    def _latest_tick(self, reader: RawReader, timeout: float) -> int | None:
+        latest: int | None = None
+        while True:
+            samples = reader.take(256)
+            for data in samples:
+                tick = self.clock.decode(data)
+                latest = tick if latest is None else max(latest, tick)
+            if len(samples) < 256:
+                break
+        if latest is None and reader.wait(timeout):
+            return self._latest_tick(reader, 0.0)
+        return latest
+
+    def _lockstep(self, runner: Runner, clock: RawReader, done: RawWriter) -> None:
+        total, period = self.system.run.steps, self.component.period_steps
+        name = self.component.name
+        while True:
+            n = self._latest_tick(clock, 1.0)
+            if n is None:
+                continue
+            if n >= total:
+                return
+            if n % period:
+                continue
+            self._step(runner, n, exact=True)
+            done.write(self.clock.encode_done(name, n))
+
+    def _free(self, runner: Runner, clock: RawReader) -> None:
+        total, period = self.system.run.steps, self.component.period_steps
+        next_n, started, now = 0, False, 0
+        while next_n < total:
+            tick = self._latest_tick(clock, 1.0)
+            if tick is not None:
+                now = max(now, tick)
+            if not started:
+                for inbox in self.inboxes:
+                    inbox.drain()
+                started = all(inbox.received > 0 for inbox in self.inboxes)
+                if not started:
+                    if now >= total:
+                        return
+                    continue
+                log.info("every input arrived; stepping from t=%g s", self.system.run.time_at(next_n))
+            while next_n < min(now, total):
+                self._step(runner, next_n, exact=False)
+                next_n += period
+
+    def _free_clock_source(self, runner: Runner, clock_in: RawReader, clock_out: RawWriter) -> None:
+        run, period = self.system.run, self.component.period_steps
+        total = run.steps
+        if self.options.supervised:
+            while self._latest_tick(clock_in, 1.0) is None:
+                pass
+        started = time.perf_counter()
+        rtf = self.options.rtf
+        for n in range(0, total, period):
+            if rtf > 0:
+                wait = started + (n * run.step) / rtf - time.perf_counter()
+                if wait > 0:
+                    time.sleep(wait)
+            self._step(runner, n, exact=False)
+            clock_out.write(self.clock.encode(min(n + period, total)))
+
+    # -- the process ---------------------------------------------------------------------------
+
+    def run(self) -> int:
+        """Run to the end of the simulation; 0 when completed, 1 on a fault, 130 when stopped."""
+        _terminate_on_sigterm()
+        opts = self.options
+        status, error, code = "completed", None, 0
+        participant = Participant(from_environment(self.plan.distro))
+        announcer: GraphAnnouncer | None = None
+        runner = make_runner(self.component, _wiring(self.system, self.component))
+        self.runner = runner
+        try:
+            runner.instantiate()
+            runner.setup(self.system.run.start, self.system.run.stop)
+            self.recording = node_recording(self.system, runner, record_refs(self.system))
+            self._open(participant, runner)
+            clock_in = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
+            entities = [*(b.reader.gid for b in self.inboxes), clock_in.gid]
+            writers = [b.writer.gid for b in self.outboxes]
+            done = participant.writer(DONE_DDS, DONE_TYPE, CONTROL_WRITER_QOS)
+            ready = participant.writer(READY_DDS, READY_TYPE, CONTROL_WRITER_QOS)
+            clock_out = None
+            if self.is_clock_source:
+                clock_out = participant.writer(CLOCK_DDS, CLOCK_TYPE, CONTROL_WRITER_QOS)
+                writers.append(clock_out.gid)
+            writers += [done.gid, ready.gid]
+            announcer = GraphAnnouncer(participant)
+            announcer.add_node(
+                NodeEntities(self.node_plan.namespace, self.node_plan.name, entities, writers)
+            )
+            self._readers_matched()
+            self._publish(runner, None, self.system.run.start)
+            if opts.supervised:
+                ready.wait_for_readers(1, MATCH_TIMEOUT)
+                done.wait_for_readers(1, MATCH_TIMEOUT)
+                ready.write(encode_ready(self.component.name, self.plan.distro))
+            log.info("node %s (%s) ready, sync %s", self.node_plan.fqn, self.component.name,
+                     opts.sync.value)
+            if opts.sync is SyncMode.LOCKSTEP:
+                self._lockstep(runner, clock_in, done)
+            elif clock_out is not None:
+                self._free_clock_source(runner, clock_in, clock_out)
+            else:
+                self._free(runner, clock_in)
+            log.info("finished at step %d", self.steps_done)
+        except RunError as exc:
+            status, error, code = "fault", exc, 1
+            log.error("fault: %s", exc)  # noqa: TRY400 - the fault is the message, not a bug
+        except KeyboardInterrupt:
+            status, code = "interrupted", 130
+            log.info("stopped at step %d", self.steps_done)
+        finally:
+            if opts.record_dir is not None:
+                save_node(opts.record_dir, self.recording, self.component.name,
+                          status=status, steps=self.steps_done, error=error)
+            runner.terminate()
+            if announcer is not None:
+                announcer.withdraw()
+            participant.close()
+        return code
+
+
+def describe_node(plan: Ros2Plan, component: str) -> str:
+    """``fmu_sign_tracking_node (tracker)`` for messages."""
+    try:
+        return f"{plan.node(component).fqn} (component `{component}`)"
+    except KeyError:
+        return f"component `{component}`"
+

@@ -1,0 +1,180 @@
+"""Results of a ROS 2 run: each node records its own component, the supervisor merges.
+
+A node records exactly what the in-process master records for its component (the same
+:class:`~fmionnx.backends.inprocess.recorder.Track` objects: recorded inputs sampled before a
+step, outputs after it, one row per own step, the first output row after set-up) and saves the
+rows to ``<record dir>/<component>.npz`` with a ``<component>.json`` status when it ends. The
+supervisor rebuilds a :class:`~fmionnx.backends.inprocess.recorder.Recorder` from those files,
+so the base-step expansion, the column order and therefore ``results.csv`` are the in-process
+ones, bit for bit, when the values are.
+"""
+
+from __future__ import annotations
+
+import json
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+
+from fmionnx.backends.base import RunOptions
+from fmionnx.backends.inprocess.master import column_names, default_record, is_image, plot_refs
+from fmionnx.backends.inprocess.recorder import Recorder, Track
+from fmionnx.backends.inprocess.runners.base import Buffer, Runner
+from fmionnx.compile.endpoints import flat_index
+from fmionnx.compile.ir import Causality, CompiledSystem, PortRef
+from fmionnx.errors import RunError
+
+
+def record_refs(system: CompiledSystem, options: RunOptions | None = None) -> tuple[PortRef, ...]:
+    """The signals a run records: as :attr:`Master.record_refs` decides them."""
+    if options is not None and options.record is not None:
+        return options.record
+    chosen = system.record or default_record(system)
+    return (*chosen, *plot_refs(system))
+
+
+@dataclass
+class NodeRecording:
+    """The tracks of one component: inputs before a step, outputs after it."""
+
+    component: str
+    before: Track | None
+    after: Track | None
+
+    @property
+    def tracks(self) -> tuple[Track, ...]:
+        """The tracks that exist."""
+        return tuple(t for t in (self.before, self.after) if t is not None)
+
+
+def node_recording(
+    system: CompiledSystem, runner: Runner, refs: tuple[PortRef, ...]
+) -> NodeRecording:
+    """Tracks for ``runner``'s component (call after set-up: samples the initial outputs)."""
+    name = runner.component.name
+    period = runner.component.period_steps
+    total = system.run.steps
+    seen: set[str] = set()
+    sides: tuple[list[tuple[list[str], Buffer]], list[tuple[list[str], Buffer]]] = ([], [])
+    for ref in refs:
+        if ref.component != name:
+            continue
+        port = runner.component.port(ref.port)
+        if is_image(port) or port.name in runner.lazy_outputs:
+            continue
+        names = column_names(name, port, ref.index)
+        if any(n in seen for n in names):
+            continue
+        is_output = port.causality is Causality.OUTPUT
+        try:
+            buffer = runner.output_buffer(port.name) if is_output else runner.input_buffer(port.name)
+        except KeyError:
+            continue
+        seen.update(names)
+        if ref.index is not None:
+            i = flat_index(port, ref.index)
+            buffer = buffer[i : i + 1]
+        sides[1 if is_output else 0].append((names, buffer))
+    tracks: list[Track | None] = []
+    for items in sides:
+        if not items:
+            tracks.append(None)
+            continue
+        track = Track(period, total // period + 2)
+        for names, buffer in items:
+            track.add(names, buffer)
+        track.allocate()
+        tracks.append(track)
+    before, after = tracks
+    if after is not None:
+        after.sample()
+    return NodeRecording(name, before, after)
+
+
+def save_node(
+    folder: Path,
+    recording: NodeRecording | None,
+    component: str,
+    *,
+    status: str,
+    steps: int,
+    error: RunError | None = None,
+) -> None:
+    """Write ``<component>.npz`` (rows) and ``<component>.json`` (how the node ended)."""
+    folder.mkdir(parents=True, exist_ok=True)
+    arrays: dict[str, Any] = {}
+    for i, track in enumerate(recording.tracks if recording else ()):
+        arrays[f"rows{i}"] = track.rows[: track.count]
+        arrays[f"columns{i}"] = np.array(track.columns, dtype=str)
+        arrays[f"period{i}"] = np.array(track.period_steps)
+    np.savez(folder / f"{component}.npz", **arrays)
+    info = {
+        "component": component,
+        "status": status,
+        "steps": steps,
+        "error": None
+        if error is None
+        else {
+            "message": str(error),
+            "component": error.component,
+            "port": error.port,
+            "time": error.time,
+        },
+    }
+    (folder / f"{component}.json").write_text(json.dumps(info, indent=2), encoding="utf-8")
+
+
+def load_status(folder: Path, component: str) -> dict[str, Any] | None:
+    """The status a node wrote, or None (it never got that far)."""
+    path = folder / f"{component}.json"
+    try:
+        loaded: dict[str, Any] = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return None
+    return loaded
+
+
+def error_of(status: dict[str, Any]) -> RunError | None:
+    """The fault a node reported in its status."""
+    error = status.get("error")
+    if not isinstance(error, dict):
+        return None
+    return RunError(
+        str(error.get("message")),
+        component=error.get("component"),
+        port=error.get("port"),
+        time=error.get("time"),
+    )
+
+
+def merge(
+    folder: Path, components: list[str], refs: tuple[PortRef, ...], system: CompiledSystem
+) -> Recorder:
+    """A recorder holding every node's saved tracks, columns in the in-process order."""
+    recorder = Recorder()
+    available: set[str] = set()
+    for component in components:
+        path = folder / f"{component}.npz"
+        if not path.exists():
+            continue
+        with np.load(path, allow_pickle=False) as data:
+            i = 0
+            while f"rows{i}" in data:
+                rows = np.asarray(data[f"rows{i}"], dtype=np.float64)
+                columns = [str(c) for c in data[f"columns{i}"]]
+                track = Track(int(data[f"period{i}"]), len(rows), columns, [], rows, len(rows))
+                if len(rows):
+                    recorder.tracks.append(track)
+                    available.update(columns)
+                i += 1
+    seen: set[str] = set()
+    for ref in refs:
+        port = system.component(ref.component).port(ref.port)
+        names = column_names(ref.component, port, ref.index)
+        if any(n in seen for n in names) or not all(n in available for n in names):
+            continue
+        seen.update(names)
+        recorder.order.extend(names)
+    return recorder

@@ -1,0 +1,405 @@
+"""``fmionnx run --backend ros2``: one OS process per component, owned by this supervisor.
+
+Children are ``python -m fmionnx node SYSTEM COMPONENT --supervised ...``, each in its own
+process group (the supervisor, not the terminal, decides when they stop) and with
+``PR_SET_PDEATHSIG`` so that they die with the supervisor even when it is killed outright.
+stdout and stderr of each go to ``<out>/logs/<component>.log``; each node saves its recorded
+rows under ``<out>/nodes/`` when it ends, and the supervisor merges them into the usual
+:class:`RunResult` (so ``results.csv``/``run.json`` are written by :mod:`fmionnx.results`).
+
+Lockstep hand-shake (``docs/ros2.md``): wait for ``/fmionnx/ready`` from every node, then for
+``n = 0 .. N-1`` publish ``/clock = t_n`` and wait for ``/fmionnx/done`` (stamp ``t_n``) from
+every node due at ``n``; finally publish ``t_N``, on which every node saves and exits. Free run:
+publish ``t_0`` once as the start signal; the simulator node then publishes ``/clock``.
+
+Any child ending early stops the run: a node that reported a fault gives a FAULT result with its
+error; any other exit is a crash, reported with the node's name, exit status and last log lines.
+Ctrl-C / SIGTERM stop every child (SIGTERM, then SIGKILL after a grace period).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import signal
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+from types import FrameType
+
+import numpy as np
+
+from fmionnx.backends.base import RunOptions, RunResult, RunStatus
+from fmionnx.backends.ros2.control import (
+    CLOCK_DDS,
+    CONTROL_READER_QOS,
+    CONTROL_WRITER_QOS,
+    DONE_DDS,
+    DONE_TYPE,
+    READY_DDS,
+    READY_TYPE,
+    StepClock,
+    decode_ready,
+)
+from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
+from fmionnx.backends.ros2.env import from_environment
+from fmionnx.backends.ros2.loading import plan_for
+from fmionnx.backends.ros2.mapping import CLOCK_TYPE, Ros2Plan
+from fmionnx.backends.ros2.messages import RosDistro
+from fmionnx.backends.ros2.node import SyncMode, clock_source, describe_node
+from fmionnx.backends.ros2.recording import error_of, load_status, merge, record_refs
+from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.errors import FmionnxError, RunError
+
+BACKEND_NAME = "ros2"
+#: Name under which the supervisor itself shows in ``ros2 node list``.
+SUPERVISOR_NODE = "fmionnx_supervisor"
+#: Log lines quoted when a node crashes.
+TAIL_LINES = 12
+#: Seconds children get to save their results after SIGTERM before SIGKILL.
+GRACE = 10.0
+
+
+class SupervisorError(FmionnxError):
+    """The run could not start (a node never became ready)."""
+
+
+@dataclass(frozen=True)
+class Ros2Options:
+    """What ``fmionnx run --backend ros2`` passes on to its nodes.
+
+    ``stop_time``/``params`` are the command-line overrides, forwarded as text so that every
+    node compiles exactly the system the supervisor compiled. ``out``: logs and node rows go to
+    ``out/logs`` and ``out/nodes`` (a temporary folder without it).
+    """
+
+    sync: SyncMode = SyncMode.LOCKSTEP
+    distro: RosDistro = RosDistro.HUMBLE
+    out: Path | None = None
+    stop_time: float | None = None
+    params: tuple[str, ...] = ()
+    rtf: float = 1.0
+    ready_timeout: float = 180.0
+    run: RunOptions = field(default_factory=RunOptions)
+
+
+class NodeEnded(Exception):  # noqa: N818 - a control-flow signal, not an error type
+    """A child process ended before the run did."""
+
+    def __init__(self, component: str, code: int) -> None:
+        self.component = component
+        self.code = code
+        super().__init__(component)
+
+
+def _die_with_parent() -> None:  # pragma: no cover - runs in the forked child
+    libc = ctypes.CDLL(None, use_errno=True)
+    libc.prctl(1, signal.SIGKILL)  # PR_SET_PDEATHSIG
+
+
+def exit_text(code: int) -> str:
+    """``exited with status 3`` / ``was killed by signal 9 (SIGKILL)``."""
+    if code < 0:
+        try:
+            name = signal.Signals(-code).name
+        except ValueError:
+            name = "?"
+        return f"was killed by signal {-code} ({name})"
+    return f"exited with status {code}"
+
+
+def tail(path: Path, lines: int = TAIL_LINES) -> str:
+    """The last ``lines`` lines of a log file (empty when unreadable)."""
+    try:
+        text = path.read_text(encoding="utf-8", errors="replace")
+    except OSError:
+        return ""
+    return "\n".join(text.splitlines()[-lines:])
+
+
+class Children:
+    """The node processes: started, polled, stopped; never left behind."""
+
+    def __init__(self, logs: Path) -> None:
+        self.logs = logs
+        self.procs: dict[str, subprocess.Popen[bytes]] = {}
+
+    def start(self, component: str, argv: list[str]) -> None:
+        """Start one node, output to ``logs/<component>.log``, in a process group of its own."""
+        self.logs.mkdir(parents=True, exist_ok=True)
+        with (self.logs / f"{component}.log").open("wb") as log:
+            self.procs[component] = subprocess.Popen(
+                argv,
+                stdin=subprocess.DEVNULL,
+                stdout=log,
+                stderr=subprocess.STDOUT,
+                process_group=0,
+                preexec_fn=_die_with_parent,  # noqa: PLW1509 - only prctl, no locks
+            )
+
+    def check(self) -> None:
+        """Raise :class:`NodeEnded` for the first child that is no longer running."""
+        for component, proc in self.procs.items():
+            code = proc.poll()
+            if code is not None:
+                raise NodeEnded(component, code)
+
+    def ended_cleanly(self, records: Path) -> bool:
+        """True when every child ended after completing; NodeEnded for any other ending."""
+        running = False
+        for component, proc in self.procs.items():
+            code = proc.poll()
+            if code is None:
+                running = True
+                continue
+            status = load_status(records, component) or {}
+            if code != 0 or status.get("status") != "completed":
+                raise NodeEnded(component, code)
+        return not running
+
+    def wait_all(self, timeout: float) -> bool:
+        """Wait until every child ended; False on timeout."""
+        deadline = time.monotonic() + timeout
+        for proc in self.procs.values():
+            try:
+                proc.wait(timeout=max(deadline - time.monotonic(), 0.01))
+            except subprocess.TimeoutExpired:
+                return False
+        return True
+
+    def stop(self) -> None:
+        """SIGTERM every process group, SIGKILL what is left after :data:`GRACE` seconds."""
+        for proc in self.procs.values():
+            if proc.poll() is None:
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(proc.pid, signal.SIGTERM)
+        if not self.wait_all(GRACE):
+            for proc in self.procs.values():
+                with contextlib.suppress(ProcessLookupError):
+                    os.killpg(proc.pid, signal.SIGKILL)
+            self.wait_all(GRACE)
+        for proc in self.procs.values():  # sub-processes a node left in its group
+            with contextlib.suppress(ProcessLookupError, PermissionError):
+                os.killpg(proc.pid, signal.SIGKILL)
+
+
+@contextlib.contextmanager
+def _sigterm_interrupts() -> Iterator[None]:
+    """SIGTERM to the supervisor stops the run like Ctrl-C (children are then stopped)."""
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        raise KeyboardInterrupt
+
+    try:
+        previous = signal.signal(signal.SIGTERM, handler)
+    except ValueError:  # not the main thread: leave signals alone
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGTERM, previous)
+
+
+class Supervisor:
+    """One run of a system as ROS 2 nodes."""
+
+    def __init__(self, system: CompiledSystem, options: Ros2Options, folder: Path) -> None:
+        self.system = system
+        self.options = options
+        self.plan: Ros2Plan = plan_for(system, options.distro)
+        self.folder = folder
+        self.records = folder / "nodes"
+        self.logs = folder / "logs"
+        self.children = Children(self.logs)
+        self.clock = StepClock(system.run, options.distro)
+        self.components = [n.component for n in self.plan.nodes]
+        self.steps_done = 0
+
+    def argv(self, component: str) -> list[str]:
+        """The command line of one node."""
+        opts = self.options
+        argv = [
+            sys.executable, "-m", "fmionnx", "node", str(self.system.source), component,
+            "--sync", opts.sync.value, "--ros-distro", opts.distro.value,
+            "--record-dir", str(self.records), "--supervised", "--rtf", repr(opts.rtf),
+        ]  # fmt: skip
+        if opts.stop_time is not None:
+            argv += ["--stop-time", repr(opts.stop_time)]
+        for item in opts.params:
+            argv += ["--param", item]
+        return argv
+
+    # -- phases --------------------------------------------------------------------------------
+
+    def _wait_ready(self, ready: RawReader) -> None:
+        waiting = set(self.components)
+        deadline = time.monotonic() + self.options.ready_timeout
+        while waiting:
+            self.children.check()
+            if time.monotonic() > deadline:
+                names = ", ".join(sorted(waiting))
+                msg = f"node(s) {names} did not become ready in {self.options.ready_timeout:g} s"
+                raise SupervisorError(msg)
+            for data in ready.take():
+                waiting.discard(decode_ready(data, self.options.distro))
+            ready.wait(0.2)
+
+    def _progress(self, n: int) -> None:
+        progress = self.options.run.progress
+        if progress is not None and n % max(1, self.options.run.progress_every) == 0:
+            run = self.system.run
+            progress(n, run.steps, run.time_at(n))
+
+    def _lockstep(self, writer: RawWriter, done: RawReader) -> None:
+        system = self.system
+        periods = {c: system.component(c).period_steps for c in self.components}
+        total = system.run.steps
+        for n in range(total):
+            writer.write(self.clock.encode(n))
+            due = {c for c, p in periods.items() if n % p == 0}
+            while due:
+                for data in done.take(256):
+                    component, step = self.clock.decode_done(data)
+                    if step == n:
+                        due.discard(component)
+                if due and not done.wait(0.2):
+                    self.children.check()
+            self.steps_done = n + 1
+            self._progress(n + 1)
+        writer.write(self.clock.encode(total))
+
+    def _free(self, clock_writer: RawWriter, clock: RawReader) -> None:
+        clock_writer.write(self.clock.encode(0))
+        total = self.system.run.steps
+        step = self.system.run.step
+        own_clock = clock_source(self.system, self.plan) is None
+        started = time.perf_counter()
+        rtf = self.options.rtf
+        n = 0
+        while True:
+            if own_clock and n < total:
+                target = started + (n * step / rtf if rtf > 0 else 0.0)
+                time.sleep(max(0.0, min(target - time.perf_counter(), 0.05)))
+                if time.perf_counter() >= target:
+                    n += 1
+                    clock_writer.write(self.clock.encode(n))
+            else:
+                clock.wait(0.2)
+            for data in clock.take(256):
+                n = max(n, self.clock.decode(data))
+            if n > self.steps_done:
+                self.steps_done = min(n, total)
+                self._progress(self.steps_done)
+            if self.children.ended_cleanly(self.records):
+                return
+
+    # -- the run -------------------------------------------------------------------------------
+
+    def run(self) -> RunResult:
+        """Start the nodes, drive or watch the clock, stop everything, merge the results."""
+        status, error = RunStatus.COMPLETED, None
+        participant = Participant(from_environment(self.options.distro))
+        started = time.perf_counter()
+        wall_start = started
+        try:
+            ready = participant.reader(READY_DDS, READY_TYPE, CONTROL_READER_QOS)
+            done = participant.reader(DONE_DDS, DONE_TYPE, CONTROL_READER_QOS)
+            clock_writer = participant.writer(CLOCK_DDS, CLOCK_TYPE, CONTROL_WRITER_QOS)
+            clock_reader = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
+            GraphAnnouncer(participant).add_node(
+                NodeEntities(
+                    "/", SUPERVISOR_NODE,
+                    [ready.gid, done.gid, clock_reader.gid], [clock_writer.gid],
+                )
+            )  # fmt: skip
+            self.records.mkdir(parents=True, exist_ok=True)
+            for stale in [*self.records.glob("*.npz"), *self.records.glob("*.json")]:
+                stale.unlink()
+            for component in self.components:
+                self.children.start(component, self.argv(component))
+            self._wait_ready(ready)
+            # every node's clock reader, plus the supervisor's own
+            clock_writer.wait_for_readers(len(self.components) + 1, 30.0)
+            wall_start = time.perf_counter()
+            if self.options.sync is SyncMode.LOCKSTEP:
+                self._lockstep(clock_writer, done)
+            else:
+                self._free(clock_writer, clock_reader)
+            self._finish()
+        except NodeEnded as ended:
+            status, error = RunStatus.FAULT, self._ended_error(ended)
+        except SupervisorError as exc:
+            status, error = RunStatus.FAULT, RunError(str(exc))
+        except KeyboardInterrupt:
+            status = RunStatus.INTERRUPTED
+        finally:
+            wall = time.perf_counter() - wall_start
+            self.children.stop()
+            participant.close()
+        return self._result(status, error, wall)
+
+    def _finish(self) -> None:
+        """Every node must end by itself, cleanly, once the clock reached the stop time."""
+        if not self.children.wait_all(60.0):
+            msg = "nodes did not end within 60 s after the stop time"
+            raise SupervisorError(msg)
+        self.children.ended_cleanly(self.records)
+
+    def _ended_error(self, ended: NodeEnded) -> RunError:
+        node = describe_node(self.plan, ended.component)
+        status = load_status(self.records, ended.component)
+        if status is not None and status.get("status") == "fault":
+            fault = error_of(status)
+            if fault is not None:
+                self.steps_done = min(self.steps_done, int(status.get("steps", 0)))
+                return fault
+        lines = tail(self.logs / f"{ended.component}.log")
+        message = f"node {node} {exit_text(ended.code)}"
+        if lines:
+            message += f"; its last log lines:\n{lines}"
+        return RunError(message, component=ended.component)
+
+    def _result(self, status: RunStatus, error: RunError | None, wall: float) -> RunResult:
+        run = self.system.run
+        n = self.steps_done
+        refs = record_refs(self.system, self.options.run)
+        recorder = merge(self.records, self.components, refs, self.system)
+        return RunResult(
+            system=self.system.name,
+            backend=BACKEND_NAME,
+            status=status,
+            start=run.start,
+            stop=run.stop,
+            step=run.step,
+            steps_done=n,
+            wall_time=wall,
+            time=np.asarray(run.start + np.arange(n + 1) * run.step, dtype=np.float64),
+            signals=recorder.table(n),
+            error=error,
+        )
+
+
+def run_ros2(system: CompiledSystem, options: Ros2Options | None = None) -> RunResult:
+    """Run ``system`` as ROS 2 nodes (one process each) and return the merged results.
+
+    Raises DiagnosticError when the system does not map onto ROS 2 (nothing is started).
+    """
+    opts = options or Ros2Options()
+    with contextlib.ExitStack() as stack:
+        if opts.out is not None:
+            folder = opts.out
+            folder.mkdir(parents=True, exist_ok=True)
+        else:
+            folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="fmionnx-ros2-")))
+        supervisor = Supervisor(system, opts, folder)
+        stack.enter_context(_sigterm_interrupts())
+        return supervisor.run()
+    msg = "unreachable"  # pragma: no cover - mypy: ExitStack may swallow exceptions
+    raise AssertionError(msg)

@@ -1,0 +1,89 @@
+"""``fmionnx node``: run one component of a system as a ROS 2 node (the supervisor starts these)."""
+
+from __future__ import annotations
+
+import logging
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from fmionnx.cli.app import ExitCode, app
+
+
+def _fail(message: str, code: int) -> typer.Exit:
+    print(f"error: {message}", file=sys.stderr)
+    return typer.Exit(code)
+
+
+@app.command(
+    epilog="Examples:\n\n"
+    "  fmionnx node systems/sign_follower.yaml tracker --sync free\n\n"
+    "  ROS_DOMAIN_ID=7 fmionnx node systems/sign_follower.yaml detector --ros-distro jazzy",
+)
+def node(
+    system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
+    component: Annotated[str, typer.Argument(help="The component this node runs.")],
+    sync: Annotated[str, typer.Option("--sync", help="`lockstep` or `free`.")] = "free",
+    ros_distro: Annotated[
+        str, typer.Option("--ros-distro", help="humble, iron, jazzy or kilted.")
+    ] = "humble",
+    stop_time: Annotated[
+        float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
+    ] = None,
+    param: Annotated[
+        list[str] | None, typer.Option("--param", "-p", help="`component.name=value`.")
+    ] = None,
+    rtf: Annotated[
+        float, typer.Option("--rtf", help="Free run: the simulator node's pace (x real time).")
+    ] = 1.0,
+    record_dir: Annotated[
+        Path | None, typer.Option("--record-dir", help="Folder for this node's recorded rows.")
+    ] = None,
+    supervised: Annotated[
+        bool, typer.Option("--supervised", help="Started by `fmionnx run --backend ros2`.")
+    ] = False,
+) -> None:
+    """Run one component as a ROS 2 node on Cyclone DDS; exit 0 at the stop time, 1 on a fault."""
+    from fmionnx.backends.ros2.env import Ros2EnvError
+    from fmionnx.backends.ros2.loading import load_system, plan_for
+    from fmionnx.backends.ros2.messages import RosDistro
+    from fmionnx.backends.ros2.node import Node, NodeError, NodeOptions, SyncMode
+    from fmionnx.backends.ros2.transport import TransportError
+    from fmionnx.errors import DiagnosticError
+    from fmionnx.session import OverrideError
+
+    try:
+        mode = SyncMode(sync)
+        distro = RosDistro(ros_distro)
+    except ValueError as exc:
+        raise _fail(str(exc), ExitCode.USAGE) from None
+    params = {}
+    for item in param or []:
+        key, sep, value = item.partition("=")
+        if not sep:
+            raise _fail(f"--param `{item}` must look like `name=value`", ExitCode.USAGE)
+        params[key.strip()] = value.strip()
+    logging.basicConfig(
+        level=logging.INFO,
+        stream=sys.stderr,
+        format=f"%(asctime)s {component} %(levelname)s %(message)s",
+    )
+    try:
+        compiled = load_system(system, stop_time=stop_time, params=params)
+        plan = plan_for(compiled, distro)
+        options = NodeOptions(mode, distro, record_dir, supervised, rtf)
+        the_node = Node(compiled, plan, component, options)
+        logging.getLogger("fmionnx.node").info(
+            "system %s, content hash %s", compiled.name, compiled.content_hash[:16]
+        )
+        code = the_node.run()
+    except DiagnosticError as exc:
+        lines = "; ".join(str(d.message) for d in exc.diagnostics[:3])
+        raise _fail(f"{system}: {lines}", ExitCode.PROBLEMS) from None
+    except (NodeError, OverrideError, Ros2EnvError, TransportError) as exc:
+        raise _fail(str(exc), ExitCode.PROBLEMS) from None
+    except KeyboardInterrupt:
+        raise _fail("interrupted", 130) from None
+    raise typer.Exit(code)

@@ -1,0 +1,178 @@
+"""``fmionnx run --backend ros2``: real node processes on loopback DDS, a random domain.
+
+Lockstep equals in-process bit for bit; a crashed node or Ctrl-C stops the run and leaves no
+process behind (checked in /proc by a marker every node's command line carries: the test's
+own output folder).
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Iterator
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import build_fixture_fmu
+
+pytestmark = pytest.mark.ros2
+
+
+def fmionnx(*args: str | Path) -> list[str]:
+    """The command line of ``fmionnx ARGS`` in this interpreter."""
+    return [sys.executable, "-m", "fmionnx", *map(str, args)]
+
+
+def processes_with(marker: str) -> list[int]:
+    """Live (not zombie) processes whose command line mentions ``marker``."""
+    found = []
+    for entry in Path("/proc").iterdir():
+        if not entry.name.isdigit() or int(entry.name) == os.getpid():
+            continue
+        try:
+            cmdline = (entry / "cmdline").read_bytes().replace(b"\0", b" ").decode()
+            state = (entry / "stat").read_text().rsplit(")", 1)[1].split()[0]
+        except (OSError, IndexError):
+            continue
+        if marker in cmdline and state != "Z":
+            found.append(int(entry.name))
+    return found
+
+
+def wait_for_nodes(marker: str, count: int, timeout: float = 60.0) -> list[int]:
+    """Wait until ``count`` node processes run; their pids."""
+    deadline = time.monotonic() + timeout
+    while time.monotonic() < deadline:
+        nodes = [p for p in processes_with(marker) if _is_node(p)]
+        if len(nodes) >= count:
+            return nodes
+        time.sleep(0.2)
+    pytest.fail(f"{count} node processes did not start")
+
+
+def _is_node(pid: int) -> bool:
+    try:
+        return b"\0node\0" in Path(f"/proc/{pid}/cmdline").read_bytes()
+    except OSError:
+        return False
+
+
+@pytest.fixture
+def supervised(loopback_env) -> Iterator[list[subprocess.Popen[str]]]:
+    """Supervisor processes that are always reaped."""
+    started: list[subprocess.Popen[str]] = []
+    yield started
+    for process in started:
+        if process.poll() is None:
+            process.kill()
+        process.communicate(timeout=30)
+
+
+LOOP = """
+fmionnx: 1
+name: loop
+run: {{stop: {stop}, step: 0.01}}
+components:
+  gain: {{kind: fmu, path: {gain}, parameters: {{k: -0.8}}}}
+  integ: {{kind: fmu, path: {integ}, period: 0.05, parameters: {{x0: 1.0}}}}
+  integ2: {{kind: fmu, path: {integ}, period: 0.02}}
+connections:
+  - integ.x -> gain.u         # a loop, cut at the integrator's state
+  - gain.y -> integ.u
+  - gain.w[2] -> integ2.u     # an element of an array port
+  - integ.x -> gain.v[2]
+"""
+
+
+def loop_system(folder: Path, stop: float) -> Path:
+    """Three test FMUs at three rates in a loop (held values, a cut edge, array elements)."""
+    path = folder / "loop.yaml"
+    path.write_text(
+        LOOP.format(
+            stop=stop, gain=build_fixture_fmu("Gain"), integ=build_fixture_fmu("Integrator")
+        ),
+        encoding="utf-8",
+    )
+    return path
+
+
+def test_lockstep_run_of_test_fmus_equals_the_inprocess_run_bit_for_bit(
+    tmp_path: Path, loopback_env
+) -> None:
+    system = loop_system(tmp_path, 1.0)
+    inprocess, ros2 = tmp_path / "inprocess", tmp_path / "ros2"
+    subprocess.run(fmionnx("run", system, "-q", "--out", inprocess), check=True, timeout=60)
+    done = subprocess.run(
+        fmionnx("run", system, "-q", "--backend", "ros2", "--sync", "lockstep", "--out", ros2),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 0, done.stderr
+    expected = (inprocess / "results.csv").read_bytes()
+    assert expected.count(b"\n") == 102  # header + 101 rows
+    assert (ros2 / "results.csv").read_bytes() == expected
+    assert sorted(p.name for p in (ros2 / "logs").iterdir()) == [
+        "gain.log", "integ.log", "integ2.log",
+    ]  # fmt: skip
+    assert '"backend": "ros2"' in (ros2 / "run.json").read_text()
+    assert processes_with(str(tmp_path)) == []
+
+
+def test_killed_node_stops_the_run_naming_it_and_leaves_no_process(
+    tmp_path: Path, supervised
+) -> None:
+    system = loop_system(tmp_path, 10000.0)
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        fmionnx("run", system, "-q", "--backend", "ros2", "--out", out),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    supervised.append(process)
+    marker = str(tmp_path)
+    wait_for_nodes(marker, 3)
+    while not (out / "logs" / "integ.log").exists() or "ready" not in (
+        out / "logs" / "integ.log"
+    ).read_text():
+        time.sleep(0.2)
+    victim = next(p for p in processes_with(marker) if _is_node(p) and _component(p) == "integ")
+    os.kill(victim, signal.SIGKILL)
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 1
+    text = " ".join(stderr.split())  # rich wraps long lines
+    assert "node /integ (component `integ`) was killed by signal 9 (SIGKILL)" in text
+    assert "its last log lines: " in text
+    assert "integ INFO node /integ (integ) ready, sync lockstep" in text
+    assert processes_with(marker) == []
+
+
+def _component(pid: int) -> str:
+    args = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
+    return args[args.index(b"node") + 2].decode()
+
+
+def test_ctrl_c_stops_the_supervisor_and_every_node(tmp_path: Path, supervised) -> None:
+    system = loop_system(tmp_path, 10000.0)
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        fmionnx("run", system, "-q", "--backend", "ros2", "--out", out),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    supervised.append(process)
+    marker = str(tmp_path)
+    wait_for_nodes(marker, 3)
+    time.sleep(3.0)
+    process.send_signal(signal.SIGINT)
+    stdout, stderr = process.communicate(timeout=60)
+    assert process.returncode == 130, stderr
+    assert stdout.strip().splitlines()[-1] == f"Results: {out}"
+    assert processes_with(marker) == []
