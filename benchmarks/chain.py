@@ -8,7 +8,9 @@ step, get the output); what differs is the code around them:
 
 * ``fmionnx``: the real pipeline: a system file compiled by ``fmionnx.load`` and run by the
   in-process master with recording off (``RunOptions(record=())``); the master's own
-  ``wall_time`` covers the stepping loop only;
+  ``wall_time`` covers the stepping loop only. The chain is one group of FMI 2 co-simulation
+  FMUs, which the master steps with its native kernel (one C call per step);
+* ``fmionnx, Python path``: the same with ``FMIONNX_NATIVE=0`` (a Python call per FMU step);
 * ``fmpy loop``: a hand-written loop over fmpy's ``FMU2Slave.setReal/doStep/getReal``;
 * ``ctypes floor``: the raw FMI C functions of the loaded library with value-reference and
   value arrays prepared once (statuses checked): no master can make fewer Python calls;
@@ -25,6 +27,7 @@ from __future__ import annotations
 
 import ctypes
 import itertools
+import os
 import shutil
 import statistics
 import tempfile
@@ -42,6 +45,7 @@ GAIN = 2.0  # the FMU's default k
 FMI_WARNING = 1
 
 FMIONNX = "fmionnx"
+FMIONNX_PYTHON = "fmionnx, Python path"
 FMPY_LOOP = "fmpy loop"
 CTYPES_FLOOR = "ctypes floor"
 SIMULATE_FMU = "fmpy.simulate_fmu"
@@ -134,7 +138,29 @@ def system_text(chain: Chain) -> str:
     return "\n".join(lines) + "\n"
 
 
-def prepare_fmionnx(chain: Chain) -> RunOnce | str:
+@contextmanager
+def native_kernel(enabled: bool) -> Iterator[None]:
+    """``FMIONNX_NATIVE=0`` while a disabled run prepares; the environment restored after."""
+    if enabled:
+        yield
+        return
+    before = os.environ.get("FMIONNX_NATIVE")
+    os.environ["FMIONNX_NATIVE"] = "0"
+    try:
+        yield
+    finally:
+        if before is None:
+            del os.environ["FMIONNX_NATIVE"]
+        else:
+            os.environ["FMIONNX_NATIVE"] = before
+
+
+def prepare_fmionnx_python(chain: Chain) -> RunOnce | str:
+    """fmionnx with its native kernel off: the master's Python loop over the FMU runners."""
+    return prepare_fmionnx(chain, native=False)
+
+
+def prepare_fmionnx(chain: Chain, *, native: bool = True) -> RunOnce | str:
     """Compile the system file once; each repetition is one ``System.run`` without recording."""
     import fmionnx
     from fmionnx.backends.base import RunOptions, RunStatus
@@ -149,12 +175,17 @@ def prepare_fmionnx(chain: Chain) -> RunOnce | str:
         shutil.rmtree(folder, ignore_errors=True)
     tail = PortRef(f"g{chain.n - 1}", "y")
     # Untimed check that the chain computes what the others do (recording only the tail).
-    check = system.run(stop_time=3 * chain.step, record=(tail,))
+    with native_kernel(native):
+        check = system.run(stop_time=3 * chain.step, record=(tail,))
+    if not native and check.details.get("native"):
+        msg = "FMIONNX_NATIVE=0 did not turn the native kernel off"
+        raise RuntimeError(msg)
     final = float(check[f"{tail.component}.y"][-1])
     silent = RunOptions(record=())
 
     def run_once() -> Sample:
-        result = system.run(options=silent)
+        with native_kernel(native):
+            result = system.run(options=silent)
         if result.status is not RunStatus.COMPLETED:
             msg = f"fmionnx run ended {result.status}: {result.error}"
             raise RuntimeError(msg)
@@ -360,6 +391,7 @@ def prepare_libcosim(chain: Chain) -> RunOnce | str:
 CONTENDERS: dict[str, Prepare] = {
     CTYPES_FLOOR: prepare_ctypes_floor,
     FMIONNX: prepare_fmionnx,
+    FMIONNX_PYTHON: prepare_fmionnx_python,
     FMPY_LOOP: prepare_fmpy_loop,
     SIMULATE_FMU: prepare_simulate_fmu,
     LIBCOSIM: prepare_libcosim,
