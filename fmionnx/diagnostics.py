@@ -15,6 +15,8 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from fmionnx.pathnames import shown
+
 
 class Severity(enum.IntEnum):
     """How bad a finding is; ordered so that ``max()`` gives the worst."""
@@ -38,11 +40,12 @@ class Span:
     col: int = 0
 
     def __str__(self) -> str:
+        name = shown(self.file)
         if self.line <= 0:
-            return str(self.file)
+            return name
         if self.col <= 0:
-            return f"{self.file}:{self.line}"
-        return f"{self.file}:{self.line}:{self.col}"
+            return f"{name}:{self.line}"
+        return f"{name}:{self.line}:{self.col}"
 
 
 @dataclass(frozen=True, slots=True)

@@ -11,14 +11,19 @@ import os
 from pathlib import Path
 
 from fmionnx.diagnostics import Diagnostic, Span
+from fmionnx.pathnames import archive_member
 
 
 def display_path(path: Path, cwd: Path | None = None) -> str:
     """``path`` relative to ``cwd`` (default: the working directory) when inside it.
 
     Symbolic links are not resolved: a system file reached through a link is reported under
-    the name the user gave, which is the name the CI checkout has.
+    the name the user gave, which is the name the CI checkout has. A file inside an unpacked
+    archive is named ``archive!/member`` (:mod:`fmionnx.pathnames`).
     """
+    member = archive_member(path)
+    if member is not None:
+        return f"{display_path(member[0], cwd)}!/{member[1]}"
     base = Path(os.path.normpath((cwd or Path.cwd()).absolute()))
     absolute = Path(os.path.normpath(path.absolute()))
     try:

@@ -17,6 +17,7 @@ import tempfile
 from pathlib import Path
 
 from fmionnx.archive import safe_extract
+from fmionnx.pathnames import remember_archive
 
 #: Name of the system structure inside an SSP archive (SSP 1.0, section 7).
 SSD_NAME = "SystemStructure.ssd"
@@ -49,6 +50,7 @@ def unpack_ssp(path: Path) -> Path:
     """
     folder = cache_root() / file_digest(path)[:24]
     if folder.is_dir():
+        remember_archive(folder, path)
         return folder
     folder.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".unpack-", dir=folder.parent))
@@ -63,4 +65,5 @@ def unpack_ssp(path: Path) -> Path:
     finally:
         if staging.exists():
             shutil.rmtree(staging, ignore_errors=True)
+    remember_archive(folder, path)
     return folder
