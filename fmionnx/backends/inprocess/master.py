@@ -136,9 +136,7 @@ class Master:
         hyper = math.lcm(*periods) if periods else 1
         if hyper <= MAX_TABLE:
             self._hyper = hyper
-            self._table = [
-                tuple(due for due, p in entries if k % p == 0) for k in range(hyper)
-            ]
+            self._table = [tuple(due for due, p in entries if k % p == 0) for k in range(hyper)]
         else:
             self._hyper = 0
             self._fallback = entries
