@@ -8,8 +8,10 @@ Two private topics, in the ``/fmionnx`` namespace so that they never clash with 
 * ``/fmionnx/done`` (``std_msgs/msg/Header``, ``frame_id`` = component, ``stamp`` = ``t_n``):
   lockstep only, the node finished its step at ``t_n`` and published its outputs.
 
-All three are RELIABLE: a lost tick or done would stall a lockstep run. A ROS 2 subscriber of
-``/clock`` with the usual best-effort clock QoS still matches a reliable writer.
+All three are RELIABLE and TRANSIENT_LOCAL: a lost tick or done would stall a lockstep run, and
+a reader that matches late (a foreign ``/clock`` subscriber can satisfy a writer's wait for
+readers) still gets the recent samples. A ROS 2 subscriber of ``/clock`` with the usual
+best-effort, volatile clock QoS still matches such a writer.
 """
 
 from __future__ import annotations
@@ -30,8 +32,10 @@ DONE_TOPIC = "/fmionnx/done"
 DONE_TYPE = "std_msgs/msg/Header"
 
 #: Writers keep a few samples; readers keep everything until taken (nothing may be lost).
-CONTROL_WRITER_QOS = QosProfile(Reliability.RELIABLE, Durability.VOLATILE, 64)
-CONTROL_READER_QOS = QosProfile(Reliability.RELIABLE, Durability.VOLATILE, 64, keep_all=True)
+CONTROL_WRITER_QOS = QosProfile(Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, 64)
+CONTROL_READER_QOS = QosProfile(
+    Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, 64, keep_all=True
+)
 
 CLOCK_DDS = dds_topic(CLOCK_TOPIC)
 READY_DDS = dds_topic(READY_TOPIC)

@@ -50,7 +50,7 @@ from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.mapping import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
 from fmionnx.backends.ros2.messages import RosDistro
 from fmionnx.backends.ros2.names import dds_topic
-from fmionnx.backends.ros2.qos import QosProfile, Reliability
+from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
 from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
@@ -253,11 +253,22 @@ class Node:
 
     # -- set-up --------------------------------------------------------------------------------
 
-    def _qos(self, profile: QosProfile, *, reader: bool) -> QosProfile:
-        """Lockstep: reliable, and readers keep every sample (a count must never skip one)."""
-        if self.options.sync is not SyncMode.LOCKSTEP:
+    def _qos(self, profile: QosProfile, *, reader: bool, in_run: bool) -> QosProfile:
+        """The QoS of one end of a data topic.
+
+        Topics published inside the run are TRANSIENT_LOCAL on both ends: a reader that matches
+        after the writer's first sample (matching order across processes is not defined, and a
+        foreign reader can satisfy a writer's wait) still gets it. ROS 2 subscribers asking for
+        VOLATILE still match. Lockstep also makes them RELIABLE and lets readers keep every
+        sample: a lockstep reader counts samples and must never miss one.
+        """
+        if not in_run:
             return profile
-        return QosProfile(Reliability.RELIABLE, profile.durability, max(profile.depth, 64), reader)
+        if self.options.sync is not SyncMode.LOCKSTEP:
+            return QosProfile(profile.reliability, Durability.TRANSIENT_LOCAL, profile.depth)
+        return QosProfile(
+            Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, max(profile.depth, 64), reader
+        )
 
     def _open(self, participant: Participant, runner: Runner) -> None:
         system, plan, name = self.system, self.plan, self.component.name
@@ -283,16 +294,15 @@ class Node:
                     source = system.connections[sub.connection_index].src.component
                     buffer = proxies[source].output_buffer(sub.src_port)
                     sinks[(source, sub.src_port)] = (sub.src_port, buffer)
-            reader = participant.reader(
-                dds_topic(topic_name), topic.msgtype, self._qos(topic.qos, reader=True)
-            )
+            qos = self._qos(topic.qos, reader=True, in_run=topic.publisher is not None)
+            reader = participant.reader(dds_topic(topic_name), topic.msgtype, qos)
             codec = TopicCodec(topic.msgtype, topic.fields, distro, frame_id=topic.frame_id)
             schedule = schedules.get(topic_name) if topic.publisher is not None else None
             self.inboxes.append(Inbox(topic, reader, codec, schedule, list(sinks.values())))
         for topic_name in self.node_plan.publishes:
             topic = plan.topic(topic_name)
             writer = participant.writer(
-                dds_topic(topic_name), topic.msgtype, self._qos(topic.qos, reader=False)
+                dds_topic(topic_name), topic.msgtype, self._qos(topic.qos, reader=False, in_run=True)
             )
             codec = TopicCodec(topic.msgtype, topic.fields, distro, frame_id=topic.frame_id)
             values = {f.port: runner.output_buffer(f.port) for f in topic.fields}
