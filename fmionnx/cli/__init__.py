@@ -8,6 +8,7 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     inspect_cmd,
     lock_cmd,
     node_cmd,
+    ros2_cmd,
     run_cmd,
     schema_cmd,
     ssp_cmd,

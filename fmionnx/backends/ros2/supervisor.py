@@ -313,7 +313,8 @@ class Supervisor:
             done = participant.reader(DONE_DDS, DONE_TYPE, CONTROL_READER_QOS)
             clock_writer = participant.writer(CLOCK_DDS, CLOCK_TYPE, CONTROL_WRITER_QOS)
             clock_reader = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
-            GraphAnnouncer(participant).add_node(
+            announcer = GraphAnnouncer(participant)  # kept alive: its writer is the sample
+            announcer.add_node(
                 NodeEntities(
                     "/", SUPERVISOR_NODE,
                     [ready.gid, done.gid, clock_reader.gid], [clock_writer.gid],

@@ -1,0 +1,115 @@
+"""``fmionnx ros2 graph | launch-file``: the live ROS 2 graph, and a launch file for ROS 2 users."""
+
+from __future__ import annotations
+
+import os
+import sys
+from pathlib import Path
+from typing import Annotated
+
+import typer
+
+from fmionnx.cli.app import ExitCode, app
+
+ros2_app = typer.Typer(
+    help="ROS 2 helpers: compare the live graph with a system, write a launch file.",
+    no_args_is_help=True,
+)
+app.add_typer(ros2_app, name="ros2")
+
+DistroOption = Annotated[
+    str, typer.Option("--ros-distro", help="humble, iron, jazzy or kilted.")
+]
+
+
+def _fail(message: str, code: int) -> typer.Exit:
+    print(f"error: {message}", file=sys.stderr)
+    return typer.Exit(code)
+
+
+def _plan(system: Path, distro: str) -> tuple[object, object]:
+    from fmionnx.backends.ros2.loading import load_system, plan_for
+    from fmionnx.backends.ros2.messages import RosDistro
+    from fmionnx.errors import DiagnosticError
+
+    try:
+        chosen = RosDistro(distro)
+    except ValueError:
+        names = ", ".join(d.value for d in RosDistro)
+        raise _fail(f"--ros-distro must be one of {names}", ExitCode.USAGE) from None
+    try:
+        compiled = load_system(system)
+        return compiled, plan_for(compiled, chosen)
+    except DiagnosticError as exc:
+        from fmionnx.reporters import FileResult
+        from fmionnx.reporters.text import TextReporter
+
+        TextReporter().render(
+            [FileResult(system, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
+        )
+        raise typer.Exit(ExitCode.PROBLEMS) from None
+
+
+@ros2_app.command(
+    epilog="Examples:\n\n"
+    "  fmionnx ros2 graph systems/sign_follower.yaml --timeout 3\n\n"
+    "  fmionnx ros2 graph systems/sign_follower.yaml --domain 42 --format json",
+)
+def graph(
+    system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
+    domain: Annotated[
+        int | None, typer.Option("--domain", help="DDS domain (default: ROS_DOMAIN_ID or 0).")
+    ] = None,
+    timeout: Annotated[float, typer.Option("--timeout", help="Seconds to listen.")] = 2.0,
+    ros_distro: DistroOption = "humble",
+    output_format: Annotated[str, typer.Option("--format", "-f", help="text or json.")] = "text",
+) -> None:
+    """Read DDS discovery and compare the live graph with the system; exit 1 if links are missing."""
+    from fmionnx.backends.ros2.env import Ros2EnvError, from_environment
+    from fmionnx.backends.ros2.graph import compare, read_live_graph, render_json, render_text
+    from fmionnx.backends.ros2.mapping import Ros2Plan
+    from fmionnx.backends.ros2.transport import Participant, TransportError
+
+    if output_format not in ("text", "json"):
+        raise _fail(f"--format must be `text` or `json`, not `{output_format}`", ExitCode.USAGE)
+    _, plan = _plan(system, ros_distro)
+    assert isinstance(plan, Ros2Plan)
+    environ = dict(os.environ)
+    if domain is not None:
+        environ["ROS_DOMAIN_ID"] = str(domain)
+    try:
+        env = from_environment(plan.distro, environ)
+        with Participant(env) as participant:
+            live = read_live_graph(participant, max(timeout, 0.1))
+    except (Ros2EnvError, TransportError) as exc:
+        raise _fail(str(exc), ExitCode.PROBLEMS) from None
+    result = compare(plan, live)
+    render = render_json if output_format == "json" else render_text
+    sys.stdout.write(render(plan, live, result))
+    raise typer.Exit(ExitCode.PROBLEMS if result.missing else ExitCode.OK)
+
+
+@ros2_app.command(
+    "launch-file",
+    epilog="Example:\n\n  fmionnx ros2 launch-file systems/sign_follower.yaml -o robot.launch.py",
+)
+def launch_file(
+    system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
+    output: Annotated[Path, typer.Option("--output", "-o", help="The .launch.py to write.")],
+    ros_distro: DistroOption = "humble",
+) -> None:
+    """Write a ROS 2 Python launch file with one `fmionnx node` process per component."""
+    from fmionnx.backends.ros2.launchfile import launch_file_text
+    from fmionnx.backends.ros2.mapping import Ros2Plan
+    from fmionnx.compile.ir import CompiledSystem
+
+    compiled, plan = _plan(system, ros_distro)
+    assert isinstance(plan, Ros2Plan)
+    assert isinstance(compiled, CompiledSystem)
+    text = launch_file_text(plan, compiled.name, system, output)
+    try:
+        output.parent.mkdir(parents=True, exist_ok=True)
+        output.write_text(text, encoding="utf-8")
+    except OSError as exc:
+        raise _fail(f"cannot write {output}: {exc}", ExitCode.PROBLEMS) from None
+    print(f"wrote {output} ({len(plan.nodes)} nodes)")
