@@ -143,3 +143,20 @@ def test_ros1_style_type_names_are_accepted():
         Ros2Spec(topics={"tracker.v": TopicSpec(topic="/v", type="std_msgs/Float64")})
     )
     assert check_ros2(system) == []
+
+
+def test_mujoco_quaternion_onto_a_whole_orientation_message_fills_members_by_name() -> None:
+    spec = Ros2Spec(
+        topics={
+            "world.base_quat": TopicSpec(
+                topic="/odom", type="nav_msgs/msg/Odometry", field="pose.pose.orientation"
+            )
+        }
+    )
+    plan, diagnostics = build_plan(make_system(spec))
+    assert diagnostics == []
+    assert plan is not None
+    # MuJoCo's w, x, y, z go to the members of those names, not in ROS's x, y, z, w order
+    assert plan.topic("/odom").field_of("base_quat").paths == tuple(
+        f"pose.pose.orientation.{axis}" for axis in "wxyz"
+    )

@@ -418,6 +418,7 @@ class _Builder:
         mapped = self.fit(msgtype, port, paths, span, label)
         if mapped is None:
             return
+        mapped = _mujoco_quaternion(component, mapped, msgtype, self.distro)
         draft = self.drafts.get(topic)
         if draft is None:
             draft = _Draft(topic, msgtype, publisher, span=span)
@@ -699,6 +700,23 @@ class _Builder:
         return Ros2Plan(
             self.distro, self.namespace, tuple(nodes), topics, tuple(subscriptions), external
         )
+
+
+QUATERNION = "geometry_msgs/msg/Quaternion"
+
+
+def _mujoco_quaternion(
+    component: Component, mapped: PortField, msgtype: str, distro: RosDistro
+) -> PortField:
+    """A MuJoCo quaternion (``w, x, y, z``) mapped onto a whole ``Quaternion`` message fills
+    its members by name: the message's member order is ROS's ``x, y, z, w``."""
+    if component.kind != "mujoco" or len(mapped.paths) != 1 or mapped.size != 4:
+        return mapped
+    path = mapped.paths[0]
+    if not path or resolve_field(msgtype, path, distro).base != QUATERNION:
+        return mapped
+    paths = tuple(f"{path}.{axis}" for axis in "wxyz")
+    return PortField(mapped.port, paths, mapped.shape, mapped.dtype)
 
 
 def _frame_id(draft: _Draft) -> str:
