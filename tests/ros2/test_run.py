@@ -176,3 +176,41 @@ def test_ctrl_c_stops_the_supervisor_and_every_node(tmp_path: Path, supervised) 
     assert process.returncode == 130, stderr
     assert stdout.strip().splitlines()[-1] == f"Results: {out}"
     assert processes_with(marker) == []
+
+
+def test_fault_inside_a_node_ends_the_run_with_that_fault_and_the_results_so_far(
+    tmp_path: Path, loopback_env
+) -> None:
+    system = tmp_path / "faulty.yaml"
+    system.write_text(
+        f"""
+fmionnx: 1
+name: faulty
+run: {{stop: 1.0, step: 0.01}}
+components:
+  bad: {{kind: fmu, path: {build_fixture_fmu("Faulty")}, parameters: {{failAt: 0.3}}}}
+  gain: {{kind: fmu, path: {build_fixture_fmu("Gain")}}}
+connections:
+  - bad.y -> gain.u
+""",
+        encoding="utf-8",
+    )
+    out = tmp_path / "out"
+    done = subprocess.run(
+        fmionnx("run", system, "-q", "--backend", "ros2", "--out", out),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )
+    assert done.returncode == 1
+    text = " ".join(done.stderr.split())
+    assert "fault: component `bad` at t=0.3 s: fmi2DoStep returned Error" in text
+    info = (out / "run.json").read_text()
+    assert '"status": "fault"' in info
+    inprocess = tmp_path / "inprocess"
+    subprocess.run(fmionnx("run", system, "-q", "--out", inprocess), timeout=60, check=False)
+    expected = (inprocess / "results.csv").read_bytes()
+    assert expected.count(b"\n") == 32  # header + t = 0 .. 0.3, as far as the run got
+    assert (out / "results.csv").read_bytes() == expected
+    assert processes_with(str(tmp_path)) == []
