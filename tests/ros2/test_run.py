@@ -214,3 +214,26 @@ connections:
     assert expected.count(b"\n") == 32  # header + t = 0 .. 0.3, as far as the run got
     assert (out / "results.csv").read_bytes() == expected
     assert processes_with(str(tmp_path)) == []
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--middleware", "rclpy"], "use `--middleware dds` (the default)"),
+        (["--sync", "loose"], "--sync must be `lockstep` or `free`"),
+        (["--ros-distro", "rolling"], "--ros-distro must be one of"),
+        (["--record", "x.mcap"], "--record (MCAP) is not available with --backend ros2"),
+    ],
+)
+def test_ros2_backend_options_are_checked_before_anything_starts(
+    tmp_path: Path, args: list[str], message: str
+) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    result = CliRunner().invoke(
+        app, ["run", str(loop_system(tmp_path, 1.0)), "--backend", "ros2", *args]
+    )
+    assert result.exit_code == 2
+    assert message in " ".join(result.output.split())
