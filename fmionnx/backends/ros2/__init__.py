@@ -11,4 +11,8 @@ Modules, bottom up: :mod:`.messages` (typestores, field paths, default messages)
 (domain and Cyclone configuration from the ROS 2 environment), :mod:`.transport` (raw CDR
 writers/readers), :mod:`.discovery` (``ros_discovery_info``), :mod:`.codec` (port values <->
 messages), :mod:`.mapping` (default mapping, the ``ros2:`` section, :func:`check_ros2`).
+Running: :mod:`.schedule` (which sample a lockstep reader takes), :mod:`.control` (``/clock``
+and the ready/done hand-shake), :mod:`.recording`, :mod:`.node` (one component per process,
+``fmionnx node``), :mod:`.supervisor` (``fmionnx run --backend ros2``), :mod:`.graph`
+(``fmionnx ros2 graph``), :mod:`.launchfile`.
 """
