@@ -79,8 +79,23 @@ def load_model(path: Path) -> tuple[Any, str]:
             text = " ".join(str(exc).split())
             msg = f"`{path}` is not a valid MuJoCo scene: {text}"
             raise ModelError("E012", msg) from None
-        _MODELS[key] = (model, hashlib.sha256(path.read_bytes()).hexdigest())
+        _MODELS[key] = (model, _compiled_digest(model))
     return _MODELS[key]
+
+
+def _compiled_digest(model: Any) -> str:
+    """sha256 of the compiled model, so included files, meshes and textures count too.
+
+    Hashing the XML alone would miss a changed ``<include>``d file or mesh; the compiled
+    model holds all of it. (A MuJoCo upgrade may change the bytes: the lock then reports
+    "model changed, same interface", which is true.)
+    """
+    import mujoco
+    import numpy as np
+
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return hashlib.sha256(buffer.tobytes()).hexdigest()
 
 
 def read_mujoco_interface(
