@@ -81,6 +81,10 @@ def run(
     rtf: Annotated[
         float, typer.Option("--rtf", help="ROS 2 free run: simulator pace (x real time).")
     ] = 1.0,
+    step_timeout: Annotated[
+        float,
+        typer.Option("--step-timeout", help="ROS 2 lockstep: seconds one step may take."),
+    ] = 60.0,
 ) -> None:
     """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
     suffix = target.suffix.lower()
@@ -90,7 +94,7 @@ def run(
         raise _fail("--step and --interface apply to a single .fmu only")
     if inputs and suffix != ".onnx":
         raise _fail("--input applies to a single .onnx model only")
-    ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record)
+    ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
     try:
         if suffix == ".onnx":
             _run_onnx(target, _parse_pairs(inputs or [], "--input"), out, quiet=quiet)
@@ -119,6 +123,7 @@ def _ros2_options(
     rtf: float,
     suffix: str,
     record: Path | None,
+    step_timeout: float,
 ) -> Any:
     """The ROS 2 backend's options, or None for the in-process backend (usage errors exit 2)."""
     if backend not in ("inprocess", "ros2"):
@@ -146,11 +151,14 @@ def _ros2_options(
         raise _fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
     if suffix in (".fmu", ".onnx"):
         raise _fail("--backend ros2 runs system files, not a single model")
-    if record is not None:
-        raise _fail("--record (MCAP) is not available with --backend ros2 yet")
     if rtf < 0:
         raise _fail("--rtf must be >= 0 (0: as fast as possible)")
-    return Ros2Options(sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf)
+    if not step_timeout > 0:
+        raise _fail("--step-timeout must be > 0 seconds")
+    return Ros2Options(
+        sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf, record=record,
+        step_timeout=step_timeout,
+    )  # fmt: skip
 
 
 def _load(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
@@ -205,7 +213,7 @@ def _run_system(
     except OverrideError as exc:
         raise _fail(str(exc)) from None
     recorder = None
-    if record is not None:
+    if record is not None and ros2 is None:  # ROS 2: the supervisor records the wire
         from fmionnx.results.mcap_record import McapRecorder
 
         recorder = McapRecorder(record)
@@ -236,6 +244,8 @@ def _run_system(
     files: list[Path] = []
     if recorder is not None:
         files.append(recorder.finish(result))
+    elif record is not None and record.exists():
+        files.append(record)
     if out is not None:
         from fmionnx.results import write_results
 

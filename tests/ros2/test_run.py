@@ -153,6 +153,34 @@ def test_killed_node_stops_the_run_naming_it_and_leaves_no_process(
     assert processes_with(marker) == []
 
 
+def test_a_hung_node_ends_a_lockstep_run_after_the_step_timeout_naming_it(
+    tmp_path: Path, supervised
+) -> None:
+    system = loop_system(tmp_path, 10000.0)
+    out = tmp_path / "out"
+    process = subprocess.Popen(
+        fmionnx("run", system, "-q", "--backend", "ros2", "--step-timeout", "2", "--out", out),
+        stdout=subprocess.PIPE,
+        stderr=subprocess.PIPE,
+        text=True,
+    )
+    supervised.append(process)
+    marker = str(tmp_path)
+    wait_for_nodes(marker, 3)
+    log = out / "logs" / "integ2.log"
+    while not log.exists() or "ready" not in log.read_text():
+        time.sleep(0.2)
+    time.sleep(1.0)  # the run is stepping
+    victim = next(p for p in processes_with(marker) if _is_node(p) and _component(p) == "integ2")
+    os.kill(victim, signal.SIGSTOP)  # alive, but never answers again
+    _, stderr = process.communicate(timeout=60)
+    assert process.returncode == 1, stderr
+    text = " ".join(stderr.split())
+    assert "did not finish within 2 s: still waiting for /integ2 (component `integ2`)" in text
+    assert "--step-timeout" in text
+    assert processes_with(marker) == []
+
+
 def _component(pid: int) -> str:
     args = Path(f"/proc/{pid}/cmdline").read_bytes().split(b"\0")
     return args[args.index(b"node") + 2].decode()
@@ -222,7 +250,7 @@ connections:
         (["--middleware", "rclpy"], "use `--middleware dds` (the default)"),
         (["--sync", "loose"], "--sync must be `lockstep` or `free`"),
         (["--ros-distro", "rolling"], "--ros-distro must be one of"),
-        (["--record", "x.mcap"], "--record (MCAP) is not available with --backend ros2"),
+        (["--step-timeout", "0"], "--step-timeout must be > 0 seconds"),
     ],
 )
 def test_ros2_backend_options_are_checked_before_anything_starts(

@@ -35,6 +35,7 @@ from types import FrameType
 import numpy as np
 
 from fmionnx.backends.base import RunOptions, RunResult, RunStatus
+from fmionnx.backends.ros2.bag import TopicRecorder
 from fmionnx.backends.ros2.control import (
     CLOCK_DDS,
     CONTROL_READER_QOS,
@@ -60,6 +61,8 @@ from fmionnx.errors import FmionnxError, RunError
 BACKEND_NAME = "ros2"
 #: Name under which the supervisor itself shows in ``ros2 node list``.
 SUPERVISOR_NODE = "fmionnx_supervisor"
+#: Name under which ``--record``'s readers show (rosbag2 calls its node ``rosbag2_recorder``).
+RECORDER_NODE = "fmionnx_recorder"
 #: Log lines quoted when a node crashes.
 TAIL_LINES = 12
 #: Seconds children get to save their results after SIGTERM before SIGKILL.
@@ -67,7 +70,7 @@ GRACE = 10.0
 
 
 class SupervisorError(FmionnxError):
-    """The run could not start (a node never became ready)."""
+    """The run could not go on: a node never became ready, or hung in a lockstep step."""
 
 
 @dataclass(frozen=True)
@@ -86,6 +89,10 @@ class Ros2Options:
     params: tuple[str, ...] = ()
     rtf: float = 1.0
     ready_timeout: float = 180.0
+    #: Lockstep: seconds a step may take before the nodes still busy with it are named.
+    step_timeout: float = 60.0
+    #: Also record every topic into this MCAP file (``--record``).
+    record: Path | None = None
     run: RunOptions = field(default_factory=RunOptions)
 
 
@@ -179,6 +186,7 @@ class Children:
             if proc.poll() is None:
                 with contextlib.suppress(ProcessLookupError):
                     os.killpg(proc.pid, signal.SIGTERM)
+                    os.killpg(proc.pid, signal.SIGCONT)  # a stopped (hung) node must see it
         if not self.wait_all(GRACE):
             for proc in self.procs.values():
                 with contextlib.suppress(ProcessLookupError):
@@ -221,6 +229,8 @@ class Supervisor:
         self.clock = StepClock(system.run, options.distro)
         self.components = [n.component for n in self.plan.nodes]
         self.steps_done = 0
+        self.recorder: TopicRecorder | None = None
+        self.domain_id = 0
 
     def argv(self, component: str) -> list[str]:
         """The command line of one node."""
@@ -264,6 +274,7 @@ class Supervisor:
         for n in range(total):
             writer.write(self.clock.encode(n))
             due = {c for c, p in periods.items() if n % p == 0}
+            deadline = time.monotonic() + self.options.step_timeout
             while due:
                 for data in done.take(256):
                     component, step = self.clock.decode_done(data)
@@ -271,9 +282,24 @@ class Supervisor:
                         due.discard(component)
                 if due and not done.wait(0.2):
                     self.children.check()
+                    if time.monotonic() > deadline:
+                        raise SupervisorError(self._hung(due, n))
             self.steps_done = n + 1
             self._progress(n + 1)
         writer.write(self.clock.encode(total))
+
+    def _hung(self, busy: set[str], n: int) -> str:
+        """The error for nodes that did not finish step ``n`` within the step timeout."""
+        names = ", ".join(describe_node(self.plan, c) for c in sorted(busy))
+        message = (
+            f"lockstep step {n} (t = {self.system.run.time_at(n):g} s) did not finish within "
+            f"{self.options.step_timeout:g} s: still waiting for {names}"
+        )
+        for component in sorted(busy):
+            lines = tail(self.logs / f"{component}.log", 5)
+            if lines:
+                message += f"\nlast log lines of {component}:\n{lines}"
+        return message + "\n(raise the limit with --step-timeout if a step is legitimately slow)"
 
     def _free(self, clock_writer: RawWriter, clock: RawReader) -> None:
         clock_writer.write(self.clock.encode(0))
@@ -305,7 +331,9 @@ class Supervisor:
     def run(self) -> RunResult:
         """Start the nodes, drive or watch the clock, stop everything, merge the results."""
         status, error = RunStatus.COMPLETED, None
-        participant = Participant(from_environment(self.options.distro))
+        env = from_environment(self.options.distro)
+        self.domain_id = env.domain_id
+        participant = Participant(env)
         started = time.perf_counter()
         wall_start = started
         try:
@@ -320,6 +348,13 @@ class Supervisor:
                     [ready.gid, done.gid, clock_reader.gid], [clock_writer.gid],
                 )
             )  # fmt: skip
+            if self.options.record is not None:
+                self.recorder = TopicRecorder(self.options.record, self.plan, participant)
+                announcer.add_node(
+                    NodeEntities(
+                        "/", RECORDER_NODE, [t.reader.gid for t in self.recorder.topics], []
+                    )
+                )
             self.records.mkdir(parents=True, exist_ok=True)
             for stale in [*self.records.glob("*.npz"), *self.records.glob("*.json")]:
                 stale.unlink()
@@ -343,6 +378,8 @@ class Supervisor:
         finally:
             wall = time.perf_counter() - wall_start
             self.children.stop()
+            if self.recorder is not None:
+                self.recorder.close()
             participant.close()
         return self._result(status, error, wall)
 
@@ -384,7 +421,22 @@ class Supervisor:
             time=np.asarray(run.start + np.arange(n + 1) * run.step, dtype=np.float64),
             signals=recorder.table(n),
             error=error,
+            details=self._details(),
         )
+
+    def _details(self) -> dict[str, str | int | bool | None]:
+        """How the run executed, for run.json's ``execution``."""
+        opts = self.options
+        return {
+            "sync": opts.sync.value,
+            "ros_distro": opts.distro.value,
+            "ros_domain_id": self.domain_id,
+            "nodes": ", ".join(n.fqn for n in self.plan.nodes),
+            "external": ", ".join(self.plan.external) or None,
+            "logs": str(self.logs) if opts.out is not None else None,
+            "record": str(opts.record) if opts.record is not None else None,
+            "recorded_messages": self.recorder.messages if self.recorder is not None else None,
+        }
 
 
 def run_ros2(system: CompiledSystem, options: Ros2Options | None = None) -> RunResult:
