@@ -124,25 +124,32 @@ def test_lockstep_run_of_test_fmus_equals_the_inprocess_run_bit_for_bit(
     assert processes_with(str(tmp_path)) == []
 
 
-def test_killed_node_stops_the_run_naming_it_and_leaves_no_process(
-    tmp_path: Path, supervised
-) -> None:
-    system = loop_system(tmp_path, 10000.0)
+def _stepping_loop_run(
+    tmp_path: Path, supervised: list[subprocess.Popen[str]], component: str, *args: str
+) -> tuple[subprocess.Popen[str], int]:
+    """A long lockstep run of the loop system whose ``component`` node is ready; (run, its pid)."""
     out = tmp_path / "out"
     process = subprocess.Popen(
-        fmionnx("run", system, "-q", "--backend", "ros2", "--out", out),
+        fmionnx("run", loop_system(tmp_path, 10000.0), "-q", "--backend", "ros2", "--out", out,
+                *args),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
-    )
+    )  # fmt: skip
     supervised.append(process)
     marker = str(tmp_path)
     wait_for_nodes(marker, 3)
-    while not (out / "logs" / "integ.log").exists() or "ready" not in (
-        out / "logs" / "integ.log"
-    ).read_text():
+    log = out / "logs" / f"{component}.log"
+    while not log.exists() or "ready" not in log.read_text():
         time.sleep(0.2)
-    victim = next(p for p in processes_with(marker) if _is_node(p) and _component(p) == "integ")
+    node = next(p for p in processes_with(marker) if _is_node(p) and _component(p) == component)
+    return process, node
+
+
+def test_killed_node_stops_the_run_naming_it_and_leaves_no_process(
+    tmp_path: Path, supervised
+) -> None:
+    process, victim = _stepping_loop_run(tmp_path, supervised, "integ")
     os.kill(victim, signal.SIGKILL)
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 1
@@ -150,35 +157,21 @@ def test_killed_node_stops_the_run_naming_it_and_leaves_no_process(
     assert "node /integ (component `integ`) was killed by signal 9 (SIGKILL)" in text
     assert "its last log lines: " in text
     assert "integ INFO node /integ (integ) ready, sync lockstep" in text
-    assert processes_with(marker) == []
+    assert processes_with(str(tmp_path)) == []
 
 
 def test_a_hung_node_ends_a_lockstep_run_after_the_step_timeout_naming_it(
     tmp_path: Path, supervised
 ) -> None:
-    system = loop_system(tmp_path, 10000.0)
-    out = tmp_path / "out"
-    process = subprocess.Popen(
-        fmionnx("run", system, "-q", "--backend", "ros2", "--step-timeout", "2", "--out", out),
-        stdout=subprocess.PIPE,
-        stderr=subprocess.PIPE,
-        text=True,
-    )
-    supervised.append(process)
-    marker = str(tmp_path)
-    wait_for_nodes(marker, 3)
-    log = out / "logs" / "integ2.log"
-    while not log.exists() or "ready" not in log.read_text():
-        time.sleep(0.2)
+    process, victim = _stepping_loop_run(tmp_path, supervised, "integ2", "--step-timeout", "2")
     time.sleep(1.0)  # the run is stepping
-    victim = next(p for p in processes_with(marker) if _is_node(p) and _component(p) == "integ2")
     os.kill(victim, signal.SIGSTOP)  # alive, but never answers again
     _, stderr = process.communicate(timeout=60)
     assert process.returncode == 1, stderr
     text = " ".join(stderr.split())
     assert "did not finish within 2 s: still waiting for /integ2 (component `integ2`)" in text
     assert "--step-timeout" in text
-    assert processes_with(marker) == []
+    assert processes_with(str(tmp_path)) == []
 
 
 def _component(pid: int) -> str:
