@@ -35,6 +35,16 @@ def test_jazzy_localhost_range_uses_unicast_to_localhost():
     assert '<Peer address="localhost"/>' in config
 
 
+def test_jazzy_localhost_range_selects_loopback_so_fast_dds_peers_can_answer():
+    env = from_environment(RosDistro.JAZZY, {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST"})
+    assert '<NetworkInterface address="127.0.0.1"/>' in env.cyclone_config()
+    with_peers = from_environment(
+        RosDistro.JAZZY,
+        {"ROS_AUTOMATIC_DISCOVERY_RANGE": "LOCALHOST", "ROS_STATIC_PEERS": "10.0.0.2"},
+    )
+    assert "NetworkInterface" not in with_peers.cyclone_config()
+
+
 def test_jazzy_honours_the_deprecated_localhost_only_variable():
     env = from_environment(
         RosDistro.JAZZY, {"ROS_LOCALHOST_ONLY": "1", "ROS_AUTOMATIC_DISCOVERY_RANGE": "SUBNET"}

@@ -73,7 +73,8 @@ class DdsEnvironment:
             return ""
         parts = ["<CycloneDDS><Domain>"]
         if no_multicast:
-            parts.append("<General><AllowMulticast>false</AllowMulticast></General>")
+            general = f"{self._loopback_interface()}<AllowMulticast>false</AllowMulticast>"
+            parts.append(f"<General>{general}</General>")
         if self.discovery is DiscoveryRange.OFF:
             parts.append(
                 "<Discovery><ParticipantIndex>none</ParticipantIndex>"
@@ -92,6 +93,20 @@ class DdsEnvironment:
             parts.append("</Peers>")
         parts.append("</Discovery></Domain></CycloneDDS>")
         return "".join(parts)
+
+    def _loopback_interface(self) -> str:
+        """Loopback as Cyclone's interface when nothing may leave this host.
+
+        rmw_cyclonedds_cpp keeps the automatically chosen interface here, so its locators name
+        the host's LAN address; rmw_fastrtps_cpp (ROS 2's default middleware) in the same range
+        only talks over 127.0.0.1 and never reaches them: ``ros2 node list`` would not see the
+        nodes. With loopback selected, Fast DDS and Cyclone participants in the LOCALHOST range
+        discover each other (checked against rclpy from the ROS 2 wheels). Static peers live on
+        other hosts and need a real interface, so they keep Cyclone's choice.
+        """
+        if self.discovery is DiscoveryRange.LOCALHOST and not self.static_peers:
+            return '<Interfaces><NetworkInterface address="127.0.0.1"/></Interfaces>'
+        return ""
 
 
 def _domain_id(text: str) -> int:
