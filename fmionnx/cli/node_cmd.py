@@ -44,12 +44,17 @@ def node(
     supervised: Annotated[
         bool, typer.Option("--supervised", help="Started by `fmionnx run --backend ros2`.")
     ] = False,
+    middleware: Annotated[
+        str, typer.Option("--middleware", help="`dds` (Cyclone DDS) or `rclpy` (a ROS 2 node).")
+    ] = "dds",
 ) -> None:
-    """Run one component as a ROS 2 node on Cyclone DDS; exit 0 at the stop time, 1 on a fault."""
+    """Run one component as a ROS 2 node (Cyclone DDS or rclpy); exit 0 at the stop time, 1 on a fault."""
     from fmionnx.backends.ros2.env import Ros2EnvError
     from fmionnx.backends.ros2.loading import load_system, plan_for
     from fmionnx.backends.ros2.messages import RosDistro
+    from fmionnx.backends.ros2.middleware import Middleware
     from fmionnx.backends.ros2.node import Node, NodeError, NodeOptions, SyncMode
+    from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError, distro_problem
     from fmionnx.backends.ros2.transport import TransportError
     from fmionnx.errors import DiagnosticError
     from fmionnx.session import OverrideError
@@ -57,8 +62,12 @@ def node(
     try:
         mode = SyncMode(sync)
         distro = RosDistro(ros_distro)
+        transport = Middleware(middleware)
     except ValueError as exc:
         raise _fail(str(exc), ExitCode.USAGE) from None
+    problem = distro_problem(distro) if transport is Middleware.RCLPY else None
+    if problem is not None:
+        raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
     params = {}
     for item in param or []:
         key, sep, value = item.partition("=")
@@ -73,7 +82,7 @@ def node(
     try:
         compiled = load_system(system, stop_time=stop_time, params=params)
         plan = plan_for(compiled, distro)
-        options = NodeOptions(mode, distro, record_dir, supervised, rtf)
+        options = NodeOptions(mode, distro, record_dir, supervised, rtf, transport)
         the_node = Node(compiled, plan, component, options)
         logging.getLogger("fmionnx.node").info(
             "system %s, content hash %s", compiled.name, compiled.content_hash[:16]
@@ -82,7 +91,7 @@ def node(
     except DiagnosticError as exc:
         lines = "; ".join(str(d.message) for d in exc.diagnostics[:3])
         raise _fail(f"{system}: {lines}", ExitCode.PROBLEMS) from None
-    except (NodeError, OverrideError, Ros2EnvError, TransportError) as exc:
+    except (NodeError, OverrideError, Ros2EnvError, TransportError, RclpyUnavailableError) as exc:
         raise _fail(str(exc), ExitCode.PROBLEMS) from None
     except KeyboardInterrupt:
         raise _fail("interrupted", 130) from None

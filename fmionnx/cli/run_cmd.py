@@ -138,16 +138,7 @@ def _ros2_options(
         raise _fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
     if distro not in {d.value for d in RosDistro}:
         raise _fail(f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}")
-    if middleware == "rclpy":
-        import importlib.util
-
-        reason = (
-            "rclpy is not importable here"
-            if importlib.util.find_spec("rclpy") is None
-            else "the rclpy middleware is not implemented yet"
-        )
-        raise _fail(f"--middleware rclpy: {reason}; use `--middleware dds` (the default)")
-    if middleware != "dds":
+    if middleware not in ("dds", "rclpy"):
         raise _fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
     if suffix in (".fmu", ".onnx"):
         raise _fail("--backend ros2 runs system files, not a single model")
@@ -155,9 +146,15 @@ def _ros2_options(
         raise _fail("--rtf must be >= 0 (0: as fast as possible)")
     if not step_timeout > 0:
         raise _fail("--step-timeout must be > 0 seconds")
+    if middleware == "rclpy":  # checked in a child process: rclpy stays out of this one
+        from fmionnx.backends.ros2.rclpy_env import distro_problem, rclpy_problem
+
+        problem = rclpy_problem() or distro_problem(RosDistro(distro))
+        if problem is not None:
+            raise _fail(f"--middleware rclpy: {problem}; or use `--middleware dds` (the default)")
     return Ros2Options(
         sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf, record=record,
-        step_timeout=step_timeout,
+        step_timeout=step_timeout, middleware=middleware,
     )  # fmt: skip
 
 

@@ -49,6 +49,13 @@ from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
 from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.mapping import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
 from fmionnx.backends.ros2.messages import RosDistro
+from fmionnx.backends.ros2.middleware import (
+    Middleware,
+    NodeTransport,
+    SampleReader,
+    SampleWriter,
+    open_transport,
+)
 from fmionnx.backends.ros2.names import dds_topic
 from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
@@ -83,6 +90,7 @@ class NodeOptions:
     record_dir: Path | None = None
     supervised: bool = False
     rtf: float = 1.0
+    middleware: Middleware = Middleware.DDS
 
 
 def clock_source(system: CompiledSystem, plan: Ros2Plan) -> str | None:
@@ -142,7 +150,7 @@ class Inbox:
     """One subscribed topic: its reader, the samples not yet used, where values go."""
 
     topic: TopicPlan
-    reader: RawReader
+    reader: SampleReader
     codec: TopicCodec
     schedule: TopicSchedule | None
     sinks: list[tuple[str, Buffer]]
@@ -196,7 +204,7 @@ class Outbox:
     """One published topic: its writer, codec, the ports that fill it."""
 
     topic: TopicPlan
-    writer: RawWriter
+    writer: SampleWriter
     codec: TopicCodec
     schedule: TopicSchedule
     values: dict[str, Buffer]
@@ -270,7 +278,7 @@ class Node:
             Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, max(profile.depth, 64), reader
         )
 
-    def _open(self, participant: Participant, runner: Runner) -> None:
+    def _open(self, participant: NodeTransport, runner: Runner) -> None:
         system, plan, name = self.system, self.plan, self.component.name
         distro = plan.distro
         schedules = topic_schedules(system, plan)
@@ -350,7 +358,7 @@ class Node:
 
     # -- time ----------------------------------------------------------------------------------
 
-    def _latest_tick(self, reader: RawReader, timeout: float) -> int | None:
+    def _latest_tick(self, reader: SampleReader, timeout: float) -> int | None:
         latest: int | None = None
         while True:
             samples = reader.take(256)
@@ -363,7 +371,7 @@ class Node:
             return self._latest_tick(reader, 0.0)
         return latest
 
-    def _lockstep(self, runner: Runner, clock: RawReader, done: RawWriter) -> None:
+    def _lockstep(self, runner: Runner, clock: SampleReader, done: SampleWriter) -> None:
         total, period = self.system.run.steps, self.component.period_steps
         name = self.component.name
         while True:
@@ -377,7 +385,7 @@ class Node:
             self._step(runner, n, exact=True)
             done.write(self.clock.encode_done(name, n))
 
-    def _free(self, runner: Runner, clock: RawReader) -> None:
+    def _free(self, runner: Runner, clock: SampleReader) -> None:
         total, period = self.system.run.steps, self.component.period_steps
         next_n, started, now = 0, False, 0
         while next_n < total:
@@ -397,7 +405,9 @@ class Node:
                 self._step(runner, next_n, exact=False)
                 next_n += period
 
-    def _free_clock_source(self, runner: Runner, clock_in: RawReader, clock_out: RawWriter) -> None:
+    def _free_clock_source(
+        self, runner: Runner, clock_in: SampleReader, clock_out: SampleWriter
+    ) -> None:
         run, period = self.system.run, self.component.period_steps
         total = run.steps
         if self.options.supervised:
@@ -420,7 +430,10 @@ class Node:
         _terminate_on_sigterm()
         opts = self.options
         status, error, code = "completed", None, 0
-        participant = Participant(from_environment(self.plan.distro))
+        participant = open_transport(
+            opts.middleware, from_environment(self.plan.distro), self.node_plan.namespace,
+            self.node_plan.name,
+        )  # fmt: skip
         announcer: GraphAnnouncer | None = None
         runner = make_runner(self.component, _wiring(self.system, self.component))
         self.runner = runner
@@ -430,19 +443,22 @@ class Node:
             self.recording = node_recording(self.system, runner, record_refs(self.system))
             self._open(participant, runner)
             clock_in = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
-            entities = [*(b.reader.gid for b in self.inboxes), clock_in.gid]
-            writers = [b.writer.gid for b in self.outboxes]
             done = participant.writer(DONE_DDS, DONE_TYPE, CONTROL_WRITER_QOS)
             ready = participant.writer(READY_DDS, READY_TYPE, CONTROL_WRITER_QOS)
             clock_out = None
             if self.is_clock_source:
                 clock_out = participant.writer(CLOCK_DDS, CLOCK_TYPE, CONTROL_WRITER_QOS)
-                writers.append(clock_out.gid)
-            writers += [done.gid, ready.gid]
-            announcer = GraphAnnouncer(participant)
-            announcer.add_node(
-                NodeEntities(self.node_plan.namespace, self.node_plan.name, entities, writers)
-            )
+            if isinstance(participant, Participant):  # rclpy announces its nodes itself
+                readers = [*(b.reader for b in self.inboxes), clock_in]
+                writers = [*(b.writer for b in self.outboxes), clock_out, done, ready]
+                announcer = GraphAnnouncer(participant)
+                announcer.add_node(
+                    NodeEntities(
+                        self.node_plan.namespace, self.node_plan.name,
+                        [r.gid for r in readers if isinstance(r, RawReader)],
+                        [w.gid for w in writers if isinstance(w, RawWriter)],
+                    )
+                )  # fmt: skip
             self._readers_matched()
             self._publish(runner, None, self.system.run.start)
             if opts.supervised:

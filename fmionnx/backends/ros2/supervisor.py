@@ -93,6 +93,8 @@ class Ros2Options:
     step_timeout: float = 60.0
     #: Also record every topic into this MCAP file (``--record``).
     record: Path | None = None
+    #: ``rclpy``: every node runs through rclpy (the supervisor stays on Cyclone DDS).
+    middleware: str = "dds"
     run: RunOptions = field(default_factory=RunOptions)
 
 
@@ -240,6 +242,8 @@ class Supervisor:
             "--sync", opts.sync.value, "--ros-distro", opts.distro.value,
             "--record-dir", str(self.records), "--supervised", "--rtf", repr(opts.rtf),
         ]  # fmt: skip
+        if opts.middleware != "dds":
+            argv += ["--middleware", opts.middleware]
         if opts.stop_time is not None:
             argv += ["--stop-time", repr(opts.stop_time)]
         for item in opts.params:
