@@ -366,9 +366,18 @@ def measure(setup: Setup, folder: Path) -> Outcome:
                 stdout=logs[name], stderr=subprocess.STDOUT,
             )  # fmt: skip
         running = list(nodes.values())
-        _wait(simulator.matched, "the nodes subscribed", running)
-        _wait(lambda: all(lst.reader.matched() >= 1 for lst in listeners.values()),
-              "the nodes published", running)  # fmt: skip
+        try:
+            _wait(simulator.matched, "the nodes subscribed", running)
+            _wait(lambda: all(lst.reader.matched() >= 1 for lst in listeners.values()),
+                  "the nodes published", running)  # fmt: skip
+        except RuntimeError as exc:
+            for log in logs.values():
+                log.flush()
+            tails = {
+                n: (folder / f"{n}_{tag}.log").read_text(errors="replace")[-800:] for n in NODES
+            }
+            msg = f"{exc}; node logs:\n" + "\n".join(f"[{n}] {t}" for n, t in tails.items())
+            raise RuntimeError(msg) from None
         for listener in listeners.values():
             listener.start()
         answers = simulator.drive(setup.rate)
