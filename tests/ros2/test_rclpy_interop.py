@@ -195,3 +195,32 @@ def test_lockstep_run_with_middleware_rclpy_equals_the_inprocess_results(
     log = (out / "logs" / "tracker.log").read_text(encoding="utf-8")
     assert "node /fmu_sign_tracking_node (tracker) ready" in log
     assert processes_with(str(tmp_path)) == []
+
+
+@pytest.mark.parametrize("command", ["run", "node"])
+def test_middleware_rclpy_with_an_rmw_implementation_that_is_not_installed_is_a_clear_error(
+    rclpy_env: None, monkeypatch: pytest.MonkeyPatch, command: str
+) -> None:
+    # rcl itself would end the process with status 102 while loading; fmionnx says why first.
+    monkeypatch.setenv("RMW_IMPLEMENTATION", "rmw_nowhere_cpp")
+    argv = (
+        ["run", SYSTEM, "--backend", "ros2"] if command == "run" else ["node", SYSTEM, "tracker"]
+    )
+    done = subprocess.run(
+        fmionnx(*argv, "--ros-distro", "jazzy", "--middleware", "rclpy"),
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == (2 if command == "run" else 1), done.stderr  # usage / problem
+    text = " ".join(done.stderr.split())
+    assert "RMW_IMPLEMENTATION=rmw_nowhere_cpp names a ROS 2 middleware that is not installed" in text
+    assert "Traceback" not in done.stderr
+
+
+def test_middleware_rclpy_asks_for_the_distribution_of_the_rclpy_found(rclpy_env: None) -> None:
+    done = subprocess.run(
+        fmionnx("run", SYSTEM, "--backend", "ros2", "--ros-distro", "humble", "--middleware",
+                "rclpy"),
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 2
+    assert "the rclpy here is ROS 2 jazzy: add `--ros-distro jazzy`" in " ".join(done.stderr.split())
