@@ -61,15 +61,15 @@ ODOM_PERIOD = 0.01  # the odometry FMU's period
 FINE_STEP = 1 / 1500  # a base step on which 2 ms, 10 ms and 1/30 s all lie
 LATE = 0.005  # a frame published this much after its instant counts as late (a loaded host)
 
-#: DDS configurations compared (``CYCLONEDDS_URI`` for every process; None: not set). With
-#: ``ROS_LOCALHOST_ONLY=1`` on Humble, Cyclone sends a sample to two or more readers in
-#: another process by multicast on loopback: ``/clock`` (three readers) then travels on
-#: another socket than the camera frame (one reader) and can overtake it. ``spdp`` keeps
-#: multicast for discovery only, so all data between two processes shares one socket.
+#: DDS configurations compared (``CYCLONEDDS_URI`` for every process; None: not set). fmionnx's
+#: Humble localhost configuration keeps multicast for discovery only (``AllowMulticast=spdp``).
+#: With data by multicast too (``rmw_cyclonedds_cpp``'s Humble setting), Cyclone sends a
+#: sample with two or more readers in another process by multicast: ``/clock`` (three readers)
+#: then travels on another socket than the camera frame (one reader) and can overtake it.
 DDS_CONFIGS: dict[str, str | None] = {
     "default": None,
-    "AllowMulticast=spdp": (
-        "<CycloneDDS><Domain><General><AllowMulticast>spdp</AllowMulticast></General>"
+    "AllowMulticast=true": (
+        "<CycloneDDS><Domain><General><AllowMulticast>true</AllowMulticast></General>"
         "</Domain></CycloneDDS>"
     ),
 }
@@ -443,8 +443,8 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
     parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
     parser.add_argument("--rates", type=float, nargs="+", default=[30.0, 10.0], help="camera Hz")
     parser.add_argument("--seconds", type=float, default=10.0, help="measured seconds per rate")
-    parser.add_argument("--spdp-rates", type=float, nargs="*", default=[30.0],
-                        help="camera Hz also measured with AllowMulticast=spdp")  # fmt: skip
+    parser.add_argument("--multicast-rates", type=float, nargs="*", default=[30.0],
+                        help="camera Hz also measured with AllowMulticast=true")  # fmt: skip
     parser.add_argument("--warmup", type=float, default=2.0, help="seconds not measured, first")
     return parser.parse_args(argv)
 
@@ -476,7 +476,7 @@ def main(argv: Sequence[str] | None = None) -> list[Outcome]:
     """Measure every rate and configuration; print the tables."""
     args = parse(argv)
     runs = [(rate, "default") for rate in args.rates]
-    runs += [(rate, "AllowMulticast=spdp") for rate in args.spdp_rates]
+    runs += [(rate, "AllowMulticast=true") for rate in args.multicast_rates]
     domain = random.SystemRandom().randint(100, 200)
     outcomes = []
     with tempfile.TemporaryDirectory(prefix="fmionnx-pipeline-") as tmp:

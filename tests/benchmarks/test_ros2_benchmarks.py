@@ -63,7 +63,7 @@ def test_pipeline_benchmark_gets_cmd_vel_answers_from_the_real_nodes_and_prints_
     for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
         built_model(name)
     (outcome,) = ros2_pipeline.main(
-        ["--rates", "30", "--spdp-rates", "--seconds", "0.5", "--warmup", "0.5"]
+        ["--rates", "30", "--multicast-rates", "--seconds", "0.5", "--warmup", "0.5"]
     )
     assert outcome.node_exit_codes == {"odometry": 0, "detector": 0, "tracker": 0}
     assert outcome.frames == 15

@@ -23,6 +23,12 @@ def test_humble_localhost_only_pins_the_loopback_interface():
     assert '<NetworkInterface address="127.0.0.1"/>' in env.cyclone_config()
 
 
+def test_humble_localhost_only_keeps_multicast_for_discovery_only():
+    # data by multicast lets a /clock tick overtake a camera frame (benchmarks/ros2_pipeline.py)
+    env = from_environment(RosDistro.HUMBLE, {"ROS_LOCALHOST_ONLY": "1"})
+    assert "<AllowMulticast>spdp</AllowMulticast>" in env.cyclone_config()
+
+
 def test_humble_without_variables_uses_cyclone_defaults():
     env = from_environment(RosDistro.HUMBLE, {})
     assert (env.domain_id, env.cyclone_config()) == (0, "")

@@ -60,10 +60,14 @@ class DdsEnvironment:
         if self.distro is RosDistro.HUMBLE:
             if self.discovery is DiscoveryRange.SUBNET:
                 return ""
+            # Loopback as rmw_cyclonedds_cpp does, and multicast for discovery only: with data
+            # by multicast, a small /clock tick (several readers: multicast) can overtake a large
+            # frame (one reader: unicast), which arrives on another receive thread, and a
+            # free-run detector steps on the previous frame (docs/performance.md, ROS 2 mode).
             return (
                 "<CycloneDDS><Domain><General><Interfaces>"
                 '<NetworkInterface address="127.0.0.1"/>'
-                "</Interfaces></General></Domain></CycloneDDS>"
+                "</Interfaces><AllowMulticast>spdp</AllowMulticast></General></Domain></CycloneDDS>"
             )
         add_localhost = self.discovery is DiscoveryRange.LOCALHOST
         add_peers = self.discovery in (DiscoveryRange.SUBNET, DiscoveryRange.LOCALHOST)
