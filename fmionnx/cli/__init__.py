@@ -2,6 +2,8 @@
 
 from __future__ import annotations
 
+import sys
+
 from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     build_cmd,
     graph_cmd,
@@ -14,9 +16,21 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     ssp_cmd,
     validate_cmd,
 )
-from fmionnx.cli.app import app
+from fmionnx.cli.app import ExitCode, app
 
 
 def main() -> None:
-    """Console-script entry point."""
-    app()
+    """Console-script entry point.
+
+    Commands check the paths they are given; this is the net below them, so that a file system
+    refusing (a full disk, a path that vanished) ends with one line, not a traceback.
+    """
+    try:
+        app()
+    except BrokenPipeError:  # `fmionnx graph ... | head`: the reader left; nothing to say
+        sys.stderr.close()
+        sys.exit(ExitCode.PROBLEMS)
+    except OSError as exc:
+        where = f": `{exc.filename}`" if exc.filename else ""
+        print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
+        sys.exit(ExitCode.PROBLEMS)

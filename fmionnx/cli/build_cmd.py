@@ -10,6 +10,7 @@ from rich.console import Console
 
 from fmionnx.build import build_fmu
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.outputs import check_output_file
 from fmionnx.errors import BuildError, ModelError
 
 
@@ -25,6 +26,8 @@ def build_fmu_command(
 ) -> None:
     """Compile a source FMU (C sources inside) into a binary FMU for this platform."""
     err = Console(stderr=True, highlight=False)
+    if output is not None:
+        check_output_file(output, "--output")
     try:
         written = build_fmu(source, output)
     except ModelError as exc:

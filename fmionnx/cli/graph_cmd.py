@@ -12,6 +12,7 @@ import typer
 
 from fmionnx import api
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.outputs import check_output_file
 from fmionnx.graph_export import to_dot, to_json_text, to_mermaid
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
@@ -44,6 +45,8 @@ def graph(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="File to write.")] = None,
 ) -> None:
     """Compile a system and print or write its dataflow graph."""
+    if output is not None:
+        check_output_file(output, "--output")
     result = api.compile_system(system)
     if result.system is None:
         REPORTER_BY_NAME["text"].render(

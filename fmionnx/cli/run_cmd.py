@@ -10,6 +10,7 @@ from typing import Annotated, Any
 import typer
 
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.outputs import check_output_file, check_output_folder
 
 #: Exit code of a run stopped by Ctrl-C (128 + SIGINT), as shells report it.
 EXIT_INTERRUPTED = 130
@@ -94,6 +95,10 @@ def run(
         raise _fail("--step and --interface apply to a single .fmu only")
     if inputs and suffix != ".onnx":
         raise _fail("--input applies to a single .onnx model only")
+    if out is not None:
+        check_output_folder(out, "--out")
+    if record is not None:
+        check_output_file(record, "--record")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
     try:
         if suffix == ".onnx":

@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import app
+from fmionnx.cli.outputs import check_output_file
 from fmionnx.spec.model import json_schema
 
 
@@ -26,5 +27,4 @@ def schema(
     if output is None:
         typer.echo(text, nl=False)
     else:
-        output.parent.mkdir(parents=True, exist_ok=True)
-        output.write_text(text, encoding="utf-8")
+        check_output_file(output, "--output").write_text(text, encoding="utf-8")

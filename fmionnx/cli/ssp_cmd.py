@@ -9,6 +9,7 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.outputs import check_output_file
 from fmionnx.diagnostics import DiagnosticBag, Severity
 from fmionnx.errors import FmionnxError
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
@@ -44,6 +45,7 @@ def export(
     if output.suffix.lower() != ".ssp":
         typer.echo(f"error: the output must end in .ssp (got `{output.name}`)", err=True)
         raise typer.Exit(ExitCode.USAGE)
+    check_output_file(output, "--output")
     bag = DiagnosticBag()
     loaded = load_system(system, bag)
     compiled = compile_spec(loaded, bag) if loaded.spec is not None else None
@@ -77,6 +79,7 @@ def convert(
     if output.suffix.lower() not in {".yaml", ".yml"}:
         typer.echo(f"error: the output must end in .yaml (got `{output.name}`)", err=True)
         raise typer.Exit(ExitCode.USAGE)
+    check_output_file(output, "--output")
     bag = DiagnosticBag()
     loaded = load_system(system, bag)
     if loaded.spec is None or bag.has_errors:

@@ -153,9 +153,23 @@ def test_convert_writes_yaml_and_models_beside_it(demo_yaml: Path, tmp_path: Pat
 def test_convert_failure_leaves_no_half_written_files(demo_yaml: Path, tmp_path: Path) -> None:
     archive = export(demo_yaml, tmp_path / "demo.ssp")
     out = tmp_path / "out"
-    (out / "demo.yaml").mkdir(parents=True)  # the target name is taken by a folder
+    out.mkdir()
+    (out / "demo_files").write_text("taken\n")  # where the models go is taken by a file
     result = CliRunner().invoke(app, ["convert", str(archive), "-o", str(out / "demo.yaml")])
     assert result.exit_code == 1
     assert "cannot write" in result.output
-    assert sorted(p.name for p in out.iterdir()) == ["demo.yaml"]
-    assert (out / "demo.yaml").is_dir()
+    assert sorted(p.name for p in out.iterdir()) == ["demo_files"]
+    assert (out / "demo_files").read_text() == "taken\n"
+
+
+def test_convert_to_a_folder_is_a_usage_error_before_any_work(
+    demo_yaml: Path, tmp_path: Path
+) -> None:
+    archive = export(demo_yaml, tmp_path / "demo.ssp")
+    target = tmp_path / "out" / "demo.yaml"
+    target.mkdir(parents=True)  # the target name is taken by a folder
+    result = CliRunner().invoke(app, ["convert", str(archive), "-o", str(target)])
+    assert result.exit_code == 2
+    assert "is a folder; expected a file name" in " ".join(result.output.split())
+    assert target.is_dir()
+    assert list(target.iterdir()) == []

@@ -1,0 +1,85 @@
+"""Output paths are checked before any work: a clear usage error, never a traceback or a run
+that computes and then cannot write. The last net, in ``main``, turns a file-system refusal
+into one line."""
+
+from __future__ import annotations
+
+import errno
+import sys
+from pathlib import Path
+
+import pytest
+from typer.testing import CliRunner
+
+from fmionnx.cli import app, main
+from tests.conftest import REPO
+
+SYSTEM = str(REPO / "systems" / "sign_follower.yaml")
+GAIN = str(REPO / "tests" / "fixtures" / "fmus" / "Gain")
+
+
+@pytest.fixture
+def a_file(tmp_path: Path) -> Path:
+    path = tmp_path / "plain.txt"
+    path.write_text("not a folder\n", encoding="utf-8")
+    return path
+
+
+def _invoke(*args: str) -> tuple[int, str]:
+    result = CliRunner().invoke(app, list(args), env={"COLUMNS": "1000"})
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
+    return result.exit_code, " ".join(result.output.split())
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ["graph", SYSTEM, "-o"],
+        ["schema", "-o"],
+        ["build-fmu", GAIN, "-o"],
+        ["export", SYSTEM, "-o"],
+        ["run", SYSTEM, "--record"],
+    ],
+)
+def test_an_output_file_under_a_plain_file_is_a_usage_error(
+    command: list[str], a_file: Path
+) -> None:
+    target = a_file / ("out.ssp" if command[0] == "export" else "out.x")
+    code, output = _invoke(*command, str(target))
+    assert code == 2
+    assert f"`{target}`: the folder `{a_file}` exists and is not a folder" in output
+
+
+@pytest.mark.parametrize(
+    ("command", "option"),
+    [(["graph", SYSTEM, "-o"], "--output"), (["run", SYSTEM, "--record"], "--record")],
+)
+def test_an_output_file_that_is_a_folder_is_a_usage_error(
+    command: list[str], option: str, tmp_path: Path
+) -> None:
+    code, output = _invoke(*command, str(tmp_path))
+    assert code == 2
+    assert f"{option} `{tmp_path}` is a folder; expected a file name" in output
+
+
+def test_run_out_naming_a_file_fails_before_the_run(a_file: Path) -> None:
+    code, output = _invoke("run", SYSTEM, "--out", str(a_file))
+    assert code == 2
+    assert f"--out `{a_file}` exists and is not a folder" in output
+    assert "running" not in output
+    assert a_file.read_text(encoding="utf-8") == "not a folder\n"
+
+
+def test_main_turns_a_file_system_refusal_into_one_line(
+    monkeypatch: pytest.MonkeyPatch, capsys: pytest.CaptureFixture[str], tmp_path: Path
+) -> None:
+    def full_disk(self: Path, *args: object, **kwargs: object) -> int:
+        raise OSError(errno.ENOSPC, "No space left on device", str(self))
+
+    monkeypatch.setattr(Path, "write_text", full_disk)  # the disk is the peer here
+    monkeypatch.setattr(sys, "argv", ["fmionnx", "schema", "-o", str(tmp_path / "s.json")])
+    with pytest.raises(SystemExit) as ended:
+        main()
+    assert ended.value.code == 1
+    err = capsys.readouterr().err
+    assert err == f"error: No space left on device: `{tmp_path / 's.json'}`\n"
