@@ -25,6 +25,10 @@ $(STAMP): pyproject.toml | system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'
+	@# ROS 2's rosidl-parser wheel needs the old `lark-parser`, which ships the same `lark`
+	@# package as fmpy's `lark` 1.x: whichever pip unpacks last wins. Make it lark 1.x.
+	$(PY) -m pip install --quiet --no-deps --force-reinstall \
+	  "lark==$$($(PY) -c 'from importlib.metadata import version; print(version("lark"))')"
 	touch $(STAMP)
 
 models: $(STAMP)
