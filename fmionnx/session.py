@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import json
+import math
 import re
 from collections.abc import Mapping
 from dataclasses import dataclass, field
@@ -260,6 +261,9 @@ def run_onnx_once(
 def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
     """The system with another stop time (a whole number of base steps after the start)."""
     run = system.run
+    if not math.isfinite(stop):
+        msg = f"--stop-time {stop} must be a finite number of seconds"
+        raise OverrideError(msg)
     if stop <= run.start:
         msg = f"--stop-time {stop} must be greater than the start time {run.start}"
         raise OverrideError(msg)
@@ -308,6 +312,9 @@ def override_parameter(
         port_name = key[len(component_name) + 1 :]
     elif len(names) == 1:
         component_name, port_name = names[0], key  # a lone model: plain variable names
+    elif "." not in key:
+        msg = f"--param `{key}`: expected `component.name=value` (components: {', '.join(names)})"
+        raise OverrideError(msg)
     else:
         guess = key.split(".", 1)[0]
         hint = did_you_mean(guess, names) or one_of(names)

@@ -65,6 +65,8 @@ def node(
         transport = Middleware(middleware)
     except ValueError as exc:
         raise _fail(str(exc), ExitCode.USAGE) from None
+    if not rtf >= 0:  # also NaN
+        raise _fail("--rtf must be >= 0 (0: as fast as possible)", ExitCode.USAGE)
     problem = distro_problem(distro) if transport is Middleware.RCLPY else None
     if problem is not None:
         raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)

@@ -147,7 +147,7 @@ def _ros2_options(
         raise _fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
     if suffix in (".fmu", ".onnx"):
         raise _fail("--backend ros2 runs system files, not a single model")
-    if rtf < 0:
+    if not rtf >= 0:  # also NaN
         raise _fail("--rtf must be >= 0 (0: as fast as possible)")
     if not step_timeout > 0:
         raise _fail("--step-timeout must be > 0 seconds")

@@ -10,6 +10,7 @@ import sys
 import time
 
 import numpy as np
+import pytest
 from typer.testing import CliRunner
 
 from fmionnx.cli import app
@@ -104,3 +105,29 @@ def test_ctrl_c_stops_cleanly_writes_results_and_exits_130(
     table = read_csv(out / "results.csv")
     assert table["time"].size == info["steps"] + 1 > 1
     assert np.all(table["a.y"][1:] == 2.0)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--stop-time", "-1"], "--stop-time -1.0 must be greater than the start time 0.0"),
+        (["--stop-time", "nan"], "--stop-time nan must be a finite number of seconds"),
+        (["--stop-time", "inf"], "--stop-time inf must be a finite number of seconds"),
+        (["--stop-time", "0.0005"], "is not a whole number of base steps (0.001 s)"),
+        (["--param", "k=2"], "--param `k`: expected `component.name=value` (components: a, b)"),
+        (["--param", "c.k=2"], "--param `c.k`: no component `c`"),
+        (["--param", "a.kk=2"], "did you mean `k`"),
+        (["--param", "a.k"], "--param `a.k` must look like `name=value`"),
+    ],
+)
+def test_bad_overrides_are_usage_errors_before_the_run(
+    fixture_fmu, write_system, tmp_path, args: list[str], message: str
+) -> None:
+    system = write_system(CHAIN.format(stop=0.5, gain=fixture_fmu("Gain")))
+    out = tmp_path / "out"
+    result = CliRunner().invoke(
+        app, ["run", str(system), "--out", str(out), *args], env={"COLUMNS": "1000"}
+    )
+    assert result.exit_code == 2, result.output
+    assert message in result.output
+    assert not (out / "results.csv").exists()
