@@ -28,6 +28,7 @@ class ComponentSpecBase(StrictModel):
     period: float | None = Field(
         default=None,
         gt=0,
+        allow_inf_nan=False,
         description="Seconds between two steps of this component; a whole multiple of "
         "`run.step`. Default: the base step.",
     )

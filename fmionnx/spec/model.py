@@ -37,6 +37,8 @@ ARROW = "->"
 class RunSpec(StrictModel):
     """When and how finely the system runs. Missing values are resolved by the compiler."""
 
+    model_config = StrictModel.model_config | {"allow_inf_nan": False}
+
     start: float = Field(default=0.0, description="Start time in seconds.")
     stop: float | None = Field(default=None, description="Stop time in seconds.")
     step: float | None = Field(
@@ -52,7 +54,7 @@ class ConnectionSpec(StrictModel):
     factor: float = Field(default=1.0, description="Linear transformation: y = factor*x + offset.")
     offset: float = Field(default=0.0, description="Linear transformation offset.")
 
-    model_config = StrictModel.model_config | {"populate_by_name": True}
+    model_config = StrictModel.model_config | {"populate_by_name": True, "allow_inf_nan": False}
 
 
 def split_connection(text: str) -> tuple[str, str] | None:
