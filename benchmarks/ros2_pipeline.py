@@ -446,6 +446,8 @@ def parse(argv: Sequence[str] | None) -> argparse.Namespace:
     parser.add_argument("--multicast-rates", type=float, nargs="*", default=[30.0],
                         help="camera Hz also measured with AllowMulticast=true")  # fmt: skip
     parser.add_argument("--warmup", type=float, default=2.0, help="seconds not measured, first")
+    parser.add_argument("--domain", type=int, default=None,
+                        help="first DDS domain id (one per configuration; default: random)")  # fmt: skip
     return parser.parse_args(argv)
 
 
@@ -477,7 +479,7 @@ def main(argv: Sequence[str] | None = None) -> list[Outcome]:
     args = parse(argv)
     runs = [(rate, "default") for rate in args.rates]
     runs += [(rate, "AllowMulticast=true") for rate in args.multicast_rates]
-    domain = random.SystemRandom().randint(100, 200)
+    domain = args.domain if args.domain is not None else random.SystemRandom().randint(100, 200)
     outcomes = []
     with tempfile.TemporaryDirectory(prefix="fmionnx-pipeline-") as tmp:
         for rate, dds in runs:

@@ -7,6 +7,7 @@ modes run the same steps with the same results. Latencies and rates are never as
 from __future__ import annotations
 
 import math
+import random
 
 import numpy as np
 import pytest
@@ -62,9 +63,10 @@ def test_pipeline_benchmark_gets_cmd_vel_answers_from_the_real_nodes_and_prints_
 ) -> None:
     for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
         built_model(name)
-    (outcome,) = ros2_pipeline.main(
-        ["--rates", "30", "--multicast-rates", "--seconds", "0.5", "--warmup", "0.5"]
-    )
+    # in this process: a domain apart from tests/ros2's (one Cyclone configuration per domain)
+    domain = str(random.SystemRandom().randint(210, 229))
+    args = ["--rates", "30", "--multicast-rates", "--seconds", "0.5", "--warmup", "0.5"]
+    (outcome,) = ros2_pipeline.main([*args, "--domain", domain])
     assert outcome.node_exit_codes == {"odometry": 0, "detector": 0, "tracker": 0}
     assert outcome.frames == 15
     assert len(outcome.answers.published) == 15 + 15 + 15  # warm-up, measured, tail

@@ -41,7 +41,7 @@ def rclpy_env() -> Iterator[None]:
     if problem is not None:
         pytest.skip(f"rclpy cannot run here: {problem}")
     with pytest.MonkeyPatch.context() as patch:
-        patch.setenv("ROS_DOMAIN_ID", str(random.SystemRandom().randint(100, 229)))
+        patch.setenv("ROS_DOMAIN_ID", str(random.SystemRandom().randint(200, 209)))
         patch.setenv("ROS_AUTOMATIC_DISCOVERY_RANGE", "LOCALHOST")
         for name in ("ROS_LOCALHOST_ONLY", "ROS_STATIC_PEERS", "CYCLONEDDS_URI"):
             patch.delenv(name, raising=False)
