@@ -4,9 +4,13 @@ Incremental: each product records a hash of everything it is built from in a ``.
 next to it and is rebuilt only when that hash changes or the product is missing, so ``make
 test`` costs nothing when the models are current.
 
-The FMUs share the FMI 2 glue in ``models/fmus/common``. Each model folder is a source FMU
-minus that glue; the build stages ``<model>/`` plus ``common/`` into one complete source FMU
+The FMUs share the FMI glue in ``models/fmus/common`` (``fmi2Functions.c``, ``fmi3Functions.c``
+and the model contract ``model.h``). Each model folder is a source FMU minus that glue; the build
+stages ``<model>/`` plus the glue of its FMI version into one complete source FMU
 (``<out>/src/<model>/``, a valid input of ``fmionnx build-fmu`` on its own) and compiles it.
+A variant folder (``MODEL_SOURCES``, e.g. ``ReadOdometry3``, the FMI 3.0 build) holds only its
+model description and build description and takes ``sources/`` from the model it builds, so
+the equations exist once.
 The MuJoCo scene needs no build: system files refer to ``models/world`` directly.
 """
 
@@ -15,15 +19,19 @@ from __future__ import annotations
 import argparse
 import hashlib
 import importlib.util
+import re
 import shutil
 import sys
 from collections.abc import Callable, Iterable
 from pathlib import Path
+from xml.etree import ElementTree
 
 HERE = Path(__file__).resolve().parent
 FMU_SOURCES = HERE / "fmus"
 COMMON = FMU_SOURCES / "common"
-FMU_NAMES = ("ReadOdometry", "SignTrackingLogic")
+FMU_NAMES = ("ReadOdometry", "SignTrackingLogic", "ReadOdometry3")
+# Variant folder -> model folder whose sources/ (model.c, config.h) it is built from.
+MODEL_SOURCES = {"ReadOdometry3": "ReadOdometry"}
 DETECTOR_SCRIPT = HERE / "onnx" / "build_sign_detector.py"
 
 
@@ -51,12 +59,39 @@ def _record(product: Path, digest: str) -> None:
     product.with_name(product.name + ".stamp").write_text(digest)
 
 
+def _fmi_major(name: str) -> str:
+    """``"2"`` or ``"3"``: the FMI version the model folder ``name`` declares."""
+    root = ElementTree.parse(FMU_SOURCES / name / "modelDescription.xml").getroot()
+    return root.get("fmiVersion", "2.0").split(".")[0]
+
+
+def _glue(name: str) -> list[Path]:
+    """The shared files ``name`` is built with: ``model.h`` and the glue of its FMI version only,
+    so that a new glue for another version neither ships in nor rebuilds the existing FMUs."""
+    major = _fmi_major(name)
+    return [
+        file
+        for file in _files([COMMON])
+        if not re.match(r"fmi\d", file.name) or file.name.startswith(f"fmi{major}")
+    ]
+
+
+def _inputs(name: str) -> list[Path]:
+    """Everything the FMU ``name`` is built from (its digest covers these)."""
+    base = MODEL_SOURCES.get(name)
+    own = [FMU_SOURCES / name]
+    return (own if base is None else [FMU_SOURCES / base / "sources", *own]) + _glue(name)
+
+
 def stage_fmu(name: str, staging: Path) -> Path:
     """Assemble the complete source FMU of ``name`` (model folder + shared glue) in ``staging``."""
     target = staging / name
     shutil.rmtree(target, ignore_errors=True)
-    shutil.copytree(FMU_SOURCES / name, target)
-    for file in _files([COMMON]):
+    base = MODEL_SOURCES.get(name)
+    if base is not None:
+        shutil.copytree(FMU_SOURCES / base / "sources", target / "sources")
+    shutil.copytree(FMU_SOURCES / name, target, dirs_exist_ok=True)
+    for file in _glue(name):
         shutil.copy2(file, target / "sources" / file.name)
     return target
 
@@ -68,7 +103,7 @@ def build_fmus(out: Path, *, force: bool) -> list[str]:
     log = []
     for name in FMU_NAMES:
         product = out / f"{name}.fmu"
-        digest = _digest([FMU_SOURCES / name, COMMON])
+        digest = _digest(_inputs(name))
         if not force and _up_to_date(product, digest):
             log.append(f"{product}: up to date")
             continue
