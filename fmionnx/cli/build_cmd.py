@@ -17,7 +17,7 @@ from fmionnx.errors import BuildError, ModelError
 @app.command(
     "build-fmu",
     epilog="Examples:\n\n"
-    "  fmionnx build-fmu models/fmus/ReadOdometry -o build/models/ReadOdometry.fmu\n\n"
+    "  fmionnx build-fmu tests/fixtures/fmus/Gain -o build/Gain.fmu\n\n"
     "  fmionnx build-fmu WindowsOnly.fmu   # writes WindowsOnly.built.fmu",
 )
 def build_fmu_command(

@@ -1,4 +1,4 @@
-/* The contract between the shared FMI 2 glue (fmi2Functions.c) and one model (model.c).
+/* The contract between the shared FMI glue (fmi2Functions.c, fmi3Functions.c) and one model (model.c).
  *
  * Why a split: every FMU in models/ needs the same ~40 FMI 2 entry points, mode checks and
  * state copying; only the equations differ. The glue owns the FMI side, a model fills in the
