@@ -29,9 +29,9 @@ from xml.etree import ElementTree
 HERE = Path(__file__).resolve().parent
 FMU_SOURCES = HERE / "fmus"
 COMMON = FMU_SOURCES / "common"
-FMU_NAMES = ("ReadOdometry", "SignTrackingLogic", "ReadOdometry3")
+FMU_NAMES = ("ReadOdometry", "SignTrackingLogic", "ReadOdometry3", "SignTrackingLogic3")
 # Variant folder -> model folder whose sources/ (model.c, config.h) it is built from.
-MODEL_SOURCES = {"ReadOdometry3": "ReadOdometry"}
+MODEL_SOURCES = {"ReadOdometry3": "ReadOdometry", "SignTrackingLogic3": "SignTrackingLogic"}
 DETECTOR_SCRIPT = HERE / "onnx" / "build_sign_detector.py"
 
 

@@ -9,6 +9,14 @@
  *   Boolean  <-> booleans  (BOOLEAN_VR_BASE..)
  *   Float64 TIME_VR        the independent variable `time`, which FMI 3 requires to be declared
  *
+ * FMI 3 arrays: an array variable has ONE value reference and its elements travel together
+ * (fmi3GetFloat64's nValues counts elements, not variables). A model whose FMI 3 build declares
+ * Float64 arrays defines MODEL_HAS_FMI3_ARRAYS (a PreprocessorDefinition of its
+ * buildDescription.xml) and ships fmi3Arrays.h with MODEL_FMI3_ARRAYS, a table of
+ * {value reference, first index in reals, element count}; the array's elements are that many
+ * consecutive reals. Every other Float64 value reference is a scalar, reals[vr], as in FMI 2.
+ * The FMI 2 glue never sees the table, so the FMI 2 build keeps its indexed scalars.
+ *
  * Models have no continuous states and no events, so model exchange only keeps the outputs
  * current and co-simulation steps call model_do_step. What FMI 3 adds beyond that (clocks,
  * scheduled execution, configuration mode, other integer widths, strings, binaries,
@@ -20,6 +28,10 @@
 
 #include "fmi3Functions.h"
 #include "model.h"
+
+#if defined(MODEL_HAS_FMI3_ARRAYS) && MODEL_HAS_FMI3_ARRAYS
+#include "fmi3Arrays.h"
+#endif
 
 /* Value reference of `time`: above every per-type range of model.h. */
 #define TIME_VR 1000u
@@ -60,7 +72,63 @@ static int in_range(fmi3ValueReference vr, unsigned base, int count) {
     return vr >= base && (long)vr - (long)base < (long)count;
 }
 
-/* Every variable is a scalar: one value per value reference. */
+/* A Float64 variable backed by `count` consecutive reals from `first` (an FMI 3 array). */
+typedef struct {
+    fmi3ValueReference vr;
+    int first;
+    int count;
+} RealSpan;
+
+#ifdef MODEL_FMI3_ARRAYS
+static const RealSpan ARRAYS[] = MODEL_FMI3_ARRAYS;
+static const size_t N_ARRAYS = sizeof(ARRAYS) / sizeof(ARRAYS[0]);
+#else
+static const RealSpan ARRAYS[1] = {{0u, 0, 0}};
+static const size_t N_ARRAYS = 0; /* the model has no arrays */
+#endif
+
+/* The reals behind the Float64 value reference vr (not `time`): sets *first and returns the
+ * element count, or 0 when vr names no variable. A real inside an array is reachable only
+ * through the array's value reference, so that it is never mistaken for a scalar. */
+static int real_span(fmi3ValueReference vr, int *first) {
+    for (size_t a = 0; a < N_ARRAYS; a++) {
+        if (ARRAYS[a].vr == vr) {
+            *first = ARRAYS[a].first;
+            return ARRAYS[a].count;
+        }
+    }
+    if (!in_range(vr, 0u, N_REALS)) return 0;
+    for (size_t a = 0; a < N_ARRAYS; a++) {
+        if (in_range(vr, (unsigned)ARRAYS[a].first, ARRAYS[a].count)) return 0;
+    }
+    *first = (int)vr;
+    return 1;
+}
+
+/* Sum of the element counts of the Float64 value references, or 0 when one is unknown (or
+ * `time` while it may not be set). Checked before any value is touched, so that a bad call
+ * changes nothing. */
+static size_t float64_values(const fmi3ValueReference valueReferences[],
+                             size_t nValueReferences, int allow_time, int *unknown) {
+    size_t total = 0;
+    *unknown = 0;
+    for (size_t k = 0; k < nValueReferences; k++) {
+        int first = 0;
+        if (allow_time && valueReferences[k] == TIME_VR) {
+            total += 1;
+            continue;
+        }
+        const int count = real_span(valueReferences[k], &first);
+        if (count <= 0) {
+            *unknown = 1;
+            return 0;
+        }
+        total += (size_t)count;
+    }
+    return total;
+}
+
+/* Every Int32 and Boolean variable is a scalar: one value per value reference. */
 #define CHECK_SCALARS(function)                                                    \
     if (nValues != nValueReferences) {                                             \
         return fail(instance, function ": nValues differs from nValueReferences"); \
@@ -232,17 +300,23 @@ fmi3Status fmi3Reset(fmi3Instance instance) {
 fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, fmi3Float64 values[], size_t nValues) {
     Instance *inst = (Instance *)instance;
-    CHECK_SCALARS("fmi3GetFloat64")
+    int unknown = 0;
+    const size_t total = float64_values(valueReferences, nValueReferences, 1, &unknown);
+    if (unknown) return fail(instance, "fmi3GetFloat64: unknown value reference");
+    if (total != nValues) {
+        return fail(instance, "fmi3GetFloat64: nValues differs from the variables' element count");
+    }
     if (nValueReferences > 0) refresh(inst);
+    size_t at = 0;
     for (size_t k = 0; k < nValueReferences; k++) {
         const fmi3ValueReference vr = valueReferences[k];
         if (vr == TIME_VR) {
-            values[k] = inst->data.time;
-        } else if (in_range(vr, 0u, N_REALS)) {
-            values[k] = inst->data.reals[vr];
-        } else {
-            return fail(instance, "fmi3GetFloat64: unknown value reference");
+            values[at++] = inst->data.time;
+            continue;
         }
+        int first = 0;
+        const int count = real_span(vr, &first);
+        for (int e = 0; e < count; e++) values[at++] = inst->data.reals[first + e];
     }
     return fmi3OK;
 }
@@ -250,12 +324,17 @@ fmi3Status fmi3GetFloat64(fmi3Instance instance, const fmi3ValueReference valueR
 fmi3Status fmi3SetFloat64(fmi3Instance instance, const fmi3ValueReference valueReferences[],
                           size_t nValueReferences, const fmi3Float64 values[], size_t nValues) {
     Instance *inst = (Instance *)instance;
-    CHECK_SCALARS("fmi3SetFloat64")
+    int unknown = 0;
+    const size_t total = float64_values(valueReferences, nValueReferences, 0, &unknown);
+    if (unknown) return fail(instance, "fmi3SetFloat64: value reference cannot be set");
+    if (total != nValues) {
+        return fail(instance, "fmi3SetFloat64: nValues differs from the variables' element count");
+    }
+    size_t at = 0;
     for (size_t k = 0; k < nValueReferences; k++) {
-        if (!in_range(valueReferences[k], 0u, N_REALS)) {
-            return fail(instance, "fmi3SetFloat64: value reference cannot be set");
-        }
-        inst->data.reals[valueReferences[k]] = values[k];
+        int first = 0;
+        const int count = real_span(valueReferences[k], &first);
+        for (int e = 0; e < count; e++) inst->data.reals[first + e] = values[at++];
     }
     inst->data.dirty = 1;
     return fmi3OK;
