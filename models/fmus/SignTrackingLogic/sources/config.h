@@ -1,4 +1,4 @@
-/* Identity and sizes of SignTrackingLogic for the shared FMI 2 glue (see ../common/model.h). */
+/* Identity and sizes of SignTrackingLogic for the shared FMI 2/3 glue (see ../common/model.h). */
 #ifndef FMIONNX_CONFIG_H
 #define FMIONNX_CONFIG_H
 
