@@ -1,4 +1,4 @@
-"""Build the reference models from source (``make models``): the FMUs (FMI 2.0, and FMI 3.0 variants) and the ONNX detector.
+"""Build the reference models from source (``make models``): the FMUs and the ONNX detector.
 
 Incremental: each product records a hash of everything it is built from in a ``.stamp`` file
 next to it and is rebuilt only when that hash changes or the product is missing, so ``make
