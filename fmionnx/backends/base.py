@@ -70,6 +70,36 @@ class RunResult:
     #: kernel), written to run.json as ``execution``.
     details: dict[str, str | int | bool | None] = field(default_factory=dict)
 
+    @classmethod
+    def after(
+        cls,
+        system: CompiledSystem,
+        backend: str,
+        status: RunStatus,
+        steps_done: int,
+        wall_time: float,
+        signals: dict[str, npt.NDArray[np.float64]],
+        error: RunError | None = None,
+        details: dict[str, str | int | bool | None] | None = None,
+    ) -> RunResult:
+        """The result of ``system`` after ``steps_done`` base steps: run settings and the time
+        column (``t_0 .. t_n``, computed, never accumulated) come from the system."""
+        run = system.run
+        return cls(
+            system=system.name,
+            backend=backend,
+            status=status,
+            start=run.start,
+            stop=run.stop,
+            step=run.step,
+            steps_done=steps_done,
+            wall_time=wall_time,
+            time=np.asarray(run.start + np.arange(steps_done + 1) * run.step, dtype=np.float64),
+            signals=signals,
+            error=error,
+            details=details or {},
+        )
+
     @property
     def simulated_time(self) -> float:
         """Seconds of simulated time actually covered."""

@@ -23,8 +23,6 @@ import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-import numpy as np
-
 from fmionnx.backends.base import RunOptions, RunResult, RunStatus
 from fmionnx.backends.inprocess.native import NativeStatus, plan_native
 from fmionnx.backends.inprocess.recorder import Recorder, Track
@@ -275,7 +273,6 @@ class Master:
     def run(self) -> RunResult:
         """Prepare, loop to the stop time (or a fault / Ctrl-C), terminate, collect results."""
         system = self.system
-        run = system.run
         status = RunStatus.COMPLETED
         error: RunError | None = None
         started = _time.perf_counter()
@@ -291,20 +288,10 @@ class Master:
             wall = _time.perf_counter() - started
             self._terminate()
         n = self._clock[0]
-        return RunResult(
-            system=system.name,
-            backend=BACKEND_NAME,
-            status=status,
-            start=run.start,
-            stop=run.stop,
-            step=run.step,
-            steps_done=n,
-            wall_time=wall,
-            time=np.asarray(run.start + np.arange(n + 1) * run.step, dtype=np.float64),
-            signals=self.recorder.table(n),
-            error=error,
-            details=self.native.details(),
-        )
+        return RunResult.after(
+            system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
+            self.native.details(),
+        )  # fmt: skip
 
     def _loop(self) -> None:
         run = self.system.run

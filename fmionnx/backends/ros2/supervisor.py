@@ -32,8 +32,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
 
-import numpy as np
-
 from fmionnx.backends.base import RunOptions, RunResult, RunStatus
 from fmionnx.backends.ros2.bag import TopicRecorder
 from fmionnx.backends.ros2.control import (
@@ -409,23 +407,11 @@ class Supervisor:
         return RunError(message, component=ended.component)
 
     def _result(self, status: RunStatus, error: RunError | None, wall: float) -> RunResult:
-        run = self.system.run
         n = self.steps_done
         refs = record_refs(self.system, self.options.run)
         recorder = merge(self.records, self.components, refs, self.system)
-        return RunResult(
-            system=self.system.name,
-            backend=BACKEND_NAME,
-            status=status,
-            start=run.start,
-            stop=run.stop,
-            step=run.step,
-            steps_done=n,
-            wall_time=wall,
-            time=np.asarray(run.start + np.arange(n + 1) * run.step, dtype=np.float64),
-            signals=recorder.table(n),
-            error=error,
-            details=self._details(),
+        return RunResult.after(
+            self.system, BACKEND_NAME, status, n, wall, recorder.table(n), error, self._details()
         )
 
     def _details(self) -> dict[str, str | int | bool | None]:
