@@ -19,7 +19,6 @@ SIGTERM into KeyboardInterrupt itself) and without log files under ``~/.ros``.
 from __future__ import annotations
 
 import importlib
-import time
 from collections import deque
 from dataclasses import dataclass, field
 from typing import Any
@@ -29,7 +28,7 @@ from fmionnx.backends.ros2.messages import RosDistro
 from fmionnx.backends.ros2.names import ros_topic
 from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError, import_rclpy
-from fmionnx.backends.ros2.transport import TransportError
+from fmionnx.backends.ros2.transport import TransportError, wait_for_matches
 
 #: rcl arguments of every participant: no spdlog files in ``~/.ros/log``.
 _RCL_ARGS = ["fmionnx", "--ros-args", "--disable-external-lib-logs"]
@@ -90,12 +89,7 @@ class RclpyWriter:
 
     def wait_for_readers(self, count: int = 1, timeout: float = 5.0) -> bool:
         """Wait until ``count`` subscriptions matched (samples written before are lost to them)."""
-        deadline = time.monotonic() + timeout
-        while self.matched() < count:
-            if time.monotonic() > deadline:
-                return False
-            time.sleep(0.002)
-        return True
+        return wait_for_matches(self.matched, count, timeout)
 
 
 @dataclass

@@ -11,6 +11,7 @@ generated IDL types (:mod:`.idl`) so that DDS sees ROS 2's type names and type i
 from __future__ import annotations
 
 import time
+from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
@@ -66,6 +67,19 @@ def gid_of(entity: Any) -> bytes:
     return bytes(entity.guid.bytes)
 
 
+def wait_for_matches(matched: Callable[[], int], count: int, timeout: float) -> bool:
+    """Poll ``matched()`` until it reaches ``count``; False after ``timeout`` seconds.
+
+    Matching is reported by discovery threads, not as an event a writer could wait on.
+    """
+    deadline = time.monotonic() + timeout
+    while matched() < count:
+        if time.monotonic() > deadline:
+            return False
+        time.sleep(0.002)
+    return True
+
+
 @dataclass
 class RawWriter:
     """A DDS writer that publishes already serialised CDR samples."""
@@ -95,12 +109,7 @@ class RawWriter:
 
     def wait_for_readers(self, count: int = 1, timeout: float = 5.0) -> bool:
         """Wait until ``count`` readers matched (samples written before are lost to them)."""
-        deadline = time.monotonic() + timeout
-        while self.matched() < count:
-            if time.monotonic() > deadline:
-                return False
-            time.sleep(0.002)
-        return True
+        return wait_for_matches(self.matched, count, timeout)
 
 
 @dataclass
