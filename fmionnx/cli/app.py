@@ -27,3 +27,11 @@ class ExitCode(enum.IntEnum):
 
 
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print only errors.")]
+
+
+def fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
+    """Print ``error: message`` on stderr and return the Exit to raise (usage error by default)."""
+    from rich.console import Console
+
+    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
+    return typer.Exit(code)

@@ -10,15 +10,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-import typer
-from rich.console import Console
-
-from fmionnx.cli.app import ExitCode
-
-
-def _usage_error(message: str) -> typer.Exit:
-    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
-    return typer.Exit(ExitCode.USAGE)
+from fmionnx.cli.app import fail
 
 
 def _make_folder(folder: Path, option: str, what: str) -> None:
@@ -27,23 +19,23 @@ def _make_folder(folder: Path, option: str, what: str) -> None:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
         msg = f"{label} exists and is not a folder"
-        raise _usage_error(msg) from None
+        raise fail(msg) from None
     except OSError as exc:
         msg = f"{label} cannot be created ({exc.strerror})"
-        raise _usage_error(msg) from None
+        raise fail(msg) from None
     if not os.access(folder, os.W_OK | os.X_OK):
         msg = f"{label} is not writable"
-        raise _usage_error(msg)
+        raise fail(msg)
 
 
 def check_output_file(path: Path, option: str) -> Path:
     """``path`` can be written as a file (its folder is created); else exit 2."""
     if path.is_dir():
         msg = f"{option} `{path}` is a folder; expected a file name"
-        raise _usage_error(msg)
+        raise fail(msg)
     if path.exists() and not os.access(path, os.W_OK):
         msg = f"{option} `{path}` exists and is not writable"
-        raise _usage_error(msg)
+        raise fail(msg)
     _make_folder(path.parent, option, str(path))
     return path
 

@@ -9,18 +9,11 @@ from typing import Annotated, Any
 
 import typer
 
-from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.cli.outputs import check_output_file, check_output_folder
 
 #: Exit code of a run stopped by Ctrl-C (128 + SIGINT), as shells report it.
 EXIT_INTERRUPTED = 130
-
-
-def _fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
-    from rich.console import Console
-
-    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
-    return typer.Exit(code)
 
 
 def _parse_pairs(items: list[str], option: str) -> dict[str, str]:
@@ -28,7 +21,7 @@ def _parse_pairs(items: list[str], option: str) -> dict[str, str]:
     for item in items:
         key, sep, value = item.partition("=")
         if not sep or not key.strip():
-            raise _fail(f"{option} `{item}` must look like `name=value`")
+            raise fail(f"{option} `{item}` must look like `name=value`")
         pairs[key.strip()] = value.strip()
     return pairs
 
@@ -90,11 +83,11 @@ def run(
     """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
     suffix = target.suffix.lower()
     if interface is not None and interface not in ("cs", "me"):
-        raise _fail(f"--interface must be `cs` or `me`, not `{interface}`")
+        raise fail(f"--interface must be `cs` or `me`, not `{interface}`")
     if (step is not None or interface is not None) and suffix != ".fmu":
-        raise _fail("--step and --interface apply to a single .fmu only")
+        raise fail("--step and --interface apply to a single .fmu only")
     if inputs and suffix != ".onnx":
-        raise _fail("--input applies to a single .onnx model only")
+        raise fail("--input applies to a single .onnx model only")
     if out is not None:
         check_output_folder(out, "--out")
     if record is not None:
@@ -116,7 +109,7 @@ def run(
             ros2=ros2,
         )
     except KeyboardInterrupt:
-        raise _fail("interrupted before the run started", EXIT_INTERRUPTED) from None
+        raise fail("interrupted before the run started", EXIT_INTERRUPTED) from None
     raise typer.Exit(code)
 
 
@@ -132,7 +125,7 @@ def _ros2_options(
 ) -> Any:
     """The ROS 2 backend's options, or None for the in-process backend (usage errors exit 2)."""
     if backend not in ("inprocess", "ros2"):
-        raise _fail(f"--backend must be `inprocess` or `ros2`, not `{backend}`")
+        raise fail(f"--backend must be `inprocess` or `ros2`, not `{backend}`")
     if backend == "inprocess":
         return None
     from fmionnx.backends.ros2.messages import RosDistro
@@ -140,23 +133,23 @@ def _ros2_options(
     from fmionnx.backends.ros2.supervisor import Ros2Options
 
     if sync not in {m.value for m in SyncMode}:
-        raise _fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
+        raise fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
     if distro not in {d.value for d in RosDistro}:
-        raise _fail(f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}")
+        raise fail(f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}")
     if middleware not in ("dds", "rclpy"):
-        raise _fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
+        raise fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
     if suffix in (".fmu", ".onnx"):
-        raise _fail("--backend ros2 runs system files, not a single model")
+        raise fail("--backend ros2 runs system files, not a single model")
     if not rtf >= 0:  # also NaN
-        raise _fail("--rtf must be >= 0 (0: as fast as possible)")
+        raise fail("--rtf must be >= 0 (0: as fast as possible)")
     if not step_timeout > 0:
-        raise _fail("--step-timeout must be > 0 seconds")
+        raise fail("--step-timeout must be > 0 seconds")
     if middleware == "rclpy":  # checked in a child process: rclpy stays out of this one
         from fmionnx.backends.ros2.rclpy_env import distro_problem, rclpy_problem
 
         problem = rclpy_problem() or distro_problem(RosDistro(distro))
         if problem is not None:
-            raise _fail(f"--middleware rclpy: {problem}; or use `--middleware dds` (the default)")
+            raise fail(f"--middleware rclpy: {problem}; or use `--middleware dds` (the default)")
     return Ros2Options(
         sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf, record=record,
         step_timeout=step_timeout, middleware=middleware,
@@ -213,7 +206,7 @@ def _run_system(
             stop_time=stop_time, params={k: parse_value(v) for k, v in params.items()}
         )
     except OverrideError as exc:
-        raise _fail(str(exc)) from None
+        raise fail(str(exc)) from None
     recorder = None
     if record is not None and ros2 is None:  # ROS 2: the supervisor records the wire
         from fmionnx.results.mcap_record import McapRecorder
@@ -240,9 +233,9 @@ def _run_system(
     except DiagnosticError as exc:
         if recorder is not None:
             recorder.finish(None)
-        raise _fail(str(exc.diagnostics[0].message), ExitCode.PROBLEMS) from None
+        raise fail(str(exc.diagnostics[0].message), ExitCode.PROBLEMS) from None
     except FmionnxError as exc:  # ROS 2: a bad ROS_DOMAIN_ID, DDS refusing to start
-        raise _fail(str(exc), ExitCode.PROBLEMS) from None
+        raise fail(str(exc), ExitCode.PROBLEMS) from None
     files: list[Path] = []
     if recorder is not None:
         files.append(recorder.finish(result))
@@ -327,11 +320,11 @@ def _run_onnx(target: Path, inputs: dict[str, str], out: Path | None, *, quiet: 
         try:
             arrays[name] = np.load(file, allow_pickle=False)
         except (OSError, ValueError) as exc:
-            raise _fail(f"--input {name}: cannot read `{file}` as a .npy array ({exc})") from None
+            raise fail(f"--input {name}: cannot read `{file}` as a .npy array ({exc})") from None
     try:
         outputs = run_onnx_once(system, arrays)
     except (OverrideError, RunError) as exc:
-        raise _fail(str(exc), ExitCode.PROBLEMS) from None
+        raise fail(str(exc), ExitCode.PROBLEMS) from None
     console = Console(highlight=False)
     table = Table(title=f"outputs of {target.name}")
     for column in ("output", "dtype", "shape", "values"):
