@@ -98,7 +98,7 @@ def built_gain(folder: Path) -> Iterator[tuple[Path, Path]]:
     """Compile the Gain FMU into ``folder`` and extract it once; yields (fmu, unzipped dir)."""
     from fmpy import extract
 
-    from fmionnx.build import build_fmu
+    from fmionnx.kinds.fmu.build import build_fmu
 
     fmu = folder / "Gain.fmu"
     if not fmu.exists():
@@ -163,8 +163,8 @@ def prepare_fmionnx_python(chain: Chain) -> RunOnce | str:
 def prepare_fmionnx(chain: Chain, *, native: bool = True) -> RunOnce | str:
     """Compile the system file once; each repetition is one ``System.run`` without recording."""
     import fmionnx
-    from fmionnx.backends.base import RunOptions, RunStatus
     from fmionnx.compile.ir import PortRef
+    from fmionnx.runtime.result import RunOptions, RunStatus
 
     folder = Path(tempfile.mkdtemp(prefix="fmionnx-chain-"))
     try:

@@ -47,11 +47,11 @@ from fmionnx.backends.ros2.codec import TopicCodec  # noqa: E402
 from fmionnx.backends.ros2.control import CLOCK_DDS, CONTROL_WRITER_QOS, StepClock  # noqa: E402
 from fmionnx.backends.ros2.env import from_environment  # noqa: E402
 from fmionnx.backends.ros2.loading import load_system, plan_for  # noqa: E402
-from fmionnx.backends.ros2.mapping import CLOCK_TYPE, Ros2Plan, TopicPlan  # noqa: E402
-from fmionnx.backends.ros2.messages import RosDistro  # noqa: E402
-from fmionnx.backends.ros2.names import dds_topic  # noqa: E402
 from fmionnx.backends.ros2.transport import Participant, RawReader  # noqa: E402
 from fmionnx.compile.ir import RunSettings  # noqa: E402
+from fmionnx.compile.ros2.messages import RosDistro  # noqa: E402
+from fmionnx.compile.ros2.names import dds_topic  # noqa: E402
+from fmionnx.compile.ros2.plan import CLOCK_TYPE, Ros2Plan, TopicPlan  # noqa: E402
 
 SYSTEM = REPO / "systems" / "sign_follower.yaml"
 DISTRO = RosDistro.HUMBLE

@@ -93,7 +93,7 @@ def _goal_distance(x: float, y: float) -> float:
 def real_time(stop_time: float | None, repeats: int) -> RealTime:
     """Interleaved runs of fmionnx and the hand-written loop; loop wall times only."""
     from benchmarks import handwritten_sign_follower as hand
-    from fmionnx.backends.base import RunStatus
+    from fmionnx.runtime.result import RunStatus
 
     system = load_system(stop_time)
     stop = float(system.compiled.run.stop)
@@ -155,9 +155,9 @@ def _timed(
 
 def timed_breakdown(stop_time: float | None) -> Breakdown:
     """One run with every runner's ``step`` and ``produce`` wrapped in timers."""
-    from fmionnx.backends.base import RunOptions
-    from fmionnx.backends.inprocess.master import Master
     from fmionnx.compile.ir import Component
+    from fmionnx.runtime.master import Master
+    from fmionnx.runtime.result import RunOptions
 
     seconds: dict[str, float] = defaultdict(float)
     calls: dict[str, int] = defaultdict(int)
@@ -174,7 +174,7 @@ def timed_breakdown(stop_time: float | None) -> Breakdown:
 
         def _entries(self, dues: Any) -> Any:
             """FMUs stepped by the native kernel bypass ``runner.step``: time their group."""
-            from fmionnx.backends.inprocess.native.group import NativeGroup
+            from fmionnx.runtime.native.group import NativeGroup
 
             entries = super()._entries(dues)
             for due, _period in entries:
@@ -202,16 +202,16 @@ MODULE_RULES: tuple[tuple[str, str], ...] = (
     ("mujoco/osmesa", RENDERING),
     ("OpenGL", RENDERING),
     ("mujoco._functions.mj_", PHYSICS),
-    ("runners/mujoco", PHYSICS),
+    ("kinds/mujoco/", PHYSICS),
     ("onnxruntime", INFERENCE),
-    ("runners/onnx", INFERENCE),
-    ("runners/fmu", FMUS),
-    ("inprocess/native", FMUS),
+    ("kinds/onnx/", INFERENCE),
+    ("kinds/fmu/", FMUS),
+    ("runtime/native", FMUS),
     ("fmpy", FMUS),
-    ("inprocess/master", MASTER),
-    ("inprocess/transfer", MASTER),
-    ("inprocess/recorder", MASTER),
-    ("backends/base", MASTER),
+    ("runtime/master", MASTER),
+    ("runtime/transfer", MASTER),
+    ("runtime/recorder", MASTER),
+    ("runtime/result", MASTER),
 )
 
 
@@ -252,8 +252,8 @@ def _charge(stats: dict[Any, Any], key: Any, tt: float, depth: int = 0) -> dict[
 
 def profile(stop_time: float | None, top: int = 12) -> Profile:
     """cProfile over the stepping loop only (preparation is not profiled)."""
-    from fmionnx.backends.base import RunOptions
-    from fmionnx.backends.inprocess.master import Master
+    from fmionnx.runtime.master import Master
+    from fmionnx.runtime.result import RunOptions
 
     profiler = cProfile.Profile()
 

@@ -26,9 +26,9 @@ import onnx
 from onnx import TensorProto, helper
 
 from fmionnx import api
-from fmionnx.build import build_fmu
-from fmionnx.diagnostics import Severity
-from fmionnx.lock import lock_system
+from fmionnx.core.diagnostics import Severity
+from fmionnx.kinds.fmu.build import build_fmu
+from fmionnx.lock.check import lock_system
 
 REPO = Path(__file__).resolve().parent.parent
 COMPONENTS = 200

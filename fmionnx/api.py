@@ -11,7 +11,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.diagnostics import Diagnostic, DiagnosticBag, Severity
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity
 from fmionnx.spec.frontends import load_system
 
 

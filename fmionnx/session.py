@@ -26,7 +26,6 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.backends.base import ProgressCallback, RunOptions, RunResult
 from fmionnx.compile.ir import (
     Causality,
     CompiledSystem,
@@ -39,8 +38,9 @@ from fmionnx.compile.ir import (
     Scalar,
     is_whole_multiple,
 )
-from fmionnx.diagnostics import Diagnostic, DiagnosticBag, Severity, did_you_mean, one_of
-from fmionnx.errors import DiagnosticError, FmionnxError
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity, did_you_mean, one_of
+from fmionnx.core.errors import DiagnosticError, FmionnxError
+from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 #: Single-model files ``load`` accepts besides system files.
 MODEL_SUFFIXES = (".fmu", ".onnx")
@@ -160,8 +160,8 @@ def compile_single_model(
     gets a one-step run of length 1 s, since it has no time of its own.
     """
     from fmionnx.compile.compiler import compile_spec
-    from fmionnx.components.fmu import FmuSpec
-    from fmionnx.components.onnx import OnnxSpec
+    from fmionnx.kinds.fmu.kind import FmuSpec
+    from fmionnx.kinds.onnx.kind import OnnxSpec
     from fmionnx.spec.model import RunSpec, SystemSpec
     from fmionnx.spec.sourcemap import SourceMap
     from fmionnx.spec.yaml import LoadedSpec
@@ -220,8 +220,8 @@ def run_onnx_once(
     system: System, inputs: Mapping[str, npt.ArrayLike]
 ) -> dict[str, npt.NDArray[np.generic]]:
     """Run a one-ONNX-model system once on ``inputs``; returns outputs shaped like the model's."""
-    from fmionnx.backends.inprocess.runners import Wiring, make_runner
-    from fmionnx.backends.inprocess.runners.base import get_output, set_input
+    from fmionnx.core.runner import get_output, set_input
+    from fmionnx.runtime.runners import Wiring, make_runner
 
     component = system.compiled.components[0]
     expected = {p.name: p for p in component.interface.with_causality(Causality.INPUT)}

@@ -98,7 +98,7 @@ def stage_fmu(name: str, staging: Path) -> Path:
 
 def build_fmus(out: Path, *, force: bool) -> list[str]:
     """Build every FMU that is out of date; return a line of log per FMU."""
-    from fmionnx.build import build_fmu
+    from fmionnx.kinds.fmu.build import build_fmu
 
     log = []
     for name in FMU_NAMES:
@@ -143,7 +143,7 @@ def main(argv: list[str] | None = None) -> int:
     args = parser.parse_args(argv)
     out: Path = args.out
     out.mkdir(parents=True, exist_ok=True)
-    from fmionnx.errors import FmionnxError
+    from fmionnx.core.errors import FmionnxError
 
     try:
         lines = [*build_fmus(out, force=args.force), build_detector(out, force=args.force)]

@@ -39,7 +39,7 @@ def _tree_hash(folder: Path) -> str:
 
 def build_fixture_fmu(name: str) -> Path:
     """Build ``tests/fixtures/fmus/<name>`` into a binary FMU, cached by source hash."""
-    from fmionnx.build import build_fmu
+    from fmionnx.kinds.fmu.build import build_fmu
 
     source = FIXTURES / "fmus" / name
     digest = _tree_hash(source)

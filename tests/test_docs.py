@@ -5,7 +5,7 @@ from __future__ import annotations
 import re
 
 from fmionnx.cli.app import app
-from fmionnx.diagnostics import CODES
+from fmionnx.core.diagnostics import CODES
 from tests.conftest import REPO
 
 

@@ -8,10 +8,10 @@ from typing import Annotated
 import typer
 from rich.console import Console
 
-from fmionnx.build import build_fmu
 from fmionnx.cli.app import ExitCode, app
 from fmionnx.cli.outputs import check_output_file
-from fmionnx.errors import BuildError, ModelError
+from fmionnx.core.errors import BuildError, ModelError
+from fmionnx.kinds.fmu.build import build_fmu
 
 
 @app.command(

@@ -13,7 +13,7 @@ import typer
 from fmionnx import api
 from fmionnx.cli.app import ExitCode, app
 from fmionnx.cli.outputs import check_output_file
-from fmionnx.graph_export import to_dot, to_json_text, to_mermaid
+from fmionnx.export.graph import to_dot, to_json_text, to_mermaid
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 TEXT_FORMATS = {"dot": to_dot, "mermaid": to_mermaid, "json": to_json_text}

@@ -17,10 +17,10 @@ from rich.text import Text
 
 from fmionnx.cli.app import ExitCode, app
 from fmionnx.compile.ir import ComponentInterface, Port
-from fmionnx.components.describe import interface_to_dict
-from fmionnx.components.fmu_files import MODEL_DESCRIPTION
-from fmionnx.components.registry import COMPONENT_KINDS, kind_for_path
-from fmionnx.errors import ModelError
+from fmionnx.core.errors import ModelError
+from fmionnx.kinds.describe import interface_to_dict
+from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
+from fmionnx.kinds.registry import COMPONENT_KINDS, kind_for_path
 
 #: Columns of the port table, in order.
 COLUMNS = ("name", "causality", "type", "shape", "unit", "start", "description")

@@ -9,8 +9,8 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, app
-from fmionnx.diagnostics import Severity
-from fmionnx.lock import lock_system
+from fmionnx.core.diagnostics import Severity
+from fmionnx.lock.check import lock_system
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 

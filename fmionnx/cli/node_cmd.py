@@ -51,12 +51,12 @@ def node(
     """Run one component as a ROS 2 node (Cyclone DDS or rclpy); exit 0 at the stop time, 1 on a fault."""
     from fmionnx.backends.ros2.env import Ros2EnvError
     from fmionnx.backends.ros2.loading import load_system, plan_for
-    from fmionnx.backends.ros2.messages import RosDistro
     from fmionnx.backends.ros2.middleware import Middleware
     from fmionnx.backends.ros2.node import Node, NodeError, NodeOptions, SyncMode
     from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError, distro_problem
     from fmionnx.backends.ros2.transport import TransportError
-    from fmionnx.errors import DiagnosticError
+    from fmionnx.compile.ros2.messages import RosDistro
+    from fmionnx.core.errors import DiagnosticError
     from fmionnx.session import OverrideError
 
     try:

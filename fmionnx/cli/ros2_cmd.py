@@ -29,8 +29,8 @@ def _fail(message: str, code: int) -> typer.Exit:
 
 def _plan(system: Path, distro: str) -> tuple[object, object]:
     from fmionnx.backends.ros2.loading import load_system, plan_for
-    from fmionnx.backends.ros2.messages import RosDistro
-    from fmionnx.errors import DiagnosticError
+    from fmionnx.compile.ros2.messages import RosDistro
+    from fmionnx.core.errors import DiagnosticError
 
     try:
         chosen = RosDistro(distro)
@@ -67,8 +67,8 @@ def graph(
     """Read DDS discovery and compare the live graph with the system; exit 1 if links are missing."""
     from fmionnx.backends.ros2.env import Ros2EnvError, from_environment
     from fmionnx.backends.ros2.graph import compare, read_live_graph, render_json, render_text
-    from fmionnx.backends.ros2.mapping import Ros2Plan
     from fmionnx.backends.ros2.transport import Participant, TransportError
+    from fmionnx.compile.ros2.plan import Ros2Plan
 
     if output_format not in ("text", "json"):
         raise _fail(f"--format must be `text` or `json`, not `{output_format}`", ExitCode.USAGE)
@@ -100,8 +100,8 @@ def launch_file(
 ) -> None:
     """Write a ROS 2 Python launch file with one `fmionnx node` process per component."""
     from fmionnx.backends.ros2.launchfile import launch_file_text
-    from fmionnx.backends.ros2.mapping import Ros2Plan
     from fmionnx.compile.ir import CompiledSystem
+    from fmionnx.compile.ros2.plan import Ros2Plan
 
     compiled, plan = _plan(system, ros_distro)
     assert isinstance(plan, Ros2Plan)

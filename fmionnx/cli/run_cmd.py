@@ -128,9 +128,9 @@ def _ros2_options(
         raise fail(f"--backend must be `inprocess` or `ros2`, not `{backend}`")
     if backend == "inprocess":
         return None
-    from fmionnx.backends.ros2.messages import RosDistro
     from fmionnx.backends.ros2.node import SyncMode
     from fmionnx.backends.ros2.supervisor import Ros2Options
+    from fmionnx.compile.ros2.messages import RosDistro
 
     if sync not in {m.value for m in SyncMode}:
         raise fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
@@ -158,8 +158,8 @@ def _ros2_options(
 
 def _load(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
     from fmionnx import session
-    from fmionnx.diagnostics import Severity
-    from fmionnx.errors import DiagnosticError
+    from fmionnx.core.diagnostics import Severity
+    from fmionnx.core.errors import DiagnosticError
     from fmionnx.reporters import FileResult
     from fmionnx.reporters.text import TextReporter
 
@@ -192,8 +192,8 @@ def _run_system(
 
     from rich.console import Console
 
-    from fmionnx.backends.base import RunOptions, RunStatus
-    from fmionnx.errors import DiagnosticError, FmionnxError
+    from fmionnx.core.errors import DiagnosticError, FmionnxError
+    from fmionnx.runtime.result import RunOptions, RunStatus
     from fmionnx.session import OverrideError, parse_value
 
     console = Console(stderr=True, highlight=False)
@@ -311,7 +311,7 @@ def _run_onnx(target: Path, inputs: dict[str, str], out: Path | None, *, quiet: 
     from rich.console import Console
     from rich.table import Table
 
-    from fmionnx.errors import RunError
+    from fmionnx.core.errors import RunError
     from fmionnx.session import OverrideError, run_onnx_once
 
     system = _load(target, quiet=quiet)

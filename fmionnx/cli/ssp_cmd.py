@@ -10,8 +10,8 @@ import typer
 
 from fmionnx.cli.app import ExitCode, app
 from fmionnx.cli.outputs import check_output_file
-from fmionnx.diagnostics import DiagnosticBag, Severity
-from fmionnx.errors import FmionnxError
+from fmionnx.core.diagnostics import DiagnosticBag, Severity
+from fmionnx.core.errors import FmionnxError
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 from fmionnx.spec.frontends import load_system
 

@@ -10,8 +10,8 @@ import typer
 
 from fmionnx import api
 from fmionnx.cli.app import ExitCode, app
-from fmionnx.diagnostics import Diagnostic, Severity
-from fmionnx.lock import check_lock
+from fmionnx.core.diagnostics import Diagnostic, Severity
+from fmionnx.lock.check import check_lock
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 

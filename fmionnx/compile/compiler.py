@@ -26,8 +26,8 @@ from fmionnx.compile.ir import (
 )
 from fmionnx.compile.resolve import model_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
-from fmionnx.diagnostics import DiagnosticBag, Note, Span
-from fmionnx.sourcetext import source_lines
+from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.core.sourcetext import source_lines
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import LoadedSpec
@@ -108,8 +108,8 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     if spec.ros2 is not None:
         # The ROS 2 section is checked like the rest of the file; the mapping module is only
         # imported when a system has one (it brings the message definitions and DDS).
-        from fmionnx.backends.ros2.mapping import check_ros2
-        from fmionnx.backends.ros2.messages import RosDistro
+        from fmionnx.compile.ros2.messages import RosDistro
+        from fmionnx.compile.ros2.plan import check_ros2
 
         bag.extend(check_ros2(system, sources, RosDistro(spec.ros2.distro)))
         if bag.has_errors:

@@ -6,7 +6,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from fmionnx.compile.ir import ComponentInterface, Port, PortRef
-from fmionnx.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
+from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.spec.model import ENDPOINT_RE
 
 

@@ -17,7 +17,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING
 
-from fmionnx.diagnostics import Span
+from fmionnx.core.diagnostics import Span
 
 if TYPE_CHECKING:
     from fmionnx.spec.model import ComponentSpec, PlotSpec, Ros2Spec

@@ -16,9 +16,9 @@ from fmionnx.compile.ir import (
     is_whole_multiple,
 )
 from fmionnx.compile.typecheck import declared_note
-from fmionnx.components.registry import COMPONENT_KINDS
-from fmionnx.diagnostics import DiagnosticBag, did_you_mean, one_of
-from fmionnx.errors import ModelError
+from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
+from fmionnx.core.errors import ModelError
+from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.base import ComponentSpecBase, ParameterLiteral
 from fmionnx.spec.model import RunSpec
 from fmionnx.spec.sourcemap import SourceMap
@@ -155,7 +155,7 @@ def resolve_parameters(
 def _check_value(
     name: str, port: Port, flat: list[Scalar], span: object, bag: DiagnosticBag
 ) -> bool:
-    from fmionnx.diagnostics import Span
+    from fmionnx.core.diagnostics import Span
 
     assert isinstance(span, Span)
     size = port.size

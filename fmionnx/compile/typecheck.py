@@ -10,7 +10,7 @@ from __future__ import annotations
 
 from fmionnx.compile.endpoints import ResolvedEndpoint
 from fmionnx.compile.ir import Causality, DType, Port
-from fmionnx.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 
 _INT_BITS = {
     DType.INT8: (True, 8),

@@ -19,11 +19,11 @@ from typing import Any
 
 from lxml import etree
 
-from fmionnx.archive import write_deterministic_zip
 from fmionnx.compile.endpoints import split_endpoint
 from fmionnx.compile.ir import Causality, CompiledSystem, DType, Port
 from fmionnx.compile.resolve import model_path
-from fmionnx.errors import FmionnxError, ModelError
+from fmionnx.core.archive import write_deterministic_zip
+from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.spec.base import ComponentSpecBase
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.ssp import MIME_BY_KIND

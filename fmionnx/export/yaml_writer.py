@@ -19,7 +19,7 @@ from typing import Any
 from ruamel.yaml import YAML
 
 from fmionnx.compile.resolve import model_path
-from fmionnx.errors import FmionnxError
+from fmionnx.core.errors import FmionnxError
 from fmionnx.spec.model import ConnectionSpec, SystemSpec
 from fmionnx.spec.ssp_archive import SSD_NAME
 

@@ -7,7 +7,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TextIO
 
-from fmionnx.diagnostics import Diagnostic, Severity
+from fmionnx.core.diagnostics import Diagnostic, Severity
 
 
 @dataclass(frozen=True, slots=True)

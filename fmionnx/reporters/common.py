@@ -10,8 +10,8 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from fmionnx.diagnostics import Diagnostic, Span
-from fmionnx.pathnames import archive_member
+from fmionnx.core.diagnostics import Diagnostic, Span
+from fmionnx.core.pathnames import archive_member
 
 
 def display_path(path: Path, cwd: Path | None = None) -> str:
@@ -19,7 +19,7 @@ def display_path(path: Path, cwd: Path | None = None) -> str:
 
     Symbolic links are not resolved: a system file reached through a link is reported under
     the name the user gave, which is the name the CI checkout has. A file inside an unpacked
-    archive is named ``archive!/member`` (:mod:`fmionnx.pathnames`).
+    archive is named ``archive!/member`` (:mod:`fmionnx.core.pathnames`).
     """
     member = archive_member(path)
     if member is not None:

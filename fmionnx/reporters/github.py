@@ -11,7 +11,7 @@ from __future__ import annotations
 
 from typing import TextIO
 
-from fmionnx.diagnostics import Diagnostic, Severity
+from fmionnx.core.diagnostics import Diagnostic, Severity
 from fmionnx.reporters.base import FileResult, Reporter
 from fmionnx.reporters.common import display_path, full_text, located
 from fmionnx.reporters.text import summary

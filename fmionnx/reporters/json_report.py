@@ -10,7 +10,7 @@ import json
 from typing import TextIO
 
 from fmionnx import __version__
-from fmionnx.diagnostics import Diagnostic, Note, Severity, Span
+from fmionnx.core.diagnostics import Diagnostic, Note, Severity, Span
 from fmionnx.reporters.base import FileResult, Reporter, count
 from fmionnx.reporters.common import display_path
 

@@ -15,7 +15,7 @@ import re
 import xml.etree.ElementTree as ET
 from typing import TextIO
 
-from fmionnx.diagnostics import CODES, Diagnostic, Severity
+from fmionnx.core.diagnostics import CODES, Diagnostic, Severity
 from fmionnx.reporters.base import FileResult, Reporter
 from fmionnx.reporters.common import detail_lines, display_path, located
 

@@ -1,7 +1,7 @@
 """``--format sarif``: SARIF 2.1.0 for code-scanning dashboards (GitHub code scanning ...).
 
 One run holds every system file's results. ``tool.driver.rules`` is the whole code table
-(:data:`fmionnx.diagnostics.CODES`), so a dashboard can show a rule's description even for
+(:data:`fmionnx.core.diagnostics.CODES`), so a dashboard can show a rule's description even for
 codes that did not fire; results point at their rule by ``ruleId`` and ``ruleIndex``.
 Locations are relative to the working directory, named by the ``%SRCROOT%`` base id, which
 is how GitHub's upload action resolves them against the checkout.
@@ -15,7 +15,7 @@ from typing import TextIO
 from urllib.parse import quote
 
 from fmionnx import __version__
-from fmionnx.diagnostics import CODES, Diagnostic, Severity, Span
+from fmionnx.core.diagnostics import CODES, Diagnostic, Severity, Span
 from fmionnx.reporters.base import FileResult, Reporter
 from fmionnx.reporters.common import display_path, full_text, located
 from fmionnx.reporters.json_report import JsonValue

@@ -7,9 +7,9 @@ from typing import TextIO
 from rich.console import Console
 from rich.markup import escape
 
-from fmionnx.diagnostics import Diagnostic, Severity, Span
+from fmionnx.core.diagnostics import Diagnostic, Severity, Span
+from fmionnx.core.sourcetext import source_lines
 from fmionnx.reporters.base import FileResult, Reporter, count
-from fmionnx.sourcetext import source_lines
 
 _STYLE = {Severity.ERROR: "bold red", Severity.WARNING: "bold yellow", Severity.INFO: "bold cyan"}
 

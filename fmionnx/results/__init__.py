@@ -1,6 +1,6 @@
 """What a run leaves behind: ``results.csv``, ``run.json``, plots and an MCAP recording.
 
-Writers take a :class:`~fmionnx.backends.base.RunResult` (plus the compiled system for plot
+Writers take a :class:`~fmionnx.runtime.result.RunResult` (plus the compiled system for plot
 definitions and provenance) and never re-run anything; a faulted or interrupted run writes
 exactly what it recorded.
 """
@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fmionnx.backends.base import RunResult
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.runtime.result import RunResult
 
 
 def write_results(

@@ -10,7 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
-from fmionnx.backends.base import RunResult
+from fmionnx.runtime.result import RunResult
 
 
 def write_csv(result: RunResult, path: Path, *, aliases: dict[str, str] | None = None) -> Path:

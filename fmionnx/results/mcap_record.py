@@ -16,7 +16,7 @@ from typing import IO, Any
 
 import numpy as np
 
-from fmionnx.backends.base import RunResult
+from fmionnx.runtime.result import RunResult
 
 #: Signals are thinned to at most this many messages per simulated second.
 MAX_SIGNAL_RATE = 100.0

@@ -15,8 +15,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.backends.base import RunResult
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.runtime.result import RunResult
 
 
 def expected_path_file(system: CompiledSystem, over: str) -> Path:

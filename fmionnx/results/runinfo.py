@@ -9,8 +9,8 @@ from pathlib import Path
 from typing import Any
 
 from fmionnx import __version__
-from fmionnx.backends.base import RunResult
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.runtime.result import RunResult
 
 #: Distributions whose versions make a run reproducible.
 VERSIONED = ("fmpy", "onnxruntime", "mujoco", "numpy")

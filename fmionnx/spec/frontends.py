@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from fmionnx.diagnostics import DiagnosticBag, Span, one_of
+from fmionnx.core.diagnostics import DiagnosticBag, Span, one_of
 from fmionnx.spec.ssp import load_ssp_system
 from fmionnx.spec.yaml import LoadedSpec, load_yaml_system
 

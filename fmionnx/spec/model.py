@@ -12,9 +12,9 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from fmionnx.components.fmu import FmuSpec
-from fmionnx.components.mujoco import MujocoSpec
-from fmionnx.components.onnx import OnnxSpec
+from fmionnx.kinds.fmu.kind import FmuSpec
+from fmionnx.kinds.mujoco.kind import MujocoSpec
+from fmionnx.kinds.onnx.kind import OnnxSpec
 from fmionnx.spec.base import StrictModel
 
 #: The format versions this release reads (the ``fmionnx:`` key).

@@ -13,7 +13,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
-from fmionnx.diagnostics import DiagnosticBag, did_you_mean, one_of
+from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
 from fmionnx.spec.sourcemap import SourceMap
 
 
@@ -66,7 +66,7 @@ def _emit(
         bag.emit("E004", f"missing key `{key}` in {owner}", sources.key(data_loc[:-1]))
         return
     if kind in {"union_tag_invalid", "union_tag_not_found"}:
-        from fmionnx.components.registry import COMPONENT_KINDS
+        from fmionnx.kinds.registry import COMPONENT_KINDS
 
         if kind == "union_tag_not_found":
             bag.emit(

@@ -11,7 +11,7 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fmionnx.diagnostics import Span
+from fmionnx.core.diagnostics import Span
 
 KeyPath = tuple[str | int, ...]
 

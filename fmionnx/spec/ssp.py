@@ -17,8 +17,8 @@ from typing import Any
 
 from pydantic import ValidationError
 
-from fmionnx.diagnostics import DiagnosticBag, Severity, Span
-from fmionnx.errors import ModelError
+from fmionnx.core.diagnostics import DiagnosticBag, Severity, Span
+from fmionnx.core.errors import ModelError
 from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import SourceMap

@@ -4,7 +4,7 @@ The same archive is extracted once; its resources (FMUs, ONNX models, scenes, ``
 have stable absolute paths the compiled system can refer to. Extraction goes to a fresh
 temporary folder that is renamed into place only when complete, so a refused (hostile) or
 interrupted archive never leaves a half-filled cache entry, and nothing is written outside
-the cache folder (:func:`fmionnx.archive.safe_extract` refuses ``..``, absolute paths, links
+the cache folder (:func:`fmionnx.core.archive.safe_extract` refuses ``..``, absolute paths, links
 and zip bombs with E017).
 """
 
@@ -16,8 +16,8 @@ import shutil
 import tempfile
 from pathlib import Path
 
-from fmionnx.archive import safe_extract
-from fmionnx.pathnames import remember_archive
+from fmionnx.core.archive import safe_extract
+from fmionnx.core.pathnames import remember_archive
 
 #: Name of the system structure inside an SSP archive (SSP 1.0, section 7).
 SSD_NAME = "SystemStructure.ssd"
@@ -45,7 +45,7 @@ def file_digest(path: Path) -> str:
 def unpack_ssp(path: Path) -> Path:
     """The folder holding the unpacked archive (extracted now or earlier).
 
-    Raises :class:`fmionnx.errors.ModelError` (E010/E012/E017) for missing, corrupt or
+    Raises :class:`fmionnx.core.errors.ModelError` (E010/E012/E017) for missing, corrupt or
     hostile archives.
     """
     folder = cache_root() / file_digest(path)[:24]

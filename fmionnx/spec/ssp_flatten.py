@@ -15,7 +15,7 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
-from fmionnx.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.spec.ssp_names import fmi_to_port_label
 from fmionnx.spec.ssp_params import BoundValue, binding_values
 from fmionnx.spec.ssp_tree import Connection, Connector, Document, Element, Unit

@@ -12,7 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
-from fmionnx.diagnostics import DiagnosticBag, Span
+from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.spec.ssp_xml import NS as _NS
 from fmionnx.spec.ssp_xml import short, tag
 

@@ -16,7 +16,7 @@ from typing import Any
 
 from lxml import etree
 
-from fmionnx.diagnostics import DiagnosticBag, Span
+from fmionnx.core.diagnostics import DiagnosticBag, Span
 
 SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"

@@ -19,7 +19,7 @@ from ruamel.yaml.comments import CommentedMap, CommentedSeq
 from ruamel.yaml.constructor import DuplicateKeyError
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
-from fmionnx.diagnostics import DiagnosticBag, Span
+from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import KeyPath, SourceMap

@@ -9,8 +9,8 @@ import pytest
 from fmpy import simulate_fmu
 
 import fmionnx
-from fmionnx.backends.base import RunStatus
 from fmionnx.results import write_results
+from fmionnx.runtime.result import RunStatus
 
 
 @pytest.mark.parametrize("interface", ["cs", "me"])

@@ -15,8 +15,8 @@ from pathlib import Path
 import pytest
 
 import fmionnx
-from fmionnx.backends.base import RunResult, RunStatus
 from fmionnx.results import write_results
+from fmionnx.runtime.result import RunResult, RunStatus
 
 
 @pytest.fixture(scope="module")
@@ -192,7 +192,7 @@ def test_run_falls_back_to_python_when_the_kernel_cannot_be_built(
     monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "empty-cache"))
     monkeypatch.setenv("FMIONNX_CC", compiler)
     system = fmionnx.load(_gain_chain(fixture_fmu, write_system, n=3))
-    with caplog.at_level(logging.DEBUG, logger="fmionnx.backends.inprocess.native"):
+    with caplog.at_level(logging.DEBUG, logger="fmionnx.runtime.native"):
         result = system.run()
     assert result.status is RunStatus.COMPLETED
     assert result["g2.y"][-1] == 8.0

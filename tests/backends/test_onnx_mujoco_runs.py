@@ -10,8 +10,8 @@ import pytest
 from onnx import TensorProto, helper
 
 import fmionnx
-from fmionnx.backends.base import RunOptions, RunStatus
-from fmionnx.errors import RunError
+from fmionnx.core.errors import RunError
+from fmionnx.runtime.result import RunOptions, RunStatus
 from fmionnx.session import run_onnx_once
 
 

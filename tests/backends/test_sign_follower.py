@@ -8,8 +8,8 @@ import numpy as np
 import pytest
 
 import fmionnx
-from fmionnx.backends.base import RunStatus
 from fmionnx.results.plots import read_path
+from fmionnx.runtime.result import RunStatus
 from tests.conftest import REPO, built_model
 
 SYSTEM = REPO / "systems" / "sign_follower.yaml"

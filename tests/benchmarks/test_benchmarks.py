@@ -118,8 +118,8 @@ def test_other_benchmark_scripts_are_found_by_name(tmp_path: Path) -> None:
         ("~", "<built-in method mujoco._functions.mj_step2>", scenario.PHYSICS),
         ("~", "<built-in method mujoco._functions.mjr_render>", scenario.RENDERING),
         ("/x/onnxruntime/capi/session.py", "run", scenario.INFERENCE),
-        ("/x/fmionnx/backends/inprocess/runners/fmu.py", "step", scenario.FMUS),
-        ("/x/fmionnx/backends/inprocess/transfer.py", "scalar_copy", scenario.MASTER),
+        ("/x/fmionnx/kinds/fmu/runner.py", "step", scenario.FMUS),
+        ("/x/fmionnx/runtime/transfer.py", "scalar_copy", scenario.MASTER),
         ("~", "<built-in method math.isnan>", None),
     ],
 )

@@ -16,7 +16,7 @@ import pytest
 from typer.testing import CliRunner
 
 from fmionnx.cli.app import app
-from fmionnx.diagnostics import CODES
+from fmionnx.core.diagnostics import CODES
 
 CASES = Path(__file__).resolve().parent
 INVALID = sorted(p.name for p in (CASES / "invalid").iterdir() if p.is_dir())

@@ -9,8 +9,8 @@ from pathlib import Path
 from fmpy.validation import validate_fmu
 from typer.testing import CliRunner
 
-from fmionnx.archive import write_deterministic_zip
 from fmionnx.cli.app import app
+from fmionnx.core.archive import write_deterministic_zip
 from tests.conftest import FIXTURES
 
 GAIN = FIXTURES / "fmus" / "Gain"
@@ -48,7 +48,7 @@ def test_a_folder_without_sources_is_refused(tmp_path: Path) -> None:
     code, output = _invoke(str(folder), "-o", str(tmp_path / "x.fmu"))
     assert code == 1
     assert "E015" in output
-    assert "no sources/ folder" in output
+    assert "no sources/ folder" in " ".join(output.split())  # rich wraps long paths
     assert not (tmp_path / "x.fmu").exists()
 
 

@@ -19,7 +19,7 @@ from fmionnx.compile.ir import (
     PortRef,
     is_whole_multiple,
 )
-from fmionnx.components.fmu import FmuSpec
+from fmionnx.kinds.fmu.kind import FmuSpec
 
 
 def _component(name: str, feedthrough: bool) -> Component:

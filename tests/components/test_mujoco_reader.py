@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from fmionnx.compile.ir import Causality, DType
-from fmionnx.components.mujoco import MUJOCO_KIND, CameraSpec, MujocoSpec
-from fmionnx.errors import ModelError
+from fmionnx.core.errors import ModelError
+from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, CameraSpec, MujocoSpec
 
 
 def _spec(**cameras: CameraSpec) -> MujocoSpec:
@@ -117,7 +117,7 @@ def test_same_name_on_sensor_and_actuator_is_e013(tmp_path: Path) -> None:
 
 
 def test_content_hash_follows_included_files(tmp_path: Path) -> None:
-    from fmionnx.components.mujoco_interface import read_mujoco_interface
+    from fmionnx.kinds.mujoco.interface import read_mujoco_interface
 
     part = tmp_path / "part.xml"
     scene = tmp_path / "scene.xml"

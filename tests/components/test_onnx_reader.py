@@ -7,8 +7,8 @@ from pathlib import Path
 import pytest
 
 from fmionnx.compile.ir import Causality, DType
-from fmionnx.components.onnx import ONNX_KIND
-from fmionnx.errors import ModelError
+from fmionnx.core.errors import ModelError
+from fmionnx.kinds.onnx.kind import ONNX_KIND
 
 
 def test_initializers_are_not_inputs(onnx_models: dict[str, Path]) -> None:

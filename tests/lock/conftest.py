@@ -6,10 +6,10 @@ from dataclasses import replace
 from pathlib import Path
 
 from fmionnx.compile.ir import Causality, Component, ComponentInterface, DType, Port
-from fmionnx.components.fmu import FmuSpec
-from fmionnx.diagnostics import DiagnosticBag
-from fmionnx.lock_model import LockedComponent, LockFile, render_lock
-from fmionnx.lock_read import LoadedLock, read_lock
+from fmionnx.core.diagnostics import DiagnosticBag
+from fmionnx.kinds.fmu.kind import FmuSpec
+from fmionnx.lock.model import LockedComponent, LockFile, render_lock
+from fmionnx.lock.read import LoadedLock, read_lock
 
 GAIN = ComponentInterface(
     kind="fmu",

@@ -12,8 +12,8 @@ import pytest
 from onnx import TensorProto, helper
 from typer.testing import CliRunner
 
-from fmionnx.build import build_fmu
 from fmionnx.cli.app import app
+from fmionnx.kinds.fmu.build import build_fmu
 from tests.conftest import FIXTURES, build_fixture_fmu
 
 SYSTEM = """\

@@ -4,8 +4,8 @@ from dataclasses import replace
 from pathlib import Path
 
 from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
-from fmionnx.diagnostics import Diagnostic, Span
-from fmionnx.lock_diff import LockContext, compare
+from fmionnx.core.diagnostics import Diagnostic, Span
+from fmionnx.lock.diff import LockContext, compare
 from tests.lock.conftest import GAIN, with_port, write_and_read
 
 SPAN = Span(Path("system.yaml"), 5, 3)

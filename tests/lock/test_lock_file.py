@@ -4,9 +4,9 @@ from pathlib import Path
 
 import pytest
 
-from fmionnx.diagnostics import DiagnosticBag
-from fmionnx.lock_model import lock_path, yaml_str
-from fmionnx.lock_read import read_lock
+from fmionnx.core.diagnostics import DiagnosticBag
+from fmionnx.lock.model import lock_path, yaml_str
+from fmionnx.lock.read import read_lock
 from tests.lock.conftest import GAIN, write_and_read
 
 EXPECTED = """\

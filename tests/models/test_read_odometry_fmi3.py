@@ -17,8 +17,8 @@ from fmpy.validation import validate_fmu
 from typer.testing import CliRunner
 
 import fmionnx
-from fmionnx.backends.base import RunStatus
 from fmionnx.cli.app import app
+from fmionnx.runtime.result import RunStatus
 from tests.conftest import REPO, built_model
 from tests.models.test_read_odometry import angle_error, euler_to_quaternion, numpy_yaw
 

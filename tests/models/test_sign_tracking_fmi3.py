@@ -24,9 +24,9 @@ from fmpy.validation import validate_fmu
 from typer.testing import CliRunner
 
 import fmionnx
-from fmionnx.backends.base import RunStatus
 from fmionnx.cli.app import app
 from fmionnx.results.plots import read_path
+from fmionnx.runtime.result import RunStatus
 from tests.backends.test_sign_follower import GOAL_B, distance_to_polyline
 from tests.conftest import REPO, built_model
 from tests.models.test_read_odometry_fmi3 import _models_build

@@ -6,7 +6,7 @@ from pathlib import Path
 
 import pytest
 
-from fmionnx.diagnostics import Note, Span, make
+from fmionnx.core.diagnostics import Note, Span, make
 from fmionnx.reporters import FileResult
 
 

@@ -4,7 +4,7 @@ import io
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
-from fmionnx.diagnostics import Span, make
+from fmionnx.core.diagnostics import Span, make
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 from fmionnx.reporters.junit import CHECKS
 

@@ -8,7 +8,7 @@ from typing import Any
 import jsonschema
 import pytest
 
-from fmionnx.diagnostics import CODES
+from fmionnx.core.diagnostics import CODES
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 SCHEMA = json.loads((Path(__file__).parent / "sarif-schema-2.1.0.json").read_text(encoding="utf-8"))

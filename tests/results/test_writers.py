@@ -8,9 +8,9 @@ from pathlib import Path
 import numpy as np
 from mcap.reader import make_reader
 
-from fmionnx.backends.base import RunResult, RunStatus
 from fmionnx.results.csvfile import read_csv, write_csv
 from fmionnx.results.mcap_record import McapRecorder
+from fmionnx.runtime.result import RunResult, RunStatus
 
 
 def _result() -> RunResult:

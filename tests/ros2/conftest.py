@@ -9,7 +9,6 @@ from pathlib import Path
 import pytest
 
 from fmionnx.backends.ros2.env import DdsEnvironment, from_environment
-from fmionnx.backends.ros2.messages import RosDistro
 from fmionnx.compile.ir import (
     Causality,
     CompiledSystem,
@@ -21,9 +20,10 @@ from fmionnx.compile.ir import (
     PortRef,
     RunSettings,
 )
-from fmionnx.components.fmu import FmuSpec
-from fmionnx.components.mujoco import MujocoSpec
-from fmionnx.components.onnx import OnnxSpec
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.kinds.fmu.kind import FmuSpec
+from fmionnx.kinds.mujoco.kind import MujocoSpec
+from fmionnx.kinds.onnx.kind import OnnxSpec
 from fmionnx.spec.model import Ros2Spec
 
 SOURCE = Path("sign_follower.yaml")
@@ -68,7 +68,7 @@ def _connect(system_components: dict[str, Component], text: str, line: int) -> C
     src, src_port = ref(left)
     dst, dst_port = ref(right)
     size = 1 if src.index is not None or dst.index is not None else (src_port.size or 1)
-    from fmionnx.diagnostics import Span
+    from fmionnx.core.diagnostics import Span
 
     return Connection(src, dst, src_port, dst_port, size, span=Span(SOURCE, line, 5))
 

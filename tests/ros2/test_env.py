@@ -5,8 +5,8 @@ from __future__ import annotations
 import pytest
 
 from fmionnx.backends.ros2.env import DiscoveryRange, Ros2EnvError, from_environment
-from fmionnx.backends.ros2.messages import RosDistro
-from fmionnx.backends.ros2.names import (
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.names import (
     dds_topic,
     expand_topic,
     namespace_problem,

@@ -12,7 +12,7 @@ from cyclonedds.idl.annotations import final
 from fmionnx.backends.ros2.codec import WHOLE, PortField, TopicCodec
 from fmionnx.backends.ros2.discovery import NodeEntities, decode_info, encode_info, gid_size
 from fmionnx.backends.ros2.idl import dds_type_name, idl_type, ros_type_name
-from fmionnx.backends.ros2.messages import (
+from fmionnx.compile.ros2.messages import (
     FieldError,
     FieldKind,
     RosDistro,

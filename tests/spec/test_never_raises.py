@@ -8,7 +8,7 @@ from hypothesis import HealthCheck, given, settings
 from hypothesis import strategies as st
 
 from fmionnx import api
-from fmionnx.diagnostics import Severity
+from fmionnx.core.diagnostics import Severity
 
 FRAGMENTS = [
     "fmionnx: 1\n",

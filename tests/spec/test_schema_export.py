@@ -7,7 +7,7 @@ import json
 import jsonschema
 
 from fmionnx.cli.schema_cmd import schema_text
-from fmionnx.components.registry import COMPONENT_KINDS
+from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import ComponentSpec
 from tests.conftest import REPO
 

@@ -8,7 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from fmionnx.cli.app import app
-from fmionnx.diagnostics import DiagnosticBag
+from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.spec.yaml import load_yaml_system
 
 HEADER = "fmionnx: 1\nname: demo\n"

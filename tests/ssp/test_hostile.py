@@ -11,7 +11,7 @@ from pathlib import Path
 import pytest
 
 from fmionnx import api
-from fmionnx.diagnostics import DiagnosticBag
+from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.spec.frontends import load_system
 from fmionnx.spec.ssp_archive import cache_root, file_digest
 from tests.ssp.test_import import gain, ssd

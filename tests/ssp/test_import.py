@@ -9,7 +9,7 @@ import pytest
 
 import fmionnx
 from fmionnx import api
-from fmionnx.diagnostics import DiagnosticBag
+from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.spec.frontends import load_system
 from fmionnx.spec.model import ConnectionSpec
 from tests.ssp.conftest import SSP_NAMESPACES, write_ssp

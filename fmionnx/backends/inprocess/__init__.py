@@ -2,10 +2,10 @@
 
 from __future__ import annotations
 
-from fmionnx.backends.base import Backend, RunOptions, RunResult
-from fmionnx.backends.inprocess.runners import RUNNER_FACTORIES
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.diagnostics import Diagnostic, make
+from fmionnx.core.diagnostics import Diagnostic, make
+from fmionnx.runtime.result import Backend, RunOptions, RunResult
+from fmionnx.runtime.runners import RUNNER_FACTORIES
 
 
 class InProcessBackend(Backend):
@@ -36,6 +36,6 @@ class InProcessBackend(Backend):
 
     def run(self, system: CompiledSystem, options: RunOptions | None = None) -> RunResult:
         """Run ``system`` to its stop time; faults and Ctrl-C end in the result's status."""
-        from fmionnx.backends.inprocess.master import Master
+        from fmionnx.runtime.master import Master
 
         return Master(system, options).run()

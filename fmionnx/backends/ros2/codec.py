@@ -17,7 +17,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.backends.ros2.messages import (
+from fmionnx.compile.ros2.messages import (
     BASE_NUMPY,
     FieldKind,
     RosDistro,
@@ -29,7 +29,7 @@ from fmionnx.backends.ros2.messages import (
     serialize,
     typestore,
 )
-from fmionnx.errors import RunError
+from fmionnx.core.errors import RunError
 
 IMAGE_TYPE = "sensor_msgs/msg/Image"
 #: The field path that stands for "the whole message" (an image).

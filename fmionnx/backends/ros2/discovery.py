@@ -16,7 +16,9 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.backends.ros2.messages import (
+from fmionnx.backends.ros2.qos import DISCOVERY_QOS, DISCOVERY_READER_QOS
+from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
+from fmionnx.compile.ros2.messages import (
     RosDistro,
     default_message,
     deserialize,
@@ -24,8 +26,6 @@ from fmionnx.backends.ros2.messages import (
     serialize,
     typestore,
 )
-from fmionnx.backends.ros2.qos import DISCOVERY_QOS, DISCOVERY_READER_QOS
-from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 
 #: DDS topic name: no ``rt`` prefix (the rmw layer creates it with
 #: ``avoid_ros_namespace_conventions``).

@@ -16,8 +16,8 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from xml.sax.saxutils import quoteattr
 
-from fmionnx.backends.ros2.messages import RosDistro
-from fmionnx.errors import FmionnxError
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.core.errors import FmionnxError
 
 #: Cyclone maps domain ids onto UDP ports; 232 is the largest id that fits (ROS 2 docs).
 MAX_DOMAIN_ID = 232

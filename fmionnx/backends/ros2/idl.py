@@ -17,7 +17,7 @@ from cyclonedds.idl import IdlStruct, make_idl_struct
 from cyclonedds.idl import types as idl_types
 from cyclonedds.idl.annotations import final
 
-from fmionnx.backends.ros2.messages import (
+from fmionnx.compile.ros2.messages import (
     DEFAULT_DISTRO,
     FieldInfo,
     FieldKind,

@@ -10,11 +10,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from pathlib import Path
 
-from fmionnx.backends.ros2.mapping import Ros2Plan, build_plan
-from fmionnx.backends.ros2.messages import RosDistro
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.diagnostics import Severity
-from fmionnx.errors import DiagnosticError
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.plan import Ros2Plan, build_plan
+from fmionnx.core.diagnostics import Severity
+from fmionnx.core.errors import DiagnosticError
 
 
 def load_system(

@@ -1,8 +1,8 @@
 """One component as a ROS 2 node: its in-process runner between DDS readers and writers.
 
 The node reuses the in-process pieces unchanged: the component's runner
-(:func:`~fmionnx.backends.inprocess.runners.make_runner`), the connection transfers
-(:func:`~fmionnx.backends.inprocess.transfer.make_transfer`: element selection,
+(:func:`~fmionnx.runtime.runners.make_runner`), the connection transfers
+(:func:`~fmionnx.runtime.transfer.make_transfer`: element selection,
 ``factor*x+offset``, dtype conversion, NaN check) and the recorder tracks. What differs is where
 a producer's value comes from: a *proxy* buffer per producer port, shaped and typed like the
 producer's own output buffer, filled from the decoded message. A lockstep node therefore feeds
@@ -30,9 +30,6 @@ from types import FrameType
 
 import numpy as np
 
-from fmionnx.backends.inprocess.runners import Wiring, make_runner
-from fmionnx.backends.inprocess.runners.base import Buffer, Runner
-from fmionnx.backends.inprocess.transfer import Transfer, make_transfer
 from fmionnx.backends.ros2.codec import TopicCodec
 from fmionnx.backends.ros2.control import (
     CLOCK_DDS,
@@ -47,8 +44,6 @@ from fmionnx.backends.ros2.control import (
 )
 from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
 from fmionnx.backends.ros2.env import from_environment
-from fmionnx.backends.ros2.mapping import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
-from fmionnx.backends.ros2.messages import RosDistro
 from fmionnx.backends.ros2.middleware import (
     Middleware,
     NodeTransport,
@@ -56,13 +51,18 @@ from fmionnx.backends.ros2.middleware import (
     SampleWriter,
     open_transport,
 )
-from fmionnx.backends.ros2.names import dds_topic
 from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
 from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem, Component, DType
-from fmionnx.errors import FmionnxError, RunError
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.names import dds_topic
+from fmionnx.compile.ros2.plan import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
+from fmionnx.core.errors import FmionnxError, RunError
+from fmionnx.core.runner import Buffer, Runner
+from fmionnx.runtime.runners import Wiring, make_runner
+from fmionnx.runtime.transfer import Transfer, make_transfer
 
 log = logging.getLogger("fmionnx.node")
 

@@ -25,8 +25,8 @@ import sys
 from pathlib import Path
 from types import ModuleType
 
-from fmionnx.backends.ros2.messages import RosDistro
-from fmionnx.errors import FmionnxError
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.core.errors import FmionnxError
 
 #: rclpy's major version per distribution (Humble 3.3, Iron 4/5, Jazzy 7.1, Kilted 9.1).
 _RCLPY_MAJOR = {3: RosDistro.HUMBLE, 4: RosDistro.IRON, 5: RosDistro.IRON, 7: RosDistro.JAZZY,

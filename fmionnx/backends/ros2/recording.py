@@ -1,10 +1,10 @@
 """Results of a ROS 2 run: each node records its own component, the supervisor merges.
 
 A node records exactly what the in-process master records for its component (the same
-:class:`~fmionnx.backends.inprocess.recorder.Track` objects: recorded inputs sampled before a
+:class:`~fmionnx.runtime.recorder.Track` objects: recorded inputs sampled before a
 step, outputs after it, one row per own step, the first output row after set-up) and saves the
 rows to ``<record dir>/<component>.npz`` with a ``<component>.json`` status when it ends. The
-supervisor rebuilds a :class:`~fmionnx.backends.inprocess.recorder.Recorder` from those files,
+supervisor rebuilds a :class:`~fmionnx.runtime.recorder.Recorder` from those files,
 so the base-step expansion, the column order and therefore ``results.csv`` are the in-process
 ones, bit for bit, when the values are.
 """
@@ -18,13 +18,13 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.backends.base import RunOptions
-from fmionnx.backends.inprocess.master import column_names, default_record, is_image, plot_refs
-from fmionnx.backends.inprocess.recorder import Recorder, Track
-from fmionnx.backends.inprocess.runners.base import Buffer, Runner
 from fmionnx.compile.endpoints import flat_index
 from fmionnx.compile.ir import Causality, CompiledSystem, PortRef
-from fmionnx.errors import RunError
+from fmionnx.core.errors import RunError
+from fmionnx.core.runner import Buffer, Runner
+from fmionnx.runtime.master import column_names, default_record, is_image, plot_refs
+from fmionnx.runtime.recorder import Recorder, Track
+from fmionnx.runtime.result import RunOptions
 
 
 def record_refs(system: CompiledSystem, options: RunOptions | None = None) -> tuple[PortRef, ...]:

@@ -32,7 +32,6 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from types import FrameType
 
-from fmionnx.backends.base import RunOptions, RunResult, RunStatus
 from fmionnx.backends.ros2.bag import TopicRecorder
 from fmionnx.backends.ros2.control import (
     CLOCK_DDS,
@@ -48,13 +47,14 @@ from fmionnx.backends.ros2.control import (
 from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
 from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.loading import plan_for
-from fmionnx.backends.ros2.mapping import CLOCK_TYPE, Ros2Plan
-from fmionnx.backends.ros2.messages import RosDistro
 from fmionnx.backends.ros2.node import SyncMode, clock_source, describe_node
 from fmionnx.backends.ros2.recording import error_of, load_status, merge, record_refs
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.errors import FmionnxError, RunError
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.plan import CLOCK_TYPE, Ros2Plan
+from fmionnx.core.errors import FmionnxError, RunError
+from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 
 BACKEND_NAME = "ros2"
 #: Name under which the supervisor itself shows in ``ros2 node list``.

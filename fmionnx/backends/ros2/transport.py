@@ -27,9 +27,9 @@ from cyclonedds.util import duration
 
 from fmionnx.backends.ros2.env import DdsEnvironment
 from fmionnx.backends.ros2.idl import idl_type
-from fmionnx.backends.ros2.messages import RosDistro
 from fmionnx.backends.ros2.qos import QosProfile
-from fmionnx.errors import FmionnxError
+from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.core.errors import FmionnxError
 
 _ANY_STATE = SampleState.Any | ViewState.Any | InstanceState.Any
 

@@ -1,0 +1,123 @@
+"""Safe handling of zip archives (FMUs and SSPs come from other people).
+
+Extraction refuses path traversal (``../``), absolute paths, drive letters, symbolic links and
+archives whose declared or actual size is out of proportion (zip bombs), and writes nothing
+outside the destination folder.
+"""
+
+from __future__ import annotations
+
+import stat
+import zipfile
+from pathlib import Path, PurePosixPath
+
+from fmionnx.core.errors import ModelError
+
+#: Upper bounds for one archive; generous for real FMUs, far below a zip bomb.
+MAX_TOTAL_BYTES = 2 * 1024**3
+MAX_MEMBERS = 50_000
+MAX_RATIO = 200
+
+
+def check_member_name(name: str) -> PurePosixPath:
+    """The member's relative path, or a ModelError (E017) for a hostile name."""
+    normalized = name.replace("\\", "/")
+    path = PurePosixPath(normalized)
+    if normalized.startswith("/") or (len(normalized) > 1 and normalized[1] == ":"):
+        msg = f"archive member `{name}` has an absolute path"
+        raise ModelError("E017", msg)
+    if any(part == ".." for part in path.parts):
+        msg = f"archive member `{name}` points outside the archive (`..`)"
+        raise ModelError("E017", msg)
+    return path
+
+
+def open_zip(path: Path) -> zipfile.ZipFile:
+    """Open ``path`` as a zip, turning every failure into a ModelError with a code."""
+    if not path.exists():
+        msg = f"`{path}` does not exist"
+        raise ModelError("E010", msg)
+    if not path.is_file():
+        msg = f"`{path}` is a directory or special file, not an archive"
+        raise ModelError("E011", msg)
+    try:
+        return zipfile.ZipFile(path)
+    except zipfile.BadZipFile:
+        msg = f"`{path}` is not a zip archive (corrupt or not an FMU/SSP)"
+        raise ModelError("E012", msg) from None
+    except OSError as exc:
+        msg = f"cannot read `{path}`: {exc.strerror}"
+        raise ModelError("E010", msg) from None
+
+
+def check_archive(archive: zipfile.ZipFile) -> None:
+    """Raise ModelError (E017) when any member is hostile or the archive is a bomb."""
+    members = archive.infolist()
+    if len(members) > MAX_MEMBERS:
+        msg = f"archive has {len(members)} members (more than {MAX_MEMBERS})"
+        raise ModelError("E017", msg)
+    total = 0
+    for info in members:
+        check_member_name(info.filename)
+        mode = info.external_attr >> 16
+        if stat.S_ISLNK(mode):
+            msg = f"archive member `{info.filename}` is a symbolic link"
+            raise ModelError("E017", msg)
+        total += info.file_size
+        if (
+            info.compress_size
+            and info.file_size / max(info.compress_size, 1) > MAX_RATIO
+            and info.file_size > 1024**2
+        ):
+            msg = f"archive member `{info.filename}` expands {info.file_size // max(info.compress_size, 1)}x (zip bomb?)"
+            raise ModelError("E017", msg)
+    if total > MAX_TOTAL_BYTES:
+        msg = f"archive expands to {total} bytes (more than {MAX_TOTAL_BYTES})"
+        raise ModelError("E017", msg)
+
+
+def safe_extract(path: Path, destination: Path) -> Path:
+    """Extract the zip at ``path`` into ``destination`` after :func:`check_archive`.
+
+    Sizes are enforced while writing too, since a zip's declared sizes can lie.
+    """
+    with open_zip(path) as archive:
+        check_archive(archive)
+        root = destination.resolve()
+        root.mkdir(parents=True, exist_ok=True)
+        budget = MAX_TOTAL_BYTES
+        for info in archive.infolist():
+            relative = check_member_name(info.filename)
+            target = (root / relative).resolve()
+            if not target.is_relative_to(root):
+                msg = f"archive member `{info.filename}` points outside the archive"
+                raise ModelError("E017", msg)
+            if info.is_dir():
+                target.mkdir(parents=True, exist_ok=True)
+                continue
+            target.parent.mkdir(parents=True, exist_ok=True)
+            try:
+                with archive.open(info) as source, target.open("wb") as sink:
+                    while chunk := source.read(1 << 20):
+                        budget -= len(chunk)
+                        if budget < 0:
+                            msg = f"archive `{path.name}` expands beyond {MAX_TOTAL_BYTES} bytes"
+                            raise ModelError("E017", msg)
+                        sink.write(chunk)
+            except (zipfile.BadZipFile, EOFError) as exc:
+                msg = f"`{path}` is corrupt: {exc}"
+                raise ModelError("E012", msg) from None
+    return root
+
+
+def write_deterministic_zip(source_dir: Path, output: Path) -> None:
+    """Zip ``source_dir`` with sorted names and fixed timestamps (same input, same bytes)."""
+    output.parent.mkdir(parents=True, exist_ok=True)
+    tmp = output.with_name(output.name + ".part")
+    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+        for file in sorted(p for p in source_dir.rglob("*") if p.is_file()):
+            info = zipfile.ZipInfo(file.relative_to(source_dir).as_posix(), (1980, 1, 1, 0, 0, 0))
+            info.compress_type = zipfile.ZIP_DEFLATED
+            info.external_attr = (0o644 if file.suffix != ".so" else 0o755) << 16
+            archive.writestr(info, file.read_bytes())
+    tmp.replace(output)

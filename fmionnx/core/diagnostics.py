@@ -1,0 +1,383 @@
+"""Diagnostics are data: a stable code table, source spans, and collected findings.
+
+Every user-facing problem (bad YAML, a missing file, a type mismatch, a cycle) becomes a
+:class:`Diagnostic` with a code from :data:`CODES`, a severity, a message, a :class:`Span` in
+the file the user wrote, optional notes pointing into model files, and a hint. Stages collect
+them into a :class:`DiagnosticBag` instead of raising, so one run reports every problem.
+Rendering lives in :mod:`fmionnx.report`.
+"""
+
+from __future__ import annotations
+
+import difflib
+import enum
+from collections.abc import Iterable, Iterator
+from dataclasses import dataclass, field
+from pathlib import Path
+
+from fmionnx.core.pathnames import shown
+
+
+class Severity(enum.IntEnum):
+    """How bad a finding is; ordered so that ``max()`` gives the worst."""
+
+    INFO = 0
+    WARNING = 1
+    ERROR = 2
+
+    @property
+    def label(self) -> str:
+        """Lower-case name used in text output (``error``, ``warning``, ``info``)."""
+        return self.name.lower()
+
+
+@dataclass(frozen=True, slots=True)
+class Span:
+    """A position in a source file: 1-based line and column; 0 means "whole file"."""
+
+    file: Path
+    line: int = 0
+    col: int = 0
+
+    def __str__(self) -> str:
+        name = shown(self.file)
+        if self.line <= 0:
+            return name
+        if self.col <= 0:
+            return f"{name}:{self.line}"
+        return f"{name}:{self.line}:{self.col}"
+
+
+@dataclass(frozen=True, slots=True)
+class ErrorCode:
+    """One entry of the stable code table (in the spirit of ``mypy/errorcodes.py``)."""
+
+    code: str
+    name: str
+    severity: Severity
+    category: str
+    description: str
+
+
+def _codes(*entries: ErrorCode) -> dict[str, ErrorCode]:
+    table: dict[str, ErrorCode] = {}
+    for entry in entries:
+        if entry.code in table:
+            msg = f"duplicate diagnostic code {entry.code}"
+            raise ValueError(msg)
+        table[entry.code] = entry
+    return table
+
+
+_E = Severity.ERROR
+_W = Severity.WARNING
+_I = Severity.INFO
+
+#: The stable table of every diagnostic code. Codes are never renumbered; retired codes stay.
+#: Ranges: E00x syntax/schema, E01x model files, E02x endpoints, E03x connection checks,
+#: E04x run settings and parameters, E05x graph, E06x ROS 2, E07x SSP, E08x interface lock.
+CODES: dict[str, ErrorCode] = _codes(
+    # --- system file syntax and schema
+    ErrorCode("E001", "syntax", _E, "syntax", "The system file is not well-formed YAML/XML."),
+    ErrorCode("E002", "unknown-key", _E, "schema", "A key that the format does not define."),
+    ErrorCode("E003", "invalid-value", _E, "schema", "A value of the wrong type or out of range."),
+    ErrorCode("E004", "missing-key", _E, "schema", "A required key is missing."),
+    ErrorCode("E005", "format-version", _E, "schema", "Unsupported `fmionnx:` format version."),
+    ErrorCode("E006", "encoding", _E, "syntax", "The file is not UTF-8 text."),
+    ErrorCode("E007", "duplicate-key", _E, "syntax", "A key appears twice in one mapping."),
+    # --- model files
+    ErrorCode("E010", "file-not-found", _E, "model", "A referenced file does not exist."),
+    ErrorCode(
+        "E011", "not-a-file", _E, "model", "A directory or special file where a file is expected."
+    ),
+    ErrorCode(
+        "E012",
+        "bad-model",
+        _E,
+        "model",
+        "The model file cannot be read (corrupt archive, bad XML, bad protobuf).",
+    ),
+    ErrorCode(
+        "E013",
+        "unsupported-model",
+        _E,
+        "model",
+        "A model version or feature fmionnx does not support.",
+    ),
+    ErrorCode("E014", "unknown-kind", _E, "schema", "A component kind that is not registered."),
+    ErrorCode(
+        "E015",
+        "no-binary",
+        _E,
+        "model",
+        "The FMU has no binary for this platform (and no sources to build).",
+    ),
+    ErrorCode(
+        "E016",
+        "interface-type",
+        _E,
+        "model",
+        "The FMU does not offer the requested interface type (CS/ME).",
+    ),
+    ErrorCode(
+        "E017",
+        "unsafe-archive",
+        _E,
+        "model",
+        "An archive with path traversal, links or an excessive size.",
+    ),
+    ErrorCode(
+        "E018",
+        "unknown-option",
+        _E,
+        "schema",
+        "An option that does not apply to this component kind.",
+    ),
+    # --- endpoints
+    ErrorCode(
+        "E020",
+        "unknown-component",
+        _E,
+        "endpoint",
+        "A connection names a component that does not exist.",
+    ),
+    ErrorCode(
+        "E021",
+        "unknown-port",
+        _E,
+        "endpoint",
+        "A connection names a port the component does not have.",
+    ),
+    ErrorCode(
+        "E022",
+        "bad-index",
+        _E,
+        "endpoint",
+        "An element index that is out of range or on a scalar port.",
+    ),
+    ErrorCode(
+        "E023",
+        "bad-endpoint",
+        _E,
+        "endpoint",
+        "An endpoint that is not of the form `component.port[index]`.",
+    ),
+    # --- connection checks
+    ErrorCode(
+        "E030",
+        "causality",
+        _E,
+        "connection",
+        "A connection must go from an output to an input or parameter.",
+    ),
+    ErrorCode("E031", "dtype", _E, "connection", "Element types on both ends cannot be converted."),
+    ErrorCode("E032", "shape", _E, "connection", "Element counts on both ends differ."),
+    ErrorCode("E033", "unit", _E, "connection", "Both ends declare units and they differ."),
+    ErrorCode(
+        "E034",
+        "multiple-drivers",
+        _E,
+        "connection",
+        "An input is driven by more than one connection.",
+    ),
+    ErrorCode("E035", "algebraic-loop", _E, "graph", "A cycle through direct-feedthrough ports."),
+    ErrorCode("E036", "self-connection", _E, "connection", "A connection from a port to itself."),
+    ErrorCode(
+        "W030",
+        "unconnected-input",
+        _W,
+        "connection",
+        "An input nobody drives: its start value is used.",
+    ),
+    ErrorCode(
+        "W031",
+        "lossy-conversion",
+        _W,
+        "connection",
+        "A conversion that may lose precision or range.",
+    ),
+    # --- run settings and parameters
+    ErrorCode("E040", "run-settings", _E, "run", "Start, stop or step time are inconsistent."),
+    ErrorCode(
+        "E041", "period", _E, "run", "A component period is not a whole multiple of the base step."
+    ),
+    ErrorCode(
+        "E042",
+        "unknown-parameter",
+        _E,
+        "parameter",
+        "A parameter or start value the model does not have.",
+    ),
+    ErrorCode(
+        "E043", "parameter-value", _E, "parameter", "A parameter value of the wrong type or shape."
+    ),
+    ErrorCode(
+        "E044",
+        "parameter-causality",
+        _E,
+        "parameter",
+        "A value set on a variable that may not be set.",
+    ),
+    ErrorCode("E045", "plot", _E, "run", "A plot names a signal that does not exist."),
+    # --- graph
+    ErrorCode("E050", "duplicate-component", _E, "graph", "Two components share a name."),
+    ErrorCode("W050", "isolated-component", _W, "graph", "A component with no connections at all."),
+    # --- ROS 2 (issue: ROS 2 mode)
+    ErrorCode("E060", "ros2-type", _E, "ros2", "Unknown ROS 2 message type."),
+    ErrorCode(
+        "E061",
+        "ros2-field",
+        _E,
+        "ros2",
+        "A message field that does not exist or does not fit the port.",
+    ),
+    ErrorCode("E062", "ros2-name", _E, "ros2", "A node or topic name that ROS 2 does not allow."),
+    ErrorCode("E063", "ros2-qos", _E, "ros2", "Unknown or inconsistent QoS profile."),
+    ErrorCode(
+        "E064", "ros2-unmapped", _E, "ros2", "A port that cannot be mapped onto a ROS 2 topic."
+    ),
+    ErrorCode(
+        "E065",
+        "ros2-reference",
+        _E,
+        "ros2",
+        "The ros2 section names a component or port that does not exist.",
+    ),
+    # --- SSP (issue: SSP)
+    ErrorCode("E070", "ssp-schema", _E, "ssp", "The SSD does not validate against the SSP XSD."),
+    ErrorCode("E071", "ssp-unsupported", _E, "ssp", "An SSP feature fmionnx does not support yet."),
+    ErrorCode(
+        "E072",
+        "ssp-reference",
+        _E,
+        "ssp",
+        "An SSP element references something that does not exist.",
+    ),
+    ErrorCode("W070", "ssp-ignored", _W, "ssp", "An SSP element that fmionnx reads but ignores."),
+    # --- interface lock (issue: CI)
+    ErrorCode(
+        "E080",
+        "lock-interface-changed",
+        _E,
+        "lock",
+        "A model's interface differs from the lock file.",
+    ),
+    ErrorCode("E081", "lock-missing", _E, "lock", "No lock file, or a component missing from it."),
+    ErrorCode("E082", "lock-invalid", _E, "lock", "The lock file cannot be read."),
+    ErrorCode(
+        "I080", "lock-binary-changed", _I, "lock", "The model file changed, its interface did not."
+    ),
+)
+
+
+@dataclass(frozen=True, slots=True)
+class Note:
+    """A secondary location, e.g. ``modelDescription.xml:42`` where a variable is declared."""
+
+    message: str
+    span: Span | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Diagnostic:
+    """One finding. ``code`` is a key of :data:`CODES`; severity defaults to the code's."""
+
+    code: str
+    message: str
+    span: Span | None = None
+    hint: str | None = None
+    notes: tuple[Note, ...] = ()
+    severity: Severity = field(default=Severity.ERROR)
+
+    @property
+    def name(self) -> str:
+        """The code's symbolic name (``dtype``, ``unknown-port`` ...)."""
+        return CODES[self.code].name
+
+    def sort_key(self) -> tuple[str, int, int, str, str]:
+        """Order by file, line, column, then code, so output is stable."""
+        span = self.span
+        if span is None:
+            return ("", 0, 0, self.code, self.message)
+        return (str(span.file), span.line, span.col, self.code, self.message)
+
+
+def make(
+    code: str,
+    message: str,
+    span: Span | None = None,
+    *,
+    hint: str | None = None,
+    notes: Iterable[Note] = (),
+) -> Diagnostic:
+    """Build a diagnostic with the severity from the code table."""
+    entry = CODES[code]
+    return Diagnostic(
+        code=code,
+        message=message,
+        span=span,
+        hint=hint,
+        notes=tuple(notes),
+        severity=entry.severity,
+    )
+
+
+class DiagnosticBag:
+    """Collects diagnostics across stages; never raises for user mistakes."""
+
+    def __init__(self) -> None:
+        self._items: list[Diagnostic] = []
+
+    def add(self, diagnostic: Diagnostic) -> None:
+        """Record one diagnostic."""
+        self._items.append(diagnostic)
+
+    def emit(
+        self,
+        code: str,
+        message: str,
+        span: Span | None = None,
+        *,
+        hint: str | None = None,
+        notes: Iterable[Note] = (),
+    ) -> Diagnostic:
+        """Build (with :func:`make`) and record a diagnostic; returns it."""
+        diagnostic = make(code, message, span, hint=hint, notes=notes)
+        self._items.append(diagnostic)
+        return diagnostic
+
+    def extend(self, diagnostics: Iterable[Diagnostic]) -> None:
+        """Record several diagnostics."""
+        self._items.extend(diagnostics)
+
+    @property
+    def has_errors(self) -> bool:
+        """True when at least one error was recorded."""
+        return any(d.severity is Severity.ERROR for d in self._items)
+
+    def sorted(self) -> list[Diagnostic]:
+        """All diagnostics, deduplicated and in stable order."""
+        unique = dict.fromkeys(self._items)
+        return sorted(unique, key=Diagnostic.sort_key)
+
+    def __iter__(self) -> Iterator[Diagnostic]:
+        return iter(self._items)
+
+    def __len__(self) -> int:
+        return len(self._items)
+
+
+def did_you_mean(word: str, candidates: Iterable[str]) -> str | None:
+    """A ``did you mean `x`?`` hint for the closest candidate, or None when nothing is close."""
+    matches = difflib.get_close_matches(word, list(candidates), n=1, cutoff=0.6)
+    if not matches:
+        return None
+    return f"did you mean `{matches[0]}`?"
+
+
+def one_of(candidates: Iterable[str], limit: int = 12) -> str:
+    """Render the valid choices for a hint: ``expected one of `a`, `b`, `c```."""
+    names = sorted(set(candidates))
+    shown = ", ".join(f"`{n}`" for n in names[:limit])
+    more = f" (and {len(names) - limit} more)" if len(names) > limit else ""
+    return f"expected one of {shown}{more}" if names else "there are none"

@@ -1,0 +1,86 @@
+"""The one small interface every component kind's runner implements.
+
+The master never converts values per step: at setup it asks each runner for the *buffers*
+behind its ports (flat numpy arrays, stable for the whole run) and wires connections between
+them once. A runner reads its input buffers when it steps and refreshes its output buffers
+after each step. ``set_input``/``get_output`` are conveniences built on the same buffers for
+benchmarks and tests that drive a runner by hand.
+"""
+
+from __future__ import annotations
+
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from fmionnx.compile.ir import Component
+from fmionnx.core.errors import RunError
+
+Buffer = npt.NDArray[np.generic]
+
+
+class Runner(Protocol):
+    """Runtime object of one component (FMU instance, ORT session, MuJoCo model + data).
+
+    Life cycle: ``instantiate()`` -> ``setup(start, stop)`` (parameters and start values
+    before initialization, then initialization) -> ``step(t, h)`` repeatedly ->
+    ``terminate()``. ``lazy_outputs`` are outputs too expensive to refresh every step
+    (camera images): the master calls ``produce(port)`` only when a consumer is due.
+    """
+
+    component: Component
+    lazy_outputs: frozenset[str]
+
+    def instantiate(self) -> None:
+        """Load the model and create the instance (nothing is computed yet)."""
+        ...
+
+    def setup(self, start: float, stop: float) -> None:
+        """Apply parameters/start values, initialize; outputs then hold their initial values."""
+        ...
+
+    def input_buffer(self, port: str) -> Buffer:
+        """The flat array the runner reads ``port`` from at each step (write into it)."""
+        ...
+
+    def output_buffer(self, port: str) -> Buffer:
+        """The flat array holding the newest value of output ``port`` (read from it)."""
+        ...
+
+    def step(self, t: float, h: float) -> None:
+        """Advance from communication point ``t`` by ``h``; raise RunError on a fault."""
+        ...
+
+    def produce(self, port: str) -> None:
+        """Refresh a lazy output (e.g. render a camera) for the current state."""
+        ...
+
+    def terminate(self) -> None:
+        """End the run and free native resources; safe to call twice or after a fault."""
+        ...
+
+
+def set_input(runner: Runner, port: str, values: npt.ArrayLike) -> None:
+    """Write ``values`` (any shape with the port's element count) into an input buffer."""
+    buffer = runner.input_buffer(port)
+    np.copyto(buffer, np.asarray(values).reshape(buffer.shape), casting="unsafe")
+
+
+def get_output(runner: Runner, port: str) -> Buffer:
+    """A copy of the newest value of ``port``, shaped like the port (scalars as shape ``()``)."""
+    if port in runner.lazy_outputs:
+        runner.produce(port)
+    buffer = runner.output_buffer(port)
+    shape = tuple(d if isinstance(d, int) else -1 for d in runner.component.port(port).shape)
+    return buffer.reshape(shape).copy() if shape else buffer.reshape(()).copy()
+
+
+def fault(runner_component: str, message: str, *, time: float, port: str | None = None) -> RunError:
+    """A RunError with the uniform wording ``component `x` at t=1.23 s: ...``."""
+    where = f"component `{runner_component}`"
+    if port is not None:
+        where += f", port `{port}`"
+    return RunError(
+        f"{where} at t={time:.6g} s: {message}", component=runner_component, port=port, time=time
+    )

@@ -1,0 +1,104 @@
+"""Access to the files of an FMU, packed (``.fmu`` zip) or unpacked (a folder).
+
+Only what the interface reader needs is read: the model description's bytes, the binary
+platform folders and whether C sources are shipped. Archives go through
+:mod:`fmionnx.core.archive`, so hostile member names, links and zip bombs are refused before
+anything is read.
+"""
+
+from __future__ import annotations
+
+import zipfile
+from dataclasses import dataclass
+from pathlib import Path, PurePosixPath
+
+from fmionnx.core.archive import check_archive, open_zip
+from fmionnx.core.errors import ModelError
+from fmionnx.kinds.cache import sha256_file, sha256_tree
+
+MODEL_DESCRIPTION = "modelDescription.xml"
+
+#: A model description larger than this is not a model description.
+MAX_MODEL_DESCRIPTION_BYTES = 256 * 1024**2
+
+_NO_DESCRIPTION_HINT = (
+    "an FMU is a zip archive with modelDescription.xml at its top level "
+    "(FMI 2.0/3.0 standard, section 'FMU distribution')"
+)
+
+
+@dataclass(frozen=True, slots=True)
+class FmuFiles:
+    """What an FMU's files say besides the model description's content."""
+
+    model_description: bytes
+    platforms: tuple[str, ...]
+    has_sources: bool
+    content_hash: str
+
+
+def read_fmu_files(path: Path) -> FmuFiles:
+    """Read an FMU at ``path`` (zip file or unpacked folder).
+
+    Raises ModelError: E010 missing, E011 folder without a model description or special
+    file, E012 not a zip / corrupt / no model description, E017 hostile archive.
+    """
+    if path.is_dir():
+        return _read_folder(path)
+    with open_zip(path) as archive:
+        check_archive(archive)
+        return _read_archive(path, archive)
+
+
+def _read_archive(path: Path, archive: zipfile.ZipFile) -> FmuFiles:
+    try:
+        info = archive.getinfo(MODEL_DESCRIPTION)
+    except KeyError:
+        msg = f"`{path.name}` has no {MODEL_DESCRIPTION}: it is not an FMU"
+        raise ModelError("E012", msg, hint=_NO_DESCRIPTION_HINT) from None
+    if info.file_size > MAX_MODEL_DESCRIPTION_BYTES:
+        msg = f"`{path.name}`: {MODEL_DESCRIPTION} is {info.file_size} bytes, too large"
+        raise ModelError("E017", msg)
+    try:
+        data = archive.read(info)
+    except (zipfile.BadZipFile, EOFError, NotImplementedError) as exc:
+        msg = f"`{path.name}` is corrupt: {exc}"
+        raise ModelError("E012", msg) from None
+    platforms: set[str] = set()
+    has_sources = False
+    for member in archive.infolist():
+        if member.is_dir():
+            continue
+        parts = PurePosixPath(member.filename).parts
+        if len(parts) >= 3 and parts[0] == "binaries":
+            platforms.add(parts[1])
+        if parts and parts[0] == "sources":
+            has_sources = True
+    return FmuFiles(data, tuple(sorted(platforms)), has_sources, sha256_file(path))
+
+
+def _read_folder(path: Path) -> FmuFiles:
+    description = path / MODEL_DESCRIPTION
+    if not description.is_file():
+        msg = f"`{path}` is a folder without {MODEL_DESCRIPTION}, not an unpacked FMU"
+        raise ModelError("E011", msg, hint=_NO_DESCRIPTION_HINT)
+    try:
+        data = description.read_bytes()
+    except OSError as exc:
+        msg = f"cannot read `{description}`: {exc.strerror}"
+        raise ModelError("E010", msg) from None
+    binaries = path / "binaries"
+    platforms = (
+        tuple(
+            sorted(
+                d.name
+                for d in binaries.iterdir()
+                if d.is_dir() and any(f.is_file() for f in d.iterdir())
+            )
+        )
+        if binaries.is_dir()
+        else ()
+    )
+    sources = path / "sources"
+    has_sources = sources.is_dir() and any(f.is_file() for f in sources.rglob("*"))
+    return FmuFiles(data, platforms, has_sources, sha256_tree(path))

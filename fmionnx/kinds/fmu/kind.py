@@ -1,0 +1,214 @@
+"""FMU components (FMI 2.0 and 3.0, co-simulation and model exchange).
+
+The interface comes from the FMU's ``modelDescription.xml``, parsed by fmpy after a strict
+safety check (:mod:`fmionnx.core.xmlsafe`). How variables become ports is in
+:mod:`fmionnx.kinds.fmu.ports`; the facts this kind writes are listed in
+:data:`FACT_KEYS` and in ``docs/components.md``.
+"""
+
+from __future__ import annotations
+
+import io
+import zipfile
+from pathlib import Path
+from typing import Any, Literal
+
+from pydantic import Field
+
+from fmionnx.compile.ir import ComponentInterface, Experiment
+from fmionnx.core.errors import ModelError
+from fmionnx.core.xmlsafe import parse_safely
+from fmionnx.kinds.cache import cached_interface, file_identity
+from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, FmuFiles, read_fmu_files
+from fmionnx.kinds.fmu.ports import ports_from_model_description
+from fmionnx.spec.base import ComponentSpecBase
+
+#: Facts written by this kind (a key is present only when the FMU states it).
+FACT_KEYS = (
+    "fmiVersion",
+    "modelName",
+    "instantiationToken",
+    "description",
+    "generationTool",
+    "generationDateAndTime",
+    "interfaceTypes",
+    "modelIdentifierCS",
+    "modelIdentifierME",
+    "modelIdentifierSE",
+    "platforms",
+    "hasSources",
+    "canHandleVariableCommunicationStepSize",
+    "canGetAndSetFMUstate",
+    "needsExecutionTool",
+    "canBeInstantiatedOnlyOncePerProcess",
+    "numberOfContinuousStates",
+    "numberOfEventIndicators",
+)
+
+#: How many schema problems to quote in an error message.
+_MAX_PROBLEMS = 3
+
+
+class FmuSpec(ComponentSpecBase):
+    """System-file keys of an ``fmu`` component."""
+
+    kind: Literal["fmu"] = "fmu"
+    interface: Literal["cs", "me"] | None = Field(
+        default=None,
+        description="Interface type to use; default: co-simulation when offered, else model "
+        "exchange.",
+    )
+    solver: Literal["cvode", "euler"] = Field(
+        default="cvode", description="Model exchange only: integrator between communication points."
+    )
+    tolerance: float | None = Field(
+        default=None, gt=0, description="Model exchange only: relative tolerance of CVode."
+    )
+
+
+class FmuKind:
+    """Reads FMU interfaces from ``modelDescription.xml`` (via fmpy)."""
+
+    name = "fmu"
+    spec_model = FmuSpec
+    suffixes = (".fmu",)
+    summary = "Functional Mock-up Unit (FMI 2.0/3.0, CS/ME)"
+
+    def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
+        """Read the FMU's ports and facts (cached per file identity; ``spec`` is not needed).
+
+        Raises ModelError: E010 missing, E011 folder without model description, E012
+        unreadable, E013 FMI 1.0 or unknown version, E017 hostile archive or XML.
+        """
+        if not path.exists():
+            msg = f"`{path}` does not exist"
+            raise ModelError("E010", msg)
+        identity_of = path / MODEL_DESCRIPTION if path.is_dir() else path
+        if path.is_dir() and not identity_of.is_file():
+            read_fmu_files(path)  # raises the folder's error
+        key = ("fmu", *file_identity(identity_of))
+        return cached_interface(key, path, lambda: load_fmu_interface(path))
+
+
+def load_fmu_interface(path: Path) -> ComponentInterface:
+    """Read the interface without the cache (see :meth:`FmuKind.read_interface`)."""
+    files = read_fmu_files(path)
+    xml_file = Path(path.name) / MODEL_DESCRIPTION
+    root = parse_safely(files.model_description, str(xml_file))
+    if root.tag != "fmiModelDescription":
+        msg = f"`{xml_file}`: root element is <{root.tag}>, not <fmiModelDescription>"
+        raise ModelError("E012", msg)
+    version = root.get("fmiVersion") or ""
+    if version.startswith("1."):
+        msg = f"`{path.name}` is an FMI {version} FMU; fmionnx supports FMI 2.0 and 3.0"
+        raise ModelError(
+            "E013", msg, hint="export the model as FMI 2.0 or 3.0 (most tools offer both)"
+        )
+    if version != "2.0" and not version.startswith("3."):
+        msg = f"`{path.name}` declares fmiVersion `{version}`; fmionnx supports 2.0 and 3.0"
+        raise ModelError("E013", msg)
+    model_description = _fmpy_model_description(files.model_description, xml_file)
+    return ComponentInterface(
+        kind="fmu",
+        path=path,
+        ports=ports_from_model_description(model_description, xml_file),
+        facts=_facts(model_description, files),
+        default_experiment=_experiment(model_description),
+        content_hash=files.content_hash,
+    )
+
+
+def _fmpy_model_description(data: bytes, xml_file: Path) -> Any:
+    """fmpy's reading of exactly the bytes that passed the safety check.
+
+    fmpy reads a model description from a zip; an in-memory zip holding only these bytes
+    keeps it from re-reading the FMU or parsing any other file.
+    """
+    from fmpy.model_description import ValidationError, read_model_description
+
+    buffer = io.BytesIO()
+    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_STORED) as archive:
+        archive.writestr(MODEL_DESCRIPTION, data)
+    buffer.seek(0)
+    try:
+        return read_model_description(buffer, validate=True)
+    except ValidationError as exc:
+        problems = "; ".join(str(p) for p in exc.problems[:_MAX_PROBLEMS])
+        more = len(exc.problems) - _MAX_PROBLEMS
+        tail = f" (and {more} more)" if more > 0 else ""
+        msg = f"`{xml_file}` does not conform to the FMI schema: {problems}{tail}"
+        raise ModelError("E012", msg, hint="`fmpy validate <fmu>` lists every problem") from None
+    except Exception as exc:  # fmpy raises bare Exception for semantic errors
+        msg = f"`{xml_file}` cannot be read: {exc}"
+        raise ModelError("E012", msg) from None
+
+
+def _flag(value: object) -> str:
+    return "true" if value else "false"
+
+
+def _facts(md: Any, files: FmuFiles) -> tuple[tuple[str, str], ...]:
+    facts: dict[str, str] = {}
+
+    def put(key: str, value: object) -> None:
+        if value is not None and value != "":
+            facts[key] = value if isinstance(value, str) else str(value)
+
+    put("fmiVersion", md.fmiVersion)
+    put("modelName", md.modelName)
+    put("instantiationToken", md.guid)
+    put("description", md.description)
+    put("generationTool", md.generationTool)
+    put("generationDateAndTime", md.generationDateAndTime)
+    interfaces = [
+        (short, element)
+        for short, element in (
+            ("cs", md.coSimulation),
+            ("me", md.modelExchange),
+            ("se", getattr(md, "scheduledExecution", None)),
+        )
+        if element is not None
+    ]
+    put("interfaceTypes", ",".join(short for short, _ in interfaces))
+    for short, element in interfaces:
+        put(f"modelIdentifier{short.upper()}", element.modelIdentifier)
+    put("platforms", ",".join(files.platforms))
+    put("hasSources", _flag(files.has_sources))
+    if md.coSimulation is not None:
+        cs = md.coSimulation
+        put(
+            "canHandleVariableCommunicationStepSize",
+            _flag(cs.canHandleVariableCommunicationStepSize),
+        )
+    main = md.coSimulation or md.modelExchange or getattr(md, "scheduledExecution", None)
+    if main is not None:
+        put("canGetAndSetFMUstate", _flag(main.canGetAndSetFMUstate))
+        put("needsExecutionTool", _flag(main.needsExecutionTool))
+        put("canBeInstantiatedOnlyOncePerProcess", _flag(main.canBeInstantiatedOnlyOncePerProcess))
+    put("numberOfContinuousStates", md.numberOfContinuousStates)
+    put("numberOfEventIndicators", md.numberOfEventIndicators)
+    return tuple(facts.items())
+
+
+def _float(text: object) -> float | None:
+    if text is None:
+        return None
+    try:
+        return float(str(text))
+    except ValueError:
+        return None
+
+
+def _experiment(md: Any) -> Experiment | None:
+    experiment = md.defaultExperiment
+    if experiment is None:
+        return None
+    return Experiment(
+        start=_float(experiment.startTime),
+        stop=_float(experiment.stopTime),
+        step=_float(experiment.stepSize),
+        tolerance=_float(experiment.tolerance),
+    )
+
+
+FMU_KIND = FmuKind()

@@ -1,0 +1,257 @@
+"""Turn an fmpy ``ModelDescription`` into fmionnx ports.
+
+Rules (documented in ``docs/components.md``):
+
+* Causalities ``input``, ``output``, ``parameter``, ``calculatedParameter`` and
+  ``structuralParameter`` become ports; ``local`` and ``independent`` do not. FMI 3 clocks are
+  not data and are skipped; FMI 3 alias names are skipped (the aliased variable is the port).
+* FMI 2 has no arrays, so exporters write ``v[1]`` .. ``v[n]`` as scalars. Scalars
+  ``base[i]`` (or ``base[i,j]``) that share type, causality, variability and unit and fill a
+  complete 1-based index box become ONE port ``base`` of shape ``(n,)`` (or ``(n, m)``) whose
+  ``vrs`` hold the value references in row-major element order. Anything else stays scalar.
+* FMI 3 arrays take their shape from ``<Dimension>`` (a fixed ``start`` or the start value of
+  the structural parameter it references) and keep their single value reference.
+* ``depends_on`` of an output lists the input ports it depends on per ``<ModelStructure>``;
+  it is None (unknown) when the output is not listed or has no ``dependencies`` attribute.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+import re
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+from fmionnx.compile.ir import Causality, DType, Port, Scalar
+from fmionnx.core.diagnostics import Span
+from fmionnx.core.errors import ModelError
+
+#: FMI type name -> element type. FMI 2 enumerations are read with ``fmi2GetInteger`` (int32),
+#: FMI 3 enumerations with ``fmi3GetInt64``; see :func:`dtype_of`.
+FMI_DTYPES: dict[str, DType] = {
+    # FMI 2.0 (section 2.2.7)
+    "Real": DType.FLOAT64,
+    "Integer": DType.INT32,
+    "Boolean": DType.BOOL,
+    "String": DType.STRING,
+    # FMI 3.0 (section 2.4.7)
+    "Float64": DType.FLOAT64,
+    "Float32": DType.FLOAT32,
+    "Int8": DType.INT8,
+    "Int16": DType.INT16,
+    "Int32": DType.INT32,
+    "Int64": DType.INT64,
+    "UInt8": DType.UINT8,
+    "UInt16": DType.UINT16,
+    "UInt32": DType.UINT32,
+    "UInt64": DType.UINT64,
+    "Binary": DType.BINARY,
+}
+
+#: Causalities that become ports.
+PORT_CAUSALITIES = frozenset(
+    {"input", "output", "parameter", "calculatedParameter", "structuralParameter"}
+)
+
+_INDEXED = re.compile(r"^(?P<base>.+)\[(?P<index>\d+(?:\s*,\s*\d+)*)\]$")
+
+
+def dtype_of(fmi_type: str, fmi_major: int) -> DType | None:
+    """The element type of an FMI variable type, or None for types that are not data."""
+    if fmi_type == "Enumeration":
+        return DType.INT32 if fmi_major < 3 else DType.INT64
+    return FMI_DTYPES.get(fmi_type)
+
+
+@dataclass(frozen=True, slots=True)
+class _Scalarish:
+    """One model variable on its way to becoming (part of) a port."""
+
+    variable: Any
+    name: str
+    causality: Causality
+    dtype: DType
+    shape: tuple[int, ...]
+    unit: str | None
+    start: tuple[Scalar, ...] | None
+    vrs: tuple[int, ...]
+    line: int
+
+
+def ports_from_model_description(model_description: Any, xml_file: Path) -> tuple[Port, ...]:
+    """Every port of the model, in declaration order (a group sits at its first element)."""
+    major = int(str(model_description.fmiVersion).split(".")[0])
+    records = [
+        record
+        for variable in model_description.modelVariables
+        if (record := _record(variable, major, xml_file)) is not None
+    ]
+    groups = _groups(records) if major == 2 else {}
+    port_name = {id(r.variable): r.name for r in records}
+    for base, members in groups.items():
+        for member in members:
+            port_name[id(member.variable)] = base
+    outputs = {id(u.variable): u for u in model_description.outputs}
+
+    ports: list[Port] = []
+    emitted: set[str] = set()
+    grouped_base = {id(m.variable): base for base, ms in groups.items() for m in ms}
+    for record in records:
+        group = grouped_base.get(id(record.variable))
+        if group is None:
+            depends = _depends_on([record], outputs, port_name)
+            ports.append(_port(record.name, [record], depends, xml_file))
+        elif group not in emitted:
+            emitted.add(group)
+            depends = _depends_on(groups[group], outputs, port_name)
+            ports.append(_port(group, groups[group], depends, xml_file))
+    return tuple(ports)
+
+
+def _record(variable: Any, major: int, xml_file: Path) -> _Scalarish | None:
+    if variable.causality not in PORT_CAUSALITIES or getattr(variable, "alias", None) is not None:
+        return None
+    dtype = dtype_of(variable.type, major)
+    if dtype is None:  # FMI 3 Clock: an event, not a value
+        return None
+    shape = tuple(int(d) for d in (variable.shape or ()))
+    unit: str | None = variable.unit
+    if unit is None and variable.declaredType is not None:
+        unit = variable.declaredType.unit
+    line = int(variable.sourceline or 0)
+    start = _parse_start(variable, dtype, shape, xml_file, line)
+    return _Scalarish(
+        variable=variable,
+        name=str(variable.name),
+        causality=Causality(variable.causality),
+        dtype=dtype,
+        shape=shape,
+        unit=unit,
+        start=start,
+        vrs=(int(variable.valueReference),),
+        line=line,
+    )
+
+
+def _parse_start(
+    variable: Any, dtype: DType, shape: tuple[int, ...], xml_file: Path, line: int
+) -> tuple[Scalar, ...] | None:
+    text = variable.start
+    if text is None:
+        return None
+    if dtype in (DType.STRING, DType.BINARY):
+        return (str(text),)
+    try:
+        values = tuple(_scalar(token, dtype) for token in str(text).split())
+    except ValueError:
+        msg = f"{xml_file}:{line}: start value `{text}` of `{variable.name}` is not a {dtype}"
+        raise ModelError("E012", msg) from None
+    size = math.prod(shape)
+    if len(values) == 1 and size > 1:  # one value for a whole FMI 3 array
+        values = values * size
+    return values
+
+
+def _scalar(token: str, dtype: DType) -> Scalar:
+    if dtype is DType.BOOL:
+        if token in ("true", "1"):
+            return True
+        if token in ("false", "0"):
+            return False
+        raise ValueError(token)
+    if dtype.is_integer:
+        return int(token)
+    return float(token)
+
+
+def _groups(records: list[_Scalarish]) -> dict[str, list[_Scalarish]]:
+    """FMI 2 indexed scalars that form one array port, by base name (members row-major)."""
+    plain = {r.name for r in records}
+    candidates: dict[str, list[tuple[tuple[int, ...], _Scalarish]]] = {}
+    for record in records:
+        match = _INDEXED.match(record.name)
+        if match is None or record.shape:
+            continue
+        index = tuple(int(i) for i in match["index"].split(","))
+        candidates.setdefault(match["base"], []).append((index, record))
+    groups: dict[str, list[_Scalarish]] = {}
+    for base, members in candidates.items():
+        if base in plain:
+            continue
+        members.sort(key=lambda item: item[0])
+        if _is_full_box([index for index, _ in members]) and _uniform([r for _, r in members]):
+            groups[base] = [record for _, record in members]
+    return groups
+
+
+def _is_full_box(indices: list[tuple[int, ...]]) -> bool:
+    """True when the 1-based indices are exactly every element of some n x m x ... box."""
+    ranks = {len(index) for index in indices}
+    if len(ranks) != 1:
+        return False
+    rank = ranks.pop()
+    extents = [max(index[axis] for index in indices) for axis in range(rank)]
+    expected = list(itertools.product(*(range(1, n + 1) for n in extents)))
+    return indices == expected
+
+
+def _uniform(members: list[_Scalarish]) -> bool:
+    first = members[0]
+    return all(
+        (m.dtype, m.causality, m.variable.variability, m.unit)
+        == (first.dtype, first.causality, first.variable.variability, first.unit)
+        for m in members
+    )
+
+
+def _group_shape(members: list[_Scalarish]) -> tuple[int, ...]:
+    match = _INDEXED.match(members[-1].name)
+    if match is None:  # a single scalar, never grouped
+        return ()
+    return tuple(int(i) for i in match["index"].split(","))
+
+
+def _depends_on(
+    members: list[_Scalarish], outputs: dict[int, Any], port_name: dict[int, str]
+) -> tuple[str, ...] | None:
+    if members[0].causality is not Causality.OUTPUT:
+        return None
+    names: dict[str, None] = {}
+    for member in members:
+        unknown = outputs.get(id(member.variable))
+        if unknown is None or unknown.dependencies is None:
+            return None
+        for dependency in unknown.dependencies:
+            if dependency.causality == "input" and id(dependency) in port_name:
+                names[port_name[id(dependency)]] = None
+    return tuple(names)
+
+
+def _port(
+    name: str,
+    members: list[_Scalarish],
+    depends_on: tuple[str, ...] | None,
+    xml_file: Path,
+) -> Port:
+    first = members[0]
+    grouped = len(members) > 1 or name != first.name
+    start: tuple[Scalar, ...] | None
+    if all(m.start is not None for m in members):
+        start = tuple(itertools.chain.from_iterable(m.start or () for m in members))
+    else:
+        start = None
+    return Port(
+        name=name,
+        causality=first.causality,
+        dtype=first.dtype,
+        shape=_group_shape(members) if grouped else first.shape,
+        unit=first.unit,
+        start=start,
+        variability=first.variable.variability,
+        description=first.variable.description or "",
+        depends_on=depends_on,
+        vrs=tuple(itertools.chain.from_iterable(m.vrs for m in members)),
+        origin=Span(xml_file, first.line),
+    )

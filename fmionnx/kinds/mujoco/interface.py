@@ -1,0 +1,190 @@
+"""Read a MuJoCo scene's ports: named sensors, actuators, sites and the requested cameras.
+
+Sensors, sites and cameras depend on no input within a step (actuators act through the
+physics step), which is what lets a robot's feedback loop through the simulator be ordered
+without an algebraic loop. Nothing is rendered here: validation needs no OpenGL.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
+from fmionnx.core.diagnostics import Span, did_you_mean, one_of
+from fmionnx.core.errors import ModelError
+
+#: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case).
+_SENSOR_UNITS = {
+    "framepos": "m",
+    "jointpos": None,  # slide joints in m, hinges in rad: depends on the joint
+    "velocimeter": "m/s",
+    "gyro": "rad/s",
+    "accelerometer": "m/s2",
+    "framelinvel": "m/s",
+    "frameangvel": "rad/s",
+    "subtreecom": "m",
+    "rangefinder": "m",
+    "touch": "N",
+    "force": "N",
+    "torque": "N.m",
+    "clock": "s",
+}
+
+#: Joint sensors whose unit follows the joint type: (sensor, mjtJoint name) -> unit.
+_JOINT_UNITS = {
+    ("jointpos", "hinge"): "rad",
+    ("jointpos", "slide"): "m",
+    ("jointvel", "hinge"): "rad/s",
+    ("jointvel", "slide"): "m/s",
+}
+
+
+def _sensor_unit(model: Any, sensor: int, kind: str) -> str | None:
+    """The unit of a sensor's value, when its type (and for joints, the joint type) fixes it."""
+    if kind in ("jointpos", "jointvel"):
+        import mujoco
+
+        joint = int(model.sensor_objid[sensor])
+        joint_type = mujoco.mjtJoint(int(model.jnt_type[joint])).name.removeprefix("mjJNT_")
+        return _JOINT_UNITS.get((kind, joint_type.lower()))
+    return _SENSOR_UNITS.get(kind)
+
+
+_MODELS: dict[tuple[str, int, int], tuple[Any, str]] = {}
+
+
+def load_model(path: Path) -> tuple[Any, str]:
+    """The compiled MjModel of the scene at ``path`` and the scene's content hash (cached)."""
+    if not path.exists():
+        msg = f"`{path}` does not exist"
+        raise ModelError("E010", msg)
+    if not path.is_file():
+        msg = f"`{path}` is a directory or special file, not a MuJoCo scene"
+        raise ModelError("E011", msg)
+    stat = path.stat()
+    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
+    if key not in _MODELS:
+        import mujoco
+
+        try:
+            if path.suffix == ".mjb":
+                model = mujoco.MjModel.from_binary_path(str(path))
+            else:
+                model = mujoco.MjModel.from_xml_path(str(path))
+        except ValueError as exc:
+            text = " ".join(str(exc).split())
+            msg = f"`{path}` is not a valid MuJoCo scene: {text}"
+            raise ModelError("E012", msg) from None
+        _MODELS[key] = (model, _compiled_digest(model))
+    return _MODELS[key]
+
+
+def _compiled_digest(model: Any) -> str:
+    """sha256 of the compiled model, so included files, meshes and textures count too.
+
+    Hashing the XML alone would miss a changed ``<include>``d file or mesh; the compiled
+    model holds all of it. (A MuJoCo upgrade may change the bytes: the lock then reports
+    "model changed, same interface", which is true.)
+    """
+    import mujoco
+    import numpy as np
+
+    buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
+    mujoco.mj_saveModel(model, None, buffer)
+    return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+
+def read_mujoco_interface(
+    path: Path, cameras: Mapping[str, tuple[int, int]] | None
+) -> ComponentInterface:
+    """Ports of the scene; ``cameras`` maps camera name -> (width, height) (None: all, 640x480)."""
+    import mujoco
+
+    model, digest = load_model(path)
+    ports: list[Port] = []
+    for i in range(model.nsensor):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)
+        if not name:
+            continue
+        dim = int(model.sensor_dim[i])
+        kind = mujoco.mjtSensor(int(model.sensor_type[i])).name.removeprefix("mjSENS_").lower()
+        ports.append(
+            Port(
+                name=name,
+                causality=Causality.OUTPUT,
+                dtype=DType.FLOAT64,
+                shape=() if dim == 1 else (dim,),
+                unit=_sensor_unit(model, i, kind),
+                description=f"{kind} sensor",
+                depends_on=(),
+            )
+        )
+    for i in range(model.nu):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
+        if not name:
+            continue
+        limited = bool(model.actuator_ctrllimited[i])
+        low, high = model.actuator_ctrlrange[i]
+        description = f"actuator, ctrlrange [{low:g}, {high:g}]" if limited else "actuator"
+        ports.append(
+            Port(name, Causality.INPUT, DType.FLOAT64, (), start=(0.0,), description=description)
+        )
+    for i in range(model.nsite):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i)
+        if name:
+            ports.append(
+                Port(
+                    f"{name}.pos",
+                    Causality.OUTPUT,
+                    DType.FLOAT64,
+                    (3,),
+                    unit="m",
+                    description=f"world position of site {name}",
+                    depends_on=(),
+                )
+            )
+    names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)]
+    names = [n for n in names if n]
+    wanted = cameras if cameras is not None else dict.fromkeys(names, (640, 480))
+    for camera, (width, height) in wanted.items():
+        if camera not in names:
+            hint = did_you_mean(camera, names) or one_of(names)
+            msg = f"camera `{camera}` is not in the scene `{path.name}`"
+            raise ModelError("E018", msg, hint=hint)
+        ports.append(
+            Port(
+                camera,
+                Causality.OUTPUT,
+                DType.UINT8,
+                (height, width, 3),
+                description=f"RGB image of camera {camera}",
+                depends_on=(),
+            )
+        )
+    facts = (
+        ("timestep", repr(float(model.opt.timestep))),
+        ("nbody", str(model.nbody)),
+        ("ngeom", str(model.ngeom)),
+        ("cameras", ",".join(names)),
+    )
+    _check_unique(ports, path)
+    origin = Span(Path(path.name))
+    ports = [dataclasses.replace(p, origin=origin) for p in ports]
+    return ComponentInterface("mujoco", path, tuple(ports), facts, None, digest)
+
+
+def _check_unique(ports: list[Port], path: Path) -> None:
+    """MuJoCo names are unique per object type only; as ports they share one namespace."""
+    seen: dict[str, str] = {}
+    for port in ports:
+        if port.name in seen:
+            msg = (
+                f"`{path.name}`: the name `{port.name}` is used by a {seen[port.name]} and a "
+                f"{port.description}; port names must be unique"
+            )
+            raise ModelError("E013", msg, hint="rename one of them in the scene")
+        seen[port.name] = port.description

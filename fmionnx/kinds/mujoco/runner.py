@@ -1,0 +1,179 @@
+"""MuJoCo runner: physics at the model's timestep, sensors out, actuators in, cameras rendered.
+
+One component step of period ``h`` is ``k = h / timestep`` physics steps (checked at setup).
+Stepping uses MuJoCo's split ``mj_step2`` (actuation, acceleration, integration) then
+``mj_step1`` (kinematics, position/velocity sensors of the *new* state), so sensor outputs
+after a step belong to time ``t + h`` at no extra cost. Sensor outputs are zero-copy views of
+``MjData.sensordata``. Cameras are lazy outputs: rendered offscreen only when a consumer is
+due. A NaN/Inf state or one of MuJoCo's bad-state warnings (which MuJoCo answers by silently
+resetting the simulation) stops the run.
+"""
+
+from __future__ import annotations
+
+from typing import Any
+
+import numpy as np
+
+from fmionnx.compile.ir import Causality, Component, is_whole_multiple
+from fmionnx.core.runner import Buffer, fault
+from fmionnx.kinds.mujoco.gl import choose_gl
+
+
+class MujocoRunner:
+    """Runs one MuJoCo scene."""
+
+    def __init__(self, component: Component) -> None:
+        self.component = component
+        cameras = getattr(component.spec, "cameras", {}) or {}
+        self._camera_specs: dict[str, Any] = dict(cameras)
+        self.lazy_outputs: frozenset[str] = frozenset(self._camera_specs)
+        self._mj: Any = None
+        self._model: Any = None
+        self._data: Any = None
+        self._inputs: dict[str, Buffer] = {}
+        self._outputs: dict[str, Buffer] = {}
+        self._renderers: dict[str, Any] = {}
+        self._frames: dict[str, Buffer] = {}
+        self._ctrl_ids: list[tuple[int, Buffer]] = []
+        self._substeps = 1
+        self._split = True
+        self._time = 0.0
+
+    def instantiate(self) -> None:
+        """Choose the GL backend (only when cameras are used), load the scene."""
+        if self._camera_specs:
+            try:
+                choose_gl(getattr(self.component.spec, "gl", "auto"))
+            except RuntimeError as exc:
+                raise fault(self.component.name, str(exc), time=0.0) from None
+        import mujoco
+
+        self._mj = mujoco
+        path = str(self.component.path)
+        try:
+            if path.endswith(".mjb"):
+                self._model = mujoco.MjModel.from_binary_path(path)
+            else:
+                self._model = mujoco.MjModel.from_xml_path(path)
+        except Exception as exc:
+            raise fault(self.component.name, f"cannot load the scene: {exc}", time=0.0) from None
+        self._data = mujoco.MjData(self._model)
+
+    def setup(self, start: float, stop: float) -> None:
+        """Bind ports to actuators/sensors/cameras, apply start values, compute the first state."""
+        mj, model, data = self._mj, self._model, self._data
+        name = self.component.name
+        timestep = float(model.opt.timestep)
+        substeps = is_whole_multiple(self.component.period, timestep)
+        if substeps is None:
+            msg = (
+                f"period {self.component.period} s is not a whole multiple of the scene's "
+                f"timestep {timestep} s"
+            )
+            raise fault(name, msg, time=start)
+        self._substeps = substeps
+        self._split = int(model.opt.integrator) != int(mj.mjtIntegrator.mjINT_RK4)
+        data.time = start
+        explicit = {p.port: p.value for p in self.component.parameters}
+        for port in self.component.interface.with_causality(Causality.INPUT):
+            actuator = mj.mj_name2id(model, mj.mjtObj.mjOBJ_ACTUATOR, port.name)
+            if actuator < 0:
+                raise fault(name, "no actuator of this name in the scene", time=start, port=port.name)
+            buffer = np.zeros(1, dtype=np.float64)
+            value = explicit.get(port.name, port.start)
+            if value is not None:
+                buffer[:] = np.asarray(value, dtype=np.float64).reshape(-1)[:1]
+            self._inputs[port.name] = buffer
+            self._ctrl_ids.append((actuator, buffer))
+        for port in self.component.interface.with_causality(Causality.OUTPUT):
+            if port.name in self._camera_specs:
+                self._add_camera(port.name, start)
+                continue
+            if port.name.endswith(".pos"):
+                site = mj.mj_name2id(model, mj.mjtObj.mjOBJ_SITE, port.name.removesuffix(".pos"))
+                if site >= 0:
+                    # A row view of site_xpos: MuJoCo updates it in place at every step.
+                    self._outputs[port.name] = data.site_xpos[site]
+                    continue
+            sensor = mj.mj_name2id(model, mj.mjtObj.mjOBJ_SENSOR, port.name)
+            if sensor < 0:
+                raise fault(name, "no sensor, site or camera of this name", time=start, port=port.name)
+            adr, dim = int(model.sensor_adr[sensor]), int(model.sensor_dim[sensor])
+            self._outputs[port.name] = data.sensordata[adr : adr + dim]
+        self._apply_ctrl()
+        mj.mj_forward(model, data)
+        self._warnings = self._warning_count()
+
+    def _add_camera(self, port: str, start: float) -> None:
+        mj, model = self._mj, self._model
+        camera = self._camera_specs[port]
+        width, height = int(camera.width), int(camera.height)
+        if mj.mj_name2id(model, mj.mjtObj.mjOBJ_CAMERA, port) < 0:
+            raise fault(self.component.name, "no camera of this name", time=start, port=port)
+        model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
+        model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
+        try:
+            renderer = mj.Renderer(model, height, width)
+        except Exception as exc:
+            raise fault(self.component.name, f"offscreen rendering failed: {exc}", time=start, port=port) from None
+        self._renderers[port] = renderer
+        frame = np.zeros((height, width, 3), dtype=np.uint8)
+        self._frames[port] = frame
+        self._outputs[port] = frame.reshape(-1)
+
+    def input_buffer(self, port: str) -> Buffer:
+        """Flat one-element buffer of an actuator's control."""
+        return self._inputs[port]
+
+    def output_buffer(self, port: str) -> Buffer:
+        """A sensor's slice of ``sensordata`` or a camera's flat frame."""
+        return self._outputs[port]
+
+    def _apply_ctrl(self) -> None:
+        ctrl = self._data.ctrl
+        for index, buffer in self._ctrl_ids:
+            ctrl[index] = buffer[0]
+
+    def _warning_count(self) -> int:
+        warning = self._data.warning
+        mjw = self._mj.mjtWarning
+        return int(
+            warning[mjw.mjWARN_BADQACC].number
+            + warning[mjw.mjWARN_BADQPOS].number
+            + warning[mjw.mjWARN_BADQVEL].number
+        )
+
+    def step(self, t: float, h: float) -> None:
+        """``k`` physics steps with the held controls; then check the state is sane."""
+        mj, model, data = self._mj, self._model, self._data
+        self._apply_ctrl()
+        if self._split:
+            for _ in range(self._substeps):
+                mj.mj_step2(model, data)
+                mj.mj_step1(model, data)
+        else:
+            for _ in range(self._substeps):
+                mj.mj_step(model, data)
+            mj.mj_forward(model, data)
+        count = self._warning_count()
+        if count != self._warnings or not np.isfinite(data.qpos).all():
+            self._warnings = count
+            raise fault(
+                self.component.name,
+                "the physics became unstable (NaN/Inf or bad qpos/qvel/qacc; MuJoCo reset the "
+                "state); check masses, gains and the timestep",
+                time=t + h,
+            )
+
+    def produce(self, port: str) -> None:
+        """Render camera ``port`` for the current state into its frame buffer."""
+        renderer = self._renderers[port]
+        renderer.update_scene(self._data, camera=port)
+        renderer.render(out=self._frames[port])
+
+    def terminate(self) -> None:
+        """Free the renderers' GL contexts."""
+        for renderer in self._renderers.values():
+            renderer.close()
+        self._renderers.clear()

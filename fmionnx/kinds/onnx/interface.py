@@ -1,0 +1,108 @@
+"""Read an ONNX model's signature: graph inputs (minus initializers) and outputs."""
+
+from __future__ import annotations
+
+import hashlib
+from pathlib import Path
+from typing import Any
+
+from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
+from fmionnx.core.diagnostics import Span
+from fmionnx.core.errors import ModelError
+from fmionnx.kinds.cache import cached_interface, file_identity
+
+#: ONNX ``TensorProto.DataType`` numbers -> fmionnx dtypes.
+_DTYPES = {
+    1: DType.FLOAT32,
+    2: DType.UINT8,
+    3: DType.INT8,
+    4: DType.UINT16,
+    5: DType.INT16,
+    6: DType.INT32,
+    7: DType.INT64,
+    8: DType.STRING,
+    9: DType.BOOL,
+    11: DType.FLOAT64,
+    12: DType.UINT32,
+    13: DType.UINT64,
+}
+
+
+def read_onnx_interface(path: Path) -> ComponentInterface:
+    """The ports and facts of the ONNX model at ``path``."""
+    if not path.exists():
+        msg = f"`{path}` does not exist"
+        raise ModelError("E010", msg)
+    if not path.is_file():
+        msg = f"`{path}` is a directory or special file, not an ONNX model"
+        raise ModelError("E011", msg)
+    return cached_interface(("onnx", *file_identity(path)), path, lambda: _read(path))
+
+
+def _read(path: Path) -> ComponentInterface:
+    import onnx
+    from google.protobuf.message import DecodeError
+
+    data = path.read_bytes()
+    try:
+        model = onnx.load_model_from_string(data)
+    except (DecodeError, ValueError, RuntimeError) as exc:
+        msg = f"`{path}` is not an ONNX model (protobuf could not be decoded: {exc})"
+        raise ModelError("E012", msg) from None
+    graph = model.graph
+    if not graph.output:
+        msg = f"`{path}` is not an ONNX model with a graph (no outputs)"
+        raise ModelError("E012", msg)
+    initializers = {i.name for i in graph.initializer}
+    inputs = [v for v in graph.input if v.name not in initializers]
+    input_names = tuple(v.name for v in inputs)
+    ports = [_port(v, Causality.INPUT, path, None) for v in inputs]
+    ports += [_port(v, Causality.OUTPUT, path, input_names) for v in graph.output]
+    opset = next((o.version for o in model.opset_import if o.domain in ("", "ai.onnx")), 0)
+    facts = [
+        ("irVersion", str(model.ir_version)),
+        ("opset", str(opset)),
+        ("producer", f"{model.producer_name} {model.producer_version}".strip()),
+        ("graphName", graph.name),
+        ("docString", (model.doc_string or graph.doc_string).strip()),
+        ("signature", _signature(ports)),
+    ]
+    facts += [(f"metadata.{p.key}", p.value) for p in model.metadata_props]
+    return ComponentInterface(
+        kind="onnx",
+        path=path,
+        ports=tuple(ports),
+        facts=tuple(facts),
+        content_hash=hashlib.sha256(data).hexdigest(),
+    )
+
+
+def _port(value: Any, causality: Causality, path: Path, depends: tuple[str, ...] | None) -> Port:
+    tensor = value.type.tensor_type
+    if not value.type.HasField("tensor_type") or tensor.elem_type not in _DTYPES:
+        msg = f"`{path}`: {causality.value} `{value.name}` is not a tensor of a supported type"
+        raise ModelError("E013", msg, hint="fmionnx connects tensor inputs and outputs")
+    shape: list[int | str] = []
+    for dim in tensor.shape.dim:
+        if dim.HasField("dim_value"):
+            shape.append(int(dim.dim_value))
+        elif dim.dim_param:
+            shape.append(str(dim.dim_param))
+        else:
+            shape.append("?")
+    return Port(
+        name=value.name,
+        causality=causality,
+        dtype=_DTYPES[tensor.elem_type],
+        shape=tuple(shape),
+        description=value.doc_string or "",
+        depends_on=depends,
+        origin=Span(Path(path.name)),
+    )
+
+
+def _signature(ports: list[Port]) -> str:
+    return "; ".join(
+        f"{p.causality.value} {p.name}: {p.dtype}{'' if p.is_scalar else p.shape_text()}"
+        for p in ports
+    )

@@ -1,0 +1,93 @@
+"""Interface lock: record the interfaces a system was validated against, check them later.
+
+``fmionnx lock SYSTEM`` compiles the system and writes ``<stem>.fmionnx.lock`` beside it
+(see :mod:`fmionnx.lock.model` for the format). ``fmionnx validate --locked`` then re-reads
+every model and compares (:mod:`fmionnx.lock.diff`), so a re-exported FMU or a retrained ONNX
+model whose interface changed fails CI with a diff instead of failing on the robot.
+
+The check reads the interfaces itself rather than taking them from the compiled system: a
+changed interface usually also breaks connections, the compiler then returns no system, and
+that is exactly when the lock diff explains the most.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass
+from pathlib import Path
+
+from fmionnx import api
+from fmionnx.compile.resolve import read_interface
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
+from fmionnx.lock.diff import LockContext, compare
+from fmionnx.lock.model import LOCK_VERSION, LockedComponent, LockFile, lock_path, render_lock
+from fmionnx.lock.read import read_lock
+from fmionnx.spec.frontends import load_system
+
+__all__ = ["LockResult", "check_lock", "lock_path", "lock_system"]
+
+
+@dataclass(frozen=True)
+class LockResult:
+    """What ``lock_system`` did: the lock written (None on errors), whether it changed."""
+
+    path: Path | None
+    changed: bool
+    diagnostics: tuple[Diagnostic, ...]
+
+
+def lock_system(system: Path) -> LockResult:
+    """Compile ``system`` and write its lock; a system with errors is not locked.
+
+    The file is rewritten only when its text changes, so an unchanged lock keeps its
+    modification time and ``git status`` stays clean.
+    """
+    result = api.compile_system(system)
+    if result.system is None:
+        return LockResult(None, changed=False, diagnostics=result.diagnostics)
+    lock = LockFile.model_validate(
+        {
+            "fmionnx-lock": LOCK_VERSION,
+            "system": system.name,
+            "components": {c.name: LockedComponent.of(c) for c in result.system.components},
+        }
+    )
+    text = render_lock(lock)
+    path = lock_path(system)
+    old = path.read_text(encoding="utf-8") if path.is_file() else None
+    if old != text:
+        path.write_text(text, encoding="utf-8")
+    return LockResult(path, changed=old != text, diagnostics=result.diagnostics)
+
+
+def check_lock(system: Path) -> list[Diagnostic]:
+    """Compare every component's current interface with the lock beside ``system``.
+
+    Problems of the system file or of unreadable models are not repeated here: the compiler
+    reports them; components it cannot read are skipped.
+    """
+    scratch = DiagnosticBag()
+    loaded = load_system(system, scratch)
+    if loaded.spec is None:
+        return []
+    bag = DiagnosticBag()
+    locked = read_lock(lock_path(system), system, bag)
+    if locked is None:
+        return bag.sorted()
+    for name, spec in loaded.spec.components.items():
+        span = loaded.sources.key(("components", name))
+        entry = locked.lock.components.get(name)
+        if entry is None:
+            bag.emit(
+                "E081",
+                f"component `{name}` is not in the lock `{locked.path.name}`",
+                span,
+                hint=f"run `fmionnx lock {system}` to add it, and commit the lock file",
+            )
+            continue
+        interface = read_interface(name, spec, system.parent, loaded.sources, scratch)
+        if interface is None:
+            continue
+        found = compare(name, spec.kind, entry, interface, span, LockContext(locked, name))
+        if found is not None:
+            bag.add(found)
+    return bag.sorted()

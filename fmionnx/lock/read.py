@@ -1,0 +1,105 @@
+"""Read a lock file with positions, so lock findings can point at the line of a port.
+
+Parsing reuses the system-file YAML loader (safe: plain data only, duplicate keys refused)
+and its pydantic error mapping; every problem is reported as E082 at its position, because
+for the user they all mean one thing: the lock cannot be trusted, regenerate it.
+"""
+
+from __future__ import annotations
+
+from pathlib import Path
+
+from pydantic import ValidationError
+from ruamel.yaml import YAML
+from ruamel.yaml.error import YAMLError
+
+from fmionnx.core.diagnostics import DiagnosticBag, Span
+from fmionnx.lock.model import LOCK_VERSION, LockFile
+from fmionnx.spec.pydantic_errors import report_validation_error
+from fmionnx.spec.sourcemap import SourceMap
+from fmionnx.spec.yaml import parse_yaml, read_text
+
+
+class LoadedLock:
+    """A parsed lock; where its keys and items are is worked out only when first asked.
+
+    Positions need ruamel's round-trip parser, which is slow on the lock of a large system;
+    the lock is first read with the (C) safe loader and re-parsed for positions only when a
+    finding must point into it.
+    """
+
+    def __init__(self, lock: LockFile, path: Path, sources: SourceMap | None = None) -> None:
+        self.lock = lock
+        self.path = path
+        self._sources = sources
+
+    @property
+    def sources(self) -> SourceMap:
+        """Positions of every key and item of the lock file."""
+        if self._sources is None:
+            sources = SourceMap(self.path)
+            parse_yaml(
+                self.path.read_text(encoding="utf-8-sig"), self.path, sources, DiagnosticBag()
+            )
+            self._sources = sources
+        return self._sources
+
+
+def _fast(path: Path) -> LockFile | None:
+    """The lock when it reads and validates cleanly with the safe loader, else None."""
+    try:
+        data = YAML(typ="safe", pure=False).load(path.read_text(encoding="utf-8-sig"))
+        if isinstance(data, dict) and data.get("fmionnx-lock") == LOCK_VERSION:
+            return LockFile.model_validate(data)
+    except (OSError, UnicodeDecodeError, YAMLError, ValidationError):
+        return None
+    return None
+
+
+def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None:
+    """Read ``path``; None with E081 (missing) or E082 (unreadable) diagnostics in ``bag``."""
+    if not path.exists():
+        bag.emit(
+            "E081",
+            f"no interface lock `{path.name}` beside `{system.name}`",
+            Span(system),
+            hint=f"run `fmionnx lock {system}` and commit `{path.name}`",
+        )
+        return None
+    fast = _fast(path)
+    if fast is not None:
+        return LoadedLock(fast, path)
+    regenerate = f"regenerate it with `fmionnx lock {system}`"
+    scratch = DiagnosticBag()
+    sources = SourceMap(path)
+    text = read_text(path, scratch)
+    data = parse_yaml(text, path, sources, scratch) if text is not None else None
+    if data is not None and not isinstance(data, dict):
+        scratch.emit("E003", "a lock file is a mapping", Span(path, 1, 1))
+        data = None
+    lock = None
+    if data is not None:
+        version = data.get("fmionnx-lock")
+        if version != LOCK_VERSION:
+            bag.emit(
+                "E082",
+                f"lock file version `{version}` is not supported (this release writes "
+                f"`fmionnx-lock: {LOCK_VERSION}`)",
+                sources.value(("fmionnx-lock",)),
+                hint=regenerate,
+            )
+            return None
+        try:
+            lock = LockFile.model_validate(data)
+        except ValidationError as exc:
+            report_validation_error(exc, data, sources, scratch, root=LockFile)
+    for diagnostic in scratch:
+        bag.emit(
+            "E082",
+            f"lock file `{path.name}`: {diagnostic.message}",
+            diagnostic.span,
+            hint=regenerate,
+        )
+    if lock is None:
+        return None
+    return LoadedLock(lock, path, sources)

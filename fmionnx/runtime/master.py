@@ -1,0 +1,326 @@
+"""The in-process co-simulation master: fixed base step, multi-rate, Gauss-Seidel order.
+
+Semantics (``docs/running.md``): communication points are ``t_n = start + n*step`` (computed,
+never accumulated). At ``t_n`` every component with ``n % period_steps == 0`` is *due*; due
+components run in ``CompiledSystem.order``. A due component first receives its inputs: each
+connection copies the producer's newest output (the value published by a producer that already
+ran at ``t_n``, else its previous value: a slower component's outputs are held), applying the
+element selection, ``factor*x+offset`` and the dtype conversion. Then it steps from ``t_n`` by
+its period. Loops the compiler cut at non-feedthrough outputs therefore read the producer's
+previous value. A NaN leaving a producer on a connection stops the run.
+
+Everything (runners, buffers, transfers, the schedule over one hyperperiod, recorder tracks) is
+prepared before the loop; the loop only calls prepared closures. Consecutive FMI 2
+co-simulation FMUs of one period are stepped by one call into a small C kernel
+(:mod:`.native`), with bit-identical results; ``FMIONNX_NATIVE=0`` keeps them in Python.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import math
+import time as _time
+from collections.abc import Callable
+from dataclasses import dataclass
+
+from fmionnx.compile.endpoints import flat_index, split_endpoint
+from fmionnx.compile.ir import Causality, CompiledSystem, Component, DType, Port, PortRef
+from fmionnx.core.errors import RunError
+from fmionnx.core.runner import Buffer, Runner
+from fmionnx.runtime.native import NativeStatus, plan_native
+from fmionnx.runtime.recorder import Recorder, Track
+from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+from fmionnx.runtime.runners import Wiring, make_runner
+from fmionnx.runtime.transfer import Transfer, make_transfer
+
+#: Largest hyperperiod (in base steps) for which the schedule is tabulated.
+MAX_TABLE = 100_000
+
+BACKEND_NAME = "inprocess"
+
+
+def is_image(port: Port) -> bool:
+    """Camera-like ports (``uint8[H,W,C]``) never go to results.csv."""
+    return port.dtype is DType.UINT8 and len(port.shape) >= 2
+
+
+def column_names(component: str, port: Port, index: tuple[int, ...] | None = None) -> list[str]:
+    """``comp.port`` for a scalar, ``comp.port[i]`` (flat, 0-based) per element of an array."""
+    if index is not None:
+        return [f"{component}.{port.name}[{flat_index(port, index)}]"]
+    if port.is_scalar:
+        return [f"{component}.{port.name}"]
+    size = port.size or 1
+    return [f"{component}.{port.name}[{i}]" for i in range(size)]
+
+
+def default_record(system: CompiledSystem) -> tuple[PortRef, ...]:
+    """Every connected output (whole port, declaration order), images excepted."""
+    connected = {(c.src.component, c.src.port) for c in system.connections}
+    refs = []
+    for component in system.components:
+        for port in component.interface.with_causality(Causality.OUTPUT):
+            if (component.name, port.name) in connected and not is_image(port):
+                refs.append(PortRef(component.name, port.name))
+    return tuple(refs)
+
+
+def plot_refs(system: CompiledSystem) -> tuple[PortRef, ...]:
+    """Signals the system's plots draw (they must be recorded to be plotted)."""
+    names = {c.name: c for c in system.components}
+    refs = []
+    for plot in system.plots:
+        for text in (*(plot.xy or ()), *(plot.y or ())):
+            parts = split_endpoint(text, names)
+            if parts is None or parts[0] not in names:
+                continue
+            component, port, index = parts
+            if names[component].interface.port(port) is None:
+                continue
+            parsed = tuple(int(i) for i in index.split(",")) if index else None
+            refs.append(PortRef(component, port, parsed))
+    return tuple(refs)
+
+
+@dataclass
+class _Due:
+    """One component's work at a communication point where it is due."""
+
+    name: str
+    transfers: tuple[Transfer, ...]
+    step: Callable[[float, float], None]
+    h: float
+    before: Track | None
+    after: Track | None
+
+
+class Master:
+    """Prepares runners for a compiled system and runs the loop."""
+
+    def __init__(self, system: CompiledSystem, options: RunOptions | None = None) -> None:
+        self.system = system
+        self.options = options or RunOptions()
+        self.runners: dict[str, Runner] = {}
+        self.recorder = Recorder()
+        self._table: list[tuple[_Due, ...]] = []
+        self._fallback: list[tuple[_Due, int]] = []
+        self._hyper = 1
+        self._tracks: dict[str, tuple[Track | None, Track | None]] = {}
+        #: Steps done per component with lazy outputs, and the step each lazy port was made at.
+        self._stamps: dict[str, int] = {}
+        self._clock = [0]
+        #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
+        self.native = NativeStatus(used=False, reason="not prepared")
+
+    # -- preparation ---------------------------------------------------------------------------
+
+    def prepare(self) -> None:
+        """Instantiate and initialize every runner, wire connections, build the schedule."""
+        system = self.system
+        run = system.run
+        for component in system.components:
+            runner = make_runner(component, self._wiring(component))
+            self.runners[component.name] = runner
+            runner.instantiate()
+        for name in system.order:
+            self.runners[name].setup(run.start, run.stop)
+        for name, runner in self.runners.items():
+            if runner.lazy_outputs:
+                self._stamps[name] = 0
+        self._build_tracks()
+        dues = {name: self._due(system.component(name)) for name in system.order}
+        entries = self._entries(dues)
+        periods = [p for _, p in entries]
+        hyper = math.lcm(*periods) if periods else 1
+        if hyper <= MAX_TABLE:
+            self._hyper = hyper
+            self._table = [tuple(due for due, p in entries if k % p == 0) for k in range(hyper)]
+        else:
+            self._hyper = 0
+            self._fallback = entries
+
+    def _entries(self, dues: dict[str, _Due]) -> list[tuple[_Due, int]]:
+        """(work, period) in execution order; native groups replace their members."""
+        plan = plan_native(self.system, self.runners, self._tracks)
+        self.native = plan.status
+        entries = []
+        for item in plan.schedule:
+            if isinstance(item, str):
+                entries.append((dues[item], self.system.component(item).period_steps))
+            else:
+                h = dues[item.names[0]].h
+                label = "+".join(item.names)
+                entries.append((_Due(label, (), item.step, h, None, None), item.period_steps))
+        return entries
+
+    def _wiring(self, component: Component) -> Wiring:
+        incoming = self.system.inputs_of(component.name)
+        sizes: dict[str, int] = {}
+        for connection in incoming:
+            sizes[connection.dst.port] = sizes.get(connection.dst.port, 0) + connection.size
+        return Wiring(frozenset(c.dst.port for c in incoming), sizes)
+
+    def _producer_hook(self, src: PortRef) -> Callable[[], None] | None:
+        """For a lazy output: a closure producing it at most once per producer step."""
+        runner = self.runners[src.component]
+        port = src.port
+        if port not in runner.lazy_outputs:
+            return None
+        key = f"{src.component}.{port}"
+        stamps = self._stamps
+        stamps.setdefault(key, -1)
+        owner = src.component
+        sink = self.options.frames
+        buffer = runner.output_buffer(port)
+        shape = tuple(int(d) for d in runner.component.port(port).shape if isinstance(d, int))
+        start, step = self.system.run.start, self.system.run.step
+        clock = self._clock
+
+        def produce() -> None:
+            version = stamps[owner]
+            if stamps[key] != version:
+                runner.produce(port)
+                stamps[key] = version
+                if sink is not None:
+                    sink.frame(owner, port, start + clock[0] * step, buffer.reshape(shape))
+
+        return produce
+
+    def _due(self, component: Component) -> _Due:
+        system = self.system
+        runner = self.runners[component.name]
+        transfers = [
+            make_transfer(
+                connection,
+                self.runners[connection.src.component],
+                runner,
+                self._producer_hook(connection.src),
+            )
+            for connection in system.inputs_of(component.name)
+        ]
+        step_fn = runner.step
+        if component.name in self._stamps:
+            stamps = self._stamps
+            name = component.name
+            inner = step_fn
+
+            def step_and_stamp(t: float, h: float) -> None:
+                inner(t, h)
+                stamps[name] += 1
+
+            step_fn = step_and_stamp
+        before, after = self._tracks.get(component.name, (None, None))
+        h = component.period_steps * system.run.step
+        return _Due(component.name, tuple(transfers), step_fn, h, before, after)
+
+    # -- recording -----------------------------------------------------------------------------
+
+    @property
+    def record_refs(self) -> tuple[PortRef, ...]:
+        """The signals this run records (options, else the system's list, else the default)."""
+        if self.options.record is not None:
+            return self.options.record
+        chosen = self.system.record or default_record(self.system)
+        return (*chosen, *plot_refs(self.system))
+
+    def _build_tracks(self) -> None:
+        """One track for recorded inputs (sampled before a step), one for outputs (after)."""
+        system = self.system
+        total = system.run.steps
+        seen: set[str] = set()
+        sides: dict[str, tuple[list[tuple[list[str], Buffer]], list[tuple[list[str], Buffer]]]]
+        sides = {}
+        for ref in self.record_refs:
+            port = system.component(ref.component).port(ref.port)
+            runner = self.runners[ref.component]
+            if is_image(port) or port.name in runner.lazy_outputs:
+                continue
+            names = column_names(ref.component, port, ref.index)
+            if any(n in seen for n in names):
+                continue
+            is_output = port.causality is Causality.OUTPUT
+            try:
+                buffer = (
+                    runner.output_buffer(port.name) if is_output else runner.input_buffer(port.name)
+                )
+            except KeyError:
+                continue  # e.g. a string variable: not a run-time signal
+            seen.update(names)
+            self.recorder.order.extend(names)
+            if ref.index is not None:
+                i = flat_index(port, ref.index)
+                buffer = buffer[i : i + 1]
+            side = sides.setdefault(ref.component, ([], []))
+            side[1 if is_output else 0].append((names, buffer))
+        for name, (inputs, outputs) in sides.items():
+            period = system.component(name).period_steps
+            tracks: list[Track | None] = []
+            for items in (inputs, outputs):
+                track = self.recorder.track(period, total) if items else None
+                for names, buffer in items:
+                    assert track is not None
+                    track.add(names, buffer)
+                if track is not None:
+                    track.allocate()
+                tracks.append(track)
+            before, after = tracks
+            if after is not None:
+                after.sample()  # outputs after initialization: the row at the start time
+            self._tracks[name] = (before, after)
+
+    # -- the loop ------------------------------------------------------------------------------
+
+    def run(self) -> RunResult:
+        """Prepare, loop to the stop time (or a fault / Ctrl-C), terminate, collect results."""
+        system = self.system
+        status = RunStatus.COMPLETED
+        error: RunError | None = None
+        started = _time.perf_counter()
+        try:
+            self.prepare()
+            started = _time.perf_counter()
+            self._loop()
+        except RunError as exc:
+            status, error = RunStatus.FAULT, exc
+        except KeyboardInterrupt:
+            status = RunStatus.INTERRUPTED
+        finally:
+            wall = _time.perf_counter() - started
+            self._terminate()
+        n = self._clock[0]
+        return RunResult.after(
+            system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
+            self.native.details(),
+        )  # fmt: skip
+
+    def _loop(self) -> None:
+        run = self.system.run
+        start, step, total = run.start, run.step, run.steps
+        clock = self._clock
+        progress = self.options.progress
+        every = max(1, self.options.progress_every)
+        table, hyper = self._table, self._hyper
+        for n in range(total):
+            clock[0] = n
+            t = start + n * step
+            for due in table[n % hyper] if hyper else self._due_at(n):
+                for transfer in due.transfers:
+                    transfer(t)
+                if due.before is not None:
+                    due.before.sample()
+                due.step(t, due.h)
+                if due.after is not None:
+                    due.after.sample()
+            if progress is not None and n % every == 0:
+                progress(n + 1, total, start + (n + 1) * step)
+        clock[0] = total
+        if progress is not None:
+            progress(total, total, run.stop)
+
+    def _due_at(self, n: int) -> tuple[_Due, ...]:
+        return tuple(due for due, p in self._fallback if n % p == 0)
+
+    def _terminate(self) -> None:
+        for runner in self.runners.values():
+            with contextlib.suppress(Exception):  # freeing after a fault must not mask it
+                runner.terminate()

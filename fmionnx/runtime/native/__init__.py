@@ -1,0 +1,12 @@
+"""Native fast path: runs of FMI 2 co-simulation FMUs stepped by one small C function.
+
+``fmi2_group.c`` is compiled at first use (:mod:`.kernel`), :mod:`.grouping` decides which
+components it steps, :mod:`.group` drives one group and reports faults like the Python path.
+Results are bit-identical to the Python path; ``FMIONNX_NATIVE=0`` turns it off.
+"""
+
+from __future__ import annotations
+
+from fmionnx.runtime.native.grouping import NativePlan, NativeStatus, plan_native
+
+__all__ = ["NativePlan", "NativeStatus", "plan_native"]

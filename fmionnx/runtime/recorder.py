@@ -1,0 +1,95 @@
+"""Recording at each component's own rate, expanded to the base-step grid at the end.
+
+Copying every recorded signal at every base step would cost the fast loop for values that
+only change when their component steps. Instead each component appends one row per step of
+its own (outputs after the step, inputs as used by the step), and :meth:`Recorder.table`
+expands the rows to base-step times by holding, which is exactly what a slower component's
+values do in the run.
+"""
+
+from __future__ import annotations
+
+from dataclasses import dataclass, field
+from typing import Protocol
+
+import numpy as np
+import numpy.typing as npt
+
+from fmionnx.core.runner import Buffer
+
+#: Rows reserved up front; long runs grow by doubling instead of reserving hours of rows.
+CHUNK_ROWS = 1 << 16
+
+
+class FrameSink(Protocol):
+    """Receives camera frames as they are rendered (e.g. an MCAP writer)."""
+
+    def frame(self, component: str, port: str, time: float, image: Buffer) -> None:
+        """One rendered frame of ``component.port`` at simulated ``time``."""
+        ...
+
+
+@dataclass
+class Track:
+    """The recorded ports of one component, side (inputs or outputs) and period."""
+
+    period_steps: int
+    capacity: int
+    columns: list[str] = field(default_factory=list)
+    views: list[tuple[Buffer, int, int]] = field(default_factory=list)
+    rows: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)))
+    count: int = 0
+
+    def add(self, names: list[str], view: Buffer) -> None:
+        """Record ``view`` (flat) under ``names``, one column per element."""
+        start = len(self.columns)
+        self.columns.extend(names)
+        self.views.append((view, start, start + view.size))
+
+    def allocate(self) -> None:
+        """Reserve rows before the loop (all of them for runs up to :data:`CHUNK_ROWS`)."""
+        rows = min(self.capacity, CHUNK_ROWS)
+        self.rows = np.zeros((rows, len(self.columns)), dtype=np.float64)
+
+    def _grow(self) -> None:
+        extra = min(max(len(self.rows), CHUNK_ROWS), self.capacity - len(self.rows))
+        self.rows = np.concatenate([self.rows, np.zeros((max(extra, 1), len(self.columns)))])
+
+    def sample(self) -> None:
+        """Append the current values as the next row."""
+        if self.count == len(self.rows):
+            self._grow()
+        row = self.rows[self.count]
+        for view, a, b in self.views:
+            if b - a == 1:
+                row[a] = view[0]
+            else:
+                row[a:b] = view
+        self.count += 1
+
+
+class Recorder:
+    """All tracks of a run; :meth:`table` builds the base-step columns."""
+
+    def __init__(self) -> None:
+        self.tracks: list[Track] = []
+        self.order: list[str] = []
+
+    def track(self, period_steps: int, total_steps: int) -> Track:
+        """A new track for a component stepping every ``period_steps`` base steps."""
+        track = Track(period_steps, total_steps // period_steps + 2)
+        self.tracks.append(track)
+        return track
+
+    def table(self, steps_done: int) -> dict[str, npt.NDArray[np.float64]]:
+        """Columns at base steps ``0..steps_done`` (held between a component's steps)."""
+        index = np.arange(steps_done + 1)
+        out: dict[str, npt.NDArray[np.float64]] = {}
+        for track in self.tracks:
+            if not track.columns or track.count == 0:
+                continue
+            rows = np.minimum(index // track.period_steps, track.count - 1)
+            values = track.rows[rows]
+            for column, name in enumerate(track.columns):
+                out[name] = values[:, column]
+        return {name: out[name] for name in self.order if name in out}

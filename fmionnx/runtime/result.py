@@ -1,0 +1,133 @@
+"""The backend contract: validate before running, then run (Hamilton's ``GraphExecutor`` shape).
+
+A run never raises for a fault inside the simulation: it returns a :class:`RunResult` whose
+``status`` says how it ended and whose ``error`` names component, port and simulated time, so
+that callers can still write the results recorded up to that point.
+"""
+
+from __future__ import annotations
+
+import abc
+import enum
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from typing import TYPE_CHECKING
+
+import numpy as np
+import numpy.typing as npt
+
+from fmionnx.compile.ir import CompiledSystem, PortRef
+from fmionnx.core.diagnostics import Diagnostic
+from fmionnx.core.errors import RunError
+
+if TYPE_CHECKING:
+    from fmionnx.runtime.recorder import FrameSink
+
+
+class RunStatus(enum.StrEnum):
+    """How a run ended; ``run.json`` records it and the CLI maps it to an exit code."""
+
+    COMPLETED = "completed"
+    FAULT = "fault"
+    INTERRUPTED = "interrupted"
+
+
+#: ``progress(steps_done, total_steps, time)``; called every few hundred steps.
+ProgressCallback = Callable[[int, int, float], None]
+
+
+@dataclass(frozen=True)
+class RunOptions:
+    """What the caller chooses per run (the system itself is immutable).
+
+    ``record``: signals written to the results (None: the system's ``record`` list, else every
+    connected non-image output; an empty tuple records nothing, as a benchmark wants).
+    ``frames``: a sink for camera frames and signals (MCAP recording); None records no frames.
+    """
+
+    record: tuple[PortRef, ...] | None = None
+    progress: ProgressCallback | None = None
+    progress_every: int = 500
+    frames: FrameSink | None = None
+
+
+@dataclass
+class RunResult:
+    """What a run produced: recorded signals at every base step up to where it stopped."""
+
+    system: str
+    backend: str
+    status: RunStatus
+    start: float
+    stop: float
+    step: float
+    steps_done: int
+    wall_time: float
+    time: npt.NDArray[np.float64]
+    signals: dict[str, npt.NDArray[np.float64]] = field(default_factory=dict)
+    error: RunError | None = None
+    #: Backend-specific facts about how the run executed (e.g. the in-process ``native``
+    #: kernel), written to run.json as ``execution``.
+    details: dict[str, str | int | bool | None] = field(default_factory=dict)
+
+    @classmethod
+    def after(
+        cls,
+        system: CompiledSystem,
+        backend: str,
+        status: RunStatus,
+        steps_done: int,
+        wall_time: float,
+        signals: dict[str, npt.NDArray[np.float64]],
+        error: RunError | None = None,
+        details: dict[str, str | int | bool | None] | None = None,
+    ) -> RunResult:
+        """The result of ``system`` after ``steps_done`` base steps: run settings and the time
+        column (``t_0 .. t_n``, computed, never accumulated) come from the system."""
+        run = system.run
+        return cls(
+            system=system.name,
+            backend=backend,
+            status=status,
+            start=run.start,
+            stop=run.stop,
+            step=run.step,
+            steps_done=steps_done,
+            wall_time=wall_time,
+            time=np.asarray(run.start + np.arange(steps_done + 1) * run.step, dtype=np.float64),
+            signals=signals,
+            error=error,
+            details=details or {},
+        )
+
+    @property
+    def simulated_time(self) -> float:
+        """Seconds of simulated time actually covered."""
+        return self.steps_done * self.step
+
+    @property
+    def real_time_factor(self) -> float:
+        """Simulated seconds per wall-clock second (> 1 is faster than real time)."""
+        if self.wall_time <= 0:
+            return float("inf")
+        return self.simulated_time / self.wall_time
+
+    def __getitem__(self, name: str) -> npt.NDArray[np.float64]:
+        """A recorded signal by column name (``time`` too)."""
+        if name == "time":
+            return self.time
+        return self.signals[name]
+
+
+class Backend(abc.ABC):
+    """Runs compiled systems. Stateless: runtime objects live inside one ``run`` call."""
+
+    name: str
+
+    @abc.abstractmethod
+    def validate(self, system: CompiledSystem) -> list[Diagnostic]:
+        """Problems that would stop this backend from running ``system`` (empty when fine)."""
+
+    @abc.abstractmethod
+    def run(self, system: CompiledSystem, options: RunOptions | None = None) -> RunResult:
+        """Run ``system`` from its start to its stop time (or until a fault / Ctrl-C)."""
