@@ -163,7 +163,7 @@ def prepare_fmionnx_python(chain: Chain) -> RunOnce | str:
 def prepare_fmionnx(chain: Chain, *, native: bool = True) -> RunOnce | str:
     """Compile the system file once; each repetition is one ``System.run`` without recording."""
     import fmionnx
-    from fmionnx.compile.ir import PortRef
+    from fmionnx.core.types import PortRef
     from fmionnx.runtime.result import RunOptions, RunStatus
 
     folder = Path(tempfile.mkdtemp(prefix="fmionnx-chain-"))

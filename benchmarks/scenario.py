@@ -155,7 +155,7 @@ def _timed(
 
 def timed_breakdown(stop_time: float | None) -> Breakdown:
     """One run with every runner's ``step`` and ``produce`` wrapped in timers."""
-    from fmionnx.compile.ir import Component
+    from fmionnx.core.types import Component
     from fmionnx.runtime.master import Master
     from fmionnx.runtime.result import RunOptions
 

@@ -26,20 +26,18 @@ from typing import Literal
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.compile.ir import (
+from fmionnx.compile.ir import CompiledSystem, Origin, RunSettings
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity, did_you_mean, one_of
+from fmionnx.core.errors import DiagnosticError, FmionnxError
+from fmionnx.core.types import (
     Causality,
-    CompiledSystem,
     Component,
     DType,
-    Origin,
     ParameterValue,
     PortRef,
-    RunSettings,
     Scalar,
     is_whole_multiple,
 )
-from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity, did_you_mean, one_of
-from fmionnx.core.errors import DiagnosticError, FmionnxError
 from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 #: Single-model files ``load`` accepts besides system files.
@@ -220,8 +218,8 @@ def run_onnx_once(
     system: System, inputs: Mapping[str, npt.ArrayLike]
 ) -> dict[str, npt.NDArray[np.generic]]:
     """Run a one-ONNX-model system once on ``inputs``; returns outputs shaped like the model's."""
-    from fmionnx.core.runner import get_output, set_input
-    from fmionnx.runtime.runners import Wiring, make_runner
+    from fmionnx.core.runner import Wiring, get_output, set_input
+    from fmionnx.kinds.registry import make_runner
 
     component = system.compiled.components[0]
     expected = {p.name: p for p in component.interface.with_causality(Causality.INPUT)}

@@ -16,8 +16,8 @@ from rich.table import Table
 from rich.text import Text
 
 from fmionnx.cli.app import ExitCode, app
-from fmionnx.compile.ir import ComponentInterface, Port
 from fmionnx.core.errors import ModelError
+from fmionnx.core.types import ComponentInterface, Port
 from fmionnx.kinds.describe import interface_to_dict
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
 from fmionnx.kinds.registry import COMPONENT_KINDS, kind_for_path

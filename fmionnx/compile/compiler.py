@@ -15,19 +15,13 @@ from fmionnx.compile.endpoints import (
     split_endpoint,
 )
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
-from fmionnx.compile.ir import (
-    Causality,
-    CompiledSystem,
-    Component,
-    ComponentInterface,
-    Connection,
-    PortRef,
-    is_whole_multiple,
-)
+from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.compile.resolve import model_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.core.sourcetext import source_lines
+from fmionnx.core.types import Causality, Component, ComponentInterface, PortRef, is_whole_multiple
+from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import LoadedSpec
@@ -65,11 +59,13 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
                 kind=component_spec.kind,
                 path=model_path(base, component_spec.path),
                 interface=interface,
-                spec=component_spec,
+                config=COMPONENT_KINDS[component_spec.kind].resolve(component_spec, interface),
                 period=period if period is not None else 0.0,
                 period_steps=steps,
                 parameters=parameters,
                 span=sources.key(("components", name)),
+                external=component_spec.external,
+                declared_path=component_spec.path,
             )
         )
 
@@ -284,7 +280,7 @@ def _check_unconnected(
 ) -> None:
     driven = mentioned
     for component in components:
-        if component.spec.external:
+        if component.external:
             continue
         explicit = {p.port for p in component.parameters}
         for port in component.interface.with_causality(Causality.INPUT):

@@ -5,8 +5,8 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
-from fmionnx.compile.ir import ComponentInterface, Port, PortRef
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
+from fmionnx.core.types import ComponentInterface, Port, PortRef
 from fmionnx.spec.model import ENDPOINT_RE
 
 

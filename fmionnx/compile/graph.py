@@ -19,7 +19,8 @@ from collections.abc import Iterable, Sequence
 
 import networkx as nx
 
-from fmionnx.compile.ir import Causality, CompiledSystem, Component, Connection, Port
+from fmionnx.compile.ir import CompiledSystem, Connection
+from fmionnx.core.types import Causality, Component, Port
 
 
 def direct_inputs(component: Component, output: Port) -> tuple[str, ...]:
@@ -92,7 +93,7 @@ def dataflow_graph(system: CompiledSystem) -> nx.MultiDiGraph:
             kind=component.kind,
             period=component.period,
             path=str(component.path),
-            external=component.spec.external,
+            external=component.external,
         )
     for connection in system.connections:
         graph.add_edge(

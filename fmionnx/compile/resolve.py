@@ -4,22 +4,21 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fmionnx.compile.ir import (
-    Causality,
-    ComponentInterface,
-    DType,
-    Origin,
-    ParameterValue,
-    Port,
-    RunSettings,
-    Scalar,
-    is_whole_multiple,
-)
+from fmionnx.compile.ir import Origin, RunSettings
 from fmionnx.compile.typecheck import declared_note
 from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
+from fmionnx.core.specbase import ComponentSpecBase, ParameterLiteral
+from fmionnx.core.types import (
+    Causality,
+    ComponentInterface,
+    DType,
+    ParameterValue,
+    Port,
+    Scalar,
+    is_whole_multiple,
+)
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.base import ComponentSpecBase, ParameterLiteral
 from fmionnx.spec.model import RunSpec
 from fmionnx.spec.sourcemap import SourceMap
 

@@ -9,8 +9,8 @@ their own type.
 from __future__ import annotations
 
 from fmionnx.compile.endpoints import ResolvedEndpoint
-from fmionnx.compile.ir import Causality, DType, Port
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.core.types import Causality, DType, Port
 
 _INT_BITS = {
     DType.INT8: (True, 8),

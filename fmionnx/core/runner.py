@@ -9,15 +9,29 @@ benchmarks and tests that drive a runner by hand.
 
 from __future__ import annotations
 
+from collections.abc import Callable, Mapping
+from dataclasses import dataclass
 from typing import Protocol
 
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.compile.ir import Component
 from fmionnx.core.errors import RunError
+from fmionnx.core.types import Component
 
 Buffer = npt.NDArray[np.generic]
+
+
+@dataclass(frozen=True, slots=True)
+class Wiring:
+    """What a runner needs to know about the system around it, decided by the master.
+
+    ``driven``: ports that connections write into (parameters among them become run-time
+    inputs). ``sizes``: element counts arriving at each driven port (fixes symbolic ONNX dims).
+    """
+
+    driven: frozenset[str] = frozenset()
+    sizes: Mapping[str, int] | None = None
 
 
 class Runner(Protocol):
@@ -59,6 +73,11 @@ class Runner(Protocol):
     def terminate(self) -> None:
         """End the run and free native resources; safe to call twice or after a fault."""
         ...
+
+
+#: Makes the runner of a component: the master and the ROS 2 node take one (the kind table's
+#: :func:`fmionnx.kinds.registry.make_runner` by default; tests and isolation layers wrap it).
+RunnerFactory = Callable[[Component, Wiring], Runner]
 
 
 def set_input(runner: Runner, port: str, values: npt.ArrayLike) -> None:

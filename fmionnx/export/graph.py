@@ -11,7 +11,8 @@ import json
 from collections import defaultdict
 from typing import Any
 
-from fmionnx.compile.ir import CompiledSystem, Component
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core.types import Component
 
 _DOT_STYLE = {
     "fmu": 'shape=box, style="rounded,filled", fillcolor="#dbeafe", color="#1d4ed8"',
@@ -101,7 +102,7 @@ def to_json(system: CompiledSystem) -> dict[str, Any]:
                 "kind": c.kind,
                 "model": c.path.name,
                 "period": c.period,
-                "external": c.spec.external,
+                "external": c.external,
             }
             for c in system.components
         ],

@@ -20,11 +20,12 @@ from typing import Any
 from lxml import etree
 
 from fmionnx.compile.endpoints import split_endpoint
-from fmionnx.compile.ir import Causality, CompiledSystem, DType, Port
+from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.resolve import model_path
 from fmionnx.core.archive import write_deterministic_zip
 from fmionnx.core.errors import FmionnxError, ModelError
-from fmionnx.spec.base import ComponentSpecBase
+from fmionnx.core.specbase import ComponentSpecBase
+from fmionnx.core.types import Causality, DType, Port
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.ssp import MIME_BY_KIND
 from fmionnx.spec.ssp_archive import SSD_NAME

@@ -1,16 +1,52 @@
-"""The contract every component kind implements, and the interface cache key."""
+"""The contract every component kind implements: one plug-in object per kind.
+
+A kind owns everything about its components: the system-file fragment (a pydantic model), the
+interface reader, the compile-time resolution of that fragment into a frozen config, the runner
+factory, the SSP MIME type, how ``graph`` draws it and what it can do (capabilities). The table
+in :mod:`fmionnx.kinds.registry` lists the kinds; no other module names one.
+"""
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Protocol
 
-from fmionnx.compile.ir import ComponentInterface
-from fmionnx.spec.base import ComponentSpecBase
+from fmionnx.core.runner import Runner, Wiring
+from fmionnx.core.specbase import ComponentSpecBase
+from fmionnx.core.types import Component, ComponentInterface, KindConfig
+
+#: The kind steps a physics simulation: its timestep bounds the base step, it drives the ROS 2
+#: clock in free runs, and its ``base_quat`` outputs are (w, x, y, z) quaternions.
+SIMULATOR = "simulator"
+#: The kind produces camera images (lazy outputs rendered only when a consumer is due).
+CAMERA = "camera"
+#: Port names in SSP connectors are the model's own variable names (FMI ``a.b[2]``).
+FMI_NAMES = "fmi-names"
+
+
+@dataclass(frozen=True, slots=True)
+class Display:
+    """How ``fmionnx graph`` draws a kind: label, DOT node attributes, Mermaid brackets."""
+
+    label: str
+    dot: str
+    mermaid: tuple[str, str]
+    colour: str
+
+
+@dataclass(frozen=True, slots=True)
+class RoleDefault:
+    """A ROS 2 default for a well-known port of a kind: topic suffix, message type, fields."""
+
+    topic: str
+    msgtype: str
+    fields: tuple[str, ...]
 
 
 class ComponentKind(Protocol):
-    """One kind of component (``fmu``, ``onnx``, ``mujoco``).
+    """One kind of component (``fmu``, ``onnx``, ``mujoco``, ``signal``).
 
     ``read_interface`` reads the model file's real interface and raises
     :class:`fmionnx.core.errors.ModelError` (with a diagnostics code) when the file is missing,
@@ -30,6 +66,11 @@ class ComponentKind(Protocol):
         ...
 
     @property
+    def config_type(self) -> type[KindConfig]:
+        """The frozen dataclass :meth:`resolve` returns (read back from serialised systems)."""
+        ...
+
+    @property
     def suffixes(self) -> tuple[str, ...]:
         """File name endings recognised by ``fmionnx inspect``."""
         ...
@@ -39,6 +80,34 @@ class ComponentKind(Protocol):
         """One line for help texts."""
         ...
 
+    @property
+    def mime_type(self) -> str:
+        """The SSP ``Component type`` of this kind."""
+        ...
+
+    @property
+    def capabilities(self) -> frozenset[str]:
+        """What the kind can do (:data:`SIMULATOR`, :data:`CAMERA`, :data:`FMI_NAMES`)."""
+        ...
+
+    @property
+    def display(self) -> Display:
+        """How ``graph`` draws the kind."""
+        ...
+
+    @property
+    def ros2_defaults(self) -> Mapping[tuple[str, str], RoleDefault]:
+        """ROS 2 topic defaults by (port name, causality) for well-known ports."""
+        ...
+
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the interface of the model at ``path``."""
+        ...
+
+    def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> KindConfig:
+        """The resolved, frozen configuration of a checked component entry."""
+        ...
+
+    def make_runner(self, component: Component, wiring: Wiring) -> Runner:
+        """The runtime object of ``component`` (heavy imports happen here, not at import)."""
         ...

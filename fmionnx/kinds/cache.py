@@ -14,7 +14,7 @@ from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from pathlib import Path
 
-from fmionnx.compile.ir import ComponentInterface
+from fmionnx.core.types import ComponentInterface
 
 #: How many interfaces to keep; far more than the distinct models of any real system.
 MAX_ENTRIES = 256

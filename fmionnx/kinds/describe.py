@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import math
 
-from fmionnx.compile.ir import ComponentInterface, Port, Scalar
+from fmionnx.core.types import ComponentInterface, Port, Scalar
 
 #: A JSON value as produced here.
 Json = None | bool | int | float | str | list["Json"] | dict[str, "Json"]

@@ -1,10 +1,16 @@
-"""The table of component kinds: a kind is added here, in one place, explicitly."""
+"""The table of component kinds: a kind is added here, in one place, explicitly.
+
+Everything else asks this table (by a component's ``kind`` name) for what a kind does; no
+module outside a kind's own names it.
+"""
 
 from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
 
+from fmionnx.core.runner import Runner, Wiring
+from fmionnx.core.types import Component, KindConfig
 from fmionnx.kinds.base import ComponentKind
 from fmionnx.kinds.fmu.kind import FMU_KIND
 from fmionnx.kinds.mujoco.kind import MUJOCO_KIND
@@ -17,12 +23,33 @@ COMPONENT_KINDS: Mapping[str, ComponentKind] = {
 }
 
 
+def kind_of(component: Component) -> ComponentKind:
+    """The kind object of a compiled component (KeyError for an unknown kind: a bug)."""
+    return COMPONENT_KINDS[component.kind]
+
+
+def has_capability(component: Component, capability: str) -> bool:
+    """Whether the component's kind declares ``capability`` (see :mod:`fmionnx.kinds.base`)."""
+    kind = COMPONENT_KINDS.get(component.kind)
+    return kind is not None and capability in kind.capabilities
+
+
+def config_type(kind: str) -> type[KindConfig]:
+    """The config class of ``kind`` (for reading serialised systems); KeyError when unknown."""
+    return COMPONENT_KINDS[kind].config_type
+
+
+def make_runner(component: Component, wiring: Wiring | None = None) -> Runner:
+    """The runner for ``component``: the default runner factory of the runtime."""
+    return kind_of(component).make_runner(component, wiring or Wiring())
+
+
 def kind_for_path(path: Path) -> ComponentKind | None:
     """Guess a kind from a file name (for ``fmionnx inspect``), or None."""
     name = path.name.lower()
     for kind in COMPONENT_KINDS.values():
-        if name.endswith(kind.suffixes):
+        if kind.suffixes and name.endswith(kind.suffixes):
             return kind
     if path.is_dir() and (path / "modelDescription.xml").is_file():
-        return COMPONENT_KINDS["fmu"]
+        return FMU_KIND
     return None

@@ -12,8 +12,8 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass
 
-from fmionnx.compile.ir import ComponentInterface, Port
 from fmionnx.core.diagnostics import Diagnostic, Note, Span, make
+from fmionnx.core.types import ComponentInterface, Port
 from fmionnx.lock.model import UNLOCKED, LockedComponent, LockedPort
 from fmionnx.lock.read import LoadedLock
 from fmionnx.spec.sourcemap import SourceMap

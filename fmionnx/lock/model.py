@@ -17,8 +17,8 @@ from typing import Literal
 
 from pydantic import ConfigDict, Field
 
-from fmionnx.compile.ir import Causality, Component, DType, Port
-from fmionnx.spec.base import StrictModel
+from fmionnx.core.specbase import StrictModel
+from fmionnx.core.types import Causality, Component, DType, Port
 
 LOCK_VERSION = 1
 LOCK_SUFFIX = ".fmionnx.lock"
@@ -82,7 +82,7 @@ class LockedComponent(StrictModel):
         )
         return cls(
             kind=component.kind,
-            path=component.spec.path,
+            path=component.declared_path,
             sha256=interface.content_hash or None,
             facts=dict(sorted(interface.facts)),
             ports=ports,

@@ -24,13 +24,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from fmionnx.compile.endpoints import flat_index, split_endpoint
-from fmionnx.compile.ir import Causality, CompiledSystem, Component, DType, Port, PortRef
+from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
-from fmionnx.core.runner import Buffer, Runner
+from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring
+from fmionnx.core.types import Causality, Component, DType, Port, PortRef
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
-from fmionnx.runtime.runners import Wiring, make_runner
 from fmionnx.runtime.transfer import Transfer, make_transfer
 
 #: Largest hyperperiod (in base steps) for which the schedule is tabulated.
@@ -97,7 +97,17 @@ class _Due:
 class Master:
     """Prepares runners for a compiled system and runs the loop."""
 
-    def __init__(self, system: CompiledSystem, options: RunOptions | None = None) -> None:
+    def __init__(
+        self,
+        system: CompiledSystem,
+        options: RunOptions | None = None,
+        runner_factory: RunnerFactory | None = None,
+    ) -> None:
+        if runner_factory is None:
+            from fmionnx.kinds.registry import make_runner
+
+            runner_factory = make_runner
+        self.make_runner = runner_factory
         self.system = system
         self.options = options or RunOptions()
         self.runners: dict[str, Runner] = {}
@@ -119,7 +129,7 @@ class Master:
         system = self.system
         run = system.run
         for component in system.components:
-            runner = make_runner(component, self._wiring(component))
+            runner = self.make_runner(component, self._wiring(component))
             self.runners[component.name] = runner
             runner.instantiate()
         for name in system.order:

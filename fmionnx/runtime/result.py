@@ -16,9 +16,10 @@ from typing import TYPE_CHECKING
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.compile.ir import CompiledSystem, PortRef
+from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.diagnostics import Diagnostic
 from fmionnx.core.errors import RunError
+from fmionnx.core.types import PortRef
 
 if TYPE_CHECKING:
     from fmionnx.runtime.recorder import FrameSink

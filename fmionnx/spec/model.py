@@ -12,10 +12,10 @@ from typing import Annotated, Any, Literal
 
 from pydantic import Field, field_validator, model_validator
 
+from fmionnx.core.specbase import StrictModel
 from fmionnx.kinds.fmu.kind import FmuSpec
 from fmionnx.kinds.mujoco.kind import MujocoSpec
 from fmionnx.kinds.onnx.kind import OnnxSpec
-from fmionnx.spec.base import StrictModel
 
 #: The format versions this release reads (the ``fmionnx:`` key).
 SUPPORTED_FORMATS = (1,)

@@ -14,7 +14,7 @@ from typing import Any
 from urllib.parse import unquote, urlparse
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
-from fmionnx.spec.base import ScalarLiteral
+from fmionnx.core.specbase import ScalarLiteral
 from fmionnx.spec.ssp_tree import Binding, Transformation
 from fmionnx.spec.ssp_xml import parse_xml, tag, validate
 

@@ -53,7 +53,7 @@ def test_the_30_hz_variant_is_the_reference_system_on_a_finer_grid_with_the_worl
         system = load_system(path)
         assert system.run.step == pytest.approx(step)
         assert system.component("detector").period == pytest.approx(period)
-        assert system.component("world").spec.external
+        assert system.component("world").external
         assert system.component("tracker").period == pytest.approx(0.01)
 
 

@@ -9,17 +9,17 @@ from hypothesis import given, settings
 from hypothesis import strategies as st
 
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
-from fmionnx.compile.ir import (
+from fmionnx.compile.ir import Connection
+from fmionnx.core.types import (
     Causality,
     Component,
     ComponentInterface,
-    Connection,
     DType,
     Port,
     PortRef,
     is_whole_multiple,
 )
-from fmionnx.kinds.fmu.kind import FmuSpec
+from fmionnx.kinds.fmu.kind import FmuConfig
 
 
 def _component(name: str, feedthrough: bool) -> Component:
@@ -29,7 +29,7 @@ def _component(name: str, feedthrough: bool) -> Component:
     )
     interface = ComponentInterface("fmu", Path(f"{name}.fmu"), ports)
     return Component(
-        name, "fmu", Path(f"{name}.fmu"), interface, FmuSpec(path=f"{name}.fmu"), 0.1, 1
+        name, "fmu", Path(f"{name}.fmu"), interface, FmuConfig(), 0.1, 1
     )
 
 

@@ -12,9 +12,9 @@ from pathlib import Path
 
 import pytest
 
-from fmionnx.compile.ir import Causality, DType, Experiment
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.types import Causality, DType, Experiment
 from fmionnx.kinds.cache import clear_cache
 from fmionnx.kinds.fmu.kind import FMU_KIND
 from tests.components.fmi_xml import fmi2, fmi3, fmu_folder, fmu_zip, scalar

@@ -6,8 +6,8 @@ from pathlib import Path
 
 import pytest
 
-from fmionnx.compile.ir import Causality, DType
 from fmionnx.core.errors import ModelError
+from fmionnx.core.types import Causality, DType
 from fmionnx.kinds.onnx.kind import ONNX_KIND
 
 

@@ -5,9 +5,9 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from fmionnx.compile.ir import Causality, Component, ComponentInterface, DType, Port
 from fmionnx.core.diagnostics import DiagnosticBag
-from fmionnx.kinds.fmu.kind import FmuSpec
+from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
+from fmionnx.kinds.fmu.kind import FmuConfig
 from fmionnx.lock.model import LockedComponent, LockFile, render_lock
 from fmionnx.lock.read import LoadedLock, read_lock
 
@@ -33,7 +33,8 @@ def component(interface: ComponentInterface, name: str = "gain") -> Component:
         kind=interface.kind,
         path=interface.path,
         interface=interface,
-        spec=FmuSpec(path=str(interface.path)),
+        config=FmuConfig(),
+        declared_path=str(interface.path),
         period=0.01,
         period_steps=1,
     )

@@ -3,8 +3,8 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
-from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
 from fmionnx.core.diagnostics import Diagnostic, Span
+from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.lock.diff import LockContext, compare
 from tests.lock.conftest import GAIN, with_port, write_and_read
 

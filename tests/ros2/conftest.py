@@ -9,21 +9,12 @@ from pathlib import Path
 import pytest
 
 from fmionnx.backends.ros2.env import DdsEnvironment, from_environment
-from fmionnx.compile.ir import (
-    Causality,
-    CompiledSystem,
-    Component,
-    ComponentInterface,
-    Connection,
-    DType,
-    Port,
-    PortRef,
-    RunSettings,
-)
+from fmionnx.compile.ir import CompiledSystem, Connection, RunSettings
 from fmionnx.compile.ros2.messages import RosDistro
-from fmionnx.kinds.fmu.kind import FmuSpec
-from fmionnx.kinds.mujoco.kind import MujocoSpec
-from fmionnx.kinds.onnx.kind import OnnxSpec
+from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port, PortRef
+from fmionnx.kinds.fmu.kind import FmuConfig
+from fmionnx.kinds.mujoco.kind import MujocoConfig
+from fmionnx.kinds.onnx.kind import OnnxConfig
 from fmionnx.spec.model import Ros2Spec
 
 SOURCE = Path("sign_follower.yaml")
@@ -45,14 +36,10 @@ def _in(name: str, dtype: DType = DType.FLOAT64, shape: tuple[int | str, ...] = 
 def _component(
     name: str, kind: str, ports: tuple[Port, ...], *, external: bool = False
 ) -> Component:
-    specs = {
-        "fmu": FmuSpec(kind="fmu", path=f"{name}.fmu", external=external),
-        "onnx": OnnxSpec(kind="onnx", path=f"{name}.onnx", external=external),
-        "mujoco": MujocoSpec(kind="mujoco", path=f"{name}.xml", external=external),
-    }
+    configs = {"fmu": FmuConfig(), "onnx": OnnxConfig(), "mujoco": MujocoConfig()}
     path = Path(f"{name}.{kind}")
     interface = ComponentInterface(kind=kind, path=path, ports=ports)
-    return Component(name, kind, path, interface, specs[kind], 0.01, 1)
+    return Component(name, kind, path, interface, configs[kind], 0.01, 1, external=external)
 
 
 def _connect(system_components: dict[str, Component], text: str, line: int) -> Connection:

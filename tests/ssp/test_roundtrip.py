@@ -41,7 +41,7 @@ def fingerprint(system: CompiledSystem) -> dict[str, Any]:
                 "ports": [
                     (p.name, p.causality, p.dtype, p.shape, p.unit) for p in c.interface.ports
                 ],
-                "options": c.spec.model_dump(exclude={"path"}),
+                "options": (c.config, c.external),
             }
             for c in system.components
         ],

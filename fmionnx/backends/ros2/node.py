@@ -1,7 +1,7 @@
 """One component as a ROS 2 node: its in-process runner between DDS readers and writers.
 
 The node reuses the in-process pieces unchanged: the component's runner
-(:func:`~fmionnx.runtime.runners.make_runner`), the connection transfers
+(:func:`~fmionnx.kinds.registry.make_runner`), the connection transfers
 (:func:`~fmionnx.runtime.transfer.make_transfer`: element selection,
 ``factor*x+offset``, dtype conversion, NaN check) and the recorder tracks. What differs is where
 a producer's value comes from: a *proxy* buffer per producer port, shaped and typed like the
@@ -55,13 +55,14 @@ from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
 from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
-from fmionnx.compile.ir import CompiledSystem, Component, DType
+from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.names import dds_topic
 from fmionnx.compile.ros2.plan import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
 from fmionnx.core.errors import FmionnxError, RunError
-from fmionnx.core.runner import Buffer, Runner
-from fmionnx.runtime.runners import Wiring, make_runner
+from fmionnx.core.runner import Buffer, Runner, Wiring
+from fmionnx.core.types import Component, DType
+from fmionnx.kinds.registry import make_runner
 from fmionnx.runtime.transfer import Transfer, make_transfer
 
 log = logging.getLogger("fmionnx.node")

@@ -18,7 +18,7 @@ import numpy as np
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
 
-from fmionnx.compile.ir import DType
+from fmionnx.core.types import DType
 
 
 class RosDistro(enum.StrEnum):

@@ -28,7 +28,7 @@ from typing import TYPE_CHECKING
 
 from fmionnx.backends.ros2.codec import IMAGE_TYPE, WHOLE, PortField, image_geometry
 from fmionnx.backends.ros2.qos import PROFILES, QosProfile
-from fmionnx.compile.ir import Causality, CompiledSystem, Component, DType, Port
+from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import (
     DEFAULT_DISTRO,
     FieldError,
@@ -48,6 +48,7 @@ from fmionnx.compile.ros2.names import (
     topic_problem,
 )
 from fmionnx.core.diagnostics import Diagnostic, Span, did_you_mean, make, one_of
+from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.spec.model import QosSpec, TopicSpec
 
 if TYPE_CHECKING:
@@ -241,7 +242,7 @@ class _Builder:
                     f"node name `{name}` of component `{component.name}`: {problem}",
                     self.span("nodes", component.name),
                 )
-            elif name in used and not component.spec.external:
+            elif name in used and not component.external:
                 self.emit(
                     "E062",
                     f"node name `{name}` is used by `{used[name]}` and `{component.name}`",
@@ -326,7 +327,7 @@ class _Builder:
                 normalize_type(spec.type) if spec.type else self.implied_type(component, port, name)
             )
             publisher = component.name if port.causality is Causality.OUTPUT else None
-            if publisher is None or component.spec.external:
+            if publisher is None or component.external:
                 publisher = None
             self.add_port(name, msgtype, publisher, component, port, field_path, span, key)
             if isinstance(spec.qos, (str, QosSpec)):
@@ -365,7 +366,7 @@ class _Builder:
                 role = ROLE_DEFAULTS.get((dst.kind, connection.dst.port, Causality.INPUT))
             node = self.node_names[component.name]
             span = connection.span or Span(self.system.source)
-            publisher = None if component.spec.external else component.name
+            publisher = None if component.external else component.name
             if role is not None:
                 name = expand_topic(role.topic, self.namespace, node)
                 self.add_port(
@@ -669,7 +670,7 @@ class _Builder:
         subscriptions = []
         for index, connection in enumerate(self.system.connections):
             topic = self.port_topics.get((connection.src.component, connection.src.port))
-            if topic is None or self.system.component(connection.dst.component).spec.external:
+            if topic is None or self.system.component(connection.dst.component).external:
                 continue
             subscriptions.append(
                 Subscription(connection.dst.component, topic, connection.src.port, index)
@@ -677,11 +678,11 @@ class _Builder:
         for key, topic in self.port_topics.items():
             component = self.system.component(key[0])
             port = component.port(key[1])
-            if port.causality is not Causality.OUTPUT and not component.spec.external:
+            if port.causality is not Causality.OUTPUT and not component.external:
                 subscriptions.append(Subscription(component.name, topic, key[1], -1))
         nodes = []
         for component in self.system.components:
-            if component.spec.external:
+            if component.external:
                 continue
             publishes = tuple(t.name for t in topics if t.publisher == component.name)
             subscribes = tuple(
@@ -696,7 +697,7 @@ class _Builder:
                     subscribes,
                 )
             )
-        external = tuple(c.name for c in self.system.components if c.spec.external)
+        external = tuple(c.name for c in self.system.components if c.external)
         return Ros2Plan(
             self.distro, self.namespace, tuple(nodes), topics, tuple(subscriptions), external
         )

@@ -10,18 +10,22 @@ from __future__ import annotations
 
 import io
 import zipfile
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, Literal
 
 from pydantic import Field
 
-from fmionnx.compile.ir import ComponentInterface, Experiment
 from fmionnx.core.errors import ModelError
+from fmionnx.core.runner import Runner, Wiring
+from fmionnx.core.specbase import ComponentSpecBase
+from fmionnx.core.types import Component, ComponentInterface, Experiment, KindConfig
 from fmionnx.core.xmlsafe import parse_safely
+from fmionnx.kinds.base import FMI_NAMES, Display, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, FmuFiles, read_fmu_files
 from fmionnx.kinds.fmu.ports import ports_from_model_description
-from fmionnx.spec.base import ComponentSpecBase
 
 #: Facts written by this kind (a key is present only when the FMU states it).
 FACT_KEYS = (
@@ -66,13 +70,46 @@ class FmuSpec(ComponentSpecBase):
     )
 
 
+@dataclass(frozen=True, slots=True)
+class FmuConfig(KindConfig):
+    """Resolved settings of an FMU component: the interface type is decided at compile time."""
+
+    kind: str = "fmu"
+    interface: Literal["cs", "me"] = "cs"
+    solver: Literal["cvode", "euler"] = "cvode"
+    tolerance: float | None = None
+
+
 class FmuKind:
     """Reads FMU interfaces from ``modelDescription.xml`` (via fmpy)."""
 
     name = "fmu"
     spec_model = FmuSpec
+    config_type = FmuConfig
     suffixes = (".fmu",)
     summary = "Functional Mock-up Unit (FMI 2.0/3.0, CS/ME)"
+    mime_type = "application/x-fmu-sharedlibrary"
+    capabilities = frozenset({FMI_NAMES})
+    display = Display(
+        "FMU",
+        'shape=box, style="rounded,filled", fillcolor="#dbeafe", color="#1d4ed8"',
+        ("[", "]"),
+        "#dbeafe",
+    )
+    ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
+
+    def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> FmuConfig:
+        """Co-simulation when the FMU offers it and the entry does not ask for ME."""
+        assert isinstance(spec, FmuSpec)
+        offered = (interface.fact("interfaceTypes") or "cs").split(",")
+        chosen = spec.interface or ("cs" if "cs" in offered else "me")
+        return FmuConfig(interface=chosen, solver=spec.solver, tolerance=spec.tolerance)
+
+    def make_runner(self, component: Component, wiring: Wiring) -> Runner:
+        """An :class:`~fmionnx.kinds.fmu.runner.FmuRunner` (loads fmpy only now)."""
+        from fmionnx.kinds.fmu.runner import FmuRunner
+
+        return FmuRunner(component, wiring.driven)
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the FMU's ports and facts (cached per file identity; ``spec`` is not needed).

@@ -20,6 +20,7 @@ import numpy as np
 from fmionnx.core.runner import fault
 
 if TYPE_CHECKING:
+    from fmionnx.kinds.fmu.kind import FmuConfig
     from fmionnx.kinds.fmu.runner import FmuRunner
 
 
@@ -38,7 +39,7 @@ class ModelExchange:
     """The continuous-time part of one ME FMU instance (created right after initialization)."""
 
     def __init__(
-        self, runner: FmuRunner, fmu: Any, md: Any, start: float, stop: float, spec: Any
+        self, runner: FmuRunner, fmu: Any, md: Any, start: float, stop: float, config: FmuConfig
     ) -> None:
         self._runner = runner
         self._fmu = fmu
@@ -49,8 +50,8 @@ class ModelExchange:
         self._next_event = math.inf
         self._guarded(start, self._event_iteration, start)
         fmu.enterContinuousTimeMode()
-        self._solver_name = getattr(spec, "solver", "cvode")
-        tolerance = getattr(spec, "tolerance", None)
+        self._solver_name = config.solver
+        tolerance = config.tolerance
         if tolerance is None and md.defaultExperiment is not None and md.defaultExperiment.tolerance:
             tolerance = float(md.defaultExperiment.tolerance)
         self._tolerance = tolerance or 1e-5

@@ -24,9 +24,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
-from fmionnx.compile.ir import Causality, DType, Port, Scalar
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.types import Causality, DType, Port, Scalar
 
 #: FMI type name -> element type. FMI 2 enumerations are read with ``fmi2GetInteger`` (int32),
 #: FMI 3 enumerations with ``fmi3GetInt64``; see :func:`dtype_of`.

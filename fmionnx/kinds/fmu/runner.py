@@ -20,10 +20,11 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.compile.ir import Causality, Component, DType
 from fmionnx.core.archive import safe_extract
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
+from fmionnx.core.types import Causality, Component, DType
+from fmionnx.kinds.fmu.kind import FmuConfig
 from fmionnx.kinds.fmu.values import (
     RawCall,
     ValueGroup,
@@ -70,9 +71,9 @@ class FmuRunner:
         self._me: Any = None
         self._terminated = False
         self._time = 0.0
-        spec_interface = getattr(component.spec, "interface", None)
-        offered = (component.interface.fact("interfaceTypes") or "cs").split(",")
-        self.interface_type: str = spec_interface or ("cs" if "cs" in offered else "me")
+        assert isinstance(component.config, FmuConfig)
+        self.config = component.config
+        self.interface_type: str = component.config.interface
         self.fmi3 = (component.interface.fact("fmiVersion") or "2.0").startswith("3")
 
     # -- life cycle ---------------------------------------------------------------------------
@@ -176,7 +177,7 @@ class FmuRunner:
             port = component.port(parameter.port)
             function, status = set_scalars(dll, inst, port, parameter.value, fmi3=self.fmi3)
             self._check(function, status, start, port=parameter.port)
-        tolerance = getattr(component.spec, "tolerance", None)
+        tolerance = self.config.tolerance
         fmu = self._fmu
         if self.fmi3:
             self._guard(
@@ -198,7 +199,7 @@ class FmuRunner:
         if self.interface_type == "me":
             from fmionnx.kinds.fmu.me import ModelExchange
 
-            self._me = ModelExchange(self, fmu, self._md, start, stop, component.spec)
+            self._me = ModelExchange(self, fmu, self._md, start, stop, self.config)
         else:
             self._prepare_do_step()
         self._call_all(self._get_calls, start)

@@ -15,8 +15,8 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.compile.ir import DType, Port, Scalar
 from fmionnx.core.runner import Buffer
+from fmionnx.core.types import DType, Port, Scalar
 
 #: FMI 2 type name and C element type per dtype (FMI 2 Boolean is a C int).
 FMI2_TYPES: dict[DType, tuple[str, Any]] = {

@@ -13,9 +13,9 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
-from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
 from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
+from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 
 #: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case).
 _SENSOR_UNITS = {

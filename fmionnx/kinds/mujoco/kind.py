@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 from pydantic import Field
 
-from fmionnx.compile.ir import ComponentInterface
-from fmionnx.spec.base import ComponentSpecBase, StrictModel
+from fmionnx.core.runner import Runner, Wiring
+from fmionnx.core.specbase import ComponentSpecBase, StrictModel
+from fmionnx.core.types import Component, ComponentInterface, KindConfig
+from fmionnx.kinds.base import CAMERA, SIMULATOR, Display, RoleDefault
 
 
 class CameraSpec(StrictModel):
@@ -33,13 +37,65 @@ class MujocoSpec(ComponentSpecBase):
     )
 
 
+@dataclass(frozen=True, slots=True)
+class CameraConfig:
+    """One camera to render offscreen, by its name in the scene."""
+
+    name: str
+    width: int
+    height: int
+
+
+@dataclass(frozen=True, slots=True)
+class MujocoConfig(KindConfig):
+    """Resolved settings of a MuJoCo component."""
+
+    kind: str = "mujoco"
+    cameras: tuple[CameraConfig, ...] = ()
+    gl: Literal["auto", "egl", "osmesa"] = "auto"
+
+
+_POSITION = tuple(f"pose.pose.position.{a}" for a in "xyz")
+_ORIENTATION = tuple(f"pose.pose.orientation.{a}" for a in "wxyz")  # MuJoCo order w, x, y, z
+_TWIST = "geometry_msgs/msg/Twist"
+_ODOMETRY = "nav_msgs/msg/Odometry"
+
+
 class MujocoKind:
     """Reads a MuJoCo scene's sensors, actuators and cameras."""
 
     name = "mujoco"
     spec_model = MujocoSpec
+    config_type = MujocoConfig
     suffixes = (".xml", ".mjcf", ".mjb")
     summary = "MuJoCo physics scene (sensors, actuators, cameras)"
+    mime_type = "application/x-mujoco+xml"
+    capabilities = frozenset({SIMULATOR, CAMERA})
+    display = Display(
+        "MuJoCo",
+        'shape=box3d, style="filled", fillcolor="#dcfce7", color="#15803d"',
+        ("[(", ")]"),
+        "#dcfce7",
+    )
+    #: The robot's velocity command and pose: ``/cmd_vel`` and ``/odom`` as a ROS robot has them.
+    ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {
+        ("cmd_v", "input"): RoleDefault("cmd_vel", _TWIST, ("linear.x",)),
+        ("cmd_w", "input"): RoleDefault("cmd_vel", _TWIST, ("angular.z",)),
+        ("base_pos", "output"): RoleDefault("odom", _ODOMETRY, _POSITION),
+        ("base_quat", "output"): RoleDefault("odom", _ODOMETRY, _ORIENTATION),
+    }
+
+    def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> MujocoConfig:
+        """Cameras in the order the entry lists them."""
+        assert isinstance(spec, MujocoSpec)
+        cameras = tuple(CameraConfig(n, c.width, c.height) for n, c in spec.cameras.items())
+        return MujocoConfig(cameras=cameras, gl=spec.gl)
+
+    def make_runner(self, component: Component, wiring: Wiring) -> Runner:
+        """A :class:`~fmionnx.kinds.mujoco.runner.MujocoRunner` (loads mujoco only now)."""
+        from fmionnx.kinds.mujoco.runner import MujocoRunner
+
+        return MujocoRunner(component)
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the scene's ports."""

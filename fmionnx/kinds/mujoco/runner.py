@@ -15,9 +15,10 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.compile.ir import Causality, Component, is_whole_multiple
 from fmionnx.core.runner import Buffer, fault
+from fmionnx.core.types import Causality, Component, is_whole_multiple
 from fmionnx.kinds.mujoco.gl import choose_gl
+from fmionnx.kinds.mujoco.kind import CameraConfig, MujocoConfig
 
 
 class MujocoRunner:
@@ -25,8 +26,9 @@ class MujocoRunner:
 
     def __init__(self, component: Component) -> None:
         self.component = component
-        cameras = getattr(component.spec, "cameras", {}) or {}
-        self._camera_specs: dict[str, Any] = dict(cameras)
+        assert isinstance(component.config, MujocoConfig)
+        self.config = component.config
+        self._camera_specs: dict[str, CameraConfig] = {c.name: c for c in self.config.cameras}
         self.lazy_outputs: frozenset[str] = frozenset(self._camera_specs)
         self._mj: Any = None
         self._model: Any = None
@@ -44,7 +46,7 @@ class MujocoRunner:
         """Choose the GL backend (only when cameras are used), load the scene."""
         if self._camera_specs:
             try:
-                choose_gl(getattr(self.component.spec, "gl", "auto"))
+                choose_gl(self.config.gl)
             except RuntimeError as exc:
                 raise fault(self.component.name, str(exc), time=0.0) from None
         import mujoco

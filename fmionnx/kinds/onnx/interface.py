@@ -6,9 +6,9 @@ import hashlib
 from pathlib import Path
 from typing import Any
 
-from fmionnx.compile.ir import Causality, ComponentInterface, DType, Port
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.kinds.cache import cached_interface, file_identity
 
 #: ONNX ``TensorProto.DataType`` numbers -> fmionnx dtypes.

@@ -2,13 +2,17 @@
 
 from __future__ import annotations
 
+from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Literal
 
 from pydantic import Field
 
-from fmionnx.compile.ir import ComponentInterface
-from fmionnx.spec.base import ComponentSpecBase
+from fmionnx.core.runner import Runner, Wiring
+from fmionnx.core.specbase import ComponentSpecBase
+from fmionnx.core.types import Component, ComponentInterface, KindConfig
+from fmionnx.kinds.base import Display, RoleDefault
 
 
 class OnnxSpec(ComponentSpecBase):
@@ -24,13 +28,43 @@ class OnnxSpec(ComponentSpecBase):
     )
 
 
+@dataclass(frozen=True, slots=True)
+class OnnxConfig(KindConfig):
+    """Resolved settings of an ONNX component."""
+
+    kind: str = "onnx"
+    providers: tuple[str, ...] = ("CPUExecutionProvider",)
+    threads: int | None = None
+
+
 class OnnxKind:
     """Reads ONNX graph signatures."""
 
     name = "onnx"
     spec_model = OnnxSpec
+    config_type = OnnxConfig
     suffixes = (".onnx",)
     summary = "ONNX model run by onnxruntime"
+    mime_type = "application/x-onnx"
+    capabilities: frozenset[str] = frozenset()
+    display = Display(
+        "ONNX",
+        'shape=box, style="rounded,filled", fillcolor="#f3e8ff", color="#7e22ce"',
+        ("[[", "]]"),
+        "#f3e8ff",
+    )
+    ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
+
+    def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> OnnxConfig:
+        """Providers and threads as given."""
+        assert isinstance(spec, OnnxSpec)
+        return OnnxConfig(providers=tuple(spec.providers), threads=spec.threads)
+
+    def make_runner(self, component: Component, wiring: Wiring) -> Runner:
+        """An :class:`~fmionnx.kinds.onnx.runner.OnnxRunner` (loads onnxruntime only now)."""
+        from fmionnx.kinds.onnx.runner import OnnxRunner
+
+        return OnnxRunner(component, dict(wiring.sizes or {}))
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the model's inputs and outputs."""

@@ -13,8 +13,9 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.compile.ir import Causality, Component, Port
 from fmionnx.core.runner import Buffer, fault
+from fmionnx.core.types import Causality, Component, Port
+from fmionnx.kinds.onnx.kind import OnnxConfig
 
 
 def concrete_shape(port: Port, size: int | None) -> tuple[int, ...]:
@@ -44,14 +45,15 @@ class OnnxRunner:
         """Create the onnxruntime session with the spec's providers and thread count."""
         import onnxruntime as ort
 
-        spec = self.component.spec
+        config = self.component.config
+        assert isinstance(config, OnnxConfig)
         options = ort.SessionOptions()
-        threads = getattr(spec, "threads", None)
+        threads = config.threads
         if threads is not None:
             options.intra_op_num_threads = threads
             options.inter_op_num_threads = 1
         options.log_severity_level = 3
-        providers = list(getattr(spec, "providers", ["CPUExecutionProvider"]))
+        providers = list(config.providers)
         try:
             self._session = ort.InferenceSession(
                 str(self.component.path), sess_options=options, providers=providers

@@ -1,0 +1,234 @@
+"""The shared vocabulary of every layer: element types, ports, interfaces, components.
+
+Model readers (kinds), the compiler, the runtime and the backends all speak in these terms, so
+they live at the bottom and import nothing else of fmionnx but spans.
+"""
+
+from __future__ import annotations
+
+import enum
+import math
+from collections.abc import Iterator
+from dataclasses import dataclass
+from pathlib import Path
+
+from fmionnx.core.diagnostics import Span
+
+#: A scalar value as found in start values and parameters.
+Scalar = float | int | bool | str
+
+
+class DType(enum.StrEnum):
+    """Element types, named like numpy dtypes. FMI and ONNX types map onto these."""
+
+    FLOAT64 = "float64"
+    FLOAT32 = "float32"
+    INT8 = "int8"
+    INT16 = "int16"
+    INT32 = "int32"
+    INT64 = "int64"
+    UINT8 = "uint8"
+    UINT16 = "uint16"
+    UINT32 = "uint32"
+    UINT64 = "uint64"
+    BOOL = "bool"
+    STRING = "string"
+    BINARY = "binary"
+
+    @property
+    def is_float(self) -> bool:
+        """Floating-point types."""
+        return self in (DType.FLOAT64, DType.FLOAT32)
+
+    @property
+    def is_integer(self) -> bool:
+        """Signed and unsigned integer types (not bool)."""
+        return self.value.startswith(("int", "uint"))
+
+    @property
+    def is_numeric(self) -> bool:
+        """Types that can be converted to one another numerically (bool counts as 0/1)."""
+        return self.is_float or self.is_integer or self is DType.BOOL
+
+
+class Causality(enum.StrEnum):
+    """FMI causality vocabulary, used for every kind (ONNX inputs are ``input`` etc.)."""
+
+    INPUT = "input"
+    OUTPUT = "output"
+    PARAMETER = "parameter"
+    CALCULATED_PARAMETER = "calculatedParameter"
+    STRUCTURAL_PARAMETER = "structuralParameter"
+    LOCAL = "local"
+    INDEPENDENT = "independent"
+
+
+@dataclass(frozen=True, slots=True)
+class Port:
+    """A named, typed value a component reads or writes.
+
+    ``shape`` is ``()`` for a scalar; a ``str`` entry is a symbolic ONNX dimension. ``start`` is
+    flattened in row-major order. ``depends_on`` lists, for an output, the inputs it depends on
+    *directly* (within the same step); ``None`` means unknown, which the compiler treats as
+    "all inputs". ``vrs`` holds FMU value references, one per element (FMI 2 exporters write
+    arrays as scalars ``x[1]``..``x[n]``; the FMU reader groups them into one port).
+    """
+
+    name: str
+    causality: Causality
+    dtype: DType
+    shape: tuple[int | str, ...] = ()
+    unit: str | None = None
+    start: tuple[Scalar, ...] | None = None
+    variability: str | None = None
+    description: str = ""
+    depends_on: tuple[str, ...] | None = None
+    vrs: tuple[int, ...] = ()
+    origin: Span | None = None
+
+    @property
+    def is_scalar(self) -> bool:
+        """True for a port of shape ``()``."""
+        return not self.shape
+
+    @property
+    def size(self) -> int | None:
+        """Number of elements, or None when a dimension is symbolic."""
+        total = 1
+        for dim in self.shape:
+            if isinstance(dim, str):
+                return None
+            total *= dim
+        return total
+
+    def shape_text(self) -> str:
+        """``scalar`` or ``[1,480,640,3]`` for messages and tables."""
+        if not self.shape:
+            return "scalar"
+        return "[" + ",".join(str(d) for d in self.shape) + "]"
+
+
+@dataclass(frozen=True, slots=True)
+class Experiment:
+    """A model's default experiment (FMI ``DefaultExperiment``)."""
+
+    start: float | None = None
+    stop: float | None = None
+    step: float | None = None
+    tolerance: float | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class ComponentInterface:
+    """What a model file offers, read from the file itself (never from the system file).
+
+    ``facts`` are human- and lock-relevant key/value strings such as ``fmiVersion``,
+    ``instantiationToken``, ``modelIdentifier``, ``interfaceTypes``, ``opset``; each kind
+    documents the keys it writes. ``content_hash`` is the sha256 of the model file(s).
+    """
+
+    kind: str
+    path: Path
+    ports: tuple[Port, ...]
+    facts: tuple[tuple[str, str], ...] = ()
+    default_experiment: Experiment | None = None
+    content_hash: str = ""
+
+    def port(self, name: str) -> Port | None:
+        """The port called ``name``, or None."""
+        for port in self.ports:
+            if port.name == name:
+                return port
+        return None
+
+    def fact(self, key: str) -> str | None:
+        """The value of a fact, or None."""
+        for k, v in self.facts:
+            if k == key:
+                return v
+        return None
+
+    def with_causality(self, *causalities: Causality) -> Iterator[Port]:
+        """Ports whose causality is one of ``causalities``, in declaration order."""
+        return (p for p in self.ports if p.causality in causalities)
+
+
+@dataclass(frozen=True, slots=True)
+class PortRef:
+    """A resolved endpoint: component name, port name, optional element index (0-based)."""
+
+    component: str
+    port: str
+    index: tuple[int, ...] | None = None
+
+    @property
+    def port_label(self) -> str:
+        """The port with its index, without the component: ``base_quat[0]``."""
+        if self.index is None:
+            return self.port
+        return self.port + "[" + ",".join(str(i) for i in self.index) + "]"
+
+    def __str__(self) -> str:
+        return f"{self.component}.{self.port_label}"
+
+
+@dataclass(frozen=True, slots=True)
+class ParameterValue:
+    """A value set on a variable before initialization (parameter or start value)."""
+
+    port: str
+    value: tuple[Scalar, ...]
+    span: Span | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class KindConfig:
+    """Base of every kind's resolved configuration (a frozen dataclass per kind).
+
+    ``kind`` names the kind so that a serialised compiled system can be read back: the kind
+    table maps it to the config class.
+    """
+
+    kind: str
+
+
+@dataclass(frozen=True, slots=True)
+class Component:
+    """A component instance in the system: its model, interface, rate and resolved settings.
+
+    ``config`` is the kind's own frozen, resolved configuration (FMU interface type, cameras,
+    providers ...), made by the kind at compile time: nothing here refers to the system file's
+    raw model. ``period_steps`` is the period in base steps. ``external`` components are
+    provided from outside in ROS 2 mode (no node is started for them). ``declared_path`` is the
+    model path as the system file wrote it (the interface lock records it).
+    """
+
+    name: str
+    kind: str
+    path: Path
+    interface: ComponentInterface
+    config: KindConfig
+    period: float
+    period_steps: int
+    parameters: tuple[ParameterValue, ...] = ()
+    span: Span | None = None
+    external: bool = False
+    declared_path: str = ""
+
+    def port(self, name: str) -> Port:
+        """The port called ``name``; raises KeyError (a compiler bug) when absent."""
+        port = self.interface.port(name)
+        if port is None:
+            msg = f"{self.name} has no port {name}"
+            raise KeyError(msg)
+        return port
+
+
+
+def is_whole_multiple(period: float, step: float, *, rel: float = 1e-9) -> int | None:
+    """``period / step`` when it is a positive whole number (within ``rel``), else None."""
+    ratio = period / step
+    nearest = round(ratio)
+    if nearest >= 1 and math.isclose(ratio, nearest, rel_tol=rel, abs_tol=rel):
+        return nearest
+    return None
