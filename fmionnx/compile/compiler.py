@@ -21,6 +21,7 @@ from fmionnx.compile.typecheck import check_causality, check_count, check_dtype,
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.core.sourcetext import source_lines
 from fmionnx.core.types import Causality, Component, ComponentInterface, PortRef, is_whole_multiple
+from fmionnx.kinds.base import SIMULATOR
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
@@ -132,7 +133,7 @@ def _check_period(
         )
         return None
     timestep = interface.fact("timestep")
-    if interface.kind == "mujoco" and timestep is not None:
+    if SIMULATOR in COMPONENT_KINDS[interface.kind].capabilities and timestep is not None:
         physics = float(timestep)
         if is_whole_multiple(period, physics) is None:
             bag.emit(

@@ -25,8 +25,6 @@ from fmionnx.spec.sourcemap import SourceMap
 #: Variables whose value a system file may set before initialization.
 SETTABLE = (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER, Causality.INPUT)
 
-#: The binary folders an FMU needs to run on this machine (FMI 2 and FMI 3 names).
-PLATFORM_FOLDERS = ("linux64", "x86_64-linux")
 
 
 def model_path(base: Path, text: str) -> Path:
@@ -51,42 +49,10 @@ def read_interface(
     except ModelError as exc:
         bag.emit(exc.code, f"component `{name}`: {exc}", span, hint=exc.hint)
         return None
-    if spec.kind == "fmu":
-        _check_fmu_usable(name, spec, interface, sources, bag)
+    for problem in kind.check(spec, interface):
+        where = sources.value(("components", name, problem.key))
+        bag.emit(problem.code, f"component `{name}`: {problem.message}", where, hint=problem.hint)
     return interface
-
-
-def _check_fmu_usable(
-    name: str,
-    spec: ComponentSpecBase,
-    interface: ComponentInterface,
-    sources: SourceMap,
-    bag: DiagnosticBag,
-) -> None:
-    offered = (interface.fact("interfaceTypes") or "").split(",")
-    wanted = getattr(spec, "interface", None)
-    if wanted is not None and wanted not in offered:
-        bag.emit(
-            "E016",
-            f"component `{name}`: the FMU does not offer {wanted.upper()} "
-            f"(it offers {', '.join(o.upper() for o in offered if o) or 'nothing'})",
-            sources.value(("components", name, "interface")),
-        )
-    platforms = (interface.fact("platforms") or "").split(",")
-    if not any(folder in platforms for folder in PLATFORM_FOLDERS):
-        has_sources = interface.fact("hasSources") == "true"
-        shipped = ", ".join(p for p in platforms if p) or "none"
-        hint = (
-            f"it ships C sources: `fmionnx build-fmu {spec.path}` compiles it for this machine"
-            if has_sources
-            else "ask the exporter for a Linux x86-64 binary or a source FMU"
-        )
-        bag.emit(
-            "E015",
-            f"component `{name}`: the FMU has no binary for linux x86-64 (it has: {shipped})",
-            sources.value(("components", name, "path")),
-            hint=hint,
-        )
 
 
 def _flatten(value: ParameterLiteral) -> list[Scalar] | None:

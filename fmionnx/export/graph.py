@@ -13,13 +13,13 @@ from typing import Any
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.types import Component
+from fmionnx.kinds.base import Display
+from fmionnx.kinds.registry import COMPONENT_KINDS
 
-_DOT_STYLE = {
-    "fmu": 'shape=box, style="rounded,filled", fillcolor="#dbeafe", color="#1d4ed8"',
-    "onnx": 'shape=box, style="rounded,filled", fillcolor="#f3e8ff", color="#7e22ce"',
-    "mujoco": 'shape=box3d, style="filled", fillcolor="#dcfce7", color="#15803d"',
-}
-_KIND_LABEL = {"fmu": "FMU", "onnx": "ONNX", "mujoco": "MuJoCo"}
+
+def _display(kind: str) -> Display:
+    found = COMPONENT_KINDS.get(kind)
+    return found.display if found is not None else Display(kind, "shape=box", ("[", "]"), "#eeeeee")
 
 
 def _rate(component: Component) -> str:
@@ -53,10 +53,10 @@ def to_dot(system: CompiledSystem) -> str:
     for component in system.components:
         label = (
             f"<<b>{component.name}</b><br/><font point-size='9'>"
-            f"{_KIND_LABEL.get(component.kind, component.kind)} · {component.path.name}"
+            f"{_display(component.kind).label} · {component.path.name}"
             f"{' · ' + _rate(component) if _rate(component) else ''}</font>>"
         )
-        style = _DOT_STYLE.get(component.kind, "shape=box")
+        style = _display(component.kind).dot
         lines.append(f"  {_dot_quote(component.name)} [label={label}, {style}];")
     for (src, dst), labels in sorted(_grouped(system).items()):
         # Escape each line, then join with DOT's left-justified line break `\l`.
@@ -72,18 +72,17 @@ def _mermaid_id(name: str) -> str:
 
 def to_mermaid(system: CompiledSystem) -> str:
     """Mermaid flowchart text (renders on GitHub and in mkdocs-material)."""
-    shapes = {"fmu": ("[", "]"), "onnx": ("[[", "]]"), "mujoco": ("[(", ")]")}
     lines = ["flowchart LR"]
     for component in system.components:
-        left, right = shapes.get(component.kind, ("[", "]"))
+        left, right = _display(component.kind).mermaid
         rate = _rate(component)
-        label = f"{component.name}<br/><small>{_KIND_LABEL.get(component.kind, component.kind)}"
+        label = f"{component.name}<br/><small>{_display(component.kind).label}"
         label += f" · {rate}</small>" if rate else "</small>"
         lines.append(f'  {_mermaid_id(component.name)}{left}"{label}"{right}')
     for (src, dst), labels in sorted(_grouped(system).items()):
         text = "<br/>".join(labels).replace('"', "'")
         lines.append(f'  {_mermaid_id(src)} -- "{text}" --> {_mermaid_id(dst)}')
-    for kind, colour in (("fmu", "#dbeafe"), ("onnx", "#f3e8ff"), ("mujoco", "#dcfce7")):
+    for kind, colour in ((k, d.display.colour) for k, d in COMPONENT_KINDS.items()):
         members = [_mermaid_id(c.name) for c in system.components if c.kind == kind]
         if members:
             lines.append(f"  classDef {kind} fill:{colour}")

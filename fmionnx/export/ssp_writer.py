@@ -26,6 +26,8 @@ from fmionnx.core.archive import write_deterministic_zip
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, DType, Port
+from fmionnx.kinds.base import FMI, MODEL_FOLDER
+from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.ssp import MIME_BY_KIND
 from fmionnx.spec.ssp_archive import SSD_NAME
@@ -112,7 +114,7 @@ class _Writer:
             raise ExportError(msg)
         component, port, index = parts
         label = port if index is None else f"{port}[{index.replace(' ', '')}]"
-        if self.spec.components[component].kind == "fmu":
+        if FMI in COMPONENT_KINDS[self.spec.components[component].kind].capabilities:
             label = port_label_to_fmi(label)
         found = self._port(component, port)
         kind = _KIND_BY_CAUSALITY.get(found.causality, default_kind) if found else default_kind
@@ -183,11 +185,12 @@ class _Writer:
         if not source.exists():
             msg = f"component `{name}`: `{source}` does not exist"
             raise ExportError(msg)
-        if spec.kind == "mujoco":
+        kind = COMPONENT_KINDS[spec.kind]
+        if MODEL_FOLDER in kind.capabilities:
             folder = f"resources/{name}"
             _copy_scene_folder(source.parent, staging / folder)
             return f"{folder}/{source.name}"
-        suffix = ".fmu" if spec.kind == "fmu" else source.suffix or ".onnx"
+        suffix = kind.suffixes[0] if source.is_dir() else source.suffix or kind.suffixes[0]
         target = f"resources/{name}{suffix}"
         (staging / "resources").mkdir(exist_ok=True)
         if source.is_dir():

@@ -22,8 +22,22 @@ from fmionnx.core.types import Component, ComponentInterface, KindConfig
 SIMULATOR = "simulator"
 #: The kind produces camera images (lazy outputs rendered only when a consumer is due).
 CAMERA = "camera"
-#: Port names in SSP connectors are the model's own variable names (FMI ``a.b[2]``).
-FMI_NAMES = "fmi-names"
+#: An FMI model: SSP connector names are its own variable names (``a.b[2]``) and the SSP
+#: ``implementation`` attribute selects its interface type.
+FMI = "fmi"
+#: The model file needs the files beside it (a scene's meshes, textures, includes): exporters
+#: copy its whole folder.
+MODEL_FOLDER = "model-folder"
+
+
+@dataclass(frozen=True, slots=True)
+class KindProblem:
+    """A problem a kind finds in a component entry; ``key`` is the entry key to point at."""
+
+    code: str
+    message: str
+    key: str
+    hint: str | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -87,7 +101,12 @@ class ComponentKind(Protocol):
 
     @property
     def capabilities(self) -> frozenset[str]:
-        """What the kind can do (:data:`SIMULATOR`, :data:`CAMERA`, :data:`FMI_NAMES`)."""
+        """What the kind can do (:data:`SIMULATOR`, :data:`CAMERA`, :data:`FMI`, ...)."""
+        ...
+
+    @property
+    def libraries(self) -> tuple[str, ...]:
+        """Distributions whose versions ``run.json`` records (they decide the kind's results)."""
         ...
 
     @property
@@ -102,6 +121,12 @@ class ComponentKind(Protocol):
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the interface of the model at ``path``."""
+        ...
+
+    def check(
+        self, spec: ComponentSpecBase, interface: ComponentInterface
+    ) -> tuple[KindProblem, ...]:
+        """Problems of an entry that only the kind can see (an FMU without a usable binary)."""
         ...
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> KindConfig:

@@ -10,10 +10,11 @@ from typing import Any
 
 from fmionnx import __version__
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.runtime.result import RunResult
 
-#: Distributions whose versions make a run reproducible.
-VERSIONED = ("fmpy", "onnxruntime", "mujoco", "numpy")
+#: Distributions whose versions make a run reproducible: each kind's libraries, and numpy.
+VERSIONED = (*(lib for kind in COMPONENT_KINDS.values() for lib in kind.libraries), "numpy")
 
 
 def versions() -> dict[str, str]:

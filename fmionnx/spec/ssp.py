@@ -19,6 +19,8 @@ from pydantic import ValidationError
 
 from fmionnx.core.diagnostics import DiagnosticBag, Severity, Span
 from fmionnx.core.errors import ModelError
+from fmionnx.kinds.base import FMI
+from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import SourceMap
@@ -29,13 +31,9 @@ from fmionnx.spec.ssp_tree import Annotation, Document, Element, read_document, 
 from fmionnx.spec.ssp_xml import parse_xml, validate
 from fmionnx.spec.yaml import LoadedSpec
 
-#: Component MIME types and the kinds they select (docs/ssp.md). SSP itself defines only the
-#: FMU type; the ONNX and MuJoCo types are ours.
-KIND_BY_MIME = {
-    "application/x-fmu-sharedlibrary": "fmu",
-    "application/x-onnx": "onnx",
-    "application/x-mujoco+xml": "mujoco",
-}
+#: Component MIME types and the kinds they select (docs/ssp.md), from the kind table. SSP
+#: itself defines only the FMU type; the others are ours.
+KIND_BY_MIME = {kind.mime_type: name for name, kind in COMPONENT_KINDS.items()}
 MIME_BY_KIND = {kind: mime for mime, kind in KIND_BY_MIME.items()}
 #: SSD ``implementation`` attribute -> FMU ``interface`` option.
 INTERFACE_BY_IMPLEMENTATION = {"CoSimulation": "cs", "ModelExchange": "me"}
@@ -210,7 +208,9 @@ def _component(
     entry: dict[str, Any] = {"kind": kind, "path": str(model)}
     for field_name in ("kind", "path"):
         sources.record((*key, field_name), span, span)
-    if kind == "fmu" and element.implementation in INTERFACE_BY_IMPLEMENTATION:
+    if FMI in COMPONENT_KINDS[kind].capabilities and (
+        element.implementation in INTERFACE_BY_IMPLEMENTATION
+    ):
         entry["interface"] = INTERFACE_BY_IMPLEMENTATION[element.implementation]
         sources.record((*key, "interface"), span, span)
     parameters: dict[str, Any] = {}

@@ -62,7 +62,8 @@ from fmionnx.compile.ros2.plan import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
 from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.core.runner import Buffer, Runner, Wiring
 from fmionnx.core.types import Component, DType
-from fmionnx.kinds.registry import make_runner
+from fmionnx.kinds.base import SIMULATOR
+from fmionnx.kinds.registry import has_capability, make_runner
 from fmionnx.runtime.transfer import Transfer, make_transfer
 
 log = logging.getLogger("fmionnx.node")
@@ -98,7 +99,7 @@ def clock_source(system: CompiledSystem, plan: Ros2Plan) -> str | None:
     """The component whose node publishes ``/clock`` in a free run: the first simulator."""
     running = {n.component for n in plan.nodes}
     for name in system.order:
-        if name in running and system.component(name).kind == "mujoco":
+        if name in running and has_capability(system.component(name), SIMULATOR):
             return name
     return None
 

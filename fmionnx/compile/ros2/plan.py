@@ -49,6 +49,8 @@ from fmionnx.compile.ros2.names import (
 )
 from fmionnx.core.diagnostics import Diagnostic, Span, did_you_mean, make, one_of
 from fmionnx.core.types import Causality, Component, DType, Port
+from fmionnx.kinds.base import SIMULATOR, RoleDefault
+from fmionnx.kinds.registry import COMPONENT_KINDS, has_capability
 from fmionnx.spec.model import QosSpec, TopicSpec
 
 if TYPE_CHECKING:
@@ -63,25 +65,11 @@ CLOCK_TOPIC = "/clock"
 CLOCK_TYPE = "rosgraph_msgs/msg/Clock"
 
 
-@dataclass(frozen=True, slots=True)
-class RoleDefault:
-    """A default topic for a well-known port of a component kind."""
-
-    topic: str
-    msgtype: str
-    paths: tuple[str, ...]
-
-
-_POSITION = tuple(f"pose.pose.position.{a}" for a in "xyz")
-_ORIENTATION = tuple(f"pose.pose.orientation.{a}" for a in "wxyz")  # MuJoCo order w, x, y, z
-
-#: (kind, port, causality) -> default. For an input role, the output feeding it gets the topic.
-ROLE_DEFAULTS: dict[tuple[str, str, Causality], RoleDefault] = {
-    ("mujoco", "cmd_v", Causality.INPUT): RoleDefault("cmd_vel", TWIST, ("linear.x",)),
-    ("mujoco", "cmd_w", Causality.INPUT): RoleDefault("cmd_vel", TWIST, ("angular.z",)),
-    ("mujoco", "base_pos", Causality.OUTPUT): RoleDefault("odom", ODOMETRY, _POSITION),
-    ("mujoco", "base_quat", Causality.OUTPUT): RoleDefault("odom", ODOMETRY, _ORIENTATION),
-}
+def role_default(kind: str, port: str, causality: Causality) -> RoleDefault | None:
+    """The kind's default topic for a well-known port; for an input role, the output feeding
+    it gets the topic."""
+    found = COMPONENT_KINDS.get(kind)
+    return None if found is None else found.ros2_defaults.get((port, causality.value))
 
 
 @dataclass(frozen=True, slots=True)
@@ -338,14 +326,14 @@ class _Builder:
     def implied_type(self, component: Component, port: Port, topic: str) -> str | None:
         """The type of a topic entry without ``type``: the port's role default, the type
         already chosen for that topic, or None (the port's default type)."""
-        role = ROLE_DEFAULTS.get((component.kind, port.name, port.causality))
+        role = role_default(component.kind, port.name, port.causality)
         for connection in self.system.connections:
             if role is None and (connection.src.component, connection.src.port) == (
                 component.name,
                 port.name,
             ):
                 dst = self.system.component(connection.dst.component)
-                role = ROLE_DEFAULTS.get((dst.kind, connection.dst.port, Causality.INPUT))
+                role = role_default(dst.kind, connection.dst.port, Causality.INPUT)
         if role is not None:
             return role.msgtype
         draft = self.drafts.get(topic)
@@ -361,9 +349,9 @@ class _Builder:
                 continue
             component = self.system.component(src.component)
             dst = self.system.component(connection.dst.component)
-            role = ROLE_DEFAULTS.get((component.kind, src.port, Causality.OUTPUT))
+            role = role_default(component.kind, src.port, Causality.OUTPUT)
             if role is None:
-                role = ROLE_DEFAULTS.get((dst.kind, connection.dst.port, Causality.INPUT))
+                role = role_default(dst.kind, connection.dst.port, Causality.INPUT)
             node = self.node_names[component.name]
             span = connection.span or Span(self.system.source)
             publisher = None if component.external else component.name
@@ -375,7 +363,7 @@ class _Builder:
                     publisher,
                     component,
                     connection.src_port,
-                    role.paths,
+                    role.fields,
                     span,
                     str(src),
                 )
@@ -419,7 +407,7 @@ class _Builder:
         mapped = self.fit(msgtype, port, paths, span, label)
         if mapped is None:
             return
-        mapped = _mujoco_quaternion(component, mapped, msgtype, self.distro)
+        mapped = _wxyz_quaternion(component, mapped, msgtype, self.distro)
         draft = self.drafts.get(topic)
         if draft is None:
             draft = _Draft(topic, msgtype, publisher, span=span)
@@ -706,12 +694,13 @@ class _Builder:
 QUATERNION = "geometry_msgs/msg/Quaternion"
 
 
-def _mujoco_quaternion(
+def _wxyz_quaternion(
     component: Component, mapped: PortField, msgtype: str, distro: RosDistro
 ) -> PortField:
-    """A MuJoCo quaternion (``w, x, y, z``) mapped onto a whole ``Quaternion`` message fills
-    its members by name: the message's member order is ROS's ``x, y, z, w``."""
-    if component.kind != "mujoco" or len(mapped.paths) != 1 or mapped.size != 4:
+    """A simulator's quaternion (``w, x, y, z``, MuJoCo's order) mapped onto a whole
+    ``Quaternion`` message fills its members by name: the message's order is ``x, y, z, w``."""
+    simulator = has_capability(component, SIMULATOR)
+    if not simulator or len(mapped.paths) != 1 or mapped.size != 4:
         return mapped
     path = mapped.paths[0]
     if not path or resolve_field(msgtype, path, distro).base != QUATERNION:

@@ -22,7 +22,7 @@ from fmionnx.core.runner import Runner, Wiring
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, Experiment, KindConfig
 from fmionnx.core.xmlsafe import parse_safely
-from fmionnx.kinds.base import FMI_NAMES, Display, RoleDefault
+from fmionnx.kinds.base import FMI, Display, KindProblem, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, FmuFiles, read_fmu_files
 from fmionnx.kinds.fmu.ports import ports_from_model_description
@@ -52,6 +52,9 @@ FACT_KEYS = (
 #: How many schema problems to quote in an error message.
 _MAX_PROBLEMS = 3
 
+
+#: The binary folders an FMU needs to run on this machine (FMI 2 and FMI 3 names).
+PLATFORM_FOLDERS = ("linux64", "x86_64-linux")
 
 class FmuSpec(ComponentSpecBase):
     """System-file keys of an ``fmu`` component."""
@@ -89,7 +92,8 @@ class FmuKind:
     suffixes = (".fmu",)
     summary = "Functional Mock-up Unit (FMI 2.0/3.0, CS/ME)"
     mime_type = "application/x-fmu-sharedlibrary"
-    capabilities = frozenset({FMI_NAMES})
+    capabilities = frozenset({FMI})
+    libraries = ("fmpy",)
     display = Display(
         "FMU",
         'shape=box, style="rounded,filled", fillcolor="#dbeafe", color="#1d4ed8"',
@@ -97,6 +101,42 @@ class FmuKind:
         "#dbeafe",
     )
     ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
+
+    def check(
+        self, spec: ComponentSpecBase, interface: ComponentInterface
+    ) -> tuple[KindProblem, ...]:
+        """E016 for an interface type the FMU does not offer; E015 without a binary for here."""
+        assert isinstance(spec, FmuSpec)
+        problems = []
+        offered = (interface.fact("interfaceTypes") or "").split(",")
+        wanted = spec.interface
+        if wanted is not None and wanted not in offered:
+            problems.append(
+                KindProblem(
+                    "E016",
+                    f"the FMU does not offer {wanted.upper()} "
+                    f"(it offers {', '.join(o.upper() for o in offered if o) or 'nothing'})",
+                    "interface",
+                )
+            )
+        platforms = (interface.fact("platforms") or "").split(",")
+        if not any(folder in platforms for folder in PLATFORM_FOLDERS):
+            has_sources = interface.fact("hasSources") == "true"
+            shipped = ", ".join(p for p in platforms if p) or "none"
+            hint = (
+                f"it ships C sources: `fmionnx build-fmu {spec.path}` compiles it for this machine"
+                if has_sources
+                else "ask the exporter for a Linux x86-64 binary or a source FMU"
+            )
+            problems.append(
+                KindProblem(
+                    "E015",
+                    f"the FMU has no binary for linux x86-64 (it has: {shipped})",
+                    "path",
+                    hint,
+                )
+            )
+        return tuple(problems)
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> FmuConfig:
         """Co-simulation when the FMU offers it and the entry does not ask for ME."""

@@ -12,7 +12,7 @@ from pydantic import Field
 from fmionnx.core.runner import Runner, Wiring
 from fmionnx.core.specbase import ComponentSpecBase, StrictModel
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
-from fmionnx.kinds.base import CAMERA, SIMULATOR, Display, RoleDefault
+from fmionnx.kinds.base import CAMERA, MODEL_FOLDER, SIMULATOR, Display, KindProblem, RoleDefault
 
 
 class CameraSpec(StrictModel):
@@ -70,7 +70,8 @@ class MujocoKind:
     suffixes = (".xml", ".mjcf", ".mjb")
     summary = "MuJoCo physics scene (sensors, actuators, cameras)"
     mime_type = "application/x-mujoco+xml"
-    capabilities = frozenset({SIMULATOR, CAMERA})
+    capabilities = frozenset({SIMULATOR, CAMERA, MODEL_FOLDER})
+    libraries = ("mujoco",)
     display = Display(
         "MuJoCo",
         'shape=box3d, style="filled", fillcolor="#dcfce7", color="#15803d"',
@@ -84,6 +85,12 @@ class MujocoKind:
         ("base_pos", "output"): RoleDefault("odom", _ODOMETRY, _POSITION),
         ("base_quat", "output"): RoleDefault("odom", _ODOMETRY, _ORIENTATION),
     }
+
+    def check(
+        self, spec: ComponentSpecBase, interface: ComponentInterface
+    ) -> tuple[KindProblem, ...]:
+        """Nothing beyond the interface reader's own checks."""
+        return ()
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> MujocoConfig:
         """Cameras in the order the entry lists them."""

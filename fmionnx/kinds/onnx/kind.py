@@ -12,7 +12,7 @@ from pydantic import Field
 from fmionnx.core.runner import Runner, Wiring
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
-from fmionnx.kinds.base import Display, RoleDefault
+from fmionnx.kinds.base import Display, KindProblem, RoleDefault
 
 
 class OnnxSpec(ComponentSpecBase):
@@ -47,6 +47,7 @@ class OnnxKind:
     summary = "ONNX model run by onnxruntime"
     mime_type = "application/x-onnx"
     capabilities: frozenset[str] = frozenset()
+    libraries = ("onnxruntime",)
     display = Display(
         "ONNX",
         'shape=box, style="rounded,filled", fillcolor="#f3e8ff", color="#7e22ce"',
@@ -54,6 +55,12 @@ class OnnxKind:
         "#f3e8ff",
     )
     ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
+
+    def check(
+        self, spec: ComponentSpecBase, interface: ComponentInterface
+    ) -> tuple[KindProblem, ...]:
+        """Nothing beyond the interface reader's own checks."""
+        return ()
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> OnnxConfig:
         """Providers and threads as given."""
