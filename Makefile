@@ -21,7 +21,10 @@ setup: $(STAMP)
 system-deps:
 	@bash tools/system-deps.sh
 
-$(STAMP): pyproject.toml | system-deps
+# Installing also builds the native kernel (setup.py): its inputs make the stamp stale too.
+NATIVE_KERNEL := setup.py fmionnx/runtime/native/fmi2_group.c fmionnx/runtime/native/manifest.py
+
+$(STAMP): pyproject.toml $(NATIVE_KERNEL) | system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
 	$(PY) -m pip install --quiet -e '.[test]'

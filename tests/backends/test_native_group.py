@@ -2,7 +2,7 @@
 
 Every comparison runs the same system twice, natively and with ``FMIONNX_NATIVE=0``, and
 compares the recorded signals byte for byte (NaN included), the fault text and the number of
-steps done.
+steps done. How the library is found, checked and refused: ``test_native_kernel.py``.
 """
 
 from __future__ import annotations
@@ -21,7 +21,7 @@ from fmionnx.runtime.result import RunResult, RunStatus
 
 @pytest.fixture(scope="module")
 def native_cache(tmp_path_factory: pytest.TempPathFactory) -> Path:
-    """One kernel build for the whole module, outside the user's cache."""
+    """One cache for the module's opt-in builds, outside the user's cache."""
     return tmp_path_factory.mktemp("native-cache")
 
 
@@ -94,8 +94,12 @@ record: [head.y, bad.u, bad.y, tail.u, tail.y]
     )
 
 
-def _both_ways(path: Path, monkeypatch: pytest.MonkeyPatch) -> tuple[RunResult, RunResult]:
-    native = fmionnx.load(path).run()
+def _both_ways(
+    path: Path, monkeypatch: pytest.MonkeyPatch, setting: str = "1"
+) -> tuple[RunResult, RunResult]:
+    with monkeypatch.context() as patch:
+        patch.setenv("FMIONNX_NATIVE", setting)
+        native = fmionnx.load(path).run()
     with monkeypatch.context() as patch:
         patch.setenv("FMIONNX_NATIVE", "0")
         python = fmionnx.load(path).run()
@@ -112,19 +116,25 @@ def _assert_bit_identical(native: RunResult, python: RunResult) -> None:
 def test_gain_chain_is_stepped_by_one_native_group(fixture_fmu, write_system) -> None:
     result = fmionnx.load(_gain_chain(fixture_fmu, write_system, n=3)).run()
     assert result.status is RunStatus.COMPLETED
+    sha256 = result.details.pop("native_sha256")
+    assert re.fullmatch(r"[0-9a-f]{64}", str(sha256))
     assert result.details == {
         "native": True,
         "native_reason": None,
         "native_groups": 1,
         "native_components": 3,
+        "native_library": "installed",
     }
     assert result["g2.y"][-1] == 8.0
 
 
+@pytest.mark.parametrize(("setting", "library"), [("1", "installed"), ("build", "build")])
 def test_multi_rate_system_is_bit_identical_natively_and_in_python(
-    fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch
+    fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch, setting: str, library: str
 ) -> None:
-    native, python = _both_ways(_multi_rate(fixture_fmu, write_system), monkeypatch)
+    path = _multi_rate(fixture_fmu, write_system)
+    native, python = _both_ways(path, monkeypatch, setting)
+    assert native.details["native_library"] == library
     assert native.status is python.status is RunStatus.COMPLETED
     # src+g1 | slow (other rate) | g2+fast
     assert native.details["native_groups"] == 3
@@ -180,7 +190,7 @@ def test_fault_inside_a_group_matches_the_python_path(
         ("false", r"`false` failed \(exit 1\)"),
     ],
 )
-def test_run_falls_back_to_python_when_the_kernel_cannot_be_built(
+def test_run_falls_back_to_python_when_the_opt_in_build_fails(
     fixture_fmu,
     write_system,
     monkeypatch: pytest.MonkeyPatch,
@@ -190,6 +200,7 @@ def test_run_falls_back_to_python_when_the_kernel_cannot_be_built(
     reason: str,
 ) -> None:
     monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "empty-cache"))
+    monkeypatch.setenv("FMIONNX_NATIVE", "build")
     monkeypatch.setenv("FMIONNX_CC", compiler)
     system = fmionnx.load(_gain_chain(fixture_fmu, write_system, n=3))
     with caplog.at_level(logging.DEBUG, logger="fmionnx.runtime.native"):
@@ -198,6 +209,7 @@ def test_run_falls_back_to_python_when_the_kernel_cannot_be_built(
     assert result["g2.y"][-1] == 8.0
     assert result.details["native"] is False
     assert result.details["native_components"] == 0
+    assert result.details["native_library"] is None
     assert re.search(reason, str(result.details["native_reason"]))
     assert any("native FMI 2 kernel not used" in r.getMessage() for r in caplog.records)
     write_results(result, system.compiled, tmp_path / "out")

@@ -13,9 +13,16 @@
  * same RunError the Python path raises. Compiled with -ffp-contract=off so that no compiler
  * fuses the multiply and add of a connection into one FMA (which would round differently).
  * The FMI functions come from the libraries fmpy already loaded, as plain pointers.
+ *
+ * Python mirrors the structs below in ctypes (kernel.py) and checks, before it uses the
+ * library, that fx_abi_version() and fx_abi_layout() agree with its mirrors. Bump
+ * FX_ABI_VERSION on any change of a struct, of fx_group_step's signature or of its return
+ * codes, together with ABI_VERSION in kernel.py.
  */
 #include <math.h>
 #include <stddef.h>
+
+#define FX_ABI_VERSION 1u
 
 typedef int (*fx_set_real)(void *, const unsigned int *, size_t, const double *);
 typedef int (*fx_get_real)(void *, const unsigned int *, size_t, double *);
@@ -118,4 +125,47 @@ int fx_group_step(fx_group *group, double t, double h) {
         }
     }
     return FX_OK;
+}
+
+/* The struct layouts Python must mirror: for fx_group, fx_member and fx_transfer in turn,
+ * sizeof the struct, then offsetof each field in declaration order. */
+static const size_t fx_layout[] = {
+    sizeof(fx_group),
+    offsetof(fx_group, n_members),
+    offsetof(fx_group, members),
+    offsetof(fx_group, transfers),
+    offsetof(fx_group, failed_member),
+    offsetof(fx_group, failed_transfer),
+    offsetof(fx_group, failed_status),
+    sizeof(fx_member),
+    offsetof(fx_member, instance),
+    offsetof(fx_member, set_real),
+    offsetof(fx_member, do_step),
+    offsetof(fx_member, get_real),
+    offsetof(fx_member, in_vrs),
+    offsetof(fx_member, n_in),
+    offsetof(fx_member, in_values),
+    offsetof(fx_member, out_vrs),
+    offsetof(fx_member, n_out),
+    offsetof(fx_member, out_values),
+    offsetof(fx_member, first_transfer),
+    offsetof(fx_member, n_transfers),
+    sizeof(fx_transfer),
+    offsetof(fx_transfer, src),
+    offsetof(fx_transfer, dst),
+    offsetof(fx_transfer, count),
+    offsetof(fx_transfer, factor),
+    offsetof(fx_transfer, offset),
+    offsetof(fx_transfer, identity),
+};
+
+unsigned int fx_abi_version(void) { return FX_ABI_VERSION; }
+
+/* Copies at most capacity entries of fx_layout into out; returns how many it has. */
+size_t fx_abi_layout(size_t *out, size_t capacity) {
+    size_t n = sizeof(fx_layout) / sizeof(fx_layout[0]);
+    for (size_t i = 0; i < n && i < capacity; ++i) {
+        out[i] = fx_layout[i];
+    }
+    return n;
 }

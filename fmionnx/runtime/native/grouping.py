@@ -8,8 +8,10 @@ outside the group runs either before the group (its newest value is read) or aft
 held value is read), and nothing outside the group changes while the group steps, so the C
 loop reads exactly the values the Python loop would. Everything else keeps the Python path.
 
-``FMIONNX_NATIVE=0`` turns the kernel off. When it cannot be built the run goes on in
-Python; :class:`NativeStatus` says so (debug log line, ``run.json``).
+``FMIONNX_NATIVE`` chooses the kernel: unset or ``1`` the library installed with fmionnx,
+``build`` one compiled at run time (opt-in), ``0`` none. When the chosen library is missing or
+refused (:mod:`.kernel`) the run goes on in Python; :class:`NativeStatus` says which library
+ran, or why none did (debug log line, ``run.json``).
 """
 
 from __future__ import annotations
@@ -31,8 +33,11 @@ from fmionnx.runtime.transfer import connection_views
 
 LOG = logging.getLogger(__name__)
 
-#: Environment switch: ``0`` keeps every component in the Python path.
+#: Environment switch: ``0`` keeps every component in the Python path, ``build`` compiles
+#: the kernel at run time instead of loading the installed one, unset or ``1`` loads that.
 SWITCH_ENV = "FMIONNX_NATIVE"
+#: Its values; any other keeps the Python path, with that as the reason.
+SETTINGS = ("", "1", "0", "build")
 
 Tracks = Mapping[str, tuple[Track | None, Track | None]]
 
@@ -45,6 +50,9 @@ class NativeStatus:
     reason: str | None = None
     groups: int = 0
     components: int = 0
+    #: ``installed`` or ``build`` (:attr:`.kernel.Kernel.origin`) when used.
+    library: str | None = None
+    sha256: str | None = None
 
     def details(self) -> dict[str, str | int | bool | None]:
         """The run.json fields."""
@@ -53,6 +61,8 @@ class NativeStatus:
             "native_reason": self.reason,
             "native_groups": self.groups,
             "native_components": self.components,
+            "native_library": self.library,
+            "native_sha256": self.sha256,
         }
 
 
@@ -129,12 +139,15 @@ def plan_native(
     system: CompiledSystem, runners: Mapping[str, Runner], tracks: Tracks
 ) -> NativePlan:
     """Group the prepared runners (after ``setup``) for native stepping where possible."""
-    if os.environ.get(SWITCH_ENV, "").strip() == "0":
+    setting = os.environ.get(SWITCH_ENV, "").strip()
+    if setting == "0":
         return _python_only(system, f"disabled by {SWITCH_ENV}=0")
+    if setting not in SETTINGS:
+        return _python_only(system, f"{SWITCH_ENV}={setting!r} is none of 0, 1, build")
     runs = _runs(system, runners, tracks)
     if all(isinstance(item, str) for item in runs):
         return _python_only(system, "no FMI 2 co-simulation FMU with only real per-step values")
-    kernel = load_kernel()
+    kernel = load_kernel(build=setting == "build")
     if isinstance(kernel, str):
         return _python_only(system, kernel)
     schedule: list[str | NativeGroup] = []
@@ -146,6 +159,19 @@ def plan_native(
             schedule.append(NativeGroup(kernel, item, steps))
     groups: Sequence[NativeGroup] = [g for g in schedule if isinstance(g, NativeGroup)]
     members = sum(len(g.names) for g in groups)
-    LOG.debug("native FMI 2 kernel steps %d components in %d groups", members, len(groups))
-    status = NativeStatus(used=True, groups=len(groups), components=members)
+    LOG.debug(
+        "native FMI 2 kernel (%s library %s, sha256 %s) steps %d components in %d groups",
+        kernel.origin,
+        kernel.path,
+        kernel.sha256,
+        members,
+        len(groups),
+    )
+    status = NativeStatus(
+        used=True,
+        groups=len(groups),
+        components=members,
+        library=kernel.origin,
+        sha256=kernel.sha256,
+    )
     return NativePlan(status, tuple(schedule))

@@ -1,33 +1,42 @@
-"""Compile ``fmi2_group.c`` once per machine and load it with ctypes.
+"""Load the kernel library with ctypes, once it is proven to be the one built, with our ABI.
 
-The kernel is built at first use with the system C compiler (``$FMIONNX_CC``, else ``$CC``,
-else ``cc``) into a per-user cache folder named after a hash of the source, the flags and the
-compiler (``$FMIONNX_CACHE/native/<hash>/``, else ``$XDG_CACHE_HOME`` or ``~/.cache``
-``/fmionnx/native/<hash>/``). The library is written to a temporary name and renamed into
-place, so concurrent runs never load a half-written file. Nothing here raises: a missing
-compiler or a failed build gives a reason, and the master keeps its Python path.
+Which library (``FMIONNX_NATIVE``, read by :mod:`.grouping`): by default the one built when
+fmionnx was installed, beside this module (``setup.py``); with ``build``, one compiled at run
+time into a cache (:mod:`.runbuild`). Either is loaded only if
+
+1. its bytes have the sha256 its build manifest records and it was built from the
+   ``fmi2_group.c`` beside this module (:func:`.manifest.check_built`, before ``CDLL``), and
+2. after ``CDLL``, ``fx_abi_version()`` equals :data:`ABI_VERSION` and ``fx_abi_layout()``
+   gives the ``sizeof`` and field offsets of the ctypes mirrors below, so a kernel and a
+   Python side that disagree on a struct never exchange one.
+
+Nothing here raises: a missing or refused library gives the reason, and the master keeps its
+Python path and says why (``run.json`` ``execution.native_reason``).
 """
 
 from __future__ import annotations
 
 import ctypes
-import hashlib
-import os
-import platform
-import shutil
-import subprocess
-import tempfile
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Literal
 
-SOURCE = Path(__file__).with_name("fmi2_group.c")
+from fmionnx.runtime.native.manifest import LIBRARY_NAME, SOURCE_NAME, check_built
+from fmionnx.runtime.native.runbuild import build_in_cache
 
-#: ``-ffp-contract=off``: ``factor*x + offset`` must round twice, as numpy does.
-FLAGS = ("-O2", "-shared", "-fPIC", "-std=c99", "-ffp-contract=off")
+#: ``FX_ABI_VERSION`` of the ``fmi2_group.c`` these mirrors follow (bump both together).
+ABI_VERSION = 1
 
-#: Environment variable naming the C compiler (checked before ``CC``).
-COMPILER_ENV = "FMIONNX_CC"
+#: Where the installed library is: beside this module and its source.
+INSTALLED = Path(__file__).parent
+SOURCE = INSTALLED / SOURCE_NAME
+
+#: How to get an installed library that fits.
+INSTALL_HINT = "`pip install .`, or `make setup` in a source checkout"
+
+#: Where a loaded library came from: built when fmionnx was installed, or at run time.
+Origin = Literal["installed", "build"]
 
 
 class Group(ctypes.Structure):
@@ -75,6 +84,13 @@ class TransferSpec(ctypes.Structure):
     )
 
 
+#: The mirrors in the order of ``fx_abi_layout``, with their C names.
+MIRRORS: tuple[tuple[str, type[ctypes.Structure]], ...] = (
+    ("fx_group", Group),
+    ("fx_member", Member),
+    ("fx_transfer", TransferSpec),
+)
+
 #: Return codes of ``fx_group_step``.
 OK, NAN, SET, DO_STEP, GET = 0, 1, 2, 3, 4
 
@@ -84,86 +100,94 @@ class Kernel:
     """The loaded library's step function: ``step(byref(group), t, h) -> code``."""
 
     path: Path
+    origin: Origin
+    sha256: str
     step: Callable[..., int]
 
 
-def compiler() -> str:
-    """The compiler command name the environment asks for."""
-    return os.environ.get(COMPILER_ENV) or os.environ.get("CC") or "cc"
+def expected_layout() -> list[tuple[str, int]]:
+    """What ``fx_abi_layout`` must give: per mirror its sizeof, then each field's offset."""
+    entries: list[tuple[str, int]] = []
+    for c_name, mirror in MIRRORS:
+        entries.append((f"sizeof({c_name})", ctypes.sizeof(mirror)))
+        for field in mirror._fields_:
+            name = field[0]
+            entries.append((f"offsetof({c_name}, {name})", getattr(mirror, name).offset))
+    return entries
 
 
-def cache_root() -> Path:
-    """``$FMIONNX_CACHE/native``, else the XDG cache folder (as the SSP cache does)."""
-    explicit = os.environ.get("FMIONNX_CACHE")
-    if explicit:
-        return Path(explicit).expanduser() / "native"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg).expanduser() if xdg else Path.home() / ".cache"
-    return base / "fmionnx" / "native"
-
-
-def _key(source: bytes, command: str) -> str:
-    digest = hashlib.sha256(source)
-    for part in (*FLAGS, command, platform.machine(), platform.system()):
-        digest.update(b"\0" + part.encode())
-    return digest.hexdigest()[:16]
-
-
-#: Libraries loaded in this process, by path (a library is never loaded twice).
-_LOADED: dict[Path, Kernel] = {}
-
-
-def load_kernel() -> Kernel | str:
-    """The kernel, compiled now if the cache lacks it; else why it is not available."""
-    command = compiler()
+def abi_problem(dll: ctypes.CDLL) -> str | None:
+    """Why ``dll`` does not fit the mirrors of this module, or None when it does."""
     try:
-        source = SOURCE.read_bytes()
-    except OSError as exc:
-        return f"kernel source unreadable: {exc}"
-    library = cache_root() / _key(source, command) / "fmi2_group.so"
-    if library in _LOADED:
-        return _LOADED[library]
-    if not library.is_file():
-        problem = _compile(command, library)
-        if problem is not None:
-            return problem
+        version_of, layout_of = dll.fx_abi_version, dll.fx_abi_layout
+    except AttributeError:
+        return "it exports no fx_abi_version/fx_abi_layout (built from an older fmi2_group.c)"
+    version_of.argtypes = ()
+    version_of.restype = ctypes.c_uint
+    layout_of.argtypes = (ctypes.POINTER(ctypes.c_size_t), ctypes.c_size_t)
+    layout_of.restype = ctypes.c_size_t
+    version = int(version_of())
+    if version != ABI_VERSION:
+        return f"its ABI version is {version}, this fmionnx expects {ABI_VERSION}"
+    expected = expected_layout()
+    layout = (ctypes.c_size_t * len(expected))()
+    count = int(layout_of(layout, len(expected)))
+    if count != len(expected):
+        return f"it describes {count} struct layout entries, the ctypes mirrors {len(expected)}"
+    for (what, mirrored), actual in zip(expected, layout, strict=True):
+        if actual != mirrored:
+            return f"{what} is {actual} in the library, {mirrored} in the ctypes mirror"
+    return None
+
+
+#: Libraries loaded in this process, by path and sha256 (each is loaded and checked once).
+_LOADED: dict[tuple[Path, str], Kernel] = {}
+
+
+def load_library(folder: Path, origin: Origin, source: Path = SOURCE) -> Kernel | str:
+    """``folder``'s library if its manifest and its ABI check out; else why not."""
+    verified = check_built(folder, source)
+    if isinstance(verified, str):
+        return verified
+    key = (verified.path, verified.sha256)
+    if key in _LOADED:
+        return _LOADED[key]
     try:
-        dll = ctypes.CDLL(str(library))
+        dll = ctypes.CDLL(str(verified.path))
     except OSError as exc:
-        return f"loading {library.name} failed: {exc}"
+        return f"loading {verified.path} failed: {exc}"
+    problem = abi_problem(dll)
+    if problem is not None:
+        return f"{verified.path} does not fit this fmionnx: {problem}; refusing to use it"
     step = dll.fx_group_step
     step.argtypes = (ctypes.c_void_p, ctypes.c_double, ctypes.c_double)
     step.restype = ctypes.c_int
-    kernel = Kernel(library, step)
-    _LOADED[library] = kernel
+    kernel = Kernel(verified.path, origin, verified.sha256, step)
+    _LOADED[key] = kernel
     return kernel
 
 
-def _compile(command: str, library: Path) -> str | None:
-    """Build ``library`` atomically; None on success, else the reason it failed."""
-    program = shutil.which(command)
-    if program is None:
-        return f"no C compiler: `{command}` not found (set {COMPILER_ENV} or CC)"
-    try:
-        library.parent.mkdir(parents=True, exist_ok=True)
-        fd, partial = tempfile.mkstemp(prefix=".build-", suffix=".so", dir=library.parent)
-        os.close(fd)
-    except OSError as exc:
-        return f"cache folder not writable: {exc}"
-    try:
-        result = subprocess.run(
-            [program, *FLAGS, "-o", partial, str(SOURCE), "-lm"],
-            capture_output=True,
-            text=True,
-            check=False,
-            timeout=120,
+def load_installed() -> Kernel | str:
+    """The library built when fmionnx was installed; else why it cannot be used."""
+    if not (INSTALLED / LIBRARY_NAME).is_file():
+        return (
+            f"the native kernel {LIBRARY_NAME} is not installed (it is built when fmionnx is "
+            f"installed: {INSTALL_HINT}; FMIONNX_NATIVE=build compiles it at run time instead)"
         )
-        if result.returncode != 0:
-            log = (result.stderr or result.stdout).strip().splitlines()
-            return f"`{command}` failed (exit {result.returncode}): " + " | ".join(log[-3:])
-        Path(partial).replace(library)
-    except (OSError, subprocess.SubprocessError) as exc:
-        return f"`{command}` could not run: {exc}"
-    finally:
-        Path(partial).unlink(missing_ok=True)
-    return None
+    kernel = load_library(INSTALLED, "installed")
+    if isinstance(kernel, str):
+        return f"{kernel} (install fmionnx again to rebuild it: {INSTALL_HINT})"
+    return kernel
+
+
+def load_kernel(*, build: bool) -> Kernel | str:
+    """The installed kernel, or with ``build`` one compiled at run time; else why not."""
+    if not build:
+        return load_installed()
+    folder = build_in_cache(SOURCE)
+    if isinstance(folder, str):
+        return folder
+    kernel = load_library(folder, "build")
+    if isinstance(kernel, str):
+        return f"{kernel} (delete {folder} to build it again)"
+    return kernel
