@@ -51,7 +51,8 @@ from fmionnx.backends.ros2.transport import Participant, RawReader  # noqa: E402
 from fmionnx.compile.ir import RunSettings  # noqa: E402
 from fmionnx.compile.ros2.messages import RosDistro  # noqa: E402
 from fmionnx.compile.ros2.names import dds_topic  # noqa: E402
-from fmionnx.compile.ros2.plan import CLOCK_TYPE, Ros2Plan, TopicPlan  # noqa: E402
+from fmionnx.compile.ros2.plan import CLOCK_TYPE  # noqa: E402
+from fmionnx.compile.ros2.types import Ros2Plan, TopicPlan  # noqa: E402
 
 SYSTEM = REPO / "systems" / "sign_follower.yaml"
 DISTRO = RosDistro.HUMBLE

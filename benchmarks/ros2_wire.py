@@ -18,9 +18,9 @@ import numpy as np
 
 from fmionnx.backends.ros2.codec import WHOLE, PortField, TopicCodec
 from fmionnx.backends.ros2.env import from_environment
-from fmionnx.backends.ros2.qos import PROFILES
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.qos import PROFILES
 
 IMAGE = "sensor_msgs/msg/Image"
 TWIST = "geometry_msgs/msg/Twist"

@@ -344,4 +344,4 @@ def override_parameter(
         component, parameters=(*kept, ParameterValue(port_name, values, None))
     )
     components = tuple(updated if c.name == component_name else c for c in system.components)
-    return dataclasses.replace(system, components=components, _index={})
+    return dataclasses.replace(system, components=components)

@@ -68,7 +68,7 @@ def graph(
     from fmionnx.backends.ros2.env import Ros2EnvError, from_environment
     from fmionnx.backends.ros2.graph import compare, read_live_graph, render_json, render_text
     from fmionnx.backends.ros2.transport import Participant, TransportError
-    from fmionnx.compile.ros2.plan import Ros2Plan
+    from fmionnx.compile.ros2.types import Ros2Plan
 
     if output_format not in ("text", "json"):
         raise _fail(f"--format must be `text` or `json`, not `{output_format}`", ExitCode.USAGE)
@@ -101,7 +101,7 @@ def launch_file(
     """Write a ROS 2 Python launch file with one `fmionnx node` process per component."""
     from fmionnx.backends.ros2.launchfile import launch_file_text
     from fmionnx.compile.ir import CompiledSystem
-    from fmionnx.compile.ros2.plan import Ros2Plan
+    from fmionnx.compile.ros2.types import Ros2Plan
 
     compiled, plan = _plan(system, ros_distro)
     assert isinstance(plan, Ros2Plan)

@@ -6,24 +6,33 @@ cannot continue for one component or connection skips just that item.
 
 from __future__ import annotations
 
+import dataclasses
+import re
 from collections import defaultdict
 
 from fmionnx.compile.endpoints import (
     ResolvedEndpoint,
-    flat_index,
     resolve_endpoint,
     split_endpoint,
 )
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
-from fmionnx.compile.ir import CompiledSystem, Connection
+from fmionnx.compile.ir import CompiledSystem, Connection, Plot
 from fmionnx.compile.resolve import model_path, read_interface, resolve_parameters, resolve_run
+from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.core.sourcetext import source_lines
-from fmionnx.core.types import Causality, Component, ComponentInterface, PortRef, is_whole_multiple
+from fmionnx.core.types import (
+    Causality,
+    Component,
+    ComponentInterface,
+    PortRef,
+    flat_index,
+    is_whole_multiple,
+)
 from fmionnx.kinds.base import SIMULATOR
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
+from fmionnx.spec.model import ConnectionSpec, PlotSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import LoadedSpec
 
@@ -90,6 +99,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     _check_plots(spec, by_name, sources, bag)
     if run is None or bag.has_errors:
         return None
+    ros2 = ros2_settings(spec.ros2) if spec.ros2 is not None else None
     system = CompiledSystem(
         name=spec.name,
         source=loaded.path,
@@ -97,21 +107,49 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         components=tuple(components),
         connections=tuple(usable),
         order=execution_order(components, usable),
-        plots=tuple(spec.plots),
+        plots=tuple(_plot(plot, by_name) for plot in spec.plots),
         record=tuple(record),
-        ros2=spec.ros2,
+        ros2=ros2,
         description=spec.description,
     )
-    if spec.ros2 is not None:
-        # The ROS 2 section is checked like the rest of the file; the mapping module is only
-        # imported when a system has one (it brings the message definitions and DDS).
-        from fmionnx.compile.ros2.messages import RosDistro
-        from fmionnx.compile.ros2.plan import check_ros2
+    if ros2 is not None:
+        # The ROS 2 section is checked like the rest of the file and its plan kept in the
+        # system; the planner is only imported when a system has one (message definitions).
+        from fmionnx.compile.ros2.plan import build_plan
 
-        bag.extend(check_ros2(system, sources, RosDistro(spec.ros2.distro)))
-        if bag.has_errors:
+        plan, found = build_plan(system, ros2.distro, sources)
+        bag.extend(found)
+        if plan is None or bag.has_errors:
             return None
+        system = dataclasses.replace(system, ros2_plan=plan)
     return system
+
+
+def _plot(plot: PlotSpec, components: dict[str, Component]) -> Plot:
+    """A checked plot entry with its signals resolved to ports and its reference to a file."""
+    texts = [re.sub(r"\s+", "", t) for t in (*(plot.xy or ()), *(plot.y or ()))]
+    refs = []
+    for text in texts:
+        parts = split_endpoint(text, components)
+        if parts is None or parts[0] not in components:
+            continue
+        component, port, index = parts
+        if components[component].interface.port(port) is None:
+            continue
+        parsed = tuple(int(i) for i in index.split(",")) if index else None
+        refs.append(PortRef(component, port, parsed))
+    reference = None
+    if plot.over is not None:
+        scene = components[plot.over.rsplit(".", 1)[0]].path
+        reference = scene.with_name(scene.stem + ".path.csv")
+    return Plot(
+        xy=(texts[0], texts[1]) if plot.xy is not None else None,
+        y=tuple(texts) if plot.xy is None else (),
+        refs=tuple(refs),
+        reference=reference,
+        title=plot.title,
+        file=plot.file,
+    )
 
 
 def _check_period(

@@ -126,13 +126,3 @@ def _index_ok(
             )
             return False
     return True
-
-
-def flat_index(port: Port, index: tuple[int, ...]) -> int:
-    """Row-major flat element index of ``index`` in ``port`` (a single index is already flat)."""
-    if len(index) == 1:
-        return index[0]
-    flat = 0
-    for i, dim in zip(index, port.shape, strict=True):
-        flat = flat * (dim if isinstance(dim, int) else 1) + i
-    return flat

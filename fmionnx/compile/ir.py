@@ -14,7 +14,7 @@ import dataclasses
 import enum
 import hashlib
 import json
-from dataclasses import dataclass, field
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
@@ -26,7 +26,7 @@ from fmionnx.core.types import (
 )
 
 if TYPE_CHECKING:
-    from fmionnx.spec.model import PlotSpec, Ros2Spec
+    from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 
 
 
@@ -81,6 +81,22 @@ class RunSettings:
 
 
 @dataclass(frozen=True, slots=True)
+class Plot:
+    """A plot ``run`` draws, resolved: an x-y trajectory (``xy``) or signals over time (``y``).
+
+    ``xy``/``y`` are the signals' column names; ``refs`` the ports they read (recorded so that
+    they can be drawn); ``reference`` the expected-path file drawn underneath, if any.
+    """
+
+    xy: tuple[str, str] | None = None
+    y: tuple[str, ...] = ()
+    refs: tuple[PortRef, ...] = ()
+    reference: Path | None = None
+    title: str | None = None
+    file: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class CompiledSystem:
     """The whole checked system. Immutable; make a new one with ``dataclasses.replace``."""
 
@@ -90,18 +106,18 @@ class CompiledSystem:
     components: tuple[Component, ...]
     connections: tuple[Connection, ...]
     order: tuple[str, ...]
-    plots: tuple[PlotSpec, ...] = ()
+    plots: tuple[Plot, ...] = ()
     record: tuple[PortRef, ...] = ()
-    ros2: Ros2Spec | None = None
+    ros2: Ros2Settings | None = None
+    ros2_plan: Ros2Plan | None = None
     description: str = ""
-    _index: dict[str, Component] = field(default_factory=dict, compare=False, repr=False)
-
-    def __post_init__(self) -> None:
-        self._index.update({c.name: c for c in self.components})
 
     def component(self, name: str) -> Component:
         """The component called ``name`` (KeyError when absent)."""
-        return self._index[name]
+        for component in self.components:
+            if component.name == name:
+                return component
+        raise KeyError(name)
 
     def inputs_of(self, name: str) -> tuple[Connection, ...]:
         """Connections that drive inputs of component ``name``."""

@@ -232,3 +232,13 @@ def is_whole_multiple(period: float, step: float, *, rel: float = 1e-9) -> int |
     if nearest >= 1 and math.isclose(ratio, nearest, rel_tol=rel, abs_tol=rel):
         return nearest
     return None
+
+
+def flat_index(port: Port, index: tuple[int, ...]) -> int:
+    """Row-major flat element index of ``index`` in ``port`` (a single index is already flat)."""
+    if len(index) == 1:
+        return index[0]
+    flat = 0
+    for i, dim in zip(index, port.shape, strict=True):
+        flat = flat * (dim if isinstance(dim, int) else 1) + i
+    return flat

@@ -15,15 +15,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.ir import CompiledSystem, Plot
 from fmionnx.runtime.result import RunResult
-
-
-def expected_path_file(system: CompiledSystem, over: str) -> Path:
-    """The reference file named by ``over`` (``<component>.expected_path``)."""
-    owner = over.rsplit(".", 1)[0]
-    scene = system.component(owner).path
-    return scene.with_name(scene.stem + ".path.csv")
 
 
 def read_path(path: Path) -> npt.NDArray[np.float64]:
@@ -39,12 +32,12 @@ def signal_column(text: str) -> str:
     return re.sub(r"\s+", "", text)
 
 
-def _file_name(index: int, plot: Any, signals: list[str]) -> str:
+def _file_name(index: int, plot: Plot, signals: list[str]) -> str:
     """``file`` when given; ``trajectory.png`` for an xy plot over a path; else derived."""
     if plot.file:
         given = str(plot.file)
         return given if given.endswith((".png", ".svg", ".pdf")) else given + ".png"
-    if plot.xy is not None and plot.over is not None:
+    if plot.xy is not None and plot.reference is not None:
         stem = "trajectory" if index == 0 else f"trajectory{index}"
     elif plot.xy is not None:
         stem = f"{signals[1]}_vs_{signals[0]}"
@@ -67,10 +60,10 @@ def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Pa
         figure, axes = plt.subplots(figsize=(7, 6) if plot.xy else (9, 4.5))
         try:
             if plot.xy is not None:
-                _xy(axes, result, system, plot)
+                _xy(axes, result, plot)
                 signals = list(plot.xy)
             else:
-                signals = list(plot.y or [])
+                signals = list(plot.y)
                 _over_time(axes, result, signals)
             if plot.title:
                 axes.set_title(plot.title)
@@ -83,13 +76,12 @@ def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Pa
     return written
 
 
-def _xy(axes: Any, result: RunResult, system: CompiledSystem, plot: Any) -> None:
+def _xy(axes: Any, result: RunResult, plot: Plot) -> None:
+    assert plot.xy is not None
     x_name, y_name = (signal_column(s) for s in plot.xy)
-    if plot.over is not None:
-        reference = expected_path_file(system, plot.over)
-        if reference.is_file():
-            path = read_path(reference)
-            axes.plot(path[:, 0], path[:, 1], "--", color="goldenrod", lw=2, label="expected path")
+    if plot.reference is not None and plot.reference.is_file():
+        path = read_path(plot.reference)
+        axes.plot(path[:, 0], path[:, 1], "--", color="goldenrod", lw=2, label="expected path")
     if x_name in result.signals and y_name in result.signals:
         x, y = result.signals[x_name], result.signals[y_name]
         axes.plot(x, y, color="tab:blue", lw=1.5, label="simulated")

@@ -23,11 +23,10 @@ import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass
 
-from fmionnx.compile.endpoints import flat_index, split_endpoint
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring
-from fmionnx.core.types import Causality, Component, DType, Port, PortRef
+from fmionnx.core.types import Causality, Component, DType, Port, PortRef, flat_index
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
@@ -67,19 +66,7 @@ def default_record(system: CompiledSystem) -> tuple[PortRef, ...]:
 
 def plot_refs(system: CompiledSystem) -> tuple[PortRef, ...]:
     """Signals the system's plots draw (they must be recorded to be plotted)."""
-    names = {c.name: c for c in system.components}
-    refs = []
-    for plot in system.plots:
-        for text in (*(plot.xy or ()), *(plot.y or ())):
-            parts = split_endpoint(text, names)
-            if parts is None or parts[0] not in names:
-                continue
-            component, port, index = parts
-            if names[component].interface.port(port) is None:
-                continue
-            parsed = tuple(int(i) for i in index.split(",")) if index else None
-            refs.append(PortRef(component, port, parsed))
-    return tuple(refs)
+    return tuple(ref for plot in system.plots for ref in plot.refs)
 
 
 @dataclass

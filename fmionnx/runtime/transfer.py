@@ -12,11 +12,10 @@ from math import isnan
 
 import numpy as np
 
-from fmionnx.compile.endpoints import flat_index
 from fmionnx.compile.ir import Connection
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Runner
-from fmionnx.core.types import Port, PortRef
+from fmionnx.core.types import Port, PortRef, flat_index
 
 #: A prepared transfer; the argument is the simulated time (for error messages).
 Transfer = Callable[[float], None]

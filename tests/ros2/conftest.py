@@ -11,6 +11,7 @@ import pytest
 from fmionnx.backends.ros2.env import DdsEnvironment, from_environment
 from fmionnx.compile.ir import CompiledSystem, Connection, RunSettings
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port, PortRef
 from fmionnx.kinds.fmu.kind import FmuConfig
 from fmionnx.kinds.mujoco.kind import MujocoConfig
@@ -135,7 +136,7 @@ def make_system(ros2: Ros2Spec | None = None, *, world_external: bool = False) -
         components=tuple(components.values()),
         connections=connections,
         order=("world", "odometry", "detector", "tracker"),
-        ros2=ros2,
+        ros2=ros2_settings(ros2) if ros2 is not None else None,
     )
 
 

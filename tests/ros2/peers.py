@@ -68,9 +68,9 @@ def twist_sub(count: int) -> None:
 def announce() -> None:
     from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
     from fmionnx.backends.ros2.env import from_environment
-    from fmionnx.backends.ros2.qos import PROFILES
     from fmionnx.backends.ros2.transport import Participant
     from fmionnx.compile.ros2.messages import RosDistro
+    from fmionnx.compile.ros2.qos import PROFILES
 
     distro = RosDistro(sys.argv[2])
     participant = Participant(from_environment(distro))

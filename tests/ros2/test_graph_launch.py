@@ -13,9 +13,9 @@ from pathlib import Path
 import pytest
 
 from fmionnx.backends.ros2.env import from_environment
-from fmionnx.backends.ros2.qos import PROFILES
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.qos import PROFILES
 from tests.conftest import REPO
 from tests.ros2.test_run import fmionnx, loop_system, processes_with
 

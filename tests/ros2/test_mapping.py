@@ -4,8 +4,8 @@ from __future__ import annotations
 
 import pytest
 
-from fmionnx.backends.ros2.qos import PROFILES
 from fmionnx.compile.ros2.plan import build_plan, check_ros2
+from fmionnx.compile.ros2.qos import PROFILES
 from fmionnx.spec.model import QosSpec, Ros2Spec, TopicSpec
 
 from .conftest import make_system

@@ -13,9 +13,9 @@ import pytest
 
 from fmionnx.backends.ros2.codec import WHOLE, PortField, TopicCodec
 from fmionnx.backends.ros2.env import from_environment
-from fmionnx.backends.ros2.qos import PROFILES
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.qos import PROFILES
 from tests.conftest import REPO, built_model
 from tests.ros2.test_run import fmionnx, processes_with
 from tests.ros2.test_wire import PEERS

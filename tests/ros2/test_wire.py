@@ -15,9 +15,9 @@ import pytest
 from fmionnx.backends.ros2.codec import WHOLE, PortField, TopicCodec
 from fmionnx.backends.ros2.discovery import GraphListener
 from fmionnx.backends.ros2.env import from_environment
-from fmionnx.backends.ros2.qos import PROFILES
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.qos import PROFILES
 
 PEERS = Path(__file__).with_name("peers.py")
 

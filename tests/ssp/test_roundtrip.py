@@ -21,8 +21,22 @@ import fmionnx
 from fmionnx import api
 from fmionnx.cli import app
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.ros2.types import Ros2Settings
 from tests.conftest import REPO
 from tests.ssp.test_export import DEMO
+
+
+def _unordered(settings: Ros2Settings | None) -> object:
+    """The ``ros2:`` settings with their entries as sets (a round trip may reorder them)."""
+    if settings is None:
+        return None
+    return (
+        settings.namespace,
+        settings.distro,
+        frozenset(settings.nodes),
+        frozenset(settings.topics),
+        frozenset(settings.qos),
+    )
 
 
 def fingerprint(system: CompiledSystem) -> dict[str, Any]:
@@ -50,8 +64,11 @@ def fingerprint(system: CompiledSystem) -> dict[str, Any]:
         ],
         "order": system.order,
         "record": [str(r) for r in system.record],
-        "plots": [p.model_dump() for p in system.plots],
-        "ros2": system.ros2.model_dump() if system.ros2 else None,
+        "plots": [
+            (p.xy, p.y, p.refs, p.title, p.file, p.reference.name if p.reference else None)
+            for p in system.plots
+        ],
+        "ros2": _unordered(system.ros2),
     }
 
 

@@ -19,11 +19,12 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from fmionnx.backends.ros2.qos import QosProfile
 from fmionnx.backends.ros2.transport import Participant, RawReader
 from fmionnx.compile.ros2.messages import typestore
 from fmionnx.compile.ros2.names import dds_topic
-from fmionnx.compile.ros2.plan import CLOCK_TOPIC, CLOCK_TYPE, Ros2Plan
+from fmionnx.compile.ros2.plan import CLOCK_TOPIC, CLOCK_TYPE
+from fmionnx.compile.ros2.qos import QosProfile
+from fmionnx.compile.ros2.types import Ros2Plan
 
 #: Seconds between two sweeps over the readers; reader queues hold what arrives meanwhile.
 POLL = 0.002

@@ -11,12 +11,12 @@ Primitive arrays go in and out as numpy arrays so that large messages cost one c
 from __future__ import annotations
 
 from collections.abc import Mapping
-from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 import numpy.typing as npt
 
+from fmionnx.compile.ros2.fields import WHOLE, PortField, image_geometry
 from fmionnx.compile.ros2.messages import (
     BASE_NUMPY,
     FieldKind,
@@ -31,26 +31,7 @@ from fmionnx.compile.ros2.messages import (
 )
 from fmionnx.core.errors import RunError
 
-IMAGE_TYPE = "sensor_msgs/msg/Image"
-#: The field path that stands for "the whole message" (an image).
-WHOLE = ""
-
 Array = npt.NDArray[Any]
-
-
-@dataclass(frozen=True, slots=True)
-class PortField:
-    """Where one port's values live in a message: one path, or one scalar path per element."""
-
-    port: str
-    paths: tuple[str, ...]
-    shape: tuple[int, ...] = ()
-    dtype: str = "float64"
-
-    @property
-    def size(self) -> int:
-        """Number of elements of the port."""
-        return int(np.prod(self.shape)) if self.shape else 1
 
 
 def _get(message: Any, path: str) -> Any:
@@ -189,14 +170,6 @@ def _fill_layout(store: Any, message: Any, shape: tuple[int, ...]) -> None:
         for i, (d, s) in enumerate(zip(dims, strides, strict=True))
     ]
     message.layout.data_offset = 0
-
-
-def image_geometry(shape: tuple[int, ...]) -> tuple[int, int, int] | None:
-    """``(height, width, channels)`` of an image port (``[H,W,3]`` or ``[1,H,W,3]``), or None."""
-    dims = shape[1:] if len(shape) == 4 and shape[0] == 1 else shape
-    if len(dims) == 3 and dims[2] in (1, 3, 4) and all(isinstance(d, int) for d in dims):
-        return int(dims[0]), int(dims[1]), int(dims[2])
-    return None
 
 
 _ENCODINGS = {1: "mono8", 3: "rgb8", 4: "rgba8"}

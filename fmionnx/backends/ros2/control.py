@@ -20,11 +20,11 @@ from dataclasses import dataclass
 
 import numpy as np
 
-from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.compile.ir import RunSettings
 from fmionnx.compile.ros2.messages import RosDistro, default_message, deserialize, serialize
 from fmionnx.compile.ros2.names import dds_topic
 from fmionnx.compile.ros2.plan import CLOCK_TOPIC, CLOCK_TYPE
+from fmionnx.compile.ros2.qos import Durability, QosProfile, Reliability
 
 READY_TOPIC = "/fmionnx/ready"
 READY_TYPE = "std_msgs/msg/String"

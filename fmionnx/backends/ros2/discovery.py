@@ -16,7 +16,6 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.backends.ros2.qos import DISCOVERY_QOS, DISCOVERY_READER_QOS
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ros2.messages import (
     RosDistro,
@@ -26,6 +25,7 @@ from fmionnx.compile.ros2.messages import (
     serialize,
     typestore,
 )
+from fmionnx.compile.ros2.qos import DISCOVERY_QOS, DISCOVERY_READER_QOS
 
 #: DDS topic name: no ``rt`` prefix (the rmw layer creates it with
 #: ``avoid_ros_namespace_conventions``).

@@ -29,7 +29,7 @@ from cyclonedds.core import InstanceState, ReadCondition, SampleState, ViewState
 from fmionnx.backends.ros2.discovery import GraphListener
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.names import ros_topic
-from fmionnx.compile.ros2.plan import Ros2Plan
+from fmionnx.compile.ros2.types import Ros2Plan
 
 Link = tuple[str, str, str]  # (node, "pub" | "sub", topic)
 

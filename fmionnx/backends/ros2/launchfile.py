@@ -11,7 +11,7 @@ from __future__ import annotations
 import os
 from pathlib import Path
 
-from fmionnx.compile.ros2.plan import Ros2Plan
+from fmionnx.compile.ros2.types import Ros2Plan
 
 _TEMPLATE = '''"""ROS 2 launch file for the fmionnx system `{name}` (written by `fmionnx ros2 launch-file`).
 

@@ -12,7 +12,8 @@ from pathlib import Path
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
-from fmionnx.compile.ros2.plan import Ros2Plan, build_plan
+from fmionnx.compile.ros2.plan import build_plan
+from fmionnx.compile.ros2.types import Ros2Plan
 from fmionnx.core.diagnostics import Severity
 from fmionnx.core.errors import DiagnosticError
 

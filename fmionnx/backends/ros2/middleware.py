@@ -12,9 +12,9 @@ import enum
 from typing import Protocol
 
 from fmionnx.backends.ros2.env import DdsEnvironment
-from fmionnx.backends.ros2.qos import QosProfile
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.qos import QosProfile
 
 
 class Middleware(enum.StrEnum):

@@ -51,14 +51,15 @@ from fmionnx.backends.ros2.middleware import (
     SampleWriter,
     open_transport,
 )
-from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
 from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.names import dds_topic
-from fmionnx.compile.ros2.plan import CLOCK_TYPE, NodePlan, Ros2Plan, TopicPlan
+from fmionnx.compile.ros2.plan import CLOCK_TYPE
+from fmionnx.compile.ros2.qos import Durability, QosProfile, Reliability
+from fmionnx.compile.ros2.types import NodePlan, Ros2Plan, TopicPlan
 from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.core.runner import Buffer, Runner, Wiring
 from fmionnx.core.types import Component, DType

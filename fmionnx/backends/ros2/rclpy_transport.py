@@ -24,11 +24,11 @@ from dataclasses import dataclass, field
 from typing import Any
 
 from fmionnx.backends.ros2.env import DdsEnvironment
-from fmionnx.backends.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError, import_rclpy
 from fmionnx.backends.ros2.transport import TransportError, wait_for_matches
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.names import ros_topic
+from fmionnx.compile.ros2.qos import Durability, QosProfile, Reliability
 
 #: rcl arguments of every participant: no spdlog files in ``~/.ros/log``.
 _RCL_ARGS = ["fmionnx", "--ros-args", "--disable-external-lib-logs"]

@@ -18,11 +18,10 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.compile.endpoints import flat_index
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Runner
-from fmionnx.core.types import Causality, PortRef
+from fmionnx.core.types import Causality, PortRef, flat_index
 from fmionnx.runtime.master import column_names, default_record, is_image, plot_refs
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions

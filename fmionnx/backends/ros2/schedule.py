@@ -18,9 +18,9 @@ from __future__ import annotations
 
 from dataclasses import dataclass, field
 
-from fmionnx.backends.ros2.codec import IMAGE_TYPE
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.ros2.plan import Ros2Plan, TopicPlan
+from fmionnx.compile.ros2.fields import IMAGE_TYPE
+from fmionnx.compile.ros2.types import Ros2Plan, TopicPlan
 
 #: Rate of an image topic that nothing inside the run reads (for viewers such as rviz).
 UNREAD_IMAGE_RATE = 10.0

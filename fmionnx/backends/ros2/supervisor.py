@@ -52,7 +52,8 @@ from fmionnx.backends.ros2.recording import error_of, load_status, merge, record
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
-from fmionnx.compile.ros2.plan import CLOCK_TYPE, Ros2Plan
+from fmionnx.compile.ros2.plan import CLOCK_TYPE
+from fmionnx.compile.ros2.types import Ros2Plan
 from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 

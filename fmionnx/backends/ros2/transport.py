@@ -27,11 +27,31 @@ from cyclonedds.util import duration
 
 from fmionnx.backends.ros2.env import DdsEnvironment
 from fmionnx.backends.ros2.idl import idl_type
-from fmionnx.backends.ros2.qos import QosProfile
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.core.errors import FmionnxError
 
 _ANY_STATE = SampleState.Any | ViewState.Any | InstanceState.Any
+
+
+def cyclone_qos(profile: QosProfile) -> Qos:
+    """The Cyclone DDS QoS of a writer or reader with ``profile``.
+
+    The reliable max-blocking-time is rmw_cyclonedds_cpp's (100 ms would drop nothing on
+    loopback either, but a writer blocks when a reader's queue is full).
+    """
+    reliability = (
+        Policy.Reliability.Reliable(duration(milliseconds=100))
+        if profile.reliability is Reliability.RELIABLE
+        else Policy.Reliability.BestEffort
+    )
+    durability = (
+        Policy.Durability.TransientLocal
+        if profile.durability is Durability.TRANSIENT_LOCAL
+        else Policy.Durability.Volatile
+    )
+    history = Policy.History.KeepAll if profile.keep_all else Policy.History.KeepLast(profile.depth)
+    return Qos(reliability, durability, history)
 
 
 class TransportError(FmionnxError):
@@ -176,12 +196,12 @@ class Participant:
 
     def writer(self, dds_name: str, msgtype: str, qos: QosProfile) -> RawWriter:
         """A raw writer on DDS topic ``dds_name`` (``rt/...``)."""
-        writer = DataWriter(self.dp, self._topic(dds_name, msgtype), qos=qos.to_cyclone())
+        writer = DataWriter(self.dp, self._topic(dds_name, msgtype), qos=cyclone_qos(qos))
         return RawWriter(writer, dds_name, msgtype)
 
     def reader(self, dds_name: str, msgtype: str, qos: QosProfile) -> RawReader:
         """A raw reader on DDS topic ``dds_name``."""
-        reader = DataReader(self.dp, self._topic(dds_name, msgtype), qos=qos.to_cyclone())
+        reader = DataReader(self.dp, self._topic(dds_name, msgtype), qos=cyclone_qos(qos))
         return RawReader(reader, dds_name, msgtype, self.dp)
 
     def close(self) -> None:

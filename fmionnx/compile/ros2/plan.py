@@ -26,9 +26,8 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
-from fmionnx.backends.ros2.codec import IMAGE_TYPE, WHOLE, PortField, image_geometry
-from fmionnx.backends.ros2.qos import PROFILES, QosProfile
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.ros2.fields import IMAGE_TYPE, WHOLE, PortField, image_geometry
 from fmionnx.compile.ros2.messages import (
     DEFAULT_DISTRO,
     FieldError,
@@ -47,11 +46,12 @@ from fmionnx.compile.ros2.names import (
     sanitize_token,
     topic_problem,
 )
+from fmionnx.compile.ros2.qos import PROFILES, QosProfile
+from fmionnx.compile.ros2.types import NodePlan, Ros2Plan, Subscription, TopicPlan
 from fmionnx.core.diagnostics import Diagnostic, Span, did_you_mean, make, one_of
 from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.base import SIMULATOR, RoleDefault
 from fmionnx.kinds.registry import COMPONENT_KINDS, has_capability
-from fmionnx.spec.model import QosSpec, TopicSpec
 
 if TYPE_CHECKING:
     from fmionnx.spec.sourcemap import SourceMap
@@ -70,84 +70,6 @@ def role_default(kind: str, port: str, causality: Causality) -> RoleDefault | No
     it gets the topic."""
     found = COMPONENT_KINDS.get(kind)
     return None if found is None else found.ros2_defaults.get((port, causality.value))
-
-
-@dataclass(frozen=True, slots=True)
-class TopicPlan:
-    """One ROS topic: its publisher (None: expected from outside) and what fills it."""
-
-    name: str
-    msgtype: str
-    qos: QosProfile
-    publisher: str | None
-    fields: tuple[PortField, ...]
-    frame_id: str = ""
-
-    def field_of(self, port: str) -> PortField:
-        """The field mapping of one of the publisher's ports."""
-        for item in self.fields:
-            if item.port == port:
-                return item
-        raise KeyError(port)
-
-
-@dataclass(frozen=True, slots=True)
-class Subscription:
-    """A node reads ``topic`` and takes the value of the publisher's port ``src_port``."""
-
-    component: str
-    topic: str
-    src_port: str
-    connection_index: int
-
-
-@dataclass(frozen=True, slots=True)
-class NodePlan:
-    """One node: its component, name, topics written and read."""
-
-    component: str
-    name: str
-    namespace: str
-    publishes: tuple[str, ...]
-    subscribes: tuple[str, ...]
-
-    @property
-    def fqn(self) -> str:
-        """``/ns/name``."""
-        return self.namespace.rstrip("/") + "/" + self.name
-
-
-@dataclass(frozen=True, slots=True)
-class Ros2Plan:
-    """Everything the ROS 2 backend starts, derived from the compiled system."""
-
-    distro: RosDistro
-    namespace: str
-    nodes: tuple[NodePlan, ...]
-    topics: tuple[TopicPlan, ...]
-    subscriptions: tuple[Subscription, ...]
-    external: tuple[str, ...] = ()
-
-    def topic(self, name: str) -> TopicPlan:
-        """The topic called ``name`` (fully qualified)."""
-        for topic in self.topics:
-            if topic.name == name:
-                return topic
-        raise KeyError(name)
-
-    def topic_of(self, component: str, port: str) -> TopicPlan | None:
-        """The topic a component's port is published on, or None."""
-        for topic in self.topics:
-            if topic.publisher == component and any(f.port == port for f in topic.fields):
-                return topic
-        return None
-
-    def node(self, component: str) -> NodePlan:
-        """The node of ``component``."""
-        for node in self.nodes:
-            if node.component == component:
-                return node
-        raise KeyError(component)
 
 
 @dataclass
@@ -278,12 +200,12 @@ class _Builder:
         done: set[tuple[str, str]] = set()
         if not self.spec:
             return done
-        for key, entry in self.spec.topics.items():
+        for key, entry in self.spec.topics:
             resolved = self.parse_endpoint(key, "topics")
             if resolved is None:
                 continue
             component, port = resolved
-            spec = entry if isinstance(entry, TopicSpec) else _topic_from_text(entry)
+            spec = entry
             span = self.span("topics", key)
             if port.causality is not Causality.OUTPUT:
                 driven = [
@@ -302,9 +224,7 @@ class _Builder:
                     continue
             topic_text, text_path = _split_field(spec.topic)
             field_path: str | tuple[str, ...] | None = text_path
-            if isinstance(spec.field, list):
-                field_path = tuple(spec.field)
-            elif spec.field is not None:
+            if spec.field is not None:
                 field_path = spec.field
             name = expand_topic(topic_text, self.namespace, self.node_names[component.name])
             problem = topic_problem(name)
@@ -318,7 +238,7 @@ class _Builder:
             if publisher is None or component.external:
                 publisher = None
             self.add_port(name, msgtype, publisher, component, port, field_path, span, key)
-            if isinstance(spec.qos, (str, QosSpec)):
+            if spec.qos is not None:
                 self.set_qos(name, spec.qos, ("topics", key))
             done.add((component.name, port.name))
         return done
@@ -589,7 +509,7 @@ class _Builder:
             return None
         return mapped if self.dtype_fits(info, port, path, span, label) else None
 
-    def set_qos(self, topic: str, value: str | QosSpec, path: tuple[str | int, ...]) -> None:
+    def set_qos(self, topic: str, value: str | QosProfile, path: tuple[str | int, ...]) -> None:
         profile = resolve_qos(value)
         if profile is None:
             self.emit(
@@ -617,7 +537,7 @@ class _Builder:
     def apply_qos(self) -> None:
         if not self.spec:
             return
-        for key, value in self.spec.qos.items():
+        for key, value in self.spec.qos:
             if key.startswith("/") or "." not in key:
                 topic = expand_topic(key, self.namespace)
                 if topic not in self.drafts:
@@ -721,18 +641,12 @@ def _split_field(text: str) -> tuple[str, str | None]:
     return topic, (path if dot else None)
 
 
-def _topic_from_text(text: str) -> TopicSpec:
-    return TopicSpec(topic=text)
-
-
-def resolve_qos(value: str | QosSpec | None) -> QosProfile | None:
-    """A profile from its name or explicit spec; None for an unknown name."""
+def resolve_qos(value: str | QosProfile | None) -> QosProfile | None:
+    """A profile from its name, or the explicit profile; None for an unknown name."""
     if value is None:
         return PROFILES["default"]
-    if isinstance(value, QosSpec):
-        from fmionnx.backends.ros2.qos import Durability, Reliability
-
-        return QosProfile(Reliability(value.reliability), Durability(value.durability), value.depth)
+    if isinstance(value, QosProfile):
+        return value
     return PROFILES.get(value.strip().lower())
 
 

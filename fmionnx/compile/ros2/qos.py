@@ -10,9 +10,6 @@ from __future__ import annotations
 import enum
 from dataclasses import dataclass
 
-from cyclonedds.qos import Policy, Qos
-from cyclonedds.util import duration
-
 
 class Reliability(enum.StrEnum):
     """DDS reliability kinds by their ROS 2 names."""
@@ -36,25 +33,6 @@ class QosProfile:
     durability: Durability = Durability.VOLATILE
     depth: int = 10
     keep_all: bool = False
-
-    def to_cyclone(self) -> Qos:
-        """The Cyclone DDS QoS of a writer or reader with this profile.
-
-        The reliable max-blocking-time is rmw_cyclonedds_cpp's (100 ms would drop nothing on
-        loopback either, but a writer blocks when a reader's queue is full).
-        """
-        reliability = (
-            Policy.Reliability.Reliable(duration(milliseconds=100))
-            if self.reliability is Reliability.RELIABLE
-            else Policy.Reliability.BestEffort
-        )
-        durability = (
-            Policy.Durability.TransientLocal
-            if self.durability is Durability.TRANSIENT_LOCAL
-            else Policy.Durability.Volatile
-        )
-        history = Policy.History.KeepAll if self.keep_all else Policy.History.KeepLast(self.depth)
-        return Qos(reliability, durability, history)
 
     def describe(self) -> str:
         """``RELIABLE, VOLATILE, KEEP_LAST 10`` for messages and ``ros2 graph``."""

@@ -1,0 +1,292 @@
+"""The compiled system as a versioned file: written once, read by nodes and workers elsewhere.
+
+A ROS 2 node on another host or a study worker gets the compiled system, not the system file:
+nothing there re-reads YAML or SSP or compiles anything. The file is JSON (safe to read from
+an untrusted peer, unlike a pickle) with a format name, a version, the system's content hash
+and the content hash of every model file it needs. Model files travel separately and are
+found *by hash* in a model store (:func:`place_models` / :func:`relocate`), so no shared file
+system is assumed.
+
+The codec is generic over the compiled system's frozen dataclasses: it follows their type
+hints, so a field added to the IR is serialised without touching this module. A kind's config
+is read back through the kind table (``kind`` names its class).
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import enum
+import json
+import shutil
+import sys
+import types
+import typing
+from collections.abc import Mapping
+from pathlib import Path
+from typing import Any
+
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
+from fmionnx.core.errors import FmionnxError, ModelError
+from fmionnx.core.types import Component, KindConfig
+from fmionnx.kinds.base import MODEL_FOLDER
+from fmionnx.kinds.registry import COMPONENT_KINDS, config_type
+
+#: The ``format`` of a compiled-system file, and the versions this release reads.
+FORMAT = "fmionnx-compiled-system"
+VERSION = 1
+#: File name suffix used by ``fmionnx compile`` and the ROS 2 supervisor.
+SUFFIX = ".fmionnx.json"
+
+
+class CompiledFileError(FmionnxError):
+    """A compiled-system file that cannot be used: wrong format or version, damaged, a model
+    that is missing from the store or does not match its hash."""
+
+
+# -- encoding -----------------------------------------------------------------------------------
+
+
+def _encode(value: Any) -> Any:
+    if value is None or isinstance(value, bool | int | float | str):
+        return value
+    if isinstance(value, enum.Enum):
+        return value.value
+    if isinstance(value, Path):
+        return value.as_posix()
+    if isinstance(value, tuple | list):
+        return [_encode(v) for v in value]
+    if isinstance(value, Mapping):
+        return {str(k): _encode(v) for k, v in value.items()}
+    if dataclasses.is_dataclass(value) and not isinstance(value, type):
+        return {f.name: _encode(getattr(value, f.name)) for f in dataclasses.fields(value)}
+    msg = f"cannot serialise a {type(value).__name__} in a compiled system"
+    raise TypeError(msg)
+
+
+def to_json(system: CompiledSystem) -> str:
+    """The compiled-system file text of ``system``."""
+    document = {
+        "format": FORMAT,
+        "version": VERSION,
+        "content_hash": system.content_hash,
+        "models": {c.name: c.interface.content_hash for c in system.components},
+        "system": _encode(system),
+    }
+    return json.dumps(document, indent=1, sort_keys=False) + "\n"
+
+
+# -- decoding -----------------------------------------------------------------------------------
+
+#: Names the IR only imports for type checking; the hints need them at run time.
+_HINT_NAMES: dict[str, Any] = {"Ros2Plan": Ros2Plan, "Ros2Settings": Ros2Settings}
+
+
+def _hints(cls: type) -> dict[str, Any]:
+    module = sys.modules[cls.__module__]
+    return typing.get_type_hints(cls, globalns=vars(module), localns=_HINT_NAMES)
+
+
+def _decode(hint: Any, data: Any, where: str) -> Any:
+    origin = typing.get_origin(hint)
+    args = typing.get_args(hint)
+    if hint is Any or hint is object:
+        return data
+    if origin is typing.Union or origin is types.UnionType:
+        return _decode_union(args, data, where)
+    if origin is typing.Literal:
+        if data not in args:
+            raise _bad(where, f"one of {args}", data)
+        return data
+    if origin is tuple:
+        if not isinstance(data, list):
+            raise _bad(where, "a list", data)
+        if len(args) == 2 and args[1] is Ellipsis:
+            return tuple(_decode(args[0], item, f"{where}[{i}]") for i, item in enumerate(data))
+        if len(args) != len(data):
+            raise _bad(where, f"{len(args)} items", data)
+        return tuple(_decode(a, item, f"{where}[{i}]") for i, (a, item) in enumerate(zip(args, data, strict=True)))
+    if isinstance(hint, type):
+        return _decode_class(hint, data, where)
+    msg = f"{where}: unsupported type {hint!r} in the compiled system"
+    raise CompiledFileError(msg)
+
+
+def _decode_union(args: tuple[Any, ...], data: Any, where: str) -> Any:
+    if data is None:
+        if type(None) in args:
+            return None
+        raise _bad(where, "a value", data)
+    plain = [a for a in args if a is not type(None)]
+    for option in plain:  # a JSON scalar keeps its own type (bool before int, int before float)
+        if isinstance(option, type) and option in (bool, int, float, str) and type(data) is option:
+            return data
+    if isinstance(data, int) and not isinstance(data, bool) and float in plain:
+        return float(data)
+    for option in plain:
+        try:
+            return _decode(option, data, where)
+        except (CompiledFileError, TypeError, ValueError, KeyError):
+            continue
+    raise _bad(where, " or ".join(str(a) for a in plain), data)
+
+
+def _decode_class(cls: type, data: Any, where: str) -> Any:
+    if cls is bool:
+        if not isinstance(data, bool):
+            raise _bad(where, "true or false", data)
+        return data
+    if cls is int:
+        if not isinstance(data, int) or isinstance(data, bool):
+            raise _bad(where, "an integer", data)
+        return data
+    if cls is float:
+        if not isinstance(data, int | float) or isinstance(data, bool):
+            raise _bad(where, "a number", data)
+        return float(data)
+    if cls is str:
+        if not isinstance(data, str):
+            raise _bad(where, "a string", data)
+        return data
+    if issubclass(cls, enum.Enum):
+        try:
+            return cls(data)
+        except ValueError:
+            raise _bad(where, f"one of {[m.value for m in cls]}", data) from None
+    if issubclass(cls, Path):
+        if not isinstance(data, str):
+            raise _bad(where, "a path", data)
+        return Path(data)
+    if dataclasses.is_dataclass(cls):
+        if not isinstance(data, dict):
+            raise _bad(where, "an object", data)
+        if cls is KindConfig:
+            kind = data.get("kind")
+            if kind not in COMPONENT_KINDS:
+                raise _bad(f"{where}.kind", f"one of {sorted(COMPONENT_KINDS)}", kind)
+            cls = config_type(str(kind))
+        hints = _hints(cls)
+        values = {}
+        for f in dataclasses.fields(cls):
+            if not f.init:
+                continue
+            if f.name not in data:
+                if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
+                    raise _bad(f"{where}.{f.name}", "a value", None)
+                continue
+            values[f.name] = _decode(hints[f.name], data[f.name], f"{where}.{f.name}")
+        return cls(**values)
+    msg = f"{where}: unsupported type {cls.__name__} in the compiled system"
+    raise CompiledFileError(msg)
+
+
+def _bad(where: str, expected: str, got: Any) -> CompiledFileError:
+    shown = json.dumps(got)
+    shown = shown if len(shown) <= 60 else shown[:57] + "..."
+    return CompiledFileError(f"{where}: expected {expected}, got {shown}")
+
+
+def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
+    """Read a compiled-system file's text; CompiledFileError names what is wrong and where."""
+    try:
+        document = json.loads(text)
+    except ValueError as exc:
+        msg = f"{origin}: not a compiled-system file (invalid JSON: {exc})"
+        raise CompiledFileError(msg) from None
+    if not isinstance(document, dict) or document.get("format") != FORMAT:
+        msg = f"{origin}: not a compiled-system file (no `format: {FORMAT}`)"
+        raise CompiledFileError(msg)
+    if document.get("version") != VERSION:
+        msg = (
+            f"{origin}: compiled-system file version {document.get('version')!r}; this release "
+            f"reads version {VERSION} (compile the system again with this release)"
+        )
+        raise CompiledFileError(msg)
+    system = _decode(CompiledSystem, document.get("system"), "system")
+    assert isinstance(system, CompiledSystem)
+    if system.content_hash != document.get("content_hash"):
+        msg = f"{origin}: damaged: the system does not match its content hash"
+        raise CompiledFileError(msg)
+    return system
+
+
+def write_compiled(system: CompiledSystem, path: Path) -> None:
+    """Write ``system`` to ``path`` (through a temporary file: never half-written)."""
+    temporary = path.with_name(path.name + ".partial")
+    temporary.write_text(to_json(system), encoding="utf-8")
+    temporary.replace(path)
+
+
+def read_compiled(path: Path, *, models: Path | None = None) -> CompiledSystem:
+    """Read a compiled-system file; with ``models``, find every model there by hash."""
+    try:
+        text = path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError) as exc:
+        msg = f"{path}: cannot read the compiled system: {exc}"
+        raise CompiledFileError(msg) from None
+    system = from_json(text, origin=str(path))
+    return relocate(system, models) if models is not None else system
+
+
+# -- models by hash -----------------------------------------------------------------------------
+
+
+def stored_model(store: Path, component: Component) -> Path:
+    """Where ``component``'s model lives in a model store: ``<store>/<sha256>/<file name>``."""
+    return store / component.interface.content_hash / component.path.name
+
+
+def place_models(system: CompiledSystem, store: Path) -> list[Path]:
+    """Copy every model ``system`` needs into ``store`` by content hash (what a remote host or
+    worker receives). A kind whose model needs its folder gets the folder. Returns the paths."""
+    placed = []
+    for component in system.components:
+        target = stored_model(store, component)
+        placed.append(target)
+        if target.exists():
+            continue
+        folder = target.parent
+        staging = folder.with_name(folder.name + ".partial")
+        shutil.rmtree(staging, ignore_errors=True)
+        kind = COMPONENT_KINDS[component.kind]
+        if MODEL_FOLDER in kind.capabilities:
+            shutil.copytree(component.path.parent, staging, ignore=shutil.ignore_patterns(".*"))
+        elif component.path.is_dir():
+            shutil.copytree(component.path, staging / component.path.name)
+        else:
+            staging.mkdir(parents=True)
+            shutil.copy2(component.path, staging / component.path.name)
+        staging.replace(folder)
+    return placed
+
+
+def relocate(system: CompiledSystem, store: Path) -> CompiledSystem:
+    """``system`` with every model path pointing into ``store``, each checked against its hash.
+
+    Reading the placed model's interface is the check (the kind computes the same content hash
+    as at compile time), so a model that changed, or a store that holds the wrong file, is
+    refused before anything runs.
+    """
+    components = []
+    for component in system.components:
+        path = stored_model(store, component)
+        if not path.exists():
+            msg = (
+                f"component `{component.name}`: model {component.path.name} "
+                f"(sha256 {component.interface.content_hash[:16]}...) is not in {store}"
+            )
+            raise CompiledFileError(msg)
+        try:
+            found = COMPONENT_KINDS[component.kind].read_interface(path, None).content_hash
+        except ModelError as exc:
+            msg = f"component `{component.name}`: {exc}"
+            raise CompiledFileError(msg) from None
+        if found != component.interface.content_hash:
+            msg = (
+                f"component `{component.name}`: {path} does not match the compiled system "
+                f"(sha256 {found[:16]}..., expected {component.interface.content_hash[:16]}...)"
+            )
+            raise CompiledFileError(msg)
+        interface = dataclasses.replace(component.interface, path=path)
+        components.append(dataclasses.replace(component, path=path, interface=interface))
+    return dataclasses.replace(system, components=tuple(components))

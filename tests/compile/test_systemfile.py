@@ -1,0 +1,133 @@
+"""The compiled system as a file: it reads back equal, refuses damage, finds models by hash."""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import shutil
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fmionnx
+from fmionnx import api
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.systemfile import (
+    CompiledFileError,
+    from_json,
+    place_models,
+    read_compiled,
+    relocate,
+    stored_model,
+    to_json,
+    write_compiled,
+)
+from fmionnx.runtime.master import Master
+from fmionnx.runtime.result import RunOptions
+
+REPO = Path(__file__).resolve().parents[2]
+REFERENCE = REPO / "systems" / "sign_follower.yaml"
+
+
+def _compiled(path: Path = REFERENCE) -> CompiledSystem:
+    result = api.compile_system(path)
+    assert result.system is not None, [str(d) for d in result.diagnostics]
+    return result.system
+
+
+@pytest.fixture(scope="module")
+def reference() -> CompiledSystem:
+    return _compiled()
+
+
+def test_the_reference_system_reads_back_equal(reference: CompiledSystem) -> None:
+    text = to_json(reference)
+    back = from_json(text)
+    assert back == reference
+    assert back.content_hash == reference.content_hash
+    assert back.ros2_plan is not None
+    assert back.ros2_plan == reference.ros2_plan
+    assert to_json(back) == text  # stable: a second write gives the same bytes
+
+
+def test_the_file_names_its_format_version_and_every_model_hash(reference: CompiledSystem) -> None:
+    document = json.loads(to_json(reference))
+    assert document["format"] == "fmionnx-compiled-system"
+    assert document["version"] == 1
+    assert document["content_hash"] == reference.content_hash
+    assert document["models"] == {c.name: c.interface.content_hash for c in reference.components}
+    configs = {c["name"]: c["config"]["kind"] for c in document["system"]["components"]}
+    assert configs == {c.name: c.kind for c in reference.components}
+
+
+def test_the_file_holds_no_front_end_type(reference: CompiledSystem) -> None:
+    """Every value is plain JSON made from the IR's own dataclasses (no pydantic dump)."""
+    text = to_json(reference)
+    assert "model_config" not in text
+    assert "Spec" not in text
+
+
+@pytest.mark.parametrize(
+    ("change", "message"),
+    [
+        (lambda d: d.update(version=99), "version 99"),
+        (lambda d: d.update(format="x"), "not a compiled-system file"),
+        (lambda d: d["system"].update(name="other"), "does not match its content hash"),
+        (lambda d: d["system"]["run"].update(step="fast"), "system.run.step: expected a number"),
+        (
+            lambda d: d["system"]["components"][0]["config"].update(kind="nope"),
+            "system.components[0].config.kind",
+        ),
+    ],
+)
+def test_a_damaged_file_is_refused_with_where(
+    reference: CompiledSystem, change: object, message: str
+) -> None:
+    document = json.loads(to_json(reference))
+    change(document)  # type: ignore[operator]
+    with pytest.raises(CompiledFileError, match=message.replace("[", r"\[").replace("]", r"\]")):
+        from_json(json.dumps(document))
+
+
+def test_not_json_is_refused() -> None:
+    with pytest.raises(CompiledFileError, match="invalid JSON"):
+        from_json("{")
+
+
+def test_models_placed_by_hash_run_to_the_same_results(
+    reference: CompiledSystem, tmp_path: Path
+) -> None:
+    """An empty folder with the file and a model store runs as the original does."""
+    store = tmp_path / "models"
+    placed = place_models(reference, store)
+    assert {p.parent.name for p in placed} == {c.interface.content_hash for c in reference.components}
+    write_compiled(reference, tmp_path / "system.fmionnx.json")
+    moved = read_compiled(tmp_path / "system.fmionnx.json", models=store)
+    assert all(c.path.is_relative_to(store) for c in moved.components)
+    short = dataclasses.replace(reference, run=dataclasses.replace(reference.run, stop=0.3))
+    moved_short = dataclasses.replace(moved, run=short.run)
+    ours = Master(short, RunOptions()).run()
+    theirs = Master(moved_short, RunOptions()).run()
+    assert ours.status.value == theirs.status.value == "completed"
+    assert ours.signals.keys() == theirs.signals.keys()
+    for name, values in ours.signals.items():
+        assert np.array_equal(values, theirs.signals[name], equal_nan=True), name
+
+
+def test_a_missing_or_changed_model_is_refused(reference: CompiledSystem, tmp_path: Path) -> None:
+    store = tmp_path / "models"
+    with pytest.raises(CompiledFileError, match="is not in"):
+        relocate(reference, store)
+    place_models(reference, store)
+    odometry = reference.component("odometry")
+    target = stored_model(store, odometry)
+    target.unlink()
+    other = reference.component("tracker").path
+    shutil.copy(other, target)
+    with pytest.raises(CompiledFileError, match="does not match the compiled system"):
+        relocate(reference, store)
+
+
+def test_a_system_file_still_loads_as_before() -> None:
+    assert fmionnx.load(REFERENCE).compiled.name == "sign_follower"
