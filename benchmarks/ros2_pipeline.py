@@ -43,10 +43,11 @@ REPO = Path(__file__).resolve().parent.parent
 if str(REPO) not in sys.path:
     sys.path.insert(0, str(REPO))  # run as a script
 
+import fmionnx  # noqa: E402
 from fmionnx.backends.ros2.codec import TopicCodec  # noqa: E402
 from fmionnx.backends.ros2.control import CLOCK_DDS, CONTROL_WRITER_QOS, StepClock  # noqa: E402
 from fmionnx.backends.ros2.env import from_environment  # noqa: E402
-from fmionnx.backends.ros2.loading import load_system, plan_for  # noqa: E402
+from fmionnx.backends.ros2.loading import plan_for  # noqa: E402
 from fmionnx.backends.ros2.transport import Participant, RawReader  # noqa: E402
 from fmionnx.compile.ir import RunSettings  # noqa: E402
 from fmionnx.compile.ros2.messages import RosDistro  # noqa: E402
@@ -344,10 +345,10 @@ def measure(setup: Setup, folder: Path) -> Outcome:
     provisional = variant_text(setup.rate, 1.0)
     path = folder / f"pipeline_{setup.rate:g}hz.yaml"
     path.write_text(provisional, encoding="utf-8")
-    step = load_system(path).run.step
+    step = fmionnx.load(path).compiled.run.step
     stop = setup.total_frames * round(camera_period / step) * step
     path.write_text(variant_text(setup.rate, stop), encoding="utf-8")
-    system = load_system(path)
+    system = fmionnx.load(path).compiled
     plan = plan_for(system, DISTRO)
     tag = f"{setup.rate:g}hz_{list(DDS_CONFIGS).index(setup.dds)}"
     logs = {name: (folder / f"{name}_{tag}.log").open("wb") for name in NODES}

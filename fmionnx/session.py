@@ -42,6 +42,8 @@ from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 #: Single-model files ``load`` accepts besides system files.
 MODEL_SUFFIXES = (".fmu", ".onnx")
+#: Compiled-system files (:mod:`fmionnx.compile.systemfile`; the same suffix, kept import-free).
+COMPILED_SUFFIX = ".fmionnx.json"
 
 
 class OverrideError(FmionnxError):
@@ -109,12 +111,20 @@ def load(
     *,
     interface: Literal["cs", "me"] | None = None,
     step: float | None = None,
+    models: Path | None = None,
 ) -> System:
-    """Compile a system file or a single model; raises DiagnosticError on errors.
+    """Compile a system file or a single model, or read a compiled system; raises
+    DiagnosticError on errors (CompiledFileError for an unusable compiled-system file).
 
-    ``interface`` and ``step`` apply to a single ``.fmu`` only.
+    ``interface`` and ``step`` apply to a single ``.fmu`` only. A compiled-system file
+    (``*.fmionnx.json``, written by ``fmionnx compile``) is read as it is, nothing compiled;
+    ``models`` names the store its models are found in by hash (default: where they were).
     """
     target = Path(path)
+    if target.name.lower().endswith(COMPILED_SUFFIX):
+        from fmionnx.compile.systemfile import read_compiled
+
+        return System(read_compiled(target, models=models))
     bag = DiagnosticBag()
     if target.suffix.lower() in MODEL_SUFFIXES:
         compiled = compile_single_model(target, bag, interface=interface, step=step)

@@ -6,6 +6,7 @@ import sys
 
 from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     build_cmd,
+    compile_cmd,
     graph_cmd,
     inspect_cmd,
     lock_cmd,

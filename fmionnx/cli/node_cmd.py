@@ -20,10 +20,17 @@ def _fail(message: str, code: int) -> typer.Exit:
 @app.command(
     epilog="Examples:\n\n"
     "  fmionnx node systems/sign_follower.yaml tracker --sync free\n\n"
-    "  ROS_DOMAIN_ID=7 fmionnx node systems/sign_follower.yaml detector --ros-distro jazzy",
+    "  ROS_DOMAIN_ID=7 fmionnx node systems/sign_follower.yaml detector --ros-distro jazzy\n\n"
+    "  fmionnx node robot.fmionnx.json tracker --models models/   # compiled elsewhere",
 )
 def node(
-    system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
+    system: Annotated[
+        Path,
+        typer.Argument(
+            help="System file (.yaml, .ssp), or a compiled system (.fmionnx.json, from "
+            "`fmionnx compile`)."
+        ),
+    ],
     component: Annotated[str, typer.Argument(help="The component this node runs.")],
     sync: Annotated[str, typer.Option("--sync", help="`lockstep` or `free`.")] = "free",
     ros_distro: Annotated[
@@ -47,17 +54,26 @@ def node(
     middleware: Annotated[
         str, typer.Option("--middleware", help="`dds` (Cyclone DDS) or `rclpy` (a ROS 2 node).")
     ] = "dds",
+    models: Annotated[
+        Path | None,
+        typer.Option(
+            "--models",
+            help="Compiled system only: folder holding the models by content hash "
+            "(`fmionnx compile --models`); default: where they were compiled.",
+        ),
+    ] = None,
 ) -> None:
     """Run one component as a ROS 2 node (Cyclone DDS or rclpy); exit 0 at the stop time, 1 on a fault."""
+    from fmionnx import session
     from fmionnx.backends.ros2.env import Ros2EnvError
-    from fmionnx.backends.ros2.loading import load_system, plan_for
+    from fmionnx.backends.ros2.loading import plan_for
     from fmionnx.backends.ros2.middleware import Middleware
     from fmionnx.backends.ros2.node import Node, NodeError, NodeOptions, SyncMode
     from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError, distro_problem
     from fmionnx.backends.ros2.transport import TransportError
     from fmionnx.compile.ros2.messages import RosDistro
+    from fmionnx.compile.systemfile import CompiledFileError
     from fmionnx.core.errors import DiagnosticError
-    from fmionnx.session import OverrideError
 
     try:
         mode = SyncMode(sync)
@@ -82,7 +98,9 @@ def node(
         format=f"%(asctime)s {component} %(levelname)s %(message)s",
     )
     try:
-        compiled = load_system(system, stop_time=stop_time, params=params)
+        values = {k: session.parse_value(v) for k, v in params.items()}
+        loaded = session.load(system, models=models)
+        compiled = loaded.with_overrides(stop_time=stop_time, params=values).compiled
         plan = plan_for(compiled, distro)
         options = NodeOptions(mode, distro, record_dir, supervised, rtf, transport)
         the_node = Node(compiled, plan, component, options)
@@ -93,7 +111,14 @@ def node(
     except DiagnosticError as exc:
         lines = "; ".join(str(d.message) for d in exc.diagnostics[:3])
         raise _fail(f"{system}: {lines}", ExitCode.PROBLEMS) from None
-    except (NodeError, OverrideError, Ros2EnvError, TransportError, RclpyUnavailableError) as exc:
+    except (
+        NodeError,
+        session.OverrideError,
+        CompiledFileError,
+        Ros2EnvError,
+        TransportError,
+        RclpyUnavailableError,
+    ) as exc:
         raise _fail(str(exc), ExitCode.PROBLEMS) from None
     except KeyboardInterrupt:
         raise _fail("interrupted", 130) from None

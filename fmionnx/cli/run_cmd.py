@@ -156,7 +156,8 @@ def _ros2_options(
     )  # fmt: skip
 
 
-def _load(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
+def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
+    """Compile ``target``; its errors rendered like ``validate`` (exit 1), warnings unless quiet."""
     from fmionnx import session
     from fmionnx.core.diagnostics import Severity
     from fmionnx.core.errors import DiagnosticError
@@ -200,7 +201,7 @@ def _run_system(
     kwargs: dict[str, Any] = {}
     if target.suffix.lower() == ".fmu":
         kwargs = {"interface": interface, "step": step}
-    system = _load(target, quiet=quiet, **kwargs)
+    system = load_target(target, quiet=quiet, **kwargs)
     try:
         system = system.with_overrides(
             stop_time=stop_time, params={k: parse_value(v) for k, v in params.items()}
@@ -217,9 +218,7 @@ def _run_system(
     if ros2 is not None:
         from fmionnx.backends.ros2.supervisor import run_ros2
 
-        ros2 = dataclasses.replace(
-            ros2, out=out, stop_time=stop_time, params=tuple(f"{k}={v}" for k, v in params.items())
-        )
+        ros2 = dataclasses.replace(ros2, out=out)
 
         def run_fn(*, options: RunOptions) -> Any:
             return run_ros2(system.compiled, dataclasses.replace(ros2, run=options))
@@ -314,7 +313,7 @@ def _run_onnx(target: Path, inputs: dict[str, str], out: Path | None, *, quiet: 
     from fmionnx.core.errors import RunError
     from fmionnx.session import OverrideError, run_onnx_once
 
-    system = _load(target, quiet=quiet)
+    system = load_target(target, quiet=quiet)
     arrays = {}
     for name, file in inputs.items():
         try:

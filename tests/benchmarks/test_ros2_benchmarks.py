@@ -12,8 +12,8 @@ import random
 import numpy as np
 import pytest
 
+import fmionnx
 from benchmarks import ros2_lockstep, ros2_pipeline
-from fmionnx.backends.ros2.loading import load_system
 from tests.conftest import built_model
 from tests.ros2.test_run import processes_with
 
@@ -50,7 +50,7 @@ def test_the_30_hz_variant_is_the_reference_system_on_a_finer_grid_with_the_worl
     for rate, step, period in ((30.0, 1 / 1500, 1 / 30), (10.0, 0.002, 0.1)):
         path = tmp_path / f"v{rate:g}.yaml"
         path.write_text(ros2_pipeline.variant_text(rate, 1.0), encoding="utf-8")
-        system = load_system(path)
+        system = fmionnx.load(path).compiled
         assert system.run.step == pytest.approx(step)
         assert system.component("detector").period == pytest.approx(period)
         assert system.component("world").external

@@ -19,10 +19,11 @@ from typing import Any
 
 import pytest
 
-from fmionnx.backends.ros2.loading import load_system, plan_for
+from fmionnx.backends.ros2.loading import plan_for
 from fmionnx.backends.ros2.rclpy_env import rclpy_problem
 from fmionnx.backends.ros2.supervisor import SUPERVISOR_NODE
 from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.session import load
 from tests.conftest import REPO, built_model
 from tests.ros2.test_run import fmionnx, processes_with
 
@@ -94,7 +95,7 @@ def observed_run(rclpy_env: None, tmp_path_factory: pytest.TempPathFactory) -> d
     typing ``ros2 node list`` or ``ros2 topic echo /cmd_vel`` would: a graph probe, a listener.
     """
     built_model("ReadOdometry.fmu")
-    plan = plan_for(load_system(SYSTEM), RosDistro.JAZZY)
+    plan = plan_for(load(SYSTEM).compiled, RosDistro.JAZZY)
     names = [node.fqn for node in plan.nodes]
     tmp = tmp_path_factory.mktemp("observed")
     run = subprocess.Popen(

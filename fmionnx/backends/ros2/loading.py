@@ -1,14 +1,12 @@
-"""Compile a system for ROS 2: the same file, the same overrides, the same plan in every process.
+"""The ROS 2 plan a node or the supervisor runs: the compiled system's own, or one for another
+distribution.
 
-A node compiles the system file itself (it may run on another host, from a launch file), so the
-supervisor hands each node the file and its command-line overrides, not a pickled object, and
-checks the compiled system's content hash in the ready hand-shake's log.
+The compiled system carries the plan of its ``ros2:`` section's distribution. ``--ros-distro``
+may ask for another one (message definitions and type hashes differ); the plan is then derived
+from the same compiled system, never from the system file.
 """
 
 from __future__ import annotations
-
-from collections.abc import Mapping
-from pathlib import Path
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
@@ -18,19 +16,10 @@ from fmionnx.core.diagnostics import Severity
 from fmionnx.core.errors import DiagnosticError
 
 
-def load_system(
-    path: Path, *, stop_time: float | None = None, params: Mapping[str, str] | None = None
-) -> CompiledSystem:
-    """Compile ``path`` and apply ``--stop-time`` / ``--param`` (DiagnosticError, OverrideError)."""
-    from fmionnx import session
-
-    system = session.load(path)
-    values = {k: session.parse_value(v) for k, v in (params or {}).items()}
-    return system.with_overrides(stop_time=stop_time, params=values).compiled
-
-
 def plan_for(system: CompiledSystem, distro: RosDistro) -> Ros2Plan:
-    """The ROS 2 plan of ``system``; DiagnosticError when it does not map."""
+    """The ROS 2 plan of ``system`` for ``distro``; DiagnosticError when it does not map."""
+    if system.ros2_plan is not None and system.ros2_plan.distro is distro:
+        return system.ros2_plan
     plan, diagnostics = build_plan(system, distro)
     errors = [d for d in diagnostics if d.severity is Severity.ERROR]
     if plan is None or errors:

@@ -21,6 +21,7 @@ from __future__ import annotations
 
 import contextlib
 import ctypes
+import dataclasses
 import os
 import signal
 import subprocess
@@ -54,6 +55,8 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.plan import CLOCK_TYPE
 from fmionnx.compile.ros2.types import Ros2Plan
+from fmionnx.compile.systemfile import SUFFIX as COMPILED_SUFFIX
+from fmionnx.compile.systemfile import write_compiled
 from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 
@@ -76,16 +79,15 @@ class SupervisorError(FmionnxError):
 class Ros2Options:
     """What ``fmionnx run --backend ros2`` passes on to its nodes.
 
-    ``stop_time``/``params`` are the command-line overrides, forwarded as text so that every
-    node compiles exactly the system the supervisor compiled. ``out``: logs and node rows go to
-    ``out/logs`` and ``out/nodes`` (a temporary folder without it).
+    Every node starts from the supervisor's compiled system (overrides applied, plan for
+    ``distro`` included), written to ``<out>/system.fmionnx.json``: no node compiles anything.
+    ``out``: that file, logs and node rows go to ``out/logs`` and ``out/nodes`` (a temporary
+    folder without it).
     """
 
     sync: SyncMode = SyncMode.LOCKSTEP
     distro: RosDistro = RosDistro.HUMBLE
     out: Path | None = None
-    stop_time: float | None = None
-    params: tuple[str, ...] = ()
     rtf: float = 1.0
     ready_timeout: float = 180.0
     #: Lockstep: seconds a step may take before the nodes still busy with it are named.
@@ -224,6 +226,8 @@ class Supervisor:
         self.options = options
         self.plan: Ros2Plan = plan_for(system, options.distro)
         self.folder = folder
+        #: What every node starts from (written when the run starts).
+        self.compiled_file = folder / f"system{COMPILED_SUFFIX}"
         self.records = folder / "nodes"
         self.logs = folder / "logs"
         self.children = Children(self.logs)
@@ -237,16 +241,12 @@ class Supervisor:
         """The command line of one node."""
         opts = self.options
         argv = [
-            sys.executable, "-m", "fmionnx", "node", str(self.system.source), component,
+            sys.executable, "-m", "fmionnx", "node", str(self.compiled_file), component,
             "--sync", opts.sync.value, "--ros-distro", opts.distro.value,
             "--record-dir", str(self.records), "--supervised", "--rtf", repr(opts.rtf),
         ]  # fmt: skip
         if opts.middleware != "dds":
             argv += ["--middleware", opts.middleware]
-        if opts.stop_time is not None:
-            argv += ["--stop-time", repr(opts.stop_time)]
-        for item in opts.params:
-            argv += ["--param", item]
         return argv
 
     # -- phases --------------------------------------------------------------------------------
@@ -334,6 +334,7 @@ class Supervisor:
     def run(self) -> RunResult:
         """Start the nodes, drive or watch the clock, stop everything, merge the results."""
         status, error = RunStatus.COMPLETED, None
+        write_compiled(dataclasses.replace(self.system, ros2_plan=self.plan), self.compiled_file)
         env = from_environment(self.options.distro)
         self.domain_id = env.domain_id
         participant = Participant(env)
