@@ -24,6 +24,8 @@ from fmionnx.core.archive import safe_extract
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.types import Causality, Component, DType
+from fmionnx.kinds.fmu.description import component_description
+from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
 from fmionnx.kinds.fmu.kind import FmuConfig
 from fmionnx.kinds.fmu.values import (
     RawCall,
@@ -80,15 +82,13 @@ class FmuRunner:
 
     def instantiate(self) -> None:
         """Unpack the FMU safely, load its library and create the instance."""
-        from fmpy import read_model_description
-
         path = self.component.path
         if path.is_dir():
             root = path
         else:
             self._tmp = Path(tempfile.mkdtemp(prefix=f"fmionnx-{self.component.name}-"))
             root = safe_extract(path, self._tmp)
-        md = read_model_description(str(root))
+        md = component_description(self.component, (root / MODEL_DESCRIPTION).read_bytes)
         self._md = md
         if self.fmi3:
             self._instantiate_fmi3(md, root)
