@@ -106,10 +106,10 @@ class FmuKind:
         return FmuConfig(interface=chosen, solver=spec.solver, tolerance=spec.tolerance)
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
-        """An :class:`~fmionnx.kinds.fmu.runner.FmuRunner` (loads fmpy only now)."""
-        from fmionnx.kinds.fmu.runner import FmuRunner
+        """The FMU runner of the component's FMI version and interface type (loads fmpy now)."""
+        from fmionnx.kinds.fmu.runner import make_fmu_runner
 
-        return FmuRunner(component, wiring.driven)
+        return make_fmu_runner(component, wiring.driven)
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the FMU's ports and facts (cached per file identity; ``spec`` is not needed).
