@@ -201,9 +201,12 @@ def fmu_aliases(component: Component) -> dict[str, str]:
     """Results column -> FMU variable name (FMI 2 arrays keep their scalar names ``x[1]``)."""
     names: dict[int, str] = {}
     try:
-        from fmpy import read_model_description
+        from fmionnx.kinds.fmu.description import component_description
+        from fmionnx.kinds.fmu.files import read_fmu_files
 
-        md = read_model_description(str(component.path))
+        md = component_description(
+            component, lambda: read_fmu_files(component.path).model_description
+        )
         names = {
             int(v.valueReference): str(v.name) for v in md.modelVariables if v.causality == "output"
         }

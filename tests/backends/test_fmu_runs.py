@@ -9,8 +9,13 @@ import pytest
 from fmpy import simulate_fmu
 
 import fmionnx
+from fmionnx.kinds.fmu.fmi2 import Fmi2CoSimulation, Fmi2ModelExchange
+from fmionnx.kinds.fmu.fmi3 import Fmi3CoSimulation, Fmi3ModelExchange
+from fmionnx.kinds.fmu.runner import FmuRunner
+from fmionnx.kinds.registry import make_runner
 from fmionnx.results import write_results
 from fmionnx.runtime.result import RunStatus
+from tests.conftest import built_model
 
 
 @pytest.mark.parametrize("interface", ["cs", "me"])
@@ -141,3 +146,22 @@ def test_fmu_fault_stops_the_run_with_partial_results(
     assert 25 <= result.steps_done <= 30
     assert result["bad.y"].size == result.steps_done + 1
     assert np.isfinite(result["bad.y"][:-1]).all()
+
+
+@pytest.mark.parametrize(
+    ("model", "interface", "expected"),
+    [
+        ("Gain", "cs", Fmi2CoSimulation),
+        ("Gain", "me", Fmi2ModelExchange),
+        ("Vector3", "cs", Fmi3CoSimulation),
+        ("ReadOdometry3.fmu", "me", Fmi3ModelExchange),
+    ],
+)
+def test_runner_class_follows_fmi_version_and_interface_type(
+    fixture_fmu, model: str, interface: str, expected: type
+) -> None:
+    path = built_model(model) if model.endswith(".fmu") else fixture_fmu(model)
+    component = fmionnx.load(path, interface=interface).compiled.components[0]
+    runner = make_runner(component)
+    assert type(runner) is expected
+    assert isinstance(runner, FmuRunner)

@@ -37,6 +37,15 @@ class FmuFiles:
     content_hash: str
 
 
+def identity_file(path: Path) -> Path:
+    """The file whose identity (path, mtime, size) stands for the FMU in caches.
+
+    The archive itself, or an unpacked folder's model description: a folder's own mtime does
+    not change when a file inside it is rewritten.
+    """
+    return path / MODEL_DESCRIPTION if path.is_dir() else path
+
+
 def read_fmu_files(path: Path) -> FmuFiles:
     """Read an FMU at ``path`` (zip file or unpacked folder).
 

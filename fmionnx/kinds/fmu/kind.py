@@ -8,8 +8,6 @@ safety check (:mod:`fmionnx.core.xmlsafe`). How variables become ports is in
 
 from __future__ import annotations
 
-import io
-import zipfile
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,7 +22,12 @@ from fmionnx.core.types import Component, ComponentInterface, Experiment, KindCo
 from fmionnx.core.xmlsafe import parse_safely
 from fmionnx.kinds.base import FMI, Display, KindProblem, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
-from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, FmuFiles, read_fmu_files
+from fmionnx.kinds.fmu.description import (
+    description_key,
+    parse_model_description,
+    shared_description,
+)
+from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, FmuFiles, identity_file, read_fmu_files
 from fmionnx.kinds.fmu.ports import ports_from_model_description
 
 #: Facts written by this kind (a key is present only when the FMU states it).
@@ -48,9 +51,6 @@ FACT_KEYS = (
     "numberOfContinuousStates",
     "numberOfEventIndicators",
 )
-
-#: How many schema problems to quote in an error message.
-_MAX_PROBLEMS = 3
 
 
 #: The binary folders an FMU needs to run on this machine (FMI 2 and FMI 3 names).
@@ -146,10 +146,10 @@ class FmuKind:
         return FmuConfig(interface=chosen, solver=spec.solver, tolerance=spec.tolerance)
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
-        """An :class:`~fmionnx.kinds.fmu.runner.FmuRunner` (loads fmpy only now)."""
-        from fmionnx.kinds.fmu.runner import FmuRunner
+        """The FMU runner of the component's FMI version and interface type (loads fmpy now)."""
+        from fmionnx.kinds.fmu.runner import make_fmu_runner
 
-        return FmuRunner(component, wiring.driven)
+        return make_fmu_runner(component, wiring.driven)
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the FMU's ports and facts (cached per file identity; ``spec`` is not needed).
@@ -160,7 +160,7 @@ class FmuKind:
         if not path.exists():
             msg = f"`{path}` does not exist"
             raise ModelError("E010", msg)
-        identity_of = path / MODEL_DESCRIPTION if path.is_dir() else path
+        identity_of = identity_file(path)
         if path.is_dir() and not identity_of.is_file():
             read_fmu_files(path)  # raises the folder's error
         key = ("fmu", *file_identity(identity_of))
@@ -168,7 +168,11 @@ class FmuKind:
 
 
 def load_fmu_interface(path: Path) -> ComponentInterface:
-    """Read the interface without the cache (see :meth:`FmuKind.read_interface`)."""
+    """Read the interface without the interface cache (see :meth:`FmuKind.read_interface`).
+
+    The parsed model description goes to :mod:`fmionnx.kinds.fmu.description`, where the
+    runners of this FMU find it again.
+    """
     files = read_fmu_files(path)
     xml_file = Path(path.name) / MODEL_DESCRIPTION
     root = parse_safely(files.model_description, str(xml_file))
@@ -184,7 +188,10 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
     if version != "2.0" and not version.startswith("3."):
         msg = f"`{path.name}` declares fmiVersion `{version}`; fmionnx supports 2.0 and 3.0"
         raise ModelError("E013", msg)
-    model_description = _fmpy_model_description(files.model_description, xml_file)
+    key = description_key(path, files.content_hash)
+    model_description = shared_description(
+        key, lambda: parse_model_description(files.model_description, xml_file)
+    )
     return ComponentInterface(
         kind="fmu",
         path=path,
@@ -193,31 +200,6 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
         default_experiment=_experiment(model_description),
         content_hash=files.content_hash,
     )
-
-
-def _fmpy_model_description(data: bytes, xml_file: Path) -> Any:
-    """fmpy's reading of exactly the bytes that passed the safety check.
-
-    fmpy reads a model description from a zip; an in-memory zip holding only these bytes
-    keeps it from re-reading the FMU or parsing any other file.
-    """
-    from fmpy.model_description import ValidationError, read_model_description
-
-    buffer = io.BytesIO()
-    with zipfile.ZipFile(buffer, "w", compression=zipfile.ZIP_STORED) as archive:
-        archive.writestr(MODEL_DESCRIPTION, data)
-    buffer.seek(0)
-    try:
-        return read_model_description(buffer, validate=True)
-    except ValidationError as exc:
-        problems = "; ".join(str(p) for p in exc.problems[:_MAX_PROBLEMS])
-        more = len(exc.problems) - _MAX_PROBLEMS
-        tail = f" (and {more} more)" if more > 0 else ""
-        msg = f"`{xml_file}` does not conform to the FMI schema: {problems}{tail}"
-        raise ModelError("E012", msg, hint="`fmpy validate <fmu>` lists every problem") from None
-    except Exception as exc:  # fmpy raises bare Exception for semantic errors
-        msg = f"`{xml_file}` cannot be read: {exc}"
-        raise ModelError("E012", msg) from None
 
 
 def _flag(value: object) -> str:

@@ -13,6 +13,8 @@ from __future__ import annotations
 
 import ctypes
 import math
+from collections.abc import Callable
+from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
@@ -22,6 +24,20 @@ from fmionnx.core.runner import fault
 if TYPE_CHECKING:
     from fmionnx.kinds.fmu.kind import FmuConfig
     from fmionnx.kinds.fmu.runner import FmuRunner
+
+
+@dataclass(frozen=True)
+class VersionCalls:
+    """The model-exchange calls FMI 2 and FMI 3 name differently (fmpy methods of the FMU).
+
+    ``get_derivatives(array, n)``: ``fmi2GetDerivatives`` / ``fmi3GetContinuousStateDerivatives``.
+    ``update_discrete_states()``: ``fmi2NewDiscreteStates`` / ``fmi3UpdateDiscreteStates``, both
+    as fmpy returns them: (update needed, terminate, nominals changed, values changed, next event
+    time defined, next event time).
+    """
+
+    get_derivatives: Callable[[Any, int], Any]
+    update_discrete_states: Callable[[], tuple[bool, bool, bool, bool, bool, float]]
 
 
 class _HeldInputs:
@@ -39,11 +55,18 @@ class ModelExchange:
     """The continuous-time part of one ME FMU instance (created right after initialization)."""
 
     def __init__(
-        self, runner: FmuRunner, fmu: Any, md: Any, start: float, stop: float, config: FmuConfig
+        self,
+        runner: FmuRunner,
+        fmu: Any,
+        md: Any,
+        start: float,
+        stop: float,
+        config: FmuConfig,
+        calls: VersionCalls,
     ) -> None:
         self._runner = runner
         self._fmu = fmu
-        self._fmi3 = runner.fmi3
+        self._update_discrete_states = calls.update_discrete_states
         self._nx = int(md.numberOfContinuousStates)
         self._nz = int(md.numberOfEventIndicators)
         self._needs_completed = bool(md.modelExchange.needsCompletedIntegratorStep)
@@ -55,7 +78,7 @@ class ModelExchange:
         if tolerance is None and md.defaultExperiment is not None and md.defaultExperiment.tolerance:
             tolerance = float(md.defaultExperiment.tolerance)
         self._tolerance = tolerance or 1e-5
-        get_dx = fmu.getContinuousStateDerivatives if self._fmi3 else fmu.getDerivatives
+        get_dx = calls.get_derivatives
         self._get_x = fmu.getContinuousStates
         self._set_x = fmu.setContinuousStates
         self._get_dx = get_dx
@@ -90,8 +113,7 @@ class ModelExchange:
 
     def _event_iteration(self, t: float) -> None:
         """Iterate discrete states until they settle (in Event or Initialization Mode)."""
-        fmu = self._fmu
-        update = fmu.updateDiscreteStates if self._fmi3 else fmu.newDiscreteStates
+        update = self._update_discrete_states
         needed, terminate = True, False
         defined, next_time = False, 0.0
         while needed and not terminate:
@@ -110,9 +132,9 @@ class ModelExchange:
         except RuntimeError as exc:  # CVode failures
             raise fault(self._runner.component.name, str(exc), time=t) from None
 
-    def advance(self, t: float, t_end: float) -> None:
-        """Integrate from ``t`` to ``t_end`` handling every event on the way."""
-        self._guarded(t, self._advance, t, t_end)
+    def advance(self, t: float, h: float) -> None:
+        """Integrate from ``t`` to ``t + h`` handling every event on the way."""
+        self._guarded(t, self._advance, t, t + h)
 
     def _advance(self, t: float, t_end: float) -> None:
         fmu = self._fmu

@@ -1,9 +1,17 @@
-"""FMU runner: FMI 2.0 and 3.0, co-simulation and model exchange.
+"""FMU runners: what FMI 2.0 and 3.0, co-simulation and model exchange have in common.
+
+As in fmpy's ``fmi2``/``fmi3`` modules there is one class per FMI version and interface type:
+``Fmi2CoSimulation`` and ``Fmi2ModelExchange`` (:mod:`.fmi2`), ``Fmi3CoSimulation`` and
+``Fmi3ModelExchange`` (:mod:`.fmi3`); :func:`make_fmu_runner` picks one from the compiled
+interface's ``fmiVersion`` and the resolved interface type. Their base :class:`FmuRunner`
+holds what depends on neither: unpacking, the shared model description (:mod:`.description`),
+value buffers, parameters and start values, the per-step set/get, status checks and fault
+messages, terminate and clean-up.
 
 fmpy's low-level classes (``FMU2Slave``, ``FMU2Model``, ``FMU3Slave``, ``FMU3Model``) load the
 library and perform the one-time calls (instantiate, initialization). Per step, the raw FMI C
 functions are called directly with value-reference arrays and value buffers prepared once
-(:mod:`.fmu_values`). Any status above ``Warning`` stops the run with a RunError naming the
+(:mod:`.values`). Any status above ``Warning`` stops the run with a RunError naming the
 component, the FMI function and the simulated time, plus the FMU's last log messages.
 """
 
@@ -12,11 +20,12 @@ from __future__ import annotations
 import ctypes
 import shutil
 import tempfile
+from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import Any, ClassVar
 
 import numpy as np
 
@@ -24,9 +33,12 @@ from fmionnx.core.archive import safe_extract
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.types import Causality, Component, DType
+from fmionnx.kinds.fmu.description import component_description
+from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
 from fmionnx.kinds.fmu.kind import FmuConfig
 from fmionnx.kinds.fmu.values import (
     RawCall,
+    ValueFunctions,
     ValueGroup,
     build_groups,
     port_element_count,
@@ -34,12 +46,20 @@ from fmionnx.kinds.fmu.values import (
 )
 
 _STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
-_FMI_WARNING = 1
+
+#: The highest status a run goes on after (FMI 2 and 3 share the numbering).
+FMI_WARNING = 1
+
+#: Advances an initialized instance from communication point ``t`` by ``h``.
+Stepper = Callable[[float, float], None]
 
 
 @dataclass(frozen=True)
 class Fmi2CsCalls:
-    """What :meth:`FmuRunner.step` calls for FMI 2 co-simulation: set, doStep, get."""
+    """What an FMI 2 co-simulation runner calls per step: set, doStep, get.
+
+    The native kernel (:mod:`fmionnx.runtime.native`) makes the same calls with the same arrays.
+    """
 
     instance: ctypes.c_void_p
     set_calls: tuple[RawCall, ...]
@@ -52,8 +72,23 @@ def status_label(status: int) -> str:
     return _STATUS[status] if 0 <= status < len(_STATUS) else f"illegal status {status}"
 
 
-class FmuRunner:
-    """Runs one FMU instance; chooses CS or ME from the spec (default: CS when offered)."""
+def _not_set_up(t: float, h: float) -> None:
+    """The stepper before ``setup`` and after ``terminate``: stepping then is a caller's bug."""
+    msg = f"an FMU runner was stepped at t={t:g} s before setup() or after terminate()"
+    raise RuntimeError(msg)
+
+
+class FmuRunner(ABC):
+    """Runs one FMU instance; subclasses add what their FMI version and interface type need.
+
+    The hooks, in the order they are called: ``_new_fmu`` (the fmpy object of the interface
+    type), ``_instantiate_fmu`` (the version's instantiate call), ``_initialize`` (the
+    version's initialization around the first set of inputs) and ``_stepper`` (what advances
+    the instance per step: doStep, or integration for model exchange).
+    """
+
+    #: The FMI version's get/set function names and value types.
+    values: ClassVar[ValueFunctions]
 
     def __init__(self, component: Component, driven: frozenset[str]) -> None:
         self.component = component
@@ -61,94 +96,36 @@ class FmuRunner:
         self._driven = driven
         self._log: deque[str] = deque(maxlen=8)
         self._tmp: Path | None = None
+        self._md: Any = None
         self._fmu: Any = None
         self._instance: ctypes.c_void_p | None = None
         self._inputs: list[ValueGroup] = []
         self._outputs: list[ValueGroup] = []
         self._set_calls: list[RawCall] = []
         self._get_calls: list[RawCall] = []
-        self._callbacks: Any = None
-        self._me: Any = None
+        self._advance: Stepper = _not_set_up
         self._terminated = False
         self._time = 0.0
         assert isinstance(component.config, FmuConfig)
         self.config = component.config
-        self.interface_type: str = component.config.interface
-        self.fmi3 = (component.interface.fact("fmiVersion") or "2.0").startswith("3")
 
     # -- life cycle ---------------------------------------------------------------------------
 
     def instantiate(self) -> None:
         """Unpack the FMU safely, load its library and create the instance."""
-        from fmpy import read_model_description
-
         path = self.component.path
         if path.is_dir():
             root = path
         else:
             self._tmp = Path(tempfile.mkdtemp(prefix=f"fmionnx-{self.component.name}-"))
             root = safe_extract(path, self._tmp)
-        md = read_model_description(str(root))
-        self._md = md
-        if self.fmi3:
-            self._instantiate_fmi3(md, root)
-        else:
-            self._instantiate_fmi2(md, root)
+        self._md = component_description(self.component, (root / MODEL_DESCRIPTION).read_bytes)
+        self._fmu = self._new_fmu(self._md, root)
+        self._instantiate_fmu()
         self._instance = ctypes.c_void_p(self._fmu.component)
 
-    def _logger_fmi2(self, env: Any, name: Any, status: int, category: Any, message: Any) -> None:
-        text = message.decode("utf-8", "replace") if message else ""
-        self._log.append(f"[{status_label(status)}] {text}")
-
-    def _logger_fmi3(self, env: Any, status: int, category: Any, message: Any) -> None:
-        text = message.decode("utf-8", "replace") if message else ""
-        self._log.append(f"[{status_label(status)}] {text}")
-
-    def _instantiate_fmi2(self, md: Any, root: Path) -> None:
-        from fmpy import calloc, free
-        from fmpy.fmi2 import (
-            FMU2Model,
-            FMU2Slave,
-            fmi2CallbackAllocateMemoryTYPE,
-            fmi2CallbackFreeMemoryTYPE,
-            fmi2CallbackFunctions,
-            fmi2CallbackLoggerTYPE,
-        )
-        from fmpy.logging import addLoggerProxy
-
-        me = self.interface_type == "me"
-        kind = md.modelExchange if me else md.coSimulation
-        cls = FMU2Model if me else FMU2Slave
-        self._fmu = cls(
-            guid=md.guid,
-            unzipDirectory=str(root),
-            modelIdentifier=kind.modelIdentifier,
-            instanceName=self.component.name,
-        )
-        callbacks = fmi2CallbackFunctions()
-        callbacks.logger = fmi2CallbackLoggerTYPE(self._logger_fmi2)
-        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
-        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
-        addLoggerProxy(ctypes.byref(callbacks))
-        self._callbacks = callbacks
-        self._guard("fmi2Instantiate", lambda: self._fmu.instantiate(callbacks=callbacks))
-
-    def _instantiate_fmi3(self, md: Any, root: Path) -> None:
-        from fmpy.fmi3 import FMU3Model, FMU3Slave
-
-        me = self.interface_type == "me"
-        kind = md.modelExchange if me else md.coSimulation
-        cls = FMU3Model if me else FMU3Slave
-        self._fmu = cls(
-            guid=md.guid,
-            unzipDirectory=str(root),
-            modelIdentifier=kind.modelIdentifier,
-            instanceName=self.component.name,
-        )
-        self._guard("fmi3Instantiate", lambda: self._fmu.instantiate(logMessage=self._logger_fmi3))
-
     def setup(self, start: float, stop: float) -> None:
-        """Parameters and start values, then initialization mode per FMI 2 / FMI 3."""
+        """Parameters and start values, then the version's initialization, then the stepper."""
         self._time = start
         component = self.component
         dll = self._fmu.dll
@@ -162,8 +139,8 @@ class FmuRunner:
             or (p.causality is Causality.PARAMETER and p.name in self._driven)
         ]
         out_ports = list(interface.with_causality(Causality.OUTPUT))
-        self._inputs = build_groups(dll, inst, in_ports, fmi3=self.fmi3, setter=True)
-        self._outputs = build_groups(dll, inst, out_ports, fmi3=self.fmi3, setter=False)
+        self._inputs = build_groups(dll, inst, in_ports, self.values, setter=True)
+        self._outputs = build_groups(dll, inst, out_ports, self.values, setter=False)
         self._set_calls = [g.call for g in self._inputs]
         self._get_calls = [g.call for g in self._outputs]
         explicit = {p.port: p.value for p in component.parameters}
@@ -175,49 +152,41 @@ class FmuRunner:
                     view[:] = np.asarray(value, dtype=view.dtype).reshape(-1)[: view.size]
         for parameter in component.parameters:
             port = component.port(parameter.port)
-            function, status = set_scalars(dll, inst, port, parameter.value, fmi3=self.fmi3)
+            function, status = set_scalars(dll, inst, port, parameter.value, self.values)
             self._check(function, status, start, port=parameter.port)
-        tolerance = self.config.tolerance
-        fmu = self._fmu
-        if self.fmi3:
-            self._guard(
-                "fmi3EnterInitializationMode",
-                lambda: fmu.enterInitializationMode(
-                    tolerance=tolerance, startTime=start, stopTime=stop
-                ),
-            )
-            self._call_all(self._set_calls, start)
-            self._guard("fmi3ExitInitializationMode", fmu.exitInitializationMode)
-        else:
-            self._guard(
-                "fmi2SetupExperiment",
-                lambda: fmu.setupExperiment(tolerance=tolerance, startTime=start, stopTime=stop),
-            )
-            self._guard("fmi2EnterInitializationMode", fmu.enterInitializationMode)
-            self._call_all(self._set_calls, start)
-            self._guard("fmi2ExitInitializationMode", fmu.exitInitializationMode)
-        if self.interface_type == "me":
-            from fmionnx.kinds.fmu.me import ModelExchange
-
-            self._me = ModelExchange(self, fmu, self._md, start, stop, self.config)
-        else:
-            self._prepare_do_step()
+        self._initialize(start, stop)
+        self._advance = self._stepper(start, stop)
         self._call_all(self._get_calls, start)
 
-    def _prepare_do_step(self) -> None:
-        dll = self._fmu.dll
-        if self.fmi3:
-            self._flags = [ctypes.c_bool() for _ in range(3)]
-            self._last_time = ctypes.c_double()
-            self._do_step = dll.fmi3DoStep
-            self._do_step_tail: tuple[object, ...] = (
-                True,
-                *(ctypes.byref(f) for f in self._flags),
-                ctypes.byref(self._last_time),
-            )
-        else:
-            self._do_step = dll.fmi2DoStep
-            self._do_step_tail = (1,)
+    @abstractmethod
+    def _new_fmu(self, md: Any, root: Path) -> Any:
+        """fmpy's object for this version and interface type (loads the library)."""
+
+    @abstractmethod
+    def _instantiate_fmu(self) -> None:
+        """Create the instance with the version's callbacks (``self._fmu.component``)."""
+
+    @abstractmethod
+    def _initialize(self, start: float, stop: float) -> None:
+        """Initialization Mode as the version defines it; inputs are set inside it."""
+
+    @abstractmethod
+    def _stepper(self, start: float, stop: float) -> Stepper:
+        """Prepare stepping right after initialization; return what :meth:`step` calls."""
+
+    def _fmpy_arguments(self, interface: Any, root: Path) -> dict[str, str]:
+        """Keyword arguments of fmpy's FMU classes; ``interface`` is ``md.coSimulation`` ..."""
+        return {
+            "guid": self._md.guid,
+            "unzipDirectory": str(root),
+            "modelIdentifier": interface.modelIdentifier,
+            "instanceName": self.component.name,
+        }
+
+    def _log_message(self, status: int, message: bytes | None) -> None:
+        """Keep a log message of the FMU for fault messages (the loggers' common part)."""
+        text = message.decode("utf-8", "replace") if message else ""
+        self._log.append(f"[{status_label(status)}] {text}")
 
     # -- buffers --------------------------------------------------------------------------------
 
@@ -237,42 +206,21 @@ class FmuRunner:
         msg = f"{self.component.name}.{port} is not a numeric output of this FMU"
         raise KeyError(msg)
 
-    def fmi2_cs_calls(self) -> Fmi2CsCalls | None:
-        """The prepared per-step calls of an FMI 2 co-simulation instance (after ``setup``).
-
-        A native stepper (:mod:`fmionnx.runtime.native`) makes the same calls with
-        the same arrays; None for model exchange, FMI 3, or before setup.
-        """
-        if self.fmi3 or self._me is not None or self._instance is None:
-            return None
-        if self.interface_type != "cs" or getattr(self, "_do_step", None) is None:
-            return None
-        return Fmi2CsCalls(
-            self._instance, tuple(self._set_calls), self._do_step, tuple(self._get_calls)
-        )
-
     # -- stepping -------------------------------------------------------------------------------
 
     def step(self, t: float, h: float) -> None:
         """Set inputs, advance by ``h`` (doStep, or integrate for ME), get outputs."""
         for function, args, name in self._set_calls:
             status = function(*args)
-            if status > _FMI_WARNING:
+            if status > FMI_WARNING:
                 self._check(name, status, t)
-        if self._me is not None:
-            self._me.advance(t, t + h)
-        else:
-            status = self._do_step(self._instance, t, h, *self._do_step_tail)
-            if status > _FMI_WARNING:
-                self._check("fmi3DoStep" if self.fmi3 else "fmi2DoStep", status, t)
-            if self.fmi3 and self._flags[1].value:
-                raise fault(self.component.name, "the FMU requested termination", time=t + h)
+        self._advance(t, h)
         for function, args, name in self._get_calls:
             status = function(*args)
-            if status > _FMI_WARNING:
+            if status > FMI_WARNING:
                 self._check(name, status, t + h)
 
-    def produce(self, port: str) -> None:
+    def produce(self, port: str) -> None:  # noqa: B027 - a no-op for every FMU, not a hook
         """FMU outputs are refreshed every step; nothing is lazy."""
 
     def terminate(self) -> None:
@@ -289,7 +237,7 @@ class FmuRunner:
                     self._log.append("terminate refused")
                 fmu.freeInstance()
         finally:
-            self._me = None
+            self._advance = _not_set_up  # drops the stepper (a model-exchange integrator ...)
             if self._tmp is not None:
                 shutil.rmtree(self._tmp, ignore_errors=True)
 
@@ -300,7 +248,7 @@ class FmuRunner:
             self._check(name, int(function(*args)), t)
 
     def _check(self, function: str, status: int, t: float, *, port: str | None = None) -> None:
-        if status <= _FMI_WARNING:
+        if status <= FMI_WARNING:
             return
         raise self.fault_for(function, status, t, port=port)
 
@@ -320,6 +268,16 @@ class FmuRunner:
             raise self.fault_for(exc.function, exc.status, self._time) from None
         except Exception as exc:
             raise fault(self.component.name, f"{function} failed: {exc}", time=self._time) from None
+
+
+def make_fmu_runner(component: Component, driven: frozenset[str]) -> FmuRunner:
+    """The runner of ``component``'s FMI version and resolved interface type (``cs``/``me``)."""
+    from fmionnx.kinds.fmu import fmi2, fmi3
+
+    assert isinstance(component.config, FmuConfig)
+    version = component.interface.fact("fmiVersion") or "2.0"
+    runners = fmi3.RUNNERS if version.startswith("3") else fmi2.RUNNERS
+    return runners[component.config.interface](component, driven)
 
 
 def element_count(component: Component, port: str) -> int:

@@ -9,7 +9,7 @@ memory; a step then costs exactly one raw FMI call per type and direction.
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
@@ -18,29 +18,25 @@ import numpy as np
 from fmionnx.core.runner import Buffer
 from fmionnx.core.types import DType, Port, Scalar
 
-#: FMI 2 type name and C element type per dtype (FMI 2 Boolean is a C int).
-FMI2_TYPES: dict[DType, tuple[str, Any]] = {
-    DType.FLOAT64: ("Real", ctypes.c_double),
-    DType.INT32: ("Integer", ctypes.c_int),
-    DType.BOOL: ("Boolean", ctypes.c_int),
-}
-
-#: FMI 3 type name and C element type per dtype.
-FMI3_TYPES: dict[DType, tuple[str, Any]] = {
-    DType.FLOAT64: ("Float64", ctypes.c_double),
-    DType.FLOAT32: ("Float32", ctypes.c_float),
-    DType.INT8: ("Int8", ctypes.c_int8),
-    DType.UINT8: ("UInt8", ctypes.c_uint8),
-    DType.INT16: ("Int16", ctypes.c_int16),
-    DType.UINT16: ("UInt16", ctypes.c_uint16),
-    DType.INT32: ("Int32", ctypes.c_int32),
-    DType.UINT32: ("UInt32", ctypes.c_uint32),
-    DType.INT64: ("Int64", ctypes.c_int64),
-    DType.UINT64: ("UInt64", ctypes.c_uint64),
-    DType.BOOL: ("Boolean", ctypes.c_bool),
-}
-
 RawCall = tuple[Callable[..., int], tuple[object, ...], str]
+
+
+@dataclass(frozen=True)
+class ValueFunctions:
+    """How one FMI version names and calls its get/set functions (``fmi2.VALUES`` ...).
+
+    ``types`` maps a dtype to the FMI type name in the function names and the C element type;
+    ``counts_values``: the functions take the number of values after the value array (FMI 3,
+    whose arrays have one value reference for many values).
+    """
+
+    prefix: str
+    types: Mapping[DType, tuple[str, Any]]
+    counts_values: bool
+
+    def name(self, verb: str, type_name: str) -> str:
+        """``fmi2SetReal``, ``fmi3GetFloat64`` ..."""
+        return f"{self.prefix}{verb}{type_name}"
 
 
 @dataclass
@@ -67,12 +63,12 @@ def build_groups(
     dll: Any,
     instance: ctypes.c_void_p,
     ports: Sequence[Port],
+    functions: ValueFunctions,
     *,
-    fmi3: bool,
     setter: bool,
 ) -> list[ValueGroup]:
     """Group ``ports`` by FMI type and prepare the raw get/set call of each group."""
-    table = FMI3_TYPES if fmi3 else FMI2_TYPES
+    table = functions.types
     by_type: dict[str, list[Port]] = {}
     for port in ports:
         if port.dtype not in table:
@@ -91,11 +87,10 @@ def build_groups(
         for port, count in zip(members, counts, strict=True):
             views[port.name] = array[offset : offset + count]
             offset += count
-        prefix = "fmi3" if fmi3 else "fmi2"
-        name = f"{prefix}{'Set' if setter else 'Get'}{type_name}"
+        name = functions.name("Set" if setter else "Get", type_name)
         function = getattr(dll, name)
         args: tuple[object, ...] = (instance, vr_array, len(vrs), values)
-        if fmi3:
+        if functions.counts_values:
             args = (*args, sum(counts))
         # keep the ctypes objects alive as long as the group
         groups.append(ValueGroup(type_name, array, views, (function, args, name)))
@@ -103,22 +98,24 @@ def build_groups(
 
 
 def set_scalars(
-    dll: Any, instance: ctypes.c_void_p, port: Port, values: Sequence[Scalar], *, fmi3: bool
+    dll: Any,
+    instance: ctypes.c_void_p,
+    port: Port,
+    values: Sequence[Scalar],
+    functions: ValueFunctions,
 ) -> tuple[str, int]:
     """Set one port's values once (parameters, start values, strings); returns (name, status)."""
-    table = FMI3_TYPES if fmi3 else FMI2_TYPES
-    prefix = "fmi3" if fmi3 else "fmi2"
     vr_array = (ctypes.c_uint * len(port.vrs))(*port.vrs)
     if port.dtype is DType.STRING:
-        name = f"{prefix}SetString"
+        name = functions.name("Set", "String")
         strings = (ctypes.c_char_p * len(values))(*(str(v).encode() for v in values))
         args: tuple[object, ...] = (instance, vr_array, len(port.vrs), strings)
     else:
-        type_name, ctype = table[port.dtype]
-        name = f"{prefix}Set{type_name}"
+        type_name, ctype = functions.types[port.dtype]
+        name = functions.name("Set", type_name)
         array = (ctype * len(values))(*values)
         args = (instance, vr_array, len(port.vrs), array)
-    if fmi3:
+    if functions.counts_values:
         args = (*args, len(values))
     status = getattr(dll, name)(*args)
     return name, int(status)

@@ -25,7 +25,7 @@ import numpy as np
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.runner import Runner
-from fmionnx.kinds.fmu.runner import FmuRunner
+from fmionnx.kinds.fmu.fmi2 import Fmi2CoSimulation
 from fmionnx.runtime.native.group import MemberPlan, NativeGroup
 from fmionnx.runtime.native.kernel import load_kernel
 from fmionnx.runtime.recorder import Track
@@ -79,7 +79,7 @@ def member_plan(
 ) -> MemberPlan | None:
     """``name``'s part in a group, or None when it must stay in the Python path."""
     runner = runners[name]
-    if not isinstance(runner, FmuRunner):
+    if not isinstance(runner, Fmi2CoSimulation):
         return None
     calls = runner.fmi2_cs_calls()
     if calls is None:

@@ -1,0 +1,128 @@
+"""FMI 2.0 runners: co-simulation and model exchange.
+
+What FMI 2 does its own way: a callback structure (logger, memory functions) handed to
+``fmi2Instantiate``; ``fmi2SetupExperiment`` before Initialization Mode; Real, Integer and
+Boolean values (Boolean is a C int); ``fmi2DoStep`` with one flag; and, for model exchange,
+``fmi2GetDerivatives`` and ``fmi2NewDiscreteStates``.
+"""
+
+from __future__ import annotations
+
+import ctypes
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+from fmionnx.core.types import Component, DType
+from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
+from fmionnx.kinds.fmu.runner import FMI_WARNING, Fmi2CsCalls, FmuRunner, Stepper
+from fmionnx.kinds.fmu.values import ValueFunctions
+
+#: FMI 2 get/set functions: type name and C element type per dtype.
+VALUES = ValueFunctions(
+    prefix="fmi2",
+    types={
+        DType.FLOAT64: ("Real", ctypes.c_double),
+        DType.INT32: ("Integer", ctypes.c_int),
+        DType.BOOL: ("Boolean", ctypes.c_int),
+    },
+    counts_values=False,
+)
+
+#: ``noSetFMUStatePriorToCurrentPoint`` of ``fmi2DoStep``: fmi2True, nothing is ever rolled back.
+_NO_ROLLBACK = 1
+
+
+class Fmi2Runner(FmuRunner):
+    """What FMI 2 co-simulation and model exchange share: instantiation and initialization."""
+
+    values = VALUES
+
+    def _instantiate_fmu(self) -> None:
+        from fmpy import calloc, free
+        from fmpy.fmi2 import (
+            fmi2CallbackAllocateMemoryTYPE,
+            fmi2CallbackFreeMemoryTYPE,
+            fmi2CallbackFunctions,
+            fmi2CallbackLoggerTYPE,
+        )
+        from fmpy.logging import addLoggerProxy
+
+        callbacks = fmi2CallbackFunctions()
+        callbacks.logger = fmi2CallbackLoggerTYPE(self._logger)
+        callbacks.allocateMemory = fmi2CallbackAllocateMemoryTYPE(calloc)
+        callbacks.freeMemory = fmi2CallbackFreeMemoryTYPE(free)
+        addLoggerProxy(ctypes.byref(callbacks))
+        self._callbacks = callbacks  # the FMU keeps pointers into it until freeInstance
+        fmu = self._fmu
+        self._guard("fmi2Instantiate", lambda: fmu.instantiate(callbacks=callbacks))
+
+    def _logger(self, env: Any, name: Any, status: int, category: Any, message: Any) -> None:
+        self._log_message(status, message)
+
+    def _initialize(self, start: float, stop: float) -> None:
+        fmu = self._fmu
+        tolerance = self.config.tolerance
+        self._guard(
+            "fmi2SetupExperiment",
+            lambda: fmu.setupExperiment(tolerance=tolerance, startTime=start, stopTime=stop),
+        )
+        self._guard("fmi2EnterInitializationMode", fmu.enterInitializationMode)
+        self._call_all(self._set_calls, start)
+        self._guard("fmi2ExitInitializationMode", fmu.exitInitializationMode)
+
+
+class Fmi2CoSimulation(Fmi2Runner):
+    """FMI 2 co-simulation: one raw ``fmi2DoStep`` per step.
+
+    Its prepared calls (:meth:`fmi2_cs_calls`) are what the native kernel steps instead.
+    """
+
+    _do_step_function: Callable[..., int]
+
+    def __init__(self, component: Component, driven: frozenset[str]) -> None:
+        super().__init__(component, driven)
+        self._calls: Fmi2CsCalls | None = None
+
+    def _new_fmu(self, md: Any, root: Path) -> Any:
+        from fmpy.fmi2 import FMU2Slave
+
+        return FMU2Slave(**self._fmpy_arguments(md.coSimulation, root))
+
+    def _stepper(self, start: float, stop: float) -> Stepper:
+        assert self._instance is not None
+        self._do_step_function = self._fmu.dll.fmi2DoStep
+        self._calls = Fmi2CsCalls(
+            self._instance,
+            tuple(self._set_calls),
+            self._do_step_function,
+            tuple(self._get_calls),
+        )
+        return self._do_step
+
+    def _do_step(self, t: float, h: float) -> None:
+        status = self._do_step_function(self._instance, t, h, _NO_ROLLBACK)
+        if status > FMI_WARNING:
+            self._check("fmi2DoStep", status, t)
+
+    def fmi2_cs_calls(self) -> Fmi2CsCalls | None:
+        """The prepared per-step calls (after ``setup``; None before)."""
+        return self._calls
+
+
+class Fmi2ModelExchange(Fmi2Runner):
+    """FMI 2 model exchange: integrated between communication points (:mod:`.me`)."""
+
+    def _new_fmu(self, md: Any, root: Path) -> Any:
+        from fmpy.fmi2 import FMU2Model
+
+        return FMU2Model(**self._fmpy_arguments(md.modelExchange, root))
+
+    def _stepper(self, start: float, stop: float) -> Stepper:
+        fmu = self._fmu
+        calls = VersionCalls(fmu.getDerivatives, fmu.newDiscreteStates)
+        return ModelExchange(self, fmu, self._md, start, stop, self.config, calls).advance
+
+
+#: The runner class per interface type.
+RUNNERS: dict[str, type[FmuRunner]] = {"cs": Fmi2CoSimulation, "me": Fmi2ModelExchange}
