@@ -14,6 +14,7 @@ from fmionnx.core.runner import Runner, get_output
 from fmionnx.core.types import Causality, DType
 from fmionnx.kinds.registry import make_runner
 from fmionnx.kinds.signal.kind import SIGNAL_KIND
+from tests.conftest import REPO
 
 
 def _runner(tmp_path: Path, entry: str, csv: str | None = None) -> Runner:
@@ -200,3 +201,10 @@ record: [rate.rate, integ.x]
     result = fmionnx.load(path).run()
     np.testing.assert_array_equal(result["rate.rate"], np.full(101, 2.0))
     np.testing.assert_allclose(result["integ.x"], 2.0 * result.time, rtol=0, atol=1e-9)
+
+
+def test_the_open_loop_example_compiles() -> None:
+    result = api.compile_system(REPO / "systems" / "open_loop.yaml")
+    assert result.ok, result.diagnostics
+    assert result.system is not None
+    assert result.system.component("command").kind == "signal"
