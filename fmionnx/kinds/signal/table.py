@@ -90,7 +90,7 @@ def read_table(path: Path) -> Table:
         msg = f"`{file}` cannot be read: {exc.strerror or exc}"
         raise ModelError("E012", msg) from None
     records: list[tuple[int, list[str]]] = []
-    reader = csv.reader(text.splitlines())
+    reader = csv.reader(text.splitlines(), strict=True)
     try:
         for record in reader:
             cells = [cell.strip() for cell in record]
