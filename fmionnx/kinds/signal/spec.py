@@ -75,7 +75,9 @@ class OutputSpec(_Numbers):
     sine: SineSpec | None = Field(
         default=None, description="`{frequency, amplitude: 1, phase: 0, offset: 0}`."
     )
-    unit: str | None = Field(default=None, description="Unit of the port (e.g. `m/s`).")
+    unit: str | None = Field(
+        default=None, min_length=1, description="Unit of the port (e.g. `m/s`)."
+    )
 
     @model_validator(mode="after")
     def _one_waveform(self) -> OutputSpec:
