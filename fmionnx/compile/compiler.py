@@ -17,7 +17,7 @@ from fmionnx.compile.endpoints import (
 )
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
 from fmionnx.compile.ir import CompiledSystem, Connection, Plot
-from fmionnx.compile.resolve import model_path, read_interface, resolve_parameters, resolve_run
+from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
@@ -43,10 +43,9 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     if spec is None:
         return None
     sources = loaded.sources
-    base = loaded.path.parent
     interfaces: dict[str, ComponentInterface | None] = {}
     for name, component_spec in spec.components.items():
-        interfaces[name] = read_interface(name, component_spec, base, sources, bag)
+        interfaces[name] = read_interface(name, component_spec, loaded.path, sources, bag)
     readable = {n: i for n, i in interfaces.items() if i is not None}
     periods = {n: s.period for n, s in spec.components.items() if s.period is not None}
     run = resolve_run(spec.run, readable, periods, sources, bag)
@@ -67,7 +66,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             Component(
                 name=name,
                 kind=component_spec.kind,
-                path=model_path(base, component_spec.path),
+                path=entry_path(loaded.path, component_spec),
                 interface=interface,
                 config=COMPONENT_KINDS[component_spec.kind].resolve(component_spec, interface),
                 period=period if period is not None else 0.0,

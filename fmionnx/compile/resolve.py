@@ -33,16 +33,29 @@ def model_path(base: Path, text: str) -> Path:
     return path if path.is_absolute() else base / path
 
 
+def entry_path(system: Path, spec: ComponentSpecBase) -> Path:
+    """The model file of a component entry of the system file ``system``.
+
+    An entry without a model file (a kind that lets ``path`` be omitted) is defined by the
+    system file itself, so that file is its path: messages and ``graph`` then name the file
+    the definition is in, and no code needs a "no path" case.
+    """
+    return model_path(system.parent, spec.path) if spec.has_model_file else system
+
+
 def read_interface(
     name: str,
     spec: ComponentSpecBase,
-    base: Path,
+    system: Path,
     sources: SourceMap,
     bag: DiagnosticBag,
 ) -> ComponentInterface | None:
-    """Read a component's interface; a ModelError becomes a diagnostic at its ``path``."""
+    """Read a component's interface; a ModelError becomes a diagnostic at its ``path``.
+
+    ``system`` is the system file the entry is in (paths are relative to its folder).
+    """
     kind = COMPONENT_KINDS[spec.kind]
-    path = model_path(base, spec.path)
+    path = entry_path(system, spec)
     span = sources.value(("components", name, "path"))
     try:
         interface = kind.read_interface(path, spec)

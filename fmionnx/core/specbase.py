@@ -8,6 +8,10 @@ from pydantic import BaseModel, ConfigDict, Field
 ScalarLiteral = bool | int | float | str
 #: A parameter or start value: a scalar, a list, or a list of lists (row-major).
 ParameterLiteral = ScalarLiteral | list[ScalarLiteral] | list[list[ScalarLiteral]]
+#: The ``path`` of an entry without a model file. A kind whose entry can be its own model (its
+#: definition is written in the system file) gives ``path`` this default in its model; for every
+#: other kind ``path`` stays required and non-empty.
+NO_MODEL_FILE = ""
 
 
 class StrictModel(BaseModel):
@@ -23,8 +27,8 @@ class ComponentSpecBase(StrictModel):
     ``kind`` key selects the model, so an option of another kind is an unknown key.
     """
 
-    kind: str = Field(description="Component kind: `fmu`, `onnx` or `mujoco`.")
-    path: str = Field(description="Model file, relative to the system file.")
+    kind: str = Field(description="Component kind (one of the registered kinds).")
+    path: str = Field(min_length=1, description="Model file, relative to the system file.")
     period: float | None = Field(
         default=None,
         gt=0,
@@ -43,3 +47,8 @@ class ComponentSpecBase(StrictModel):
         "its topics are expected, no node is started for it.",
     )
     description: str = Field(default="", description="Free text shown by `graph` and docs.")
+
+    @property
+    def has_model_file(self) -> bool:
+        """False for an entry that names no model file (see :data:`NO_MODEL_FILE`)."""
+        return self.path != NO_MODEL_FILE

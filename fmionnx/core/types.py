@@ -200,7 +200,9 @@ class Component:
     providers ...), made by the kind at compile time: nothing here refers to the system file's
     raw model. ``period_steps`` is the period in base steps. ``external`` components are
     provided from outside in ROS 2 mode (no node is started for them). ``declared_path`` is the
-    model path as the system file wrote it (the interface lock records it).
+    model path as the system file wrote it (the interface lock records it). A component whose
+    entry names no model file (its kind lets ``path`` be omitted) has an empty
+    ``declared_path``, and ``path`` is the system file, where it is defined.
     """
 
     name: str

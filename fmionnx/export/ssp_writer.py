@@ -180,7 +180,14 @@ class _Writer:
             _annotation(node, options)
 
     def _pack(self, name: str, spec: ComponentSpecBase, staging: Path) -> str:
-        """Copy the component's model under ``resources/``; its path inside the archive."""
+        """Copy the component's model under ``resources/``; its path inside the archive.
+
+        An entry without a model file gets the empty reference ``source=""`` (SSP 1.0 requires
+        the attribute): an empty URI reference is the SSD itself, which holds the component's
+        definition in its annotation.
+        """
+        if not spec.has_model_file:
+            return ""
         source = model_path(self.base, spec.path)
         if not source.exists():
             msg = f"component `{name}`: `{source}` does not exist"

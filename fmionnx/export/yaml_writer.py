@@ -29,7 +29,10 @@ class ConvertError(FmionnxError):
 
 
 def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
-    """Plain data of ``spec`` in system-file key order, with ``paths`` per component."""
+    """Plain data of ``spec`` in system-file key order, with ``paths`` per component.
+
+    A component missing from ``paths`` has no model file and is written without ``path``.
+    """
     data: dict[str, Any] = {"fmionnx": spec.fmionnx, "name": spec.name}
     if spec.description:
         data["description"] = spec.description
@@ -41,7 +44,8 @@ def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
         options = component.model_dump(mode="json", by_alias=True, exclude_defaults=True)
         options.pop("kind", None)
         options.pop("path", None)
-        components[name] = {"kind": component.kind, "path": paths[name], **options}
+        path = {"path": paths[name]} if name in paths else {}
+        components[name] = {"kind": component.kind, **path, **options}
     data["components"] = components
     connections: list[Any] = []
     for entry in spec.connections:
@@ -99,6 +103,8 @@ def write_yaml_system(
             ignore = shutil.ignore_patterns(SSD_NAME)
             shutil.copytree(archive_root, staging, dirs_exist_ok=True, ignore=ignore)
         for name, component in spec.components.items():
+            if not component.has_model_file:
+                continue
             source = model_path(base, component.path).resolve()
             if archive_root is not None and source.is_relative_to(archive_root.resolve()):
                 inside = source.relative_to(archive_root.resolve())

@@ -15,11 +15,13 @@ from fmionnx.kinds.base import ComponentKind
 from fmionnx.kinds.fmu.kind import FMU_KIND
 from fmionnx.kinds.mujoco.kind import MUJOCO_KIND
 from fmionnx.kinds.onnx.kind import ONNX_KIND
+from fmionnx.kinds.signal.kind import SIGNAL_KIND
 
 COMPONENT_KINDS: Mapping[str, ComponentKind] = {
     FMU_KIND.name: FMU_KIND,
     ONNX_KIND.name: ONNX_KIND,
     MUJOCO_KIND.name: MUJOCO_KIND,
+    SIGNAL_KIND.name: SIGNAL_KIND,
 }
 
 

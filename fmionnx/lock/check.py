@@ -84,7 +84,7 @@ def check_lock(system: Path) -> list[Diagnostic]:
                 hint=f"run `fmionnx lock {system}` to add it, and commit the lock file",
             )
             continue
-        interface = read_interface(name, spec, system.parent, loaded.sources, scratch)
+        interface = read_interface(name, spec, system, loaded.sources, scratch)
         if interface is None:
             continue
         found = compare(name, spec.kind, entry, interface, span, LockContext(locked, name))

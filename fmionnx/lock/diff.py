@@ -139,6 +139,11 @@ def _fact_notes(
     return notes
 
 
+def _model(locked: LockedComponent) -> str:
+    """The locked model file in backticks, or "its entry" for a component without one."""
+    return f"`{locked.path}`" if locked.path else "its entry"
+
+
 def _shown(value: str | None) -> str:
     return "(none)" if value is None else f"`{value}`"
 
@@ -163,7 +168,7 @@ def compare(
         count = f"{len(notes)} change" + ("s" if len(notes) != 1 else "")
         return make(
             "E080",
-            f"component `{name}`: the interface of `{locked.path}` changed since it was locked "
+            f"component `{name}`: the interface of {_model(locked)} changed since it was locked "
             f"in `{lock_file}` ({count})",
             span,
             hint="if the change is intended, adapt the system and run `fmionnx lock` to "
@@ -187,7 +192,7 @@ def compare(
         )
     return make(
         "I080",
-        f"component `{name}`: `{locked.path}` changed since it was locked in `{lock_file}`, "
+        f"component `{name}`: {_model(locked)} changed since it was locked in `{lock_file}`, "
         "its interface did not",
         span,
         hint="run `fmionnx lock` to record the new model",

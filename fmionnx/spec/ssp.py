@@ -202,10 +202,17 @@ def _component(
     if element.source is None:
         bag.emit("E072", f"component `{name}` has no `source`", span)
         return None
-    model = resolve_uri(element.source, ssd.parent, root, span, bag)
-    if model is None:
+    entry: dict[str, Any] = {"kind": kind}
+    # `source=""` refers to the SSD itself: a component defined by its annotation, with no
+    # model file. Only kinds whose entry may omit `path` accept that.
+    if not element.source and COMPONENT_KINDS[kind].spec_model.model_fields["path"].is_required():
+        bag.emit("E072", f"component `{name}` has an empty `source`: it needs a model file", span)
         return None
-    entry: dict[str, Any] = {"kind": kind, "path": str(model)}
+    if element.source:
+        model = resolve_uri(element.source, ssd.parent, root, span, bag)
+        if model is None:
+            return None
+        entry["path"] = str(model)
     for field_name in ("kind", "path"):
         sources.record((*key, field_name), span, span)
     if FMI in COMPONENT_KINDS[kind].capabilities and (

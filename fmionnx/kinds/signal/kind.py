@@ -1,0 +1,96 @@
+"""The ``signal`` kind object: stimuli without a model file (see the package docstring)."""
+
+from __future__ import annotations
+
+from collections.abc import Mapping
+from pathlib import Path
+
+from fmionnx.core.runner import Runner, Wiring
+from fmionnx.core.specbase import ComponentSpecBase
+from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
+from fmionnx.kinds.base import Display, KindProblem, RoleDefault
+from fmionnx.kinds.cache import cached_interface, file_identity
+from fmionnx.kinds.signal.runner import SignalRunner
+from fmionnx.kinds.signal.spec import NAME, SignalSpec
+from fmionnx.kinds.signal.table import read_table, table_interface
+from fmionnx.kinds.signal.waveforms import SignalConfig, waveform
+
+
+class SignalKind:
+    """Stimuli defined in the system file (``outputs:``) or read from a CSV table."""
+
+    name = NAME
+    spec_model = SignalSpec
+    config_type = SignalConfig
+    suffixes = (".csv",)
+    summary = "stimuli: constant, step, ramp, sine, or a CSV table (no model file needed)"
+    mime_type = "application/x-fmionnx-signal"
+    capabilities: frozenset[str] = frozenset()
+    libraries: tuple[str, ...] = ()
+    display = Display(
+        "Signal",
+        'shape=cds, style="filled", fillcolor="#fef3c7", color="#b45309"',
+        ("[/", "/]"),
+        "#fef3c7",
+    )
+    ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
+
+    def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
+        """The entry's outputs, or the table's columns (cached per file identity).
+
+        Without a table ``path`` is the system file (the entry is the model); ``spec`` None
+        (``fmionnx inspect``) means ``path`` is a table. Raises ModelError (E010/E011/E012).
+        """
+        if isinstance(spec, SignalSpec) and not spec.has_model_file:
+            ports = tuple(
+                Port(
+                    name,
+                    Causality.OUTPUT,
+                    DType.FLOAT64,
+                    unit=output.unit,
+                    depends_on=(),
+                    description=waveform(output).text(),
+                )
+                for name, output in spec.outputs.items()
+            )
+            return ComponentInterface(NAME, path, ports)
+        if not path.is_file():
+            read_table(path)  # raises the missing or not-a-file error
+        key = (NAME, *file_identity(path))
+        return cached_interface(key, path, lambda: table_interface(path))
+
+    def check(
+        self, spec: ComponentSpecBase, interface: ComponentInterface
+    ) -> tuple[KindProblem, ...]:
+        """An entry has ``outputs`` or a table, not both, not neither.
+
+        Checked here rather than in the pydantic model so that each problem points at the key
+        it is about.
+        """
+        assert isinstance(spec, SignalSpec)
+        if spec.has_model_file and spec.outputs:
+            message = "has both `outputs:` and a table at `path:`"
+            hint = "use one of them; two components give both"
+            return (KindProblem("E003", message, "outputs", hint),)
+        if not spec.has_model_file and not spec.outputs:
+            message = "needs `outputs:` (waveforms by port name) or `path:` (a CSV table)"
+            hint = "e.g. `outputs: {v: {step: {time: 1, final: 2}}}`"
+            return (KindProblem("E004", message, "kind", hint),)
+        if not spec.has_model_file and "interpolation" in spec.model_fields_set:
+            message = "`interpolation` applies to a table (`path:`), not to `outputs:`"
+            return (KindProblem("E003", message, "interpolation"),)
+        return ()
+
+    def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> SignalConfig:
+        """The outputs' waveforms, or the table's interpolation."""
+        assert isinstance(spec, SignalSpec)
+        if spec.has_model_file:
+            return SignalConfig(interpolation=spec.interpolation)
+        return SignalConfig(outputs=tuple((n, waveform(o)) for n, o in spec.outputs.items()))
+
+    def make_runner(self, component: Component, wiring: Wiring) -> Runner:
+        """A :class:`SignalRunner`."""
+        return SignalRunner(component)
+
+
+SIGNAL_KIND = SignalKind()
