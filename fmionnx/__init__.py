@@ -5,13 +5,13 @@ __version__ = "0.1.0"
 from typing import TYPE_CHECKING, Any
 
 if TYPE_CHECKING:
-    from fmionnx.session import load as load
+    from fmionnx.api import load as load
 
 
 def __getattr__(name: str) -> Any:
     """``fmionnx.load`` without importing the runtime (numpy, fmpy ...) on ``import fmionnx``."""
     if name == "load":
-        from fmionnx.session import load
+        from fmionnx.api import load
 
         return load
     msg = f"module 'fmionnx' has no attribute {name!r}"

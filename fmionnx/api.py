@@ -1,18 +1,228 @@
 """The Python API: everything the CLI does, callable from code and tests.
 
->>> from fmionnx import api
->>> result = api.compile_system("systems/sign_follower.yaml")
->>> result.ok, [str(d.span) for d in result.diagnostics]
+    >>> import fmionnx
+    >>> system = fmionnx.load("systems/sign_follower.yaml")
+    >>> result = system.run(stop_time=5.0)
+    >>> result["odometry.posX"][-1], result.status
+
+    >>> from fmionnx import api
+    >>> checked = api.compile_system("systems/sign_follower.yaml")
+    >>> checked.ok, [str(d.span) for d in checked.diagnostics]
+
+A single FMU's results are named by variable (``result["x"]``), like ``fmpy simulate``.
+``load`` accepts a system file (YAML/SSP), a compiled system (``*.fmionnx.json``) or a single
+model: an ``.fmu`` becomes a one-component system run from its default experiment with every
+output recorded under its variable name; an ``.onnx`` file gives a system whose ``infer``
+runs the model once.
 """
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
 from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity
-from fmionnx.spec.frontends import load_system
+from fmionnx.compile.overrides import OverrideError, override_parameter, override_stop, parse_value
+from fmionnx.compile.single import compile_single_model
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity, did_you_mean, one_of
+from fmionnx.core.errors import DiagnosticError
+from fmionnx.core.types import (
+    Causality,
+    Component,
+    PortRef,
+    Scalar,
+)
+from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
+
+__all__ = [
+    "CompileResult",
+    "OverrideError",
+    "System",
+    "compile_system",
+    "load",
+    "parse_value",
+    "run_onnx_once",
+]
+
+#: Single-model files ``load`` accepts besides system files.
+MODEL_SUFFIXES = (".fmu", ".onnx")
+#: Compiled-system files (:mod:`fmionnx.compile.systemfile`; the same suffix, kept import-free).
+COMPILED_SUFFIX = ".fmionnx.json"
+
+
+
+
+@dataclass(frozen=True)
+class System:
+    """A compiled system ready to run; immutable (overrides make a new one)."""
+
+    compiled: CompiledSystem
+    diagnostics: tuple[Diagnostic, ...] = ()
+    aliases: Mapping[str, str] = field(default_factory=dict)
+    record: tuple[PortRef, ...] | None = None
+
+    @property
+    def name(self) -> str:
+        """The system's name."""
+        return self.compiled.name
+
+    def with_overrides(
+        self,
+        *,
+        stop_time: float | None = None,
+        params: Mapping[str, Scalar | list[Scalar]] | None = None,
+    ) -> System:
+        """A new System with a different stop time and/or parameter values."""
+        compiled = self.compiled
+        if stop_time is not None:
+            compiled = override_stop(compiled, stop_time)
+        for key, value in (params or {}).items():
+            compiled = override_parameter(compiled, key, value)
+        return dataclasses.replace(self, compiled=compiled)
+
+    def run(
+        self,
+        *,
+        stop_time: float | None = None,
+        params: Mapping[str, Scalar | list[Scalar]] | None = None,
+        record: tuple[PortRef, ...] | None = None,
+        progress: ProgressCallback | None = None,
+        options: RunOptions | None = None,
+    ) -> RunResult:
+        """Run in-process and return the recorded signals (``result["comp.port"]``)."""
+        from fmionnx.backends.inprocess import InProcessBackend
+
+        system = self.with_overrides(stop_time=stop_time, params=params)
+        backend = InProcessBackend()
+        problems = [d for d in backend.validate(system.compiled) if d.severity is Severity.ERROR]
+        if problems:
+            raise DiagnosticError(problems)
+        chosen = options or RunOptions()
+        if record is not None or self.record is not None:
+            chosen = dataclasses.replace(chosen, record=record if record is not None else self.record)
+        if progress is not None:
+            chosen = dataclasses.replace(chosen, progress=progress)
+        result = backend.run(system.compiled, chosen)
+        if self.aliases:
+            result.signals = {self.aliases.get(k, k): v for k, v in result.signals.items()}
+        return result
+
+
+def load(
+    path: str | Path,
+    *,
+    interface: Literal["cs", "me"] | None = None,
+    step: float | None = None,
+    models: Path | None = None,
+) -> System:
+    """Compile a system file or a single model, or read a compiled system; raises
+    DiagnosticError on errors (CompiledFileError for an unusable compiled-system file).
+
+    ``interface`` and ``step`` apply to a single ``.fmu`` only. A compiled-system file
+    (``*.fmionnx.json``, written by ``fmionnx compile``) is read as it is, nothing compiled;
+    ``models`` names the store its models are found in by hash (default: where they were).
+    """
+    target = Path(path)
+    if target.name.lower().endswith(COMPILED_SUFFIX):
+        from fmionnx.compile.systemfile import read_compiled
+
+        return System(read_compiled(target, models=models))
+    bag = DiagnosticBag()
+    if target.suffix.lower() in MODEL_SUFFIXES:
+        compiled = compile_single_model(target, bag, interface=interface, step=step)
+    else:
+        result = compile_system(target)
+        bag.extend(result.diagnostics)
+        compiled = result.system
+    diagnostics = tuple(bag.sorted())
+    if compiled is None or any(d.severity is Severity.ERROR for d in diagnostics):
+        raise DiagnosticError([d for d in diagnostics if d.severity is Severity.ERROR])
+    if target.suffix.lower() == ".fmu":
+        component = compiled.components[0]
+        refs = tuple(
+            PortRef(component.name, p.name)
+            for p in component.interface.with_causality(Causality.OUTPUT)
+        )
+        return System(compiled, diagnostics, fmu_aliases(component), refs)
+    return System(compiled, diagnostics)
+
+
+def fmu_aliases(component: Component) -> dict[str, str]:
+    """Results column -> FMU variable name (FMI 2 arrays keep their scalar names ``x[1]``)."""
+    names: dict[int, str] = {}
+    try:
+        from fmionnx.kinds.fmu.description import component_description
+        from fmionnx.kinds.fmu.files import read_fmu_files
+
+        md = component_description(
+            component, lambda: read_fmu_files(component.path).model_description
+        )
+        names = {
+            int(v.valueReference): str(v.name) for v in md.modelVariables if v.causality == "output"
+        }
+    except Exception:  # aliases are cosmetic; fall back to port names
+        names = {}
+    aliases = {}
+    for port in component.interface.with_causality(Causality.OUTPUT):
+        prefix = f"{component.name}.{port.name}"
+        if port.is_scalar:
+            aliases[prefix] = port.name
+            continue
+        size = port.size or 1
+        per_element = len(port.vrs) == size
+        for i in range(size):
+            fallback = f"{port.name}[{i}]"
+            name = names.get(port.vrs[i], fallback) if per_element else fallback
+            aliases[f"{prefix}[{i}]"] = name
+    return aliases
+
+
+def run_onnx_once(
+    system: System, inputs: Mapping[str, npt.ArrayLike]
+) -> dict[str, npt.NDArray[np.generic]]:
+    """Run a one-ONNX-model system once on ``inputs``; returns outputs shaped like the model's."""
+    from fmionnx.core.runner import Wiring, get_output, set_input
+    from fmionnx.kinds.registry import make_runner
+
+    component = system.compiled.components[0]
+    expected = {p.name: p for p in component.interface.with_causality(Causality.INPUT)}
+    unknown = [n for n in inputs if n not in expected]
+    if unknown:
+        hint = did_you_mean(unknown[0], expected) or one_of(expected)
+        msg = f"the model has no input `{unknown[0]}`; {hint}"
+        raise OverrideError(msg)
+    sizes = {n: int(np.asarray(v).size) for n, v in inputs.items()}
+    runner = make_runner(component, Wiring(frozenset(inputs), sizes))
+    runner.instantiate()
+    try:
+        runner.setup(0.0, 1.0)
+        for name, value in inputs.items():
+            array = np.asarray(value)
+            buffer = runner.input_buffer(name)
+            if array.size != buffer.size:
+                port = expected[name]
+                msg = (
+                    f"input `{name}` needs {buffer.size} elements (shape {port.shape_text()}), "
+                    f"got an array of shape {list(array.shape)}"
+                )
+                raise OverrideError(msg)
+            set_input(runner, name, array)
+        runner.step(0.0, 1.0)
+        outputs = {}
+        for port in component.interface.with_causality(Causality.OUTPUT):
+            outputs[port.name] = get_output(runner, port.name)
+        return outputs
+    finally:
+        runner.terminate()
+
+
+# -- checking ----------------------------------------------------------------------------------
 
 
 @dataclass(frozen=True)
@@ -31,6 +241,7 @@ class CompileResult:
 def compile_system(path: str | Path) -> CompileResult:
     """Load, check and compile a system file (YAML or SSP) into the IR."""
     from fmionnx.compile.compiler import compile_spec
+    from fmionnx.spec.frontends import load_system
 
     bag = DiagnosticBag()
     loaded = load_system(Path(path), bag)

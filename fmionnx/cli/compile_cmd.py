@@ -41,9 +41,9 @@ def compile_(
     The file holds the checked system (components with their resolved settings, connections,
     schedule, records, plots, the ROS 2 plan) and the content hash of every model it needs.
     """
+    from fmionnx.api import OverrideError, parse_value
     from fmionnx.cli.run_cmd import load_target
     from fmionnx.compile.systemfile import SUFFIX, place_models, write_compiled
-    from fmionnx.session import OverrideError, parse_value
 
     if not output.name.endswith(SUFFIX):
         raise fail(f"--output `{output}` must end with `{SUFFIX}` (how nodes recognise it)")

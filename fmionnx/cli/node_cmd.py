@@ -64,7 +64,7 @@ def node(
     ] = None,
 ) -> None:
     """Run one component as a ROS 2 node (Cyclone DDS or rclpy); exit 0 at the stop time, 1 on a fault."""
-    from fmionnx import session
+    from fmionnx import api
     from fmionnx.backends.ros2.env import Ros2EnvError
     from fmionnx.backends.ros2.loading import plan_for
     from fmionnx.backends.ros2.middleware import Middleware
@@ -98,8 +98,8 @@ def node(
         format=f"%(asctime)s {component} %(levelname)s %(message)s",
     )
     try:
-        values = {k: session.parse_value(v) for k, v in params.items()}
-        loaded = session.load(system, models=models)
+        values = {k: api.parse_value(v) for k, v in params.items()}
+        loaded = api.load(system, models=models)
         compiled = loaded.with_overrides(stop_time=stop_time, params=values).compiled
         plan = plan_for(compiled, distro)
         options = NodeOptions(mode, distro, record_dir, supervised, rtf, transport)
@@ -113,7 +113,7 @@ def node(
         raise _fail(f"{system}: {lines}", ExitCode.PROBLEMS) from None
     except (
         NodeError,
-        session.OverrideError,
+        api.OverrideError,
         CompiledFileError,
         Ros2EnvError,
         TransportError,

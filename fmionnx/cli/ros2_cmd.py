@@ -28,7 +28,7 @@ def _fail(message: str, code: int) -> typer.Exit:
 
 
 def _plan(system: Path, distro: str) -> tuple[object, object]:
-    from fmionnx import session
+    from fmionnx import api
     from fmionnx.backends.ros2.loading import plan_for
     from fmionnx.compile.ros2.messages import RosDistro
     from fmionnx.core.errors import DiagnosticError
@@ -39,7 +39,7 @@ def _plan(system: Path, distro: str) -> tuple[object, object]:
         names = ", ".join(d.value for d in RosDistro)
         raise _fail(f"--ros-distro must be one of {names}", ExitCode.USAGE) from None
     try:
-        compiled = session.load(system).compiled
+        compiled = api.load(system).compiled
         return compiled, plan_for(compiled, chosen)
     except DiagnosticError as exc:
         from fmionnx.reporters import FileResult

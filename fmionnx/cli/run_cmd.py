@@ -158,14 +158,14 @@ def _ros2_options(
 
 def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
     """Compile ``target``; its errors rendered like ``validate`` (exit 1), warnings unless quiet."""
-    from fmionnx import session
+    from fmionnx import api
     from fmionnx.core.diagnostics import Severity
     from fmionnx.core.errors import DiagnosticError
     from fmionnx.reporters import FileResult
     from fmionnx.reporters.text import TextReporter
 
     try:
-        system = session.load(target, **kwargs)
+        system = api.load(target, **kwargs)
     except DiagnosticError as exc:
         TextReporter().render(
             [FileResult(target, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
@@ -193,9 +193,9 @@ def _run_system(
 
     from rich.console import Console
 
+    from fmionnx.api import OverrideError, parse_value
     from fmionnx.core.errors import DiagnosticError, FmionnxError
     from fmionnx.runtime.result import RunOptions, RunStatus
-    from fmionnx.session import OverrideError, parse_value
 
     console = Console(stderr=True, highlight=False)
     kwargs: dict[str, Any] = {}
@@ -310,8 +310,8 @@ def _run_onnx(target: Path, inputs: dict[str, str], out: Path | None, *, quiet: 
     from rich.console import Console
     from rich.table import Table
 
+    from fmionnx.api import OverrideError, run_onnx_once
     from fmionnx.core.errors import RunError
-    from fmionnx.session import OverrideError, run_onnx_once
 
     system = load_target(target, quiet=quiet)
     arrays = {}

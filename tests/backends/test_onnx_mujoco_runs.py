@@ -10,9 +10,9 @@ import pytest
 from onnx import TensorProto, helper
 
 import fmionnx
+from fmionnx.api import run_onnx_once
 from fmionnx.core.errors import RunError
 from fmionnx.runtime.result import RunOptions, RunStatus
-from fmionnx.session import run_onnx_once
 
 
 def _gather_model(path: Path) -> Path:

@@ -2,12 +2,14 @@
 
 from __future__ import annotations
 
+import hashlib
 import itertools
 
 import numpy as np
 import pytest
 
 import fmionnx
+from fmionnx.results.csvfile import write_csv
 from fmionnx.results.plots import read_path
 from fmionnx.runtime.result import RunStatus
 from tests.conftest import REPO, built_model
@@ -47,3 +49,14 @@ def test_robot_path_stays_within_30_cm_of_the_expected_path(run_result) -> None:
     # every corner of the expected path is passed (every turn was taken)
     for corner in path[1:-1]:
         assert np.linalg.norm(points - corner, axis=1).min() < 0.3
+
+
+#: sha256 of the reference scenario's results.csv, written before the layers were restructured
+#: (issue #12): a refactoring must not change one byte of the results. A deliberate change of
+#: the models or of the CSV format updates this value in the same commit, saying why.
+REFERENCE_RESULTS_SHA256 = "737f4505d05de0a7786bf55822dc7bec2f036c9ac29e34f0a0f96c37b20b7a88"
+
+
+def test_reference_results_csv_is_byte_identical_to_the_recorded_hash(run_result, tmp_path) -> None:
+    written = write_csv(run_result, tmp_path / "results.csv")
+    assert hashlib.sha256(written.read_bytes()).hexdigest() == REFERENCE_RESULTS_SHA256

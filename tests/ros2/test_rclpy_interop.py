@@ -19,11 +19,11 @@ from typing import Any
 
 import pytest
 
+from fmionnx.api import load
 from fmionnx.backends.ros2.loading import plan_for
 from fmionnx.backends.ros2.rclpy_env import rclpy_problem
 from fmionnx.backends.ros2.supervisor import SUPERVISOR_NODE
 from fmionnx.compile.ros2.messages import RosDistro
-from fmionnx.session import load
 from tests.conftest import REPO, built_model
 from tests.ros2.test_run import fmionnx, processes_with
 

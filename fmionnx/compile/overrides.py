@@ -1,0 +1,112 @@
+"""Command-line overrides applied to a compiled system: a new stop time, parameter values.
+
+They act on the compiled system itself (never on the system file), so a node or a worker that
+received a compiled system applies them the same way the CLI does.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import json
+import math
+
+from fmionnx.compile.ir import CompiledSystem, Origin, RunSettings
+from fmionnx.core.diagnostics import did_you_mean, one_of
+from fmionnx.core.errors import FmionnxError
+from fmionnx.core.types import Causality, DType, ParameterValue, Scalar, is_whole_multiple
+
+
+class OverrideError(FmionnxError):
+    """A command-line override (``--param``, ``--stop-time``) that does not fit the system."""
+
+
+
+def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
+    """The system with another stop time (a whole number of base steps after the start)."""
+    run = system.run
+    if not math.isfinite(stop):
+        msg = f"--stop-time {stop} must be a finite number of seconds"
+        raise OverrideError(msg)
+    if stop <= run.start:
+        msg = f"--stop-time {stop} must be greater than the start time {run.start}"
+        raise OverrideError(msg)
+    if is_whole_multiple(stop - run.start, run.step, rel=1e-6) is None:
+        msg = f"--stop-time {stop} is not a whole number of base steps ({run.step} s) after the start"
+        raise OverrideError(msg)
+    origins = (*((k, o) for k, o in run.origins if k != "stop"), ("stop", Origin.COMMAND_LINE))
+    return dataclasses.replace(system, run=RunSettings(run.start, stop, run.step, origins))
+
+
+def parse_value(text: str) -> Scalar | list[Scalar]:
+    """A command-line value: JSON (``1.5``, ``true``, ``[1, 2]``), else the plain string."""
+    try:
+        value = json.loads(text)
+    except json.JSONDecodeError:
+        return text
+    if isinstance(value, list) and all(isinstance(v, bool | int | float | str) for v in value):
+        return value
+    if isinstance(value, bool | int | float | str):
+        return value
+    return text
+
+
+def _coerce(dtype: DType, value: Scalar) -> Scalar | None:
+    if dtype is DType.BOOL:
+        return value if isinstance(value, bool) else None
+    if dtype.is_integer:
+        return value if isinstance(value, int) and not isinstance(value, bool) else None
+    if dtype.is_float:
+        ok = isinstance(value, int | float) and not isinstance(value, bool)
+        return float(value) if ok else None
+    return value if isinstance(value, str) else None
+
+
+def override_parameter(
+    system: CompiledSystem, key: str, value: Scalar | list[Scalar]
+) -> CompiledSystem:
+    """The system with ``component.name = value`` set before initialization.
+
+    A one-model system also accepts the bare variable name (``--param k=2``).
+    """
+    names = [c.name for c in system.components]
+    owners = [n for n in names if key.startswith(n + ".")]
+    if owners:
+        component_name = max(owners, key=len)
+        port_name = key[len(component_name) + 1 :]
+    elif len(names) == 1:
+        component_name, port_name = names[0], key  # a lone model: plain variable names
+    elif "." not in key:
+        msg = f"--param `{key}`: expected `component.name=value` (components: {', '.join(names)})"
+        raise OverrideError(msg)
+    else:
+        guess = key.split(".", 1)[0]
+        hint = did_you_mean(guess, names) or one_of(names)
+        msg = f"--param `{key}`: no component `{guess}`; {hint}"
+        raise OverrideError(msg)
+    component = system.component(component_name)
+    settable = [
+        p.name
+        for p in component.interface.ports
+        if p.causality in (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER, Causality.INPUT)
+    ]
+    port = component.interface.port(port_name)
+    if port is None or port.name not in settable:
+        hint = did_you_mean(port_name, settable) or one_of(settable)
+        msg = f"--param `{key}`: `{component_name}` has no parameter `{port_name}`; {hint}"
+        raise OverrideError(msg)
+    flat = value if isinstance(value, list) else [value]
+    size = port.size or 1
+    coerced = [_coerce(port.dtype, v) for v in flat]
+    if len(flat) != size or any(c is None for c in coerced):
+        msg = (
+            f"--param `{key}`: expected {size} value(s) of type {port.dtype} "
+            f"(shape {port.shape_text()}), got `{value}`"
+        )
+        raise OverrideError(msg)
+    values = tuple(c for c in coerced if c is not None)
+    kept = tuple(p for p in component.parameters if p.port != port_name)
+    updated = dataclasses.replace(
+        component, parameters=(*kept, ParameterValue(port_name, values, None))
+    )
+    components = tuple(updated if c.name == component_name else c for c in system.components)
+    return dataclasses.replace(system, components=components)
