@@ -28,6 +28,7 @@ from typing import Any
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.errors import FmionnxError, ModelError
+from fmionnx.core.specbase import NO_MODEL_FILE
 from fmionnx.core.types import Component, KindConfig
 from fmionnx.kinds.base import MODEL_FOLDER
 from fmionnx.kinds.registry import COMPONENT_KINDS, config_type
@@ -70,7 +71,9 @@ def to_json(system: CompiledSystem) -> str:
         "format": FORMAT,
         "version": VERSION,
         "content_hash": system.content_hash,
-        "models": {c.name: c.interface.content_hash for c in system.components},
+        "models": {
+            c.name: c.interface.content_hash for c in system.components if has_model_file(c)
+        },
         "system": _encode(system),
     }
     return json.dumps(document, indent=1, sort_keys=False) + "\n"
@@ -166,6 +169,11 @@ def _decode_class(cls: type, data: Any, where: str) -> Any:
                 raise _bad(f"{where}.kind", f"one of {sorted(COMPONENT_KINDS)}", kind)
             cls = config_type(str(kind))
         hints = _hints(cls)
+        known = {f.name for f in dataclasses.fields(cls) if f.init}
+        unknown = sorted(set(data) - known)
+        if unknown:  # also what tells apart the members of a union of dataclasses
+            msg = f"{where}.{unknown[0]}: unknown field of {cls.__name__}"
+            raise CompiledFileError(msg)
         values = {}
         for f in dataclasses.fields(cls):
             if not f.init:
@@ -231,6 +239,11 @@ def read_compiled(path: Path, *, models: Path | None = None) -> CompiledSystem:
 # -- models by hash -----------------------------------------------------------------------------
 
 
+def has_model_file(component: Component) -> bool:
+    """False for a component defined entirely in the system file (its config is the model)."""
+    return component.declared_path != NO_MODEL_FILE
+
+
 def stored_model(store: Path, component: Component) -> Path:
     """Where ``component``'s model lives in a model store: ``<store>/<sha256>/<file name>``."""
     return store / component.interface.content_hash / component.path.name
@@ -240,7 +253,7 @@ def place_models(system: CompiledSystem, store: Path) -> list[Path]:
     """Copy every model ``system`` needs into ``store`` by content hash (what a remote host or
     worker receives). A kind whose model needs its folder gets the folder. Returns the paths."""
     placed = []
-    for component in system.components:
+    for component in filter(has_model_file, system.components):
         target = stored_model(store, component)
         placed.append(target)
         if target.exists():
@@ -269,6 +282,9 @@ def relocate(system: CompiledSystem, store: Path) -> CompiledSystem:
     """
     components = []
     for component in system.components:
+        if not has_model_file(component):
+            components.append(component)
+            continue
         path = stored_model(store, component)
         if not path.exists():
             msg = (

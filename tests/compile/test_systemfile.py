@@ -75,6 +75,7 @@ def test_the_file_holds_no_front_end_type(reference: CompiledSystem) -> None:
         (lambda d: d.update(format="x"), "not a compiled-system file"),
         (lambda d: d["system"].update(name="other"), "does not match its content hash"),
         (lambda d: d["system"]["run"].update(step="fast"), "system.run.step: expected a number"),
+        (lambda d: d["system"]["run"].update(speed=2), "system.run.speed: unknown field of RunSettings"),
         (
             lambda d: d["system"]["components"][0]["config"].update(kind="nope"),
             "system.components[0].config.kind",
@@ -131,3 +132,23 @@ def test_a_missing_or_changed_model_is_refused(reference: CompiledSystem, tmp_pa
 
 def test_a_system_file_still_loads_as_before() -> None:
     assert fmionnx.load(REFERENCE).compiled.name == "sign_follower"
+
+
+def test_signal_components_travel_in_the_file_and_need_no_model(tmp_path: Path) -> None:
+    """Waveforms are the signal kind's config: a ramp to a final value stays a ramp-to."""
+    system = _compiled(REPO / "systems" / "open_loop.yaml")
+    back = from_json(to_json(system))
+    assert back == system
+    command = back.component("command")
+    assert type(command.config).__name__ == "SignalConfig"
+    kinds = {name: type(w).__name__ for name, w in command.config.outputs}  # type: ignore[attr-defined]
+    assert kinds == {"v": "RampTo", "w": "Sine"}
+    store = tmp_path / "models"
+    placed = place_models(system, store)
+    assert len(placed) == len(system.components) - 1  # nothing to place for the signal
+    moved = relocate(back, store)
+    short = dataclasses.replace(moved, run=dataclasses.replace(moved.run, stop=0.5))
+    ours = Master(dataclasses.replace(system, run=short.run), RunOptions()).run()
+    theirs = Master(short, RunOptions()).run()
+    for name, values in ours.signals.items():
+        assert np.array_equal(values, theirs.signals[name]), name
