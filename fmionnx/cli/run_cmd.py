@@ -12,9 +12,6 @@ import typer
 from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.cli.outputs import check_output_file, check_output_folder
 
-#: Exit code of a run stopped by Ctrl-C (128 + SIGINT), as shells report it.
-EXIT_INTERRUPTED = 130
-
 
 def _parse_pairs(items: list[str], option: str) -> dict[str, str]:
     pairs = {}
@@ -93,23 +90,27 @@ def run(
     if record is not None:
         check_output_file(record, "--record")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
+    from fmionnx.runtime.stopping import exit_code, stop_on_signals, stop_reason
+
     try:
         if suffix == ".onnx":
             _run_onnx(target, _parse_pairs(inputs or [], "--input"), out, quiet=quiet)
             return
-        code = _run_system(
-            target,
-            out=out,
-            stop_time=stop_time,
-            params=_parse_pairs(param or [], "--param"),
-            quiet=quiet,
-            record=record,
-            step=step,
-            interface=interface,
-            ros2=ros2,
-        )
-    except KeyboardInterrupt:
-        raise fail("interrupted before the run started", EXIT_INTERRUPTED) from None
+        with stop_on_signals():  # SIGTERM/SIGHUP stop like Ctrl-C: the results are written
+            code = _run_system(
+                target,
+                out=out,
+                stop_time=stop_time,
+                params=_parse_pairs(param or [], "--param"),
+                quiet=quiet,
+                record=record,
+                step=step,
+                interface=interface,
+                ros2=ros2,
+            )
+    except KeyboardInterrupt as exc:
+        reason = stop_reason(exc)
+        raise fail(f"interrupted by {reason} before the run started", exit_code(reason)) from None
     raise typer.Exit(code)
 
 
@@ -249,13 +250,19 @@ def _run_system(
     if result.status is RunStatus.FAULT and result.error is not None:
         console.print(f"[bold red]fault:[/] {result.error}")
     elif result.status is RunStatus.INTERRUPTED:
-        console.print(f"[yellow]interrupted[/] at t={result.simulated_time + result.start:g} s")
+        by = f" by {result.interrupted_by}" if result.interrupted_by else ""
+        console.print(
+            f"[yellow]interrupted{by}[/] at t={result.simulated_time + result.start:g} s; "
+            "the results recorded so far are written"
+        )
     if out is not None:
         print(f"Results: {out}")  # the last line names the folder (make demo)
     if result.status is RunStatus.FAULT:
         return int(ExitCode.PROBLEMS)
     if result.status is RunStatus.INTERRUPTED:
-        return EXIT_INTERRUPTED
+        from fmionnx.runtime.stopping import exit_code
+
+        return exit_code(result.interrupted_by)
     return int(ExitCode.OK)
 
 

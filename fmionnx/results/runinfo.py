@@ -37,6 +37,7 @@ def run_info(result: RunResult, system: CompiledSystem) -> dict[str, Any]:
         "content_hash": system.content_hash,
         "backend": result.backend,
         "status": result.status.value,
+        "interrupted_by": result.interrupted_by,
         "start_time": result.start,
         "stop_time": result.stop,
         "step": result.step,

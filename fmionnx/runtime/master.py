@@ -30,6 +30,7 @@ from fmionnx.core.types import Causality, Component, DType, Port, PortRef, flat_
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+from fmionnx.runtime.stopping import stop_reason
 from fmionnx.runtime.transfer import Transfer, make_transfer
 
 #: Largest hyperperiod (in base steps) for which the schedule is tabulated.
@@ -272,6 +273,7 @@ class Master:
         system = self.system
         status = RunStatus.COMPLETED
         error: RunError | None = None
+        reason: str | None = None
         started = _time.perf_counter()
         try:
             self.prepare()
@@ -279,15 +281,15 @@ class Master:
             self._loop()
         except RunError as exc:
             status, error = RunStatus.FAULT, exc
-        except KeyboardInterrupt:
-            status = RunStatus.INTERRUPTED
+        except KeyboardInterrupt as exc:
+            status, reason = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = _time.perf_counter() - started
             self._terminate()
         n = self._clock[0]
         return RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
-            self.native.details(),
+            self.native.details(), reason,
         )  # fmt: skip
 
     def _loop(self) -> None:

@@ -70,6 +70,8 @@ class RunResult:
     #: Backend-specific facts about how the run executed (e.g. the in-process ``native``
     #: kernel), written to run.json as ``execution``.
     details: dict[str, str | int | bool | None] = field(default_factory=dict)
+    #: For an interrupted run: the signal that stopped it (``SIGINT``, ``SIGTERM``, ``SIGHUP``).
+    interrupted_by: str | None = None
 
     @classmethod
     def after(
@@ -82,6 +84,7 @@ class RunResult:
         signals: dict[str, npt.NDArray[np.float64]],
         error: RunError | None = None,
         details: dict[str, str | int | bool | None] | None = None,
+        interrupted_by: str | None = None,
     ) -> RunResult:
         """The result of ``system`` after ``steps_done`` base steps: run settings and the time
         column (``t_0 .. t_n``, computed, never accumulated) come from the system."""
@@ -99,6 +102,7 @@ class RunResult:
             signals=signals,
             error=error,
             details=details or {},
+            interrupted_by=interrupted_by,
         )
 
     @property

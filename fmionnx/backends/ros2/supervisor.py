@@ -28,10 +28,8 @@ import subprocess
 import sys
 import tempfile
 import time
-from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from types import FrameType
 
 from fmionnx.backends.ros2.bag import TopicRecorder
 from fmionnx.backends.ros2.control import (
@@ -59,6 +57,7 @@ from fmionnx.compile.systemfile import SUFFIX as COMPILED_SUFFIX
 from fmionnx.compile.systemfile import write_compiled
 from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+from fmionnx.runtime.stopping import stop_on_signals, stop_reason
 
 BACKEND_NAME = "ros2"
 #: Name under which the supervisor itself shows in ``ros2 node list``.
@@ -200,24 +199,6 @@ class Children:
                 os.killpg(proc.pid, signal.SIGKILL)
 
 
-@contextlib.contextmanager
-def _sigterm_interrupts() -> Iterator[None]:
-    """SIGTERM to the supervisor stops the run like Ctrl-C (children are then stopped)."""
-
-    def handler(signum: int, frame: FrameType | None) -> None:
-        raise KeyboardInterrupt
-
-    try:
-        previous = signal.signal(signal.SIGTERM, handler)
-    except ValueError:  # not the main thread: leave signals alone
-        yield
-        return
-    try:
-        yield
-    finally:
-        signal.signal(signal.SIGTERM, previous)
-
-
 class Supervisor:
     """One run of a system as ROS 2 nodes."""
 
@@ -334,6 +315,7 @@ class Supervisor:
     def run(self) -> RunResult:
         """Start the nodes, drive or watch the clock, stop everything, merge the results."""
         status, error = RunStatus.COMPLETED, None
+        self.interrupted_by: str | None = None
         write_compiled(dataclasses.replace(self.system, ros2_plan=self.plan), self.compiled_file)
         env = from_environment(self.options.distro)
         self.domain_id = env.domain_id
@@ -377,8 +359,8 @@ class Supervisor:
             status, error = RunStatus.FAULT, self._ended_error(ended)
         except SupervisorError as exc:
             status, error = RunStatus.FAULT, RunError(str(exc))
-        except KeyboardInterrupt:
-            status = RunStatus.INTERRUPTED
+        except KeyboardInterrupt as exc:
+            status, self.interrupted_by = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = time.perf_counter() - wall_start
             self.children.stop()
@@ -413,8 +395,9 @@ class Supervisor:
         refs = record_refs(self.system, self.options.run)
         recorder = merge(self.records, self.components, refs, self.system)
         return RunResult.after(
-            self.system, BACKEND_NAME, status, n, wall, recorder.table(n), error, self._details()
-        )
+            self.system, BACKEND_NAME, status, n, wall, recorder.table(n), error, self._details(),
+            self.interrupted_by,
+        )  # fmt: skip
 
     def _details(self) -> dict[str, str | int | bool | None]:
         """How the run executed, for run.json's ``execution``."""
@@ -444,7 +427,7 @@ def run_ros2(system: CompiledSystem, options: Ros2Options | None = None) -> RunR
         else:
             folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="fmionnx-ros2-")))
         supervisor = Supervisor(system, opts, folder)
-        stack.enter_context(_sigterm_interrupts())
+        stack.enter_context(stop_on_signals())
         return supervisor.run()
     msg = "unreachable"  # pragma: no cover - mypy: ExitStack may swallow exceptions
     raise AssertionError(msg)

@@ -1,0 +1,66 @@
+"""Stop requests from the operating system: SIGINT, SIGTERM and SIGHUP end a run cleanly.
+
+CI runners and container runtimes stop a job with SIGTERM, a closed terminal sends SIGHUP; the
+default action of both kills the process before it writes anything. Inside :func:`stop_on_signals`
+each of them instead raises :class:`StopRequested` (a ``KeyboardInterrupt``, so every place
+that already ends a run cleanly on Ctrl-C does so for these too), and any further signal is
+noted but ignored, so the results recorded so far can be written without being cut off again.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import signal
+from collections.abc import Iterator
+from types import FrameType
+
+#: The signals that stop a run cleanly.
+STOP_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+class StopRequested(KeyboardInterrupt):
+    """The process was asked to stop by ``signal_name``."""
+
+    def __init__(self, signum: int) -> None:
+        self.signum = signum
+        self.signal_name = signal.Signals(signum).name
+        super().__init__(self.signal_name)
+
+
+def stop_reason(exc: BaseException) -> str:
+    """The signal's name for a stop request; ``SIGINT`` for a plain Ctrl-C."""
+    return exc.signal_name if isinstance(exc, StopRequested) else "SIGINT"
+
+
+def exit_code(reason: str | None) -> int:
+    """The conventional exit code of a process stopped by ``reason`` (128 + signal number)."""
+    if reason is None:
+        return 128 + int(signal.SIGINT)
+    return 128 + int(signal.Signals[reason])
+
+
+@contextlib.contextmanager
+def stop_on_signals() -> Iterator[list[int]]:
+    """Turn the first stop signal into :class:`StopRequested`; ignore later ones until the
+    block ends (it yields the list of signals received). Off the main thread, a no-op."""
+    received: list[int] = []
+
+    def handler(signum: int, frame: FrameType | None) -> None:
+        received.append(signum)
+        if len(received) == 1:
+            raise StopRequested(signum)
+
+    previous = {}
+    try:
+        for signum in STOP_SIGNALS:
+            previous[signum] = signal.signal(signum, handler)
+    except ValueError:  # not the main thread: signals stay as they are
+        for signum, old in previous.items():
+            signal.signal(signum, old)
+        yield received
+        return
+    try:
+        yield received
+    finally:
+        for signum, old in previous.items():
+            signal.signal(signum, old)
