@@ -42,7 +42,9 @@ class McapRecorder:
         self.path = path
         # Recorded into a fresh file beside ``path`` and renamed over it by ``finish``: a link
         # planted at ``path`` is replaced, never written through, and no half file appears.
-        descriptor, name = tempfile.mkstemp(prefix=f".{path.name}.", suffix=".part", dir=path.parent)
+        descriptor, name = tempfile.mkstemp(
+            prefix=f".{path.name}.", suffix=".part", dir=path.parent
+        )
         self._partial = Path(name)
         self._stream: IO[bytes] = os.fdopen(descriptor, "wb")
         self._writer: Any = Writer(self._stream)
