@@ -15,7 +15,7 @@ from pathlib import Path
 import pytest
 from typer.testing import CliRunner
 
-from fmionnx.cli import app
+from fmionnx.cli.app import app
 
 SYSTEM = """\
 fmionnx: 1
