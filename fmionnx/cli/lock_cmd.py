@@ -8,9 +8,10 @@ from typing import Annotated
 
 import typer
 
-from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.core.diagnostics import Severity
-from fmionnx.lock.check import lock_system
+from fmionnx.core.safewrite import OverwriteRefusedError
+from fmionnx.lock.check import check_lock_target, lock_system
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 
@@ -21,15 +22,24 @@ from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 )
 def lock(
     systems: Annotated[list[Path], typer.Argument(help="System files (.yaml, .ssp, .ssd).")],
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace a file at the lock's name not written by lock.")
+    ] = False,
 ) -> None:
     """Write `<system>.fmionnx.lock` beside each system: the interface of every model.
 
     Commit the lock; `fmionnx validate --locked` then fails when a model's interface changes.
-    A system with errors is not locked.
+    A system with errors is not locked. A file at the lock's name that `fmionnx lock` did not
+    write is replaced only with `--force`.
     """
+    for system in systems:  # all checked first: a refusal leaves every lock as it was
+        try:
+            check_lock_target(system, force=force)
+        except OverwriteRefusedError as exc:
+            raise fail(f"{exc}") from None
     failed = []
     for system in systems:
-        result = lock_system(system)
+        result = lock_system(system, force=force)
         shown = [d for d in result.diagnostics if d.severity is Severity.ERROR]
         if result.path is None:
             failed.append(FileResult(system, tuple(shown)))

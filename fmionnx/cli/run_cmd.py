@@ -76,6 +76,10 @@ def run(
         float,
         typer.Option("--step-timeout", help="ROS 2 lockstep: seconds one step may take."),
     ] = 60.0,
+    force: Annotated[
+        bool,
+        typer.Option("--force", help="Write into an --out folder that holds other files."),
+    ] = False,
 ) -> None:
     """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
     suffix = target.suffix.lower()
@@ -86,7 +90,7 @@ def run(
     if inputs and suffix != ".onnx":
         raise fail("--input applies to a single .onnx model only")
     if out is not None:
-        check_output_folder(out, "--out")
+        _check_out(out, force=force, system_run=suffix != ".onnx")
     if record is not None:
         check_output_file(record, "--record")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
@@ -112,6 +116,23 @@ def run(
         reason = stop_reason(exc)
         raise fail(f"interrupted by {reason} before the run started", exit_code(reason)) from None
     raise typer.Exit(code)
+
+
+def _check_out(out: Path, *, force: bool, system_run: bool) -> None:
+    """``--out`` is usable; a folder of someone else's files is refused unless ``--force``.
+
+    Checked before the run: learning after minutes of simulation that the results would be
+    mixed into an unrelated folder is too late. See ``fmionnx.results.outdir``.
+    """
+    from fmionnx.results.outdir import foreign_folder
+
+    if system_run and not force and foreign_folder(out):
+        msg = (
+            f"--out `{out}` holds files that are not the output of an earlier fmionnx run; "
+            "choose an empty folder or use --force to write into it"
+        )
+        raise fail(msg)
+    check_output_folder(out, "--out")
 
 
 def _ros2_options(
@@ -244,7 +265,9 @@ def _run_system(
     if out is not None:
         from fmionnx.results import write_results
 
-        files[:0] = write_results(result, system.compiled, out, aliases=dict(system.aliases))
+        files[:0] = write_results(
+            result, system.compiled, out, aliases=dict(system.aliases), also=files
+        )
     if not quiet:
         _summary(console, result, files)
     if result.status is RunStatus.FAULT and result.error is not None:
@@ -313,12 +336,15 @@ def _summary(console: Any, result: Any, files: list[Path]) -> None:
 
 
 def _run_onnx(target: Path, inputs: dict[str, str], out: Path | None, *, quiet: bool) -> None:
+    import io
+
     import numpy as np
     from rich.console import Console
     from rich.table import Table
 
     from fmionnx.api import OverrideError, run_onnx_once
     from fmionnx.core.errors import RunError
+    from fmionnx.core.safewrite import write_bytes_atomic
 
     system = load_target(target, quiet=quiet)
     arrays = {}
@@ -345,5 +371,7 @@ def _run_onnx(target: Path, inputs: dict[str, str], out: Path | None, *, quiet: 
     if out is not None:
         out.mkdir(parents=True, exist_ok=True)
         for name, value in outputs.items():
-            np.save(out / f"{name}.npy", value)
+            buffer = io.BytesIO()  # written atomically: never through a link planted there
+            np.save(buffer, value)
+            write_bytes_atomic(out / f"{name}.npy", buffer.getvalue())
         print(f"Results: {out}")  # the last line names the folder (make demo)

@@ -12,6 +12,7 @@ import zipfile
 from pathlib import Path, PurePosixPath
 
 from fmionnx.core.errors import ModelError
+from fmionnx.core.safewrite import atomic_binary
 
 #: Upper bounds for one archive; generous for real FMUs, far below a zip bomb.
 MAX_TOTAL_BYTES = 2 * 1024**3
@@ -113,11 +114,13 @@ def safe_extract(path: Path, destination: Path) -> Path:
 def write_deterministic_zip(source_dir: Path, output: Path) -> None:
     """Zip ``source_dir`` with sorted names and fixed timestamps (same input, same bytes)."""
     output.parent.mkdir(parents=True, exist_ok=True)
-    tmp = output.with_name(output.name + ".part")
-    with zipfile.ZipFile(tmp, "w", compression=zipfile.ZIP_DEFLATED) as archive:
+    # Through a fresh temporary file: a link planted at ``output`` is replaced, not followed.
+    with (
+        atomic_binary(output) as stream,
+        zipfile.ZipFile(stream, "w", compression=zipfile.ZIP_DEFLATED) as archive,
+    ):
         for file in sorted(p for p in source_dir.rglob("*") if p.is_file()):
             info = zipfile.ZipInfo(file.relative_to(source_dir).as_posix(), (1980, 1, 1, 0, 0, 0))
             info.compress_type = zipfile.ZIP_DEFLATED
             info.external_attr = (0o644 if file.suffix != ".so" else 0o755) << 16
             archive.writestr(info, file.read_bytes())
-    tmp.replace(output)

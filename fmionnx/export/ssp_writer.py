@@ -12,8 +12,10 @@ components keep their (possibly dotted) names; connections are component to comp
 from __future__ import annotations
 
 import json
+import re
 import shutil
 import tempfile
+import zipfile
 from pathlib import Path
 from typing import Any
 
@@ -24,6 +26,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.resolve import model_path
 from fmionnx.core.archive import write_deterministic_zip
 from fmionnx.core.errors import FmionnxError, ModelError
+from fmionnx.core.safewrite import refuse
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, DType, Port
 from fmionnx.kinds.base import FMI, MODEL_FOLDER
@@ -290,14 +293,49 @@ def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSyste
     return root
 
 
+#: The root element of an SSD this writer made (``build_ssd`` sets the attribute).
+_OURS = re.compile(rb'<[^>]*SystemStructureDescription[^>]*generationTool="fmionnx"')
+
+
+def written_by_fmionnx(path: Path) -> bool:
+    """``path`` is a regular file: an SSP whose SSD says ``generationTool="fmionnx"``."""
+    if path.is_symlink() or not path.is_file():
+        return False
+    try:
+        with zipfile.ZipFile(path) as archive:
+            ssd = archive.read(SSD_NAME)
+    except (OSError, KeyError, zipfile.BadZipFile):
+        return False
+    return _OURS.search(ssd) is not None
+
+
+def check_export_target(output: Path, *, force: bool) -> None:
+    """Raise :class:`OverwriteRefusedError` when ``output`` holds a file fmionnx did not write.
+
+    Re-exporting over an SSP fmionnx exported is the normal edit loop and needs no option;
+    replacing a vendor's archive (or anything else) does.
+    """
+    if force:
+        return
+    if output.is_symlink() or (output.exists() and not written_by_fmionnx(output)):
+        raise refuse(output, "exists and was not written by `fmionnx export`")
+
+
 def export_ssp(
-    spec: SystemSpec, base: Path, output: Path, system: CompiledSystem | None = None
+    spec: SystemSpec,
+    base: Path,
+    output: Path,
+    system: CompiledSystem | None = None,
+    *,
+    force: bool = False,
 ) -> None:
     """Write ``spec`` (paths relative to ``base``) as an SSP archive at ``output``.
 
     ``system`` (the compiled IR, when available) adds connector kinds, types and units. The
-    archive appears at ``output`` only when complete. Raises :class:`ExportError`.
+    archive appears at ``output`` only when complete. Raises :class:`ExportError`, and
+    :class:`OverwriteRefusedError` (before writing anything) when ``output`` is not ours.
     """
+    check_export_target(output, force=force)
     output.parent.mkdir(parents=True, exist_ok=True)
     staging = Path(tempfile.mkdtemp(prefix=".export-", dir=output.parent))
     try:

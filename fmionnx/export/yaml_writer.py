@@ -20,12 +20,56 @@ from ruamel.yaml import YAML
 
 from fmionnx.compile.resolve import model_path
 from fmionnx.core.errors import FmionnxError
+from fmionnx.core.safewrite import refuse
 from fmionnx.spec.model import ConnectionSpec, SystemSpec
 from fmionnx.spec.ssp_archive import SSD_NAME
 
 
 class ConvertError(FmionnxError):
     """The YAML file (or its resource folder) cannot be written."""
+
+
+#: Written into every ``<stem>_files/`` folder fmionnx extracts: the folder is replaced
+#: wholesale on the next convert, so only a folder carrying this marker is ours to replace.
+FILES_MARKER = ".fmionnx-convert"
+MARKER_TEXT = "Extracted by `fmionnx convert`; replaced by the next convert to this file.\n"
+
+#: Every YAML file ``fmionnx convert`` writes starts with this (see ``convert_header``).
+HEADER_MARK = "by `fmionnx convert`."
+
+
+def convert_header(source: str) -> str:
+    """The first line of a converted file; it also tells a later convert the file is ours."""
+    return f"# Converted from {source} {HEADER_MARK}\n"
+
+
+def _written_by_convert(output: Path) -> bool:
+    """``output`` is a regular file whose first line is a convert header."""
+    if output.is_symlink() or not output.is_file():
+        return False
+    try:
+        with output.open(encoding="utf-8") as stream:
+            first = stream.readline()
+    except (OSError, UnicodeDecodeError):
+        return False
+    return first.startswith("# Converted from ") and first.rstrip().endswith(HEADER_MARK)
+
+
+def check_convert_targets(output: Path, *, extracts: bool, force: bool) -> None:
+    """Raise :class:`OverwriteRefusedError` unless every name convert replaces is its own.
+
+    ``extracts``: the models of an SSP go to ``<stem>_files/``, which is replaced wholesale.
+    Called before anything is written, so a refusal leaves everything as it was.
+    """
+    if force:
+        return
+    if output.is_symlink() or (output.exists() and not _written_by_convert(output)):
+        raise refuse(output, "exists and was not written by `fmionnx convert`")
+    files = output.parent / f"{output.stem}_files"
+    if extracts and (files.exists() or files.is_symlink()):
+        ours = not files.is_symlink() and files.is_dir() and (files / FILES_MARKER).is_file()
+        if not ours:
+            raise refuse(files, "exists and was not extracted by `fmionnx convert`")
 
 
 def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
@@ -85,12 +129,15 @@ def write_yaml_system(
     *,
     archive_root: Path | None = None,
     header: str = "",
+    force: bool = False,
 ) -> None:
     """Write ``spec`` (paths relative to ``base``) to ``output`` atomically.
 
     ``archive_root`` is the unpacked SSP the spec's models live in; its content is copied to
-    ``<stem>_files/`` beside ``output``.
+    ``<stem>_files/`` beside ``output``. Without ``force``, a file or folder at those names
+    that convert did not write is an :class:`OverwriteRefusedError` and nothing is written.
     """
+    check_convert_targets(output, extracts=archive_root is not None, force=force)
     folder = output.parent.resolve()
     folder.mkdir(parents=True, exist_ok=True)
     files = folder / f"{output.stem}_files"
@@ -102,6 +149,7 @@ def write_yaml_system(
             staging = Path(tempfile.mkdtemp(prefix=".convert-", dir=folder))
             ignore = shutil.ignore_patterns(SSD_NAME)
             shutil.copytree(archive_root, staging, dirs_exist_ok=True, ignore=ignore)
+            (staging / FILES_MARKER).write_text(MARKER_TEXT, encoding="utf-8")
         for name, component in spec.components.items():
             if not component.has_model_file:
                 continue
@@ -121,7 +169,9 @@ def write_yaml_system(
             msg = f"`{output}` is a folder"
             raise IsADirectoryError(msg)
         if staging is not None:
-            if files.exists():
+            if files.is_symlink() or files.is_file():
+                files.unlink()  # only with --force (checked above): the link, not its target
+            elif files.exists():
                 shutil.rmtree(files)
             staging.rename(files)
             staging = None

@@ -12,18 +12,27 @@ that is exactly when the lock diff explains the most.
 
 from __future__ import annotations
 
+import shutil
 from dataclasses import dataclass
 from pathlib import Path
 
 from fmionnx import api
 from fmionnx.compile.resolve import read_interface
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
+from fmionnx.core.safewrite import refuse, write_text_atomic
 from fmionnx.lock.diff import LockContext, compare
-from fmionnx.lock.model import LOCK_VERSION, LockedComponent, LockFile, lock_path, render_lock
+from fmionnx.lock.model import (
+    LOCK_VERSION,
+    LockedComponent,
+    LockFile,
+    lock_path,
+    render_lock,
+    written_by_lock,
+)
 from fmionnx.lock.read import read_lock
 from fmionnx.spec.frontends import load_system
 
-__all__ = ["LockResult", "check_lock", "lock_path", "lock_system"]
+__all__ = ["LockResult", "check_lock", "check_lock_target", "lock_path", "lock_system"]
 
 
 @dataclass(frozen=True)
@@ -35,12 +44,28 @@ class LockResult:
     diagnostics: tuple[Diagnostic, ...]
 
 
-def lock_system(system: Path) -> LockResult:
+def check_lock_target(system: Path, *, force: bool) -> None:
+    """Raise :class:`OverwriteRefusedError` when the lock's name holds something not ours.
+
+    A lock ``fmionnx lock`` wrote (recognised by its header) is rewritten freely: re-locking
+    is the normal loop. A hand-written file, a folder or a symbolic link at that name is
+    replaced only with ``force``.
+    """
+    path = lock_path(system)
+    if force or not (path.exists() or path.is_symlink()):
+        return
+    if not written_by_lock(path):
+        raise refuse(path, "exists and was not written by `fmionnx lock`")
+
+
+def lock_system(system: Path, *, force: bool = False) -> LockResult:
     """Compile ``system`` and write its lock; a system with errors is not locked.
 
     The file is rewritten only when its text changes, so an unchanged lock keeps its
-    modification time and ``git status`` stays clean.
+    modification time and ``git status`` stays clean. It is written atomically and never
+    through a symbolic link; a name that is not an earlier lock needs ``force``.
     """
+    check_lock_target(system, force=force)
     result = api.compile_system(system)
     if result.system is None:
         return LockResult(None, changed=False, diagnostics=result.diagnostics)
@@ -53,10 +78,22 @@ def lock_system(system: Path) -> LockResult:
     )
     text = render_lock(lock)
     path = lock_path(system)
-    old = path.read_text(encoding="utf-8") if path.is_file() else None
+    old = _old_lock(path)
     if old != text:
-        path.write_text(text, encoding="utf-8")
+        if path.is_dir() and not path.is_symlink():  # only with force: a folder in the way
+            shutil.rmtree(path)
+        write_text_atomic(path, text)
     return LockResult(path, changed=old != text, diagnostics=result.diagnostics)
+
+
+def _old_lock(path: Path) -> str | None:
+    """The text of the lock at ``path``; a link is never read through (it gets replaced)."""
+    if path.is_symlink() or not path.is_file():
+        return None
+    try:
+        return path.read_text(encoding="utf-8")
+    except (OSError, UnicodeDecodeError):
+        return None
 
 
 def check_lock(system: Path) -> list[Diagnostic]:

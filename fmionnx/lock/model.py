@@ -27,6 +27,21 @@ LOCK_SUFFIX = ".fmionnx.lock"
 UNLOCKED = (Causality.LOCAL, Causality.INDEPENDENT)
 
 
+#: The first line of every lock file starts with this; a file without it is not ours.
+LOCK_HEADER = "# Interface lock of "
+
+
+def written_by_lock(path: Path) -> bool:
+    """``path`` is a regular file whose first line is the header ``render_lock`` writes."""
+    if path.is_symlink() or not path.is_file():
+        return False
+    try:
+        with path.open(encoding="utf-8") as stream:
+            return stream.readline().startswith(LOCK_HEADER)
+    except (OSError, UnicodeDecodeError):
+        return False
+
+
 def lock_path(system: Path) -> Path:
     """``systems/robot.yaml`` -> ``systems/robot.fmionnx.lock``."""
     return system.with_name(system.stem + LOCK_SUFFIX)
@@ -132,7 +147,7 @@ def _port_line(port: LockedPort) -> str:
 def render_lock(lock: LockFile) -> str:
     """The lock file text (sorted, one port per line, newline-terminated)."""
     lines = [
-        f"# Interface lock of {lock.system}, written by `fmionnx lock`.",
+        f"{LOCK_HEADER}{lock.system}, written by `fmionnx lock`.",
         "# `fmionnx validate --locked` fails when a model's interface no longer matches it.",
         f"# After an intended change: `fmionnx lock {lock.system}`, then commit this file.",
         f"fmionnx-lock: {lock.version}",

@@ -19,14 +19,26 @@ def write_results(
     out: Path,
     *,
     aliases: dict[str, str] | None = None,
+    also: list[Path] | None = None,
 ) -> list[Path]:
-    """Write results.csv, run.json and the system's plots into ``out``; returns the files."""
+    """Write results.csv, the system's plots and run.json into ``out``; returns the files.
+
+    ``run.json`` is written last and lists every file of the run (``also``: files written
+    by others, e.g. ``--record`` into ``out``), so the next run into ``out`` knows which
+    files were fmionnx's and removes those it does not write again (see ``outdir``).
+    """
     from fmionnx.results.csvfile import write_csv
+    from fmionnx.results.outdir import RUN_JSON, previous_run, relative_name, remove_stale
     from fmionnx.results.plots import write_plots
     from fmionnx.results.runinfo import write_run_json
 
     out.mkdir(parents=True, exist_ok=True)
+    previous = previous_run(out)
     files = [write_csv(result, out / "results.csv", aliases=aliases)]
-    files.append(write_run_json(result, system, out / "run.json"))
     files.extend(write_plots(result, system, out))
+    path = out / RUN_JSON
+    listed = [*files, *(also or []), path]
+    names = [name for p in listed if (name := relative_name(p, out)) is not None]
+    files.append(write_run_json(result, system, path, files=names))
+    remove_stale(out, previous, listed)
     return files

@@ -10,6 +10,7 @@ from pathlib import Path
 
 import numpy as np
 
+from fmionnx.core.safewrite import atomic_text
 from fmionnx.runtime.result import RunResult
 
 
@@ -19,11 +20,9 @@ def write_csv(result: RunResult, path: Path, *, aliases: dict[str, str] | None =
     header = ["time", *((aliases or {}).get(n, n) for n in names)]
     columns = [result.time, *(result.signals[n] for n in names)]
     table = np.column_stack(columns) if columns else np.zeros((0, 1))
-    tmp = path.with_name(path.name + ".part")
-    with tmp.open("w", encoding="utf-8", newline="\n") as stream:
+    with atomic_text(path) as stream:  # never half-written, never through a planted link
         stream.write(",".join(_quote(h) for h in header) + "\n")
         np.savetxt(stream, table, fmt="%.17g", delimiter=",")
-    tmp.replace(path)
     return path
 
 

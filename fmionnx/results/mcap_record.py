@@ -11,6 +11,8 @@ from __future__ import annotations
 
 import json
 import math
+import os
+import tempfile
 from pathlib import Path
 from typing import IO, Any
 
@@ -38,7 +40,13 @@ class McapRecorder:
 
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
-        self._stream: IO[bytes] = path.open("wb")
+        # Recorded into a fresh file beside ``path`` and renamed over it by ``finish``: a link
+        # planted at ``path`` is replaced, never written through, and no half file appears.
+        descriptor, name = tempfile.mkstemp(
+            prefix=f".{path.name}.", suffix=".part", dir=path.parent
+        )
+        self._partial = Path(name)
+        self._stream: IO[bytes] = os.fdopen(descriptor, "wb")
         self._writer: Any = Writer(self._stream)
         self._writer.start(profile="ros2", library="fmionnx")
         self._store: Any = get_typestore(Stores.ROS2_HUMBLE)
@@ -93,6 +101,8 @@ class McapRecorder:
             self._signals(result)
         self._writer.finish()
         self._stream.close()
+        self._partial.chmod(0o644)
+        self._partial.replace(self.path)
         return self.path
 
     def _signals(self, result: RunResult) -> None:

@@ -8,6 +8,7 @@
 
 from __future__ import annotations
 
+import io
 import re
 from pathlib import Path
 from typing import Any
@@ -16,6 +17,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fmionnx.compile.ir import CompiledSystem, Plot
+from fmionnx.core.safewrite import write_bytes_atomic
 from fmionnx.runtime.result import RunResult
 
 
@@ -69,7 +71,9 @@ def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Pa
                 axes.set_title(plot.title)
             path = out / _file_name(index, plot, signals)
             figure.tight_layout()
-            figure.savefig(path, dpi=120)
+            image = io.BytesIO()  # drawn in memory, then written atomically (no planted link)
+            figure.savefig(image, dpi=120, format=path.suffix.lstrip(".") or "png")
+            write_bytes_atomic(path, image.getvalue())
             written.append(path)
         finally:
             plt.close(figure)

@@ -10,6 +10,7 @@ from typing import Any
 
 from fmionnx import __version__
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core.safewrite import write_text_atomic
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.runtime.result import RunResult
 
@@ -28,8 +29,10 @@ def versions() -> dict[str, str]:
     return found
 
 
-def run_info(result: RunResult, system: CompiledSystem) -> dict[str, Any]:
-    """The run.json document."""
+def run_info(
+    result: RunResult, system: CompiledSystem, files: list[str] | None = None
+) -> dict[str, Any]:
+    """The run.json document; ``files`` names what the run wrote into its folder."""
     error = result.error
     return {
         "system": system.name,
@@ -59,10 +62,12 @@ def run_info(result: RunResult, system: CompiledSystem) -> dict[str, Any]:
         "execution": dict(result.details),
         "columns": ["time", *result.signals],
         "versions": versions(),
+        **({} if files is None else {"files": sorted(files)}),
     }
 
 
-def write_run_json(result: RunResult, system: CompiledSystem, path: Path) -> Path:
-    """Write run.json (indented, keys in a fixed order)."""
-    path.write_text(json.dumps(run_info(result, system), indent=2) + "\n", encoding="utf-8")
-    return path
+def write_run_json(
+    result: RunResult, system: CompiledSystem, path: Path, *, files: list[str] | None = None
+) -> Path:
+    """Write run.json (indented, keys in a fixed order; atomically, never through a link)."""
+    return write_text_atomic(path, json.dumps(run_info(result, system, files), indent=2) + "\n")
