@@ -11,6 +11,7 @@ import typer
 
 from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.cli.outputs import check_output_file, check_output_folder
+from fmionnx.core.steps import MAX_RUN_STEPS
 
 #: Exit code of a run stopped by Ctrl-C (128 + SIGINT), as shells report it.
 EXIT_INTERRUPTED = 130
@@ -79,6 +80,12 @@ def run(
         float,
         typer.Option("--step-timeout", help="ROS 2 lockstep: seconds one step may take."),
     ] = 60.0,
+    max_steps: Annotated[
+        int,
+        typer.Option(
+            "--max-steps", help="Refuse runs of more base steps than this (default 10^10)."
+        ),
+    ] = MAX_RUN_STEPS,
 ) -> None:
     """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
     suffix = target.suffix.lower()
@@ -92,6 +99,8 @@ def run(
         check_output_folder(out, "--out")
     if record is not None:
         check_output_file(record, "--record")
+    if max_steps < 1:
+        raise fail("--max-steps must be at least 1")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
     try:
         if suffix == ".onnx":
@@ -107,6 +116,7 @@ def run(
             step=step,
             interface=interface,
             ros2=ros2,
+            max_steps=max_steps,
         )
     except KeyboardInterrupt:
         raise fail("interrupted before the run started", EXIT_INTERRUPTED) from None
@@ -188,6 +198,7 @@ def _run_system(
     step: float | None,
     interface: str | None,
     ros2: Any = None,
+    max_steps: int = MAX_RUN_STEPS,
 ) -> int:
     import dataclasses
 
@@ -208,6 +219,12 @@ def _run_system(
         )
     except OverrideError as exc:
         raise fail(str(exc)) from None
+    steps = system.compiled.run.steps
+    if steps > max_steps:  # after the overrides: --stop-time changes the count
+        raise fail(
+            f"the run is {steps:.3g} base steps, more than --max-steps {max_steps:.3g}; "
+            "check the stop time and step, or pass a larger --max-steps"
+        )
     recorder = None
     if record is not None and ros2 is None:  # ROS 2: the supervisor records the wire
         from fmionnx.results.mcap_record import McapRecorder
