@@ -28,10 +28,7 @@ def step_problem(step: float) -> str | None:
     if not math.isfinite(step) or step <= 0:
         return f"{step} is not a positive finite number of seconds"
     if step < MIN_STEP:
-        return (
-            f"{step} is below the smallest normal float ({MIN_STEP:.4g}); such a step has "
-            "lost its precision"
-        )
+        return f"{step} is subnormal (below {MIN_STEP:.4g}): it has no precision left"
     return None
 
 

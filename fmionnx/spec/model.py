@@ -57,7 +57,7 @@ class RunSpec(StrictModel):
         # `gt=0` lets a subnormal such as 5e-324 through; it is positive but has no precision.
         problem = step_problem(value) if value is not None else None
         if problem is not None:
-            msg = f"the step must be a normal positive float: {problem}"
+            msg = f"the step must be a normal positive float; {problem}"
             raise ValueError(msg)
         return value
 
