@@ -16,9 +16,9 @@ excess. It also refuses numeric literals beyond the range of a double (``1e400``
 integer): YAML would read them as ``inf`` or as integers that no model variable can hold, and
 Python refuses to parse integers of more than 4300 digits with a bare ``ValueError``.
 
-The limits are module constants, deliberately not configurable: they are far above what any
-real system or lock file needs (the largest lock files of the test corpus use no alias and
-nest less than ten levels), and a fixed limit keeps a file valid or invalid on every machine.
+The limits are module constants, deliberately not configurable: they are far above what a
+real system or lock file needs (``fmionnx lock`` writes no alias and nests a few levels, one
+port per line), and a fixed limit keeps a file valid or invalid on every machine.
 """
 
 from __future__ import annotations
