@@ -11,6 +11,7 @@ import typer
 
 from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.cli.outputs import check_output_file, check_output_folder
+from fmionnx.core.steps import MAX_RUN_STEPS
 
 
 def _parse_pairs(items: list[str], option: str) -> dict[str, str]:
@@ -80,6 +81,12 @@ def run(
         bool,
         typer.Option("--force", help="Write into an --out folder that holds other files."),
     ] = False,
+    max_steps: Annotated[
+        int,
+        typer.Option(
+            "--max-steps", help="Refuse runs of more base steps than this (default 10^10)."
+        ),
+    ] = MAX_RUN_STEPS,
 ) -> None:
     """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
     suffix = target.suffix.lower()
@@ -93,6 +100,8 @@ def run(
         _check_out(out, force=force, system_run=suffix != ".onnx")
     if record is not None:
         check_output_file(record, "--record")
+    if max_steps < 1:
+        raise fail("--max-steps must be at least 1")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
     from fmionnx.runtime.stopping import exit_code, stop_on_signals, stop_reason
 
@@ -111,6 +120,7 @@ def run(
                 step=step,
                 interface=interface,
                 ros2=ros2,
+                max_steps=max_steps,
             )
     except KeyboardInterrupt as exc:
         reason = stop_reason(exc)
@@ -210,6 +220,7 @@ def _run_system(
     step: float | None,
     interface: str | None,
     ros2: Any = None,
+    max_steps: int = MAX_RUN_STEPS,
 ) -> int:
     import dataclasses
 
@@ -230,6 +241,12 @@ def _run_system(
         )
     except OverrideError as exc:
         raise fail(str(exc)) from None
+    steps = system.compiled.run.steps
+    if steps > max_steps:  # after the overrides: --stop-time changes the count
+        raise fail(
+            f"the run is {steps:.3g} base steps, more than --max-steps {max_steps:.3g}; "
+            "check the stop time and step, or pass a larger --max-steps"
+        )
     recorder = None
     if record is not None and ros2 is None:  # ROS 2: the supervisor records the wire
         from fmionnx.results.mcap_record import McapRecorder

@@ -22,6 +22,7 @@ from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.core.sourcetext import source_lines
+from fmionnx.core.steps import count_problem
 from fmionnx.core.types import (
     Causality,
     Component,
@@ -160,6 +161,10 @@ def _check_period(
     bag: DiagnosticBag,
 ) -> int | None:
     span = sources.value(("components", name, "period"))
+    problem = count_problem(period, step, f"component `{name}`: period {period}")
+    if problem is not None:
+        bag.emit("E041", problem, span, hint="a period is at most the length of the run")
+        return None
     steps = is_whole_multiple(period, step)
     if steps is None:
         bag.emit(

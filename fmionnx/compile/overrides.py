@@ -13,7 +13,19 @@ import math
 from fmionnx.compile.ir import CompiledSystem, Origin, RunSettings
 from fmionnx.core.diagnostics import did_you_mean, one_of
 from fmionnx.core.errors import FmionnxError
-from fmionnx.core.types import Causality, DType, ParameterValue, Scalar, is_whole_multiple
+from fmionnx.core.steps import count_problem
+from fmionnx.core.types import (
+    Causality,
+    DType,
+    ParameterValue,
+    Scalar,
+    is_whole_multiple,
+    number_text,
+)
+
+#: Longest integer a ``--param`` value may have: far beyond uint64 (20 digits) and float64
+#: (309 digits), and below Python's own limit of 4300.
+MAX_INT_DIGITS = 400
 
 
 class OverrideError(FmionnxError):
@@ -30,6 +42,10 @@ def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
     if stop <= run.start:
         msg = f"--stop-time {stop} must be greater than the start time {run.start}"
         raise OverrideError(msg)
+    problem = count_problem(stop - run.start, run.step, f"the run from {run.start} to {stop}")
+    if problem is not None:
+        msg = f"--stop-time {stop}: {problem}"
+        raise OverrideError(msg)
     if is_whole_multiple(stop - run.start, run.step, rel=1e-6) is None:
         msg = f"--stop-time {stop} is not a whole number of base steps ({run.step} s) after the start"
         raise OverrideError(msg)
@@ -37,10 +53,35 @@ def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
     return dataclasses.replace(system, run=RunSettings(run.start, stop, run.step, origins))
 
 
+def _finite_float(text: str) -> float:
+    """A JSON number as a float; one that overflows to infinity (``1e400``) is an error."""
+    value = float(text)
+    if math.isinf(value):
+        msg = f"--param value `{_short(text)}` is beyond the range of a 64-bit float"
+        raise OverrideError(msg)
+    return value
+
+
+def _bounded_int(text: str) -> int:
+    """A JSON integer; one beyond any numeric type (and Python's digit limit) is an error."""
+    if len(text.lstrip("-")) > MAX_INT_DIGITS:
+        msg = f"--param value `{_short(text)}` has more than {MAX_INT_DIGITS} digits"
+        raise OverrideError(msg)
+    return int(text)
+
+
+def _short(text: str) -> str:
+    return text if len(text) <= 24 else f"{text[:12]}...{text[-6:]} ({len(text)} characters)"
+
+
 def parse_value(text: str) -> Scalar | list[Scalar]:
-    """A command-line value: JSON (``1.5``, ``true``, ``[1, 2]``), else the plain string."""
+    """A command-line value: JSON (``1.5``, ``true``, ``[1, 2]``), else the plain string.
+
+    Numbers are range-checked while parsing (OverrideError): JSON reads ``1e400`` as infinity
+    and refuses integers of more than 4300 digits with a bare ValueError.
+    """
     try:
-        value = json.loads(text)
+        value = json.loads(text, parse_float=_finite_float, parse_int=_bounded_int)
     except json.JSONDecodeError:
         return text
     if isinstance(value, list) and all(isinstance(v, bool | int | float | str) for v in value):
@@ -96,6 +137,11 @@ def override_parameter(
         raise OverrideError(msg)
     flat = value if isinstance(value, list) else [value]
     size = port.size or 1
+    for item in flat:  # before coercing: float() of a huge integer raises OverflowError
+        problem = port.dtype.out_of_range(item)
+        if problem is not None:
+            msg = f"--param `{key}`: {number_text(item)} {problem}"
+            raise OverrideError(msg)
     coerced = [_coerce(port.dtype, v) for v in flat]
     if len(flat) != size or any(c is None for c in coerced):
         msg = (

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 from pathlib import Path
 
 from fmionnx.compile.ir import Origin, RunSettings
@@ -9,6 +10,7 @@ from fmionnx.compile.typecheck import declared_note
 from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.specbase import ComponentSpecBase, ParameterLiteral
+from fmionnx.core.steps import MAX_RUN_STEPS, WARN_STEPS, count_problem, step_problem
 from fmionnx.core.types import (
     Causality,
     ComponentInterface,
@@ -17,6 +19,7 @@ from fmionnx.core.types import (
     Port,
     Scalar,
     is_whole_multiple,
+    number_text,
 )
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import RunSpec
@@ -158,6 +161,16 @@ def _check_value(
             notes=declared_note(port),
         )
         return False
+    for value in flat:
+        problem = port.dtype.out_of_range(value)
+        if problem is not None:
+            bag.emit(
+                "E043",
+                f"`{name}.{port.name}`: {number_text(value)} {problem}",
+                span,
+                notes=declared_note(port),
+            )
+            return False
     return True
 
 
@@ -206,11 +219,26 @@ def resolve_run(
                 hint="add `step:` under `run:` (seconds between two communication points)",
             )
             return None
+    problem = step_problem(step)
+    if problem is not None:  # a model's default step; the system file's is checked on load
+        bag.emit("E040", f"the base step {problem}", sources.value(("run", "step")))
+        return None
     if stop <= run.start:
         bag.emit(
             "E040",
             f"`run.stop` ({stop}) must be greater than `run.start` ({run.start})",
             sources.value(("run", "stop")),
+        )
+        return None
+    what = f"the run from {run.start} to {stop}"
+    problem = count_problem(stop - run.start, step, what)
+    if problem is not None:
+        key = "stop" if not math.isfinite(stop - run.start) else "step"
+        bag.emit(
+            "E040",
+            problem,
+            sources.value(("run", key)),
+            hint="use a shorter run or a longer step",
         )
         return None
     if is_whole_multiple(stop - run.start, step, rel=1e-6) is None:
@@ -221,4 +249,14 @@ def resolve_run(
             hint="choose a step that divides the run length",
         )
         return None
-    return RunSettings(run.start, stop, step, tuple(origins))
+    settings = RunSettings(run.start, stop, step, tuple(origins))
+    if settings.steps > WARN_STEPS:
+        bag.emit(
+            "W040",
+            f"the run is {settings.steps:.3g} base steps of {step} s (more than "
+            f"{WARN_STEPS:.0e}); it may take hours",
+            sources.value(("run", "step")),
+            hint=f"check `run.stop` and `run.step`; `fmionnx run` refuses more than "
+            f"{MAX_RUN_STEPS:.0e} steps unless `--max-steps` allows them",
+        )
+    return settings

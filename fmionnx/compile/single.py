@@ -11,7 +11,8 @@ from pathlib import Path
 from typing import Literal
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.core.diagnostics import DiagnosticBag
+from fmionnx.core.diagnostics import DiagnosticBag, Span
+from fmionnx.core.steps import step_problem
 
 
 def _component_name(path: Path) -> str:
@@ -38,6 +39,10 @@ def compile_single_model(
     from fmionnx.spec.sourcemap import SourceMap
     from fmionnx.spec.yaml import LoadedSpec
 
+    problem = step_problem(step) if step is not None else None
+    if problem is not None:  # checked here: RunSpec would raise a bare ValidationError
+        bag.emit("E040", f"--step {problem}", Span(path))
+        return None
     absolute = path.resolve()
     name = _component_name(path)
     if path.suffix.lower() == ".onnx":

@@ -29,6 +29,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.specbase import NO_MODEL_FILE
+from fmionnx.core.steps import MAX_EXACT_STEPS, count_problem, step_problem
 from fmionnx.core.types import Component, KindConfig
 from fmionnx.kinds.base import MODEL_FOLDER
 from fmionnx.kinds.registry import COMPONENT_KINDS, config_type
@@ -215,6 +216,15 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
     if system.content_hash != document.get("content_hash"):
         msg = f"{origin}: damaged: the system does not match its content hash"
         raise CompiledFileError(msg)
+    run = system.run  # checked as when compiled: a hand-edited file could hold any numbers
+    problem = step_problem(run.step) or count_problem(run.stop - run.start, run.step, "the run")
+    if problem is not None or not run.stop > run.start:
+        msg = f"{origin}: run settings out of range: {problem or 'stop is not after start'}"
+        raise CompiledFileError(msg)
+    for component in system.components:
+        if not 1 <= component.period_steps <= MAX_EXACT_STEPS:
+            msg = f"{origin}: component `{component.name}`: period_steps out of range"
+            raise CompiledFileError(msg)
     return system
 
 

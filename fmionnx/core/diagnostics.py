@@ -219,6 +219,9 @@ CODES: dict[str, ErrorCode] = _codes(
         "A value set on a variable that may not be set.",
     ),
     ErrorCode("E045", "plot", _E, "run", "A plot names a signal that does not exist."),
+    ErrorCode(
+        "W040", "long-run", _W, "run", "A run of more than 10^8 base steps (it may take hours)."
+    ),
     # --- graph
     ErrorCode("E050", "duplicate-component", _E, "graph", "Two components share a name."),
     ErrorCode("W050", "isolated-component", _W, "graph", "A component with no connections at all."),

@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import enum
 import math
+import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
@@ -16,6 +17,17 @@ from fmionnx.core.diagnostics import Span
 
 #: A scalar value as found in start values and parameters.
 Scalar = float | int | bool | str
+
+
+#: Largest finite float32, above which a value silently becomes infinity.
+_FLOAT32_MAX = 3.4028234663852886e38
+
+
+def number_text(value: object) -> str:
+    """A value for a message, short; ``str()`` of a huge integer would raise or flood."""
+    if isinstance(value, int) and not isinstance(value, bool) and value.bit_length() > 64:
+        return f"an integer of {value.bit_length()} bits (about 2**{value.bit_length() - 1})"
+    return repr(value)
 
 
 class DType(enum.StrEnum):
@@ -44,6 +56,28 @@ class DType(enum.StrEnum):
     def is_integer(self) -> bool:
         """Signed and unsigned integer types (not bool)."""
         return self.value.startswith(("int", "uint"))
+
+    def out_of_range(self, value: object) -> str | None:
+        """Why a number cannot be held by this type (a phrase), or None when it can.
+
+        Only numbers are judged (their kind is checked elsewhere): an integer must fit the
+        integer type's bits, and a finite number given for a float type must not overflow it
+        (it would silently become infinity). Explicit ``inf``/``nan`` are left alone.
+        """
+        if isinstance(value, bool) or not isinstance(value, int | float):
+            return None
+        if self.is_integer and isinstance(value, int):
+            bits = int(self.value.removeprefix("u").removeprefix("int"))
+            signed = not self.value.startswith("u")
+            low = -(2 ** (bits - 1)) if signed else 0
+            high = 2 ** (bits - 1) - 1 if signed else 2**bits - 1
+            if not low <= value <= high:
+                return f"is outside the range of {self.value} ({low} to {high})"
+        if self.is_float and (isinstance(value, int) or math.isfinite(value)):
+            largest = _FLOAT32_MAX if self is DType.FLOAT32 else sys.float_info.max
+            if abs(value) > largest:
+                return f"is beyond the range of {self.value} (about ±{largest:.2g})"
+        return None
 
     @property
     def is_numeric(self) -> bool:
@@ -230,6 +264,8 @@ class Component:
 def is_whole_multiple(period: float, step: float, *, rel: float = 1e-9) -> int | None:
     """``period / step`` when it is a positive whole number (within ``rel``), else None."""
     ratio = period / step
+    if not math.isfinite(ratio):  # round() would raise OverflowError (or ValueError for NaN)
+        return None
     nearest = round(ratio)
     if nearest >= 1 and math.isclose(ratio, nearest, rel_tol=rel, abs_tol=rel):
         return nearest

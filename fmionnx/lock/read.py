@@ -15,6 +15,7 @@ from ruamel.yaml.error import YAMLError
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.lock.model import LOCK_VERSION, LockFile
+from fmionnx.spec.limits import check_limits
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import parse_yaml, read_text
@@ -45,13 +46,17 @@ class LoadedLock:
         return self._sources
 
 
-def _fast(path: Path) -> LockFile | None:
-    """The lock when it reads and validates cleanly with the safe loader, else None."""
+def _fast(text: str) -> LockFile | None:
+    """The lock when it reads and validates cleanly with the safe loader, else None.
+
+    ``text`` must already be within the YAML limits: the safe loader shares aliased values,
+    but validating them walks every repetition.
+    """
     try:
-        data = YAML(typ="safe", pure=False).load(path.read_text(encoding="utf-8-sig"))
+        data = YAML(typ="safe", pure=False).load(text)
         if isinstance(data, dict) and data.get("fmionnx-lock") == LOCK_VERSION:
             return LockFile.model_validate(data)
-    except (OSError, UnicodeDecodeError, YAMLError, ValidationError):
+    except (YAMLError, ValidationError, ValueError):
         return None
     return None
 
@@ -66,13 +71,16 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
             hint=f"run `fmionnx lock {system}` and commit `{path.name}`",
         )
         return None
-    fast = _fast(path)
-    if fast is not None:
-        return LoadedLock(fast, path)
-    regenerate = f"regenerate it with `fmionnx lock {system}`"
     scratch = DiagnosticBag()
-    sources = SourceMap(path)
     text = read_text(path, scratch)
+    if text is not None and check_limits(text, path, scratch):
+        fast = _fast(text)
+        if fast is not None:
+            return LoadedLock(fast, path)
+    else:
+        text = None
+    regenerate = f"regenerate it with `fmionnx lock {system}`"
+    sources = SourceMap(path)
     data = parse_yaml(text, path, sources, scratch) if text is not None else None
     if data is not None and not isinstance(data, dict):
         scratch.emit("E003", "a lock file is a mapping", Span(path, 1, 1))

@@ -13,6 +13,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 from pydantic import Field, field_validator, model_validator
 
 from fmionnx.core.specbase import ComponentSpecBase, StrictModel
+from fmionnx.core.steps import step_problem
 from fmionnx.kinds.registry import COMPONENT_KINDS
 
 #: The format versions this release reads (the ``fmionnx:`` key).
@@ -49,6 +50,16 @@ class RunSpec(StrictModel):
     step: float | None = Field(
         default=None, gt=0, description="Base step in seconds: the fastest component's period."
     )
+
+    @field_validator("step")
+    @classmethod
+    def _normal_step(cls, value: float | None) -> float | None:
+        # `gt=0` lets a subnormal such as 5e-324 through; it is positive but has no precision.
+        problem = step_problem(value) if value is not None else None
+        if problem is not None:
+            msg = f"the step must be a normal positive float; {problem}"
+            raise ValueError(msg)
+        return value
 
 
 class ConnectionSpec(StrictModel):

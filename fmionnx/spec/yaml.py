@@ -20,11 +20,13 @@ from ruamel.yaml.constructor import DuplicateKeyError
 from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
+from fmionnx.spec.limits import MAX_DOCUMENT_BYTES, check_limits, check_size
 from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import KeyPath, SourceMap
 
-MAX_SYSTEM_FILE_BYTES = 16 * 1024 * 1024
+#: Kept for callers of the former name; the limits live in :mod:`fmionnx.spec.limits`.
+MAX_SYSTEM_FILE_BYTES = MAX_DOCUMENT_BYTES
 
 
 @dataclass(frozen=True)
@@ -52,12 +54,15 @@ def read_text(path: Path, bag: DiagnosticBag) -> str | None:
         bag.emit("E011", f"`{path}` is a directory or special file, not a system file", span)
         return None
     try:
-        data = path.read_bytes()
+        # The size is checked before reading, so a huge file is never loaded into memory.
+        if not check_size(path.stat().st_size, path, bag):
+            return None
+        with path.open("rb") as stream:
+            data = stream.read(MAX_DOCUMENT_BYTES + 1)
     except OSError as exc:
         bag.emit("E010", f"cannot read `{path}`: {exc.strerror}", span)
         return None
-    if len(data) > MAX_SYSTEM_FILE_BYTES:
-        bag.emit("E003", f"`{path}` is larger than {MAX_SYSTEM_FILE_BYTES} bytes", span)
+    if not check_size(len(data), path, bag):
         return None
     try:
         return data.decode("utf-8-sig")
@@ -99,7 +104,13 @@ def load_yaml_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
 
 
 def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) -> Any:
-    """Parse YAML text to plain data, recording positions; None (and a diagnostic) on error."""
+    """Parse YAML text to plain data, recording positions; None (and a diagnostic) on error.
+
+    The resource limits (:mod:`fmionnx.spec.limits`) are checked first, on the event stream,
+    so an alias bomb or a deeply nested document never reaches the composer.
+    """
+    if not check_limits(text, path, bag):
+        return None
     yaml = YAML(typ="rt")
     yaml.allow_duplicate_keys = False
     try:

@@ -152,3 +152,31 @@ def test_signal_components_travel_in_the_file_and_need_no_model(tmp_path: Path) 
     theirs = Master(short, RunOptions()).run()
     for name, values in ours.signals.items():
         assert np.array_equal(values, theirs.signals[name]), name
+
+
+@pytest.mark.parametrize(
+    ("start", "stop", "step", "message"),
+    [
+        (0.0, 1.0, 5e-324, "subnormal"),
+        (-1e308, 1e308, 0.01, "longer than the largest float"),
+        (0.0, 1e300, 1e-300, "2\\*\\*53"),
+        (1.0, 1.0, 0.01, "stop is not after start"),
+    ],
+)
+def test_a_consistent_file_with_run_settings_out_of_range_is_refused(
+    reference: CompiledSystem, start: float, stop: float, step: float, message: str
+) -> None:
+    from fmionnx.compile.ir import RunSettings
+
+    bad = dataclasses.replace(reference, run=RunSettings(start, stop, step, reference.run.origins))
+    with pytest.raises(CompiledFileError, match=message):
+        from_json(to_json(bad))  # the content hash matches: only the range check refuses it
+
+
+def test_a_consistent_file_with_a_period_beyond_2_53_steps_is_refused(
+    reference: CompiledSystem,
+) -> None:
+    first = dataclasses.replace(reference.components[0], period_steps=2**60)
+    bad = dataclasses.replace(reference, components=(first, *reference.components[1:]))
+    with pytest.raises(CompiledFileError, match="period_steps out of range"):
+        from_json(to_json(bad))

@@ -237,6 +237,18 @@ def test_corrupt_lock_is_an_error_at_its_line(project: Path) -> None:
     assert "error[E082 lock-invalid]" in result.output
 
 
+def test_alias_bomb_in_the_lock_is_an_error_not_a_hang(project: Path) -> None:
+    from tests.lock.test_lock_limits import bomb
+
+    lock = project / "system.fmionnx.lock"
+    lock.write_text(lock.read_text(encoding="utf-8") + bomb(12), encoding="utf-8")
+    result = validate_locked()
+    assert result.exit_code == 1
+    assert "system.fmionnx.lock:" in result.output
+    assert "error[E082 lock-invalid]" in result.output
+    assert "aliases expand to more than" in result.output
+
+
 def test_system_with_errors_is_not_locked(project: Path) -> None:
     (project / "system.fmionnx.lock").unlink()
     (project / "system.yaml").write_text(
