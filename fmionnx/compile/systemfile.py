@@ -202,6 +202,9 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
     except ValueError as exc:
         msg = f"{origin}: not a compiled-system file (invalid JSON: {exc})"
         raise CompiledFileError(msg) from None
+    except RecursionError:  # a hostile file nested deeper than any compiled system is
+        msg = f"{origin}: not a compiled-system file (nested too deeply)"
+        raise CompiledFileError(msg) from None
     if not isinstance(document, dict) or document.get("format") != FORMAT:
         msg = f"{origin}: not a compiled-system file (no `format: {FORMAT}`)"
         raise CompiledFileError(msg)

@@ -94,6 +94,8 @@ def test_a_damaged_file_is_refused_with_where(
 def test_not_json_is_refused() -> None:
     with pytest.raises(CompiledFileError, match="invalid JSON"):
         from_json("{")
+    with pytest.raises(CompiledFileError, match="nested too deeply"):
+        from_json("[" * 100_000 + "]" * 100_000)
 
 
 def test_models_placed_by_hash_run_to_the_same_results(
