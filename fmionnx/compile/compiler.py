@@ -16,7 +16,7 @@ from fmionnx.compile.endpoints import (
     split_endpoint,
 )
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
-from fmionnx.compile.ir import CompiledSystem, Connection, Plot
+from fmionnx.compile.ir import CompiledSystem, Connection, Plot, plot_file_problem
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
@@ -381,6 +381,13 @@ def _check_plots(
             if resolve_endpoint(text, span, interfaces, scratch) is None:
                 for diagnostic in scratch:
                     bag.emit("E045", f"plot: {diagnostic.message}", span, hint=diagnostic.hint)
+        if plot.file is not None and (problem := plot_file_problem(plot.file)) is not None:
+            bag.emit(
+                "E045",
+                f"plot file `{plot.file}`: {problem}",
+                sources.value(("plots", index, "file")),
+                hint="give a name such as `trajectory.png`; `--out` chooses the folder",
+            )
         if plot.over is not None:
             owner = plot.over.split(".", 1)[0]
             if owner not in components:

@@ -14,6 +14,7 @@ import dataclasses
 import enum
 import hashlib
 import json
+import re
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
@@ -78,6 +79,22 @@ class RunSettings:
     def time_at(self, n: int) -> float:
         """Time of communication point ``n``, computed, never accumulated."""
         return self.start + n * self.step
+
+
+#: What a plot's ``file`` may be: one plain file name, written inside ``--out``. No folders, no
+#: ``..``, no absolute path, no hidden name: a system file (or a supplier's SSP) must not be able
+#: to make ``run`` write anywhere else.
+PLOT_FILE_RE = re.compile(r"[A-Za-z0-9_\[\]-][A-Za-z0-9_.\[\]-]{0,127}")
+
+
+def plot_file_problem(name: str) -> str | None:
+    """Why ``name`` cannot be a plot's file name, or None when it can."""
+    if PLOT_FILE_RE.fullmatch(name) is None or ".." in name:
+        return (
+            "a plot file is a plain file name (letters, digits, `_`, `-`, `.`, at most 128), "
+            "written inside the output folder: no folders, `..` or absolute paths"
+        )
+    return None
 
 
 @dataclass(frozen=True, slots=True)

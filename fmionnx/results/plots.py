@@ -16,7 +16,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.compile.ir import CompiledSystem, Plot
+from fmionnx.compile.ir import CompiledSystem, Plot, plot_file_problem
 from fmionnx.core.safewrite import write_bytes_atomic
 from fmionnx.runtime.result import RunResult
 
@@ -35,8 +35,13 @@ def signal_column(text: str) -> str:
 
 
 def _file_name(index: int, plot: Plot, signals: list[str]) -> str:
-    """``file`` when given; ``trajectory.png`` for an xy plot over a path; else derived."""
-    if plot.file:
+    """``file`` when given; ``trajectory.png`` for an xy plot over a path; else derived.
+
+    A ``file`` that is not a plain name (only a hand-edited compiled system can carry one: the
+    compiler refuses it, E045) is ignored for the derived name, so nothing is written outside
+    the output folder.
+    """
+    if plot.file and plot_file_problem(plot.file) is None:
         given = str(plot.file)
         return given if given.endswith((".png", ".svg", ".pdf")) else given + ".png"
     if plot.xy is not None and plot.reference is not None:

@@ -94,7 +94,11 @@ class PlotSpec(StrictModel):
         "next to the component's model).",
     )
     title: str | None = None
-    file: str | None = Field(default=None, description="Output file name (default: derived).")
+    file: str | None = Field(
+        default=None,
+        description="Output file name inside the output folder, a plain name without folders "
+        "(default: derived).",
+    )
 
     @model_validator(mode="after")
     def _one_kind(self) -> PlotSpec:
