@@ -16,6 +16,7 @@ from typing import Any
 from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
+from fmionnx.kinds.mujoco.files import check_scene_files
 
 #: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case).
 _SENSOR_UNITS = {
@@ -69,6 +70,9 @@ def load_model(path: Path) -> tuple[Any, str]:
     key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
     if key not in _MODELS:
         import mujoco
+
+        if path.suffix != ".mjb":
+            check_scene_files(path)  # before MuJoCo reads anything the scene names
 
         try:
             if path.suffix == ".mjb":
