@@ -23,7 +23,7 @@ class StrictModel(BaseModel):
 class ComponentSpecBase(StrictModel):
     """Keys every component has, whatever its kind.
 
-    Kind-specific models (in ``fmionnx.components.<kind>``) add their own options; the
+    Kind-specific models (in ``fmionnx.kinds.<kind>``) add their own options; the
     ``kind`` key selects the model, so an option of another kind is an unknown key.
     """
 
