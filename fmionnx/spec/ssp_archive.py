@@ -11,12 +11,12 @@ and zip bombs with E017).
 from __future__ import annotations
 
 import hashlib
-import os
 import shutil
 import tempfile
 from pathlib import Path
 
 from fmionnx.core.archive import safe_extract
+from fmionnx.core.cachedir import cache_folder
 from fmionnx.core.pathnames import remember_archive
 
 #: Name of the system structure inside an SSP archive (SSP 1.0, section 7).
@@ -25,12 +25,7 @@ SSD_NAME = "SystemStructure.ssd"
 
 def cache_root() -> Path:
     """Where archives are unpacked: ``$FMIONNX_CACHE/ssp`` or the XDG cache folder."""
-    explicit = os.environ.get("FMIONNX_CACHE")
-    if explicit:
-        return Path(explicit).expanduser() / "ssp"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg).expanduser() if xdg else Path.home() / ".cache"
-    return base / "fmionnx" / "ssp"
+    return cache_folder("ssp")
 
 
 def file_digest(path: Path) -> str:

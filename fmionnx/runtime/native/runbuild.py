@@ -21,6 +21,7 @@ import subprocess
 import tempfile
 from pathlib import Path
 
+from fmionnx.core.cachedir import cache_folder
 from fmionnx.runtime.native.manifest import COMPILE_FLAGS, LIBRARY_NAME, write_manifest
 
 #: Environment variable naming the C compiler (checked before ``CC``).
@@ -37,12 +38,7 @@ def compiler() -> str:
 
 def cache_root() -> Path:
     """``$FMIONNX_CACHE/native``, else the XDG cache folder (as the SSP cache does)."""
-    explicit = os.environ.get("FMIONNX_CACHE")
-    if explicit:
-        return Path(explicit).expanduser() / "native"
-    xdg = os.environ.get("XDG_CACHE_HOME")
-    base = Path(xdg).expanduser() if xdg else Path.home() / ".cache"
-    return base / "fmionnx" / "native"
+    return cache_folder("native")
 
 
 def _key(source: bytes, command: str) -> str:
