@@ -13,13 +13,44 @@ import os
 from collections import OrderedDict
 from collections.abc import Callable, Hashable
 from pathlib import Path
+from typing import Generic, TypeVar
 
 from fmionnx.core.types import ComponentInterface
 
 #: How many interfaces to keep; far more than the distinct models of any real system.
 MAX_ENTRIES = 256
 
-_CACHE: OrderedDict[Hashable, ComponentInterface] = OrderedDict()
+
+
+K = TypeVar("K", bound=Hashable)
+V = TypeVar("V")
+
+
+class BoundedCache(Generic[K, V]):
+    """At most ``limit`` values, the least recently used one dropped first."""
+
+    def __init__(self, limit: int) -> None:
+        self.limit = limit
+        self._values: OrderedDict[K, V] = OrderedDict()
+
+    def get_or_load(self, key: K, load: Callable[[], V]) -> V:
+        """The value for ``key``, calling ``load`` only on a miss."""
+        value = self._values.get(key)
+        if value is None:
+            value = load()
+            self._values[key] = value
+            if len(self._values) > self.limit:
+                self._values.popitem(last=False)
+        else:
+            self._values.move_to_end(key)
+        return value
+
+    def clear(self) -> None:
+        """Forget every value."""
+        self._values.clear()
+
+
+_CACHE: BoundedCache[Hashable, ComponentInterface] = BoundedCache(MAX_ENTRIES)
 
 
 def file_identity(path: Path) -> tuple[str, int, int]:
@@ -36,14 +67,7 @@ def cached_interface(
     The returned interface carries ``path`` as given by this caller (two system files may
     name the same model by different relative paths).
     """
-    interface = _CACHE.get(key)
-    if interface is None:
-        interface = load()
-        _CACHE[key] = interface
-        if len(_CACHE) > MAX_ENTRIES:
-            _CACHE.popitem(last=False)
-    else:
-        _CACHE.move_to_end(key)
+    interface = _CACHE.get_or_load(key, load)
     if interface.path != path:
         interface = dataclasses.replace(interface, path=path)
     return interface

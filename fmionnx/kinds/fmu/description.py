@@ -16,7 +16,6 @@ from __future__ import annotations
 
 import io
 import zipfile
-from collections import OrderedDict
 from collections.abc import Callable
 from pathlib import Path
 from typing import Any
@@ -24,7 +23,7 @@ from typing import Any
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Component
 from fmionnx.core.xmlsafe import parse_safely
-from fmionnx.kinds.cache import file_identity
+from fmionnx.kinds.cache import BoundedCache, file_identity
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, identity_file
 
 #: How many parsed descriptions to keep; more than the distinct FMUs of any real system.
@@ -36,7 +35,7 @@ _MAX_PROBLEMS = 3
 #: (resolved path, mtime in ns, size, content hash) of the FMU.
 DescriptionKey = tuple[str, int, int, str]
 
-_CACHE: OrderedDict[DescriptionKey, Any] = OrderedDict()
+_CACHE: BoundedCache[DescriptionKey, Any] = BoundedCache(MAX_ENTRIES)
 
 
 def description_key(path: Path, content_hash: str) -> DescriptionKey:
@@ -46,15 +45,7 @@ def description_key(path: Path, content_hash: str) -> DescriptionKey:
 
 def shared_description(key: DescriptionKey, parse: Callable[[], Any]) -> Any:
     """The parsed description for ``key``, calling ``parse`` only on a miss."""
-    description = _CACHE.get(key)
-    if description is None:
-        description = parse()
-        _CACHE[key] = description
-        if len(_CACHE) > MAX_ENTRIES:
-            _CACHE.popitem(last=False)
-    else:
-        _CACHE.move_to_end(key)
-    return description
+    return _CACHE.get_or_load(key, parse)
 
 
 def component_description(component: Component, read: Callable[[], bytes]) -> Any:
