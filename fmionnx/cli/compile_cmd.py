@@ -42,7 +42,7 @@ def compile_(
     schedule, records, plots, the ROS 2 plan) and the content hash of every model it needs.
     """
     from fmionnx.api import OverrideError, parse_value
-    from fmionnx.cli.run_cmd import load_target
+    from fmionnx.cli.run_cmd import load_target, parse_pairs
     from fmionnx.compile.systemfile import SUFFIX, place_models, write_compiled
 
     if not output.name.endswith(SUFFIX):
@@ -50,12 +50,7 @@ def compile_(
     check_output_file(output, "--output")
     if models is not None:
         check_output_folder(models, "--models")
-    params = {}
-    for item in param or []:
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise fail(f"--param `{item}` must look like `name=value`")
-        params[key.strip()] = parse_value(value.strip())
+    params = {k: parse_value(v) for k, v in parse_pairs(param or [], "--param").items()}
     loaded = load_target(system, quiet=quiet)
     try:
         compiled = loaded.with_overrides(stop_time=stop_time, params=params).compiled

@@ -14,7 +14,8 @@ from fmionnx.cli.outputs import check_output_file, check_output_folder
 from fmionnx.core.steps import MAX_RUN_STEPS
 
 
-def _parse_pairs(items: list[str], option: str) -> dict[str, str]:
+def parse_pairs(items: list[str], option: str) -> dict[str, str]:
+    """``name=value`` options (``--param``, ``--input``) as a dict; a usage error otherwise."""
     pairs = {}
     for item in items:
         key, sep, value = item.partition("=")
@@ -107,14 +108,14 @@ def run(
 
     try:
         if suffix == ".onnx":
-            _run_onnx(target, _parse_pairs(inputs or [], "--input"), out, quiet=quiet)
+            _run_onnx(target, parse_pairs(inputs or [], "--input"), out, quiet=quiet)
             return
         with stop_on_signals():  # SIGTERM/SIGHUP stop like Ctrl-C: the results are written
             code = _run_system(
                 target,
                 out=out,
                 stop_time=stop_time,
-                params=_parse_pairs(param or [], "--param"),
+                params=parse_pairs(param or [], "--param"),
                 quiet=quiet,
                 record=record,
                 step=step,
