@@ -33,7 +33,7 @@ from fmionnx.core.types import (
 )
 from fmionnx.kinds.base import SIMULATOR
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.model import ConnectionSpec, PlotSpec, SystemSpec, split_connection
+from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import LoadedSpec
 
@@ -96,7 +96,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             notes=[Note("part of the loop", s) for s in spans[1:]],
         )
     record = _refs(spec.record or [], "record", by_name, sources, bag)
-    _check_plots(spec, by_name, sources, bag)
+    plots = _plots(spec, by_name, sources, bag)
     if run is None or bag.has_errors:
         return None
     ros2 = ros2_settings(spec.ros2) if spec.ros2 is not None else None
@@ -107,7 +107,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         components=tuple(components),
         connections=tuple(usable),
         order=execution_order(components, usable),
-        plots=tuple(_plot(plot, by_name) for plot in spec.plots),
+        plots=plots,
         record=tuple(record),
         ros2=ros2,
         description=spec.description,
@@ -123,33 +123,6 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             return None
         system = dataclasses.replace(system, ros2_plan=plan)
     return system
-
-
-def _plot(plot: PlotSpec, components: dict[str, Component]) -> Plot:
-    """A checked plot entry with its signals resolved to ports and its reference to a file."""
-    texts = [re.sub(r"\s+", "", t) for t in (*(plot.xy or ()), *(plot.y or ()))]
-    refs = []
-    for text in texts:
-        parts = split_endpoint(text, components)
-        if parts is None or parts[0] not in components:
-            continue
-        component, port, index = parts
-        if components[component].interface.port(port) is None:
-            continue
-        parsed = tuple(int(i) for i in index.split(",")) if index else None
-        refs.append(PortRef(component, port, parsed))
-    reference = None
-    if plot.over is not None:
-        scene = components[plot.over.rsplit(".", 1)[0]].path
-        reference = scene.with_name(scene.stem + ".path.csv")
-    return Plot(
-        xy=(texts[0], texts[1]) if plot.xy is not None else None,
-        y=tuple(texts) if plot.xy is None else (),
-        refs=tuple(refs),
-        reference=reference,
-        title=plot.title,
-        file=plot.file,
-    )
 
 
 def _check_period(
@@ -366,21 +339,28 @@ def _refs(
     return refs
 
 
-def _check_plots(
+def _plots(
     spec: SystemSpec, components: dict[str, Component], sources: SourceMap, bag: DiagnosticBag
-) -> None:
+) -> tuple[Plot, ...]:
+    """Check every plot entry and resolve it: signals to ports (E045 at the signal that does
+    not resolve), the file name, the reference path next to the owning component's model."""
     interfaces: dict[str, ComponentInterface | None] = {
         n: c.interface for n, c in components.items()
     }
+    plots = []
     for index, plot in enumerate(spec.plots):
         signals = list(plot.xy or ()) + list(plot.y or ())
         key = "xy" if plot.xy else "y"
+        refs = []
         for position, text in enumerate(signals):
             span = sources.value(("plots", index, key, position))
             scratch = DiagnosticBag()
-            if resolve_endpoint(text, span, interfaces, scratch) is None:
+            resolved = resolve_endpoint(text, span, interfaces, scratch)
+            if resolved is None:
                 for diagnostic in scratch:
                     bag.emit("E045", f"plot: {diagnostic.message}", span, hint=diagnostic.hint)
+            else:
+                refs.append(resolved.ref)
         if plot.file is not None and (problem := plot_file_problem(plot.file)) is not None:
             bag.emit(
                 "E045",
@@ -388,8 +368,9 @@ def _check_plots(
                 sources.value(("plots", index, "file")),
                 hint="give a name such as `trajectory.png`; `--out` chooses the folder",
             )
+        reference = None
         if plot.over is not None:
-            owner = plot.over.split(".", 1)[0]
+            owner = plot.over.rsplit(".", 1)[0]
             if owner not in components:
                 bag.emit(
                     "E045",
@@ -397,3 +378,18 @@ def _check_plots(
                     sources.value(("plots", index, "over")),
                     hint="write `<mujoco component>.expected_path`",
                 )
+            else:
+                scene = components[owner].path
+                reference = scene.with_name(scene.stem + ".path.csv")
+        texts = tuple(re.sub(r"\s+", "", t) for t in signals)
+        plots.append(
+            Plot(
+                xy=(texts[0], texts[1]) if plot.xy is not None else None,
+                y=texts if plot.xy is None else (),
+                refs=tuple(refs),
+                reference=reference,
+                title=plot.title,
+                file=plot.file,
+            )
+        )
+    return tuple(plots)
