@@ -22,10 +22,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal
-
-import numpy as np
-import numpy.typing as npt
+from typing import TYPE_CHECKING, Literal
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.overrides import OverrideError, override_parameter, override_stop, parse_value
@@ -38,7 +35,12 @@ from fmionnx.core.types import (
     PortRef,
     Scalar,
 )
-from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
+
+if TYPE_CHECKING:  # numpy and the runtime load when a system runs, not for `validate` / `--help`
+    import numpy as np
+    import numpy.typing as npt
+
+    from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 __all__ = [
     "CompileResult",
@@ -103,6 +105,8 @@ class System:
         problems = [d for d in backend.validate(system.compiled) if d.severity is Severity.ERROR]
         if problems:
             raise DiagnosticError(problems)
+        from fmionnx.runtime.result import RunOptions
+
         chosen = options or RunOptions()
         if record is not None or self.record is not None:
             chosen = dataclasses.replace(chosen, record=record if record is not None else self.record)
@@ -187,6 +191,8 @@ def run_onnx_once(
     system: System, inputs: Mapping[str, npt.ArrayLike]
 ) -> dict[str, npt.NDArray[np.generic]]:
     """Run a one-ONNX-model system once on ``inputs``; returns outputs shaped like the model's."""
+    import numpy as np
+
     from fmionnx.core.runner import Wiring, get_output, set_input
     from fmionnx.kinds.registry import make_runner
 

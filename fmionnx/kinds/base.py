@@ -11,11 +11,13 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Protocol
+from typing import TYPE_CHECKING, Protocol
 
-from fmionnx.core.runner import Runner, Wiring
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
+
+if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
+    from fmionnx.core.runner import Runner, Wiring
 
 #: The kind steps a physics simulation: its timestep bounds the base step, it drives the ROS 2
 #: clock in free runs, and its ``base_quat`` outputs are (w, x, y, z) quaternions.

@@ -8,14 +8,17 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from fmionnx.core.runner import Runner, Wiring
 from fmionnx.core.types import Component, KindConfig
 from fmionnx.kinds.base import ComponentKind
 from fmionnx.kinds.fmu.kind import FMU_KIND
 from fmionnx.kinds.mujoco.kind import MUJOCO_KIND
 from fmionnx.kinds.onnx.kind import ONNX_KIND
 from fmionnx.kinds.signal.kind import SIGNAL_KIND
+
+if TYPE_CHECKING:
+    from fmionnx.core.runner import Runner, Wiring
 
 COMPONENT_KINDS: Mapping[str, ComponentKind] = {
     FMU_KIND.name: FMU_KIND,
@@ -43,6 +46,8 @@ def config_type(kind: str) -> type[KindConfig]:
 
 def make_runner(component: Component, wiring: Wiring | None = None) -> Runner:
     """The runner for ``component``: the default runner factory of the runtime."""
+    from fmionnx.core.runner import Wiring  # brings numpy: only when a runner is made
+
     return kind_of(component).make_runner(component, wiring or Wiring())
 
 

@@ -11,12 +11,11 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field
 
 from fmionnx.core.errors import ModelError
-from fmionnx.core.runner import Runner, Wiring
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, Experiment, KindConfig
 from fmionnx.core.xmlsafe import parse_safely
@@ -29,6 +28,9 @@ from fmionnx.kinds.fmu.description import (
 )
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, FmuFiles, identity_file, read_fmu_files
 from fmionnx.kinds.fmu.ports import ports_from_model_description
+
+if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
+    from fmionnx.core.runner import Runner, Wiring
 
 #: Facts written by this kind (a key is present only when the FMU states it).
 FACT_KEYS = (

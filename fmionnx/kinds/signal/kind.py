@@ -4,16 +4,18 @@ from __future__ import annotations
 
 from collections.abc import Mapping
 from pathlib import Path
+from typing import TYPE_CHECKING
 
-from fmionnx.core.runner import Runner, Wiring
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
 from fmionnx.kinds.base import Display, KindProblem, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
-from fmionnx.kinds.signal.runner import SignalRunner
 from fmionnx.kinds.signal.spec import NAME, SignalSpec
 from fmionnx.kinds.signal.table import read_table, table_interface
 from fmionnx.kinds.signal.waveforms import SignalConfig, waveform
+
+if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
+    from fmionnx.core.runner import Runner, Wiring
 
 
 class SignalKind:
@@ -89,7 +91,9 @@ class SignalKind:
         return SignalConfig(outputs=tuple((n, waveform(o)) for n, o in spec.outputs.items()))
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
-        """A :class:`SignalRunner`."""
+        """A :class:`~fmionnx.kinds.signal.runner.SignalRunner` (numpy loads only now)."""
+        from fmionnx.kinds.signal.runner import SignalRunner
+
         return SignalRunner(component)
 
 
