@@ -11,6 +11,7 @@ import typer
 
 from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.cli.outputs import check_output_file, check_output_folder
+from fmionnx.cli.run_safety import CHECKPOINT_EVERY, RunSafety
 from fmionnx.core.steps import MAX_RUN_STEPS
 
 
@@ -76,8 +77,37 @@ def run(
     ] = 1.0,
     step_timeout: Annotated[
         float,
-        typer.Option("--step-timeout", help="ROS 2 lockstep: seconds one step may take."),
+        typer.Option(
+            "--step-timeout",
+            help="Seconds one step of a component may take before the run stops with a fault "
+            "(in-process and ROS 2 lockstep).",
+        ),
     ] = 60.0,
+    isolate: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--isolate",
+            help="In-process: components whose models run in a process of their own, so a "
+            "crash or hang cannot take the run down: `fmus` (default: every FMU), `all`, "
+            "`none`, or component names (repeat the option or separate by commas).",
+        ),
+    ] = None,
+    sandbox: Annotated[
+        bool,
+        typer.Option(
+            "--sandbox",
+            help="In-process: confine isolated models (no network, nothing writable but their "
+            "own folder; Linux Landlock and namespaces).",
+        ),
+    ] = False,
+    checkpoint_every: Annotated[
+        float,
+        typer.Option(
+            "--checkpoint-every",
+            help="With --out: rewrite results.csv and run.json (status `running`) at least "
+            "this many seconds apart while the run goes on, so a killed run keeps its results.",
+        ),
+    ] = CHECKPOINT_EVERY,
     force: Annotated[
         bool,
         typer.Option("--force", help="Write into an --out folder that holds other files."),
@@ -104,6 +134,18 @@ def run(
     if max_steps < 1:
         raise fail("--max-steps must be at least 1")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
+    if ros2 is not None and (isolate or sandbox):
+        raise fail("--isolate and --sandbox apply in-process; ROS 2 nodes are processes already")
+    if not step_timeout > 0:
+        raise fail("--step-timeout must be > 0 seconds")
+    if not checkpoint_every >= 0:
+        raise fail("--checkpoint-every must be >= 0 seconds")
+    safety = RunSafety(
+        isolate=[w.strip() for item in (isolate or ["fmus"]) for w in item.split(",") if w.strip()],
+        sandbox=sandbox,
+        step_timeout=step_timeout,
+        checkpoint_every=checkpoint_every,
+    )
     from fmionnx.runtime.stopping import exit_code, stop_on_signals, stop_reason
 
     try:
@@ -122,6 +164,7 @@ def run(
                 interface=interface,
                 ros2=ros2,
                 max_steps=max_steps,
+                safety=safety,
             )
     except KeyboardInterrupt as exc:
         reason = stop_reason(exc)
@@ -222,6 +265,7 @@ def _run_system(
     interface: str | None,
     ros2: Any = None,
     max_steps: int = MAX_RUN_STEPS,
+    safety: RunSafety | None = None,
 ) -> int:
     import dataclasses
 
@@ -254,6 +298,8 @@ def _run_system(
 
         recorder = McapRecorder(record)
     options = RunOptions(frames=recorder)
+    if ros2 is None and safety is not None:
+        options = safety.options(options, system, out, console)
     run_fn = system.run
     if ros2 is not None:
         from fmionnx.backends.ros2.supervisor import run_ros2

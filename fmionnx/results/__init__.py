@@ -20,8 +20,13 @@ def write_results(
     *,
     aliases: dict[str, str] | None = None,
     also: list[Path] | None = None,
+    plots: bool = True,
 ) -> list[Path]:
     """Write results.csv, the system's plots and run.json into ``out``; returns the files.
+
+    ``plots=False`` is for *checkpoints*, the results so far written while a run goes on (so
+    that a run killed outright loses only its last seconds): plots cost more than the data
+    and are drawn by the final write.
 
     ``run.json`` is written last and lists every file of the run (``also``: files written
     by others, e.g. ``--record`` into ``out``), so the next run into ``out`` knows which
@@ -35,7 +40,8 @@ def write_results(
     out.mkdir(parents=True, exist_ok=True)
     previous = previous_run(out)
     files = [write_csv(result, out / "results.csv", aliases=aliases)]
-    files.extend(write_plots(result, system, out))
+    if plots:
+        files.extend(write_plots(result, system, out))
     path = out / RUN_JSON
     listed = [*files, *(also or []), path]
     names = [name for p in listed if (name := relative_name(p, out)) is not None]

@@ -19,19 +19,22 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
+import sys
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
-from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring
+from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
 from fmionnx.core.types import Causality, Component, DType, Port, PortRef, flat_index
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_reason
 from fmionnx.runtime.transfer import Transfer, make_transfer
+from fmionnx.runtime.watchdog import Watchdog
 
 #: Largest hyperperiod (in base steps) for which the schedule is tabulated.
 MAX_TABLE = 100_000
@@ -95,9 +98,15 @@ class Master:
             from fmionnx.kinds.registry import make_runner
 
             runner_factory = make_runner
-        self.make_runner = runner_factory
         self.system = system
         self.options = options or RunOptions()
+        if self.options.isolate:
+            from fmionnx.runtime.isolated.factory import isolating_factory
+            from fmionnx.runtime.isolated.proxy import IsolationSettings
+
+            settings = IsolationSettings(self.options.step_timeout, self.options.sandbox)
+            runner_factory = isolating_factory(runner_factory, self.options.isolate, settings)
+        self.make_runner = runner_factory
         self.runners: dict[str, Runner] = {}
         self.recorder = Recorder()
         self._table: list[tuple[_Due, ...]] = []
@@ -109,6 +118,8 @@ class Master:
         self._clock = [0]
         #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
         self.native = NativeStatus(used=False, reason="not prepared")
+        self._watchdog: Watchdog | None = None
+        self._started = _time.perf_counter()
 
     # -- preparation ---------------------------------------------------------------------------
 
@@ -149,7 +160,21 @@ class Master:
                 h = dues[item.names[0]].h
                 label = "+".join(item.names)
                 entries.append((_Due(label, (), item.step, h, None, None), item.period_steps))
+        self._watch(entries)
         return entries
+
+    def _watch(self, entries: list[tuple[_Due, int]]) -> None:
+        """Time the steps of components in this process when a step timeout is set.
+
+        Isolated components time their own steps (their proxy kills a hung child).
+        """
+        timeout = self.options.step_timeout
+        local = [due for due, _ in entries if due.name not in self.options.isolate]
+        if timeout is None or not local:
+            return
+        self._watchdog = Watchdog(timeout, self._abandon)
+        for due in local:
+            due.step = self._watchdog.wrap(due.name, due.step)
 
     def _wiring(self, component: Component) -> Wiring:
         incoming = self.system.inputs_of(component.name)
@@ -277,7 +302,9 @@ class Master:
         started = _time.perf_counter()
         try:
             self.prepare()
-            started = _time.perf_counter()
+            started = self._started = _time.perf_counter()
+            if self._watchdog is not None:
+                self._watchdog.start()
             self._loop()
         except RunError as exc:
             status, error = RunStatus.FAULT, exc
@@ -285,6 +312,8 @@ class Master:
             status, reason = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = _time.perf_counter() - started
+            if self._watchdog is not None:
+                self._watchdog.stop()
             self._terminate()
         n = self._clock[0]
         return RunResult.after(
@@ -299,9 +328,17 @@ class Master:
         progress = self.options.progress
         every = max(1, self.options.progress_every)
         table, hyper = self._table, self._hyper
+        checkpoint = self.options.checkpoint
+        next_checkpoint = _time.perf_counter() + self.options.checkpoint_every
         for n in range(total):
             clock[0] = n
             t = start + n * step
+            if (
+                checkpoint is not None
+                and n % every == 0
+                and _time.perf_counter() >= next_checkpoint
+            ):
+                next_checkpoint = self._checkpoint(n)
             for due in table[n % hyper] if hyper else self._due_at(n):
                 for transfer in due.transfers:
                     transfer(t)
@@ -315,6 +352,56 @@ class Master:
         clock[0] = total
         if progress is not None:
             progress(total, total, run.stop)
+
+    def _partial(self, status: RunStatus, error: RunError | None = None) -> RunResult:
+        """The results of the steps completed so far."""
+        n = self._clock[0]
+        wall = _time.perf_counter() - self._started
+        return RunResult.after(
+            self.system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
+            self.native.details(),
+        )  # fmt: skip
+
+    def _checkpoint(self, n: int) -> float:
+        """Hand the results so far to the checkpoint callback; returns when to do it again.
+
+        The interval grows with the cost of a checkpoint (at least 10x what it took), so
+        checkpoints never cost more than a tenth of a long run.
+        """
+        callback = self.options.checkpoint
+        assert callback is not None
+        began = _time.perf_counter()
+        callback(self._partial(RunStatus.RUNNING))
+        took = _time.perf_counter() - began
+        return _time.perf_counter() + max(self.options.checkpoint_every, 10 * took)
+
+    def _abandon(self, label: str, t: float) -> None:
+        """A step in this process overran the step timeout: write what we have, then exit.
+
+        Called on the watchdog's thread while the main thread is stuck in the model.
+        """
+        timeout = self.options.step_timeout
+        error = fault(
+            label,
+            f"a step did not return within {timeout:g} s (the step timeout); the component runs "
+            "in fmionnx's own process, so the run was abandoned (`--isolate` runs a model in a "
+            "process of its own, which can be stopped)",
+            time=t,
+        )
+        try:
+            result = self._partial(RunStatus.FAULT, error)
+            if self.options.abandon is not None:
+                self.options.abandon(result)
+            else:
+                print(f"fault: {error}", file=sys.stderr)
+            for runner in self.runners.values():
+                if runner.component.name not in label.split("+"):
+                    with contextlib.suppress(Exception):
+                        runner.terminate()
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(1)
 
     def _due_at(self, n: int) -> tuple[_Due, ...]:
         return tuple(due for due, p in self._fallback if n % p == 0)

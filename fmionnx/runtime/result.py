@@ -31,10 +31,16 @@ class RunStatus(enum.StrEnum):
     COMPLETED = "completed"
     FAULT = "fault"
     INTERRUPTED = "interrupted"
+    #: A checkpoint written while the run goes on: found on disk, it means the process ended
+    #: without writing its final results (SIGKILL, power loss).
+    RUNNING = "running"
 
 
 #: ``progress(steps_done, total_steps, time)``; called every few hundred steps.
 ProgressCallback = Callable[[int, int, float], None]
+
+#: Receives a partial result: a checkpoint (status ``running``) or an abandoned run (``fault``).
+ResultCallback = Callable[["RunResult"], None]
 
 
 @dataclass(frozen=True)
@@ -50,6 +56,20 @@ class RunOptions:
     progress: ProgressCallback | None = None
     progress_every: int = 500
     frames: FrameSink | None = None
+    #: Components whose models run in a child process of their own (``--isolate``).
+    isolate: frozenset[str] = frozenset()
+    #: Seconds one step of a component may take before the run stops with a fault (None: no
+    #: limit). Isolated components are killed; see :mod:`fmionnx.runtime.watchdog` otherwise.
+    step_timeout: float | None = None
+    #: Confine isolated components (``--sandbox``: no network, no files outside their own).
+    sandbox: bool = False
+    #: Receives the results so far every ``checkpoint_every`` seconds of wall time (at least),
+    #: so that a run killed outright (SIGKILL) loses only its last seconds.
+    checkpoint: ResultCallback | None = None
+    checkpoint_every: float = 10.0
+    #: Receives the results of a run abandoned because an in-process step overran the step
+    #: timeout, just before the process ends (exit status 1); see :mod:`.watchdog`.
+    abandon: ResultCallback | None = None
 
 
 @dataclass

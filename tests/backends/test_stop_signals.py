@@ -36,7 +36,8 @@ def _started_run(tmp_path: Path) -> subprocess.Popen[str]:
         encoding="utf-8",
     )
     process = subprocess.Popen(
-        [sys.executable, "-m", "fmionnx", "run", str(system), "--out", str(tmp_path / "out")],
+        [sys.executable, "-m", "fmionnx", "run", str(system), "--out", str(tmp_path / "out"),
+         "--checkpoint-every", "0"],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
@@ -51,7 +52,12 @@ def _started_run(tmp_path: Path) -> subprocess.Popen[str]:
         process.kill()
         process.communicate()
         pytest.fail("".join(seen))
-    time.sleep(0.5)  # some steps are done
+    run_json = tmp_path / "out" / "run.json"
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:  # a checkpoint after some steps: the loop is running
+        time.sleep(0.1)
+        if run_json.exists() and json.loads(run_json.read_text(encoding="utf-8"))["steps"] > 0:
+            break
     return process
 
 

@@ -79,6 +79,7 @@ class Fmi2CoSimulation(Fmi2Runner):
     """
 
     _do_step_function: Callable[..., int]
+    advance_function = "fmi2DoStep"
 
     def __init__(self, component: Component, driven: frozenset[str]) -> None:
         super().__init__(component, driven)
@@ -112,6 +113,8 @@ class Fmi2CoSimulation(Fmi2Runner):
 
 class Fmi2ModelExchange(Fmi2Runner):
     """FMI 2 model exchange: integrated between communication points (:mod:`.me`)."""
+
+    advance_function = "the integration (fmi2GetDerivatives/fmi2SetContinuousStates/...)"
 
     def _new_fmu(self, md: Any, root: Path) -> Any:
         from fmpy.fmi2 import FMU2Model

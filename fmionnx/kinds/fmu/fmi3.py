@@ -70,6 +70,7 @@ class Fmi3CoSimulation(Fmi3Runner):
 
     _do_step_function: Callable[..., int]
     _do_step_tail: tuple[object, ...]
+    advance_function = "fmi3DoStep"
 
     def _new_fmu(self, md: Any, root: Path) -> Any:
         from fmpy.fmi3 import FMU3Slave
@@ -102,6 +103,10 @@ class Fmi3CoSimulation(Fmi3Runner):
 
 class Fmi3ModelExchange(Fmi3Runner):
     """FMI 3 model exchange: integrated between communication points (:mod:`.me`)."""
+
+    advance_function = (
+        "the integration (fmi3GetContinuousStateDerivatives/fmi3SetContinuousStates/...)"
+    )
 
     def _new_fmu(self, md: Any, root: Path) -> Any:
         from fmpy.fmi3 import FMU3Model

@@ -47,6 +47,12 @@ from fmionnx.kinds.fmu.values import (
 
 _STATUS = ("OK", "Warning", "Discard", "Error", "Fatal", "Pending")
 
+#: Characters of one FMU log message kept for fault messages (a model may log megabytes).
+LOG_MESSAGE_CHARS = 300
+
+#: Characters of the FMU's log a fault message quotes (the newest ones).
+LOG_CHARS = 600
+
 #: The highest status a run goes on after (FMI 2 and 3 share the numbering).
 FMI_WARNING = 1
 
@@ -89,6 +95,9 @@ class FmuRunner(ABC):
 
     #: The FMI version's get/set function names and value types.
     values: ClassVar[ValueFunctions]
+
+    #: What advancing one step calls, as fault messages name it (``fmi2DoStep`` ...).
+    advance_function: ClassVar[str]
 
     def __init__(self, component: Component, driven: frozenset[str]) -> None:
         self.component = component
@@ -186,6 +195,8 @@ class FmuRunner(ABC):
     def _log_message(self, status: int, message: bytes | None) -> None:
         """Keep a log message of the FMU for fault messages (the loggers' common part)."""
         text = message.decode("utf-8", "replace") if message else ""
+        if len(text) > LOG_MESSAGE_CHARS:
+            text = f"{text[:LOG_MESSAGE_CHARS]}... ({len(text) - LOG_MESSAGE_CHARS} more characters)"
         self._log.append(f"[{status_label(status)}] {text}")
 
     # -- buffers --------------------------------------------------------------------------------
@@ -210,15 +221,36 @@ class FmuRunner(ABC):
 
     def step(self, t: float, h: float) -> None:
         """Set inputs, advance by ``h`` (doStep, or integrate for ME), get outputs."""
+        self._set_inputs(t, h)
+        self._advance(t, h)
+        self._get_outputs(t, h)
+
+    def _set_inputs(self, t: float, h: float) -> None:
         for function, args, name in self._set_calls:
             status = function(*args)
             if status > FMI_WARNING:
                 self._check(name, status, t)
-        self._advance(t, h)
+
+    def _get_outputs(self, t: float, h: float) -> None:
         for function, args, name in self._get_calls:
             status = function(*args)
             if status > FMI_WARNING:
                 self._check(name, status, t + h)
+
+    def step_phases(self) -> tuple[tuple[str, Stepper], ...]:
+        """:meth:`step` in its three parts, each labelled with the FMI functions it calls.
+
+        An isolated FMU's child process steps through these so that, when the model crashes
+        or hangs, the supervisor can name the FMI function it was in
+        (:mod:`fmionnx.runtime.isolated`). Together they do exactly what :meth:`step` does.
+        """
+        setters = "/".join(dict.fromkeys(name for _, _, name in self._set_calls))
+        getters = "/".join(dict.fromkeys(name for _, _, name in self._get_calls))
+        return (
+            (setters or "setting inputs", self._set_inputs),
+            (self.advance_function, self._advance),
+            (getters or "getting outputs", self._get_outputs),
+        )
 
     def produce(self, port: str) -> None:  # noqa: B027 - a no-op for every FMU, not a hook
         """FMU outputs are refreshed every step; nothing is lazy."""
@@ -256,7 +288,10 @@ class FmuRunner(ABC):
         """RunError for an FMI call that returned ``status``, with the last log lines."""
         message = f"{function} returned {status_label(status)}"
         if self._log:
-            message += " (FMU log: " + " | ".join(self._log) + ")"
+            log = " | ".join(self._log)
+            if len(log) > LOG_CHARS:
+                log = "..." + log[-LOG_CHARS:]
+            message += f" (FMU log: {log})"
         return fault(self.component.name, message, time=t, port=port)
 
     def _guard(self, function: str, call: Any) -> None:

@@ -1,0 +1,75 @@
+"""What ``fmionnx run`` does so that a misbehaving model never costs the user the run.
+
+- ``--isolate`` (default: every FMU) runs models in processes of their own: a crash, abort,
+  exit or hang becomes a fault naming the component, the FMI function and the time.
+- ``--step-timeout`` bounds every step; a component in this process that overruns it has
+  the run abandoned with its results written (:mod:`fmionnx.runtime.watchdog`).
+- Checkpoints rewrite ``results.csv`` and ``run.json`` (status ``running``) every few seconds,
+  so even SIGKILL loses only the last seconds.
+
+The decisions behind the defaults are in ``docs/security.md``.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import sys
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+from fmionnx.cli.app import fail
+
+#: Seconds of wall time between checkpoints (at least; they never cost more than a tenth).
+CHECKPOINT_EVERY = 10.0
+
+
+@dataclass(frozen=True)
+class RunSafety:
+    """The run command's isolation, timeout and checkpoint choices."""
+
+    isolate: list[str] = field(default_factory=lambda: ["fmus"])
+    sandbox: bool = False
+    step_timeout: float | None = 60.0
+    checkpoint_every: float = CHECKPOINT_EVERY
+
+    def options(self, options: Any, system: Any, out: Path | None, console: Any) -> Any:
+        """``options`` with isolation, the step timeout and the checkpoint/abandon writers."""
+        from fmionnx.runtime.isolated.factory import isolation_targets
+
+        chosen, unknown = isolation_targets(system.compiled, self.isolate)
+        if unknown:
+            names = ", ".join(f"`{c.name}`" for c in system.compiled.components)
+            raise fail(
+                f"--isolate: no component named {', '.join(f'`{u}`' for u in unknown)}; "
+                f"use `fmus`, `all`, `none` or one of {names}"
+            )
+        if self.sandbox and not chosen:
+            raise fail("--sandbox confines isolated models, and --isolate selects none")
+        compiled, aliases = system.compiled, dict(system.aliases)
+
+        def checkpoint(result: Any) -> None:
+            from fmionnx.results import write_results
+
+            assert out is not None
+            write_results(result, compiled, out, aliases=aliases, plots=False)
+
+        def abandon(result: Any) -> None:
+            if out is not None:
+                from fmionnx.results import write_results
+
+                write_results(result, compiled, out, aliases=aliases)
+            console.print(f"[bold red]fault:[/] {result.error}")
+            if out is not None:
+                print(f"Results: {out}")
+            sys.stdout.flush()
+
+        return dataclasses.replace(
+            options,
+            isolate=chosen,
+            sandbox=self.sandbox,
+            step_timeout=self.step_timeout,
+            checkpoint=checkpoint if out is not None else None,
+            checkpoint_every=self.checkpoint_every,
+            abandon=abandon,
+        )

@@ -1,0 +1,52 @@
+"""The child process of one isolated component: ``python -m fmionnx.runtime.isolated.child``.
+
+It makes the component's ordinary runner (the kind table's factory) and serves the
+supervisor's commands until told to terminate or until the supervisor goes away. Everything a
+model can do to its process (crash, abort, exit, hang) happens here, not in the run.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import os
+import signal
+import sys
+
+_PR_SET_PDEATHSIG = 1
+
+
+def _die_with_parent() -> None:
+    """Ask Linux to kill this process when the supervisor dies (a hung model stays no orphan)."""
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+        if os.getppid() == 1:  # the supervisor died before prctl took effect
+            os._exit(1)
+
+
+def main(argv: list[str]) -> int:
+    """``child COMMANDS REPLIES SHARED [--sandbox WRITABLE MODEL]`` (inherited descriptors)."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the supervisor's to handle
+    _die_with_parent()
+    commands, replies, shared = (int(a) for a in argv[:3])
+    refusal = None
+    if argv[3:4] == ["--sandbox"]:  # first: a process with threads cannot enter namespaces
+        from pathlib import Path
+
+        from fmionnx.runtime.isolated.sandbox import SandboxUnavailableError, confine
+
+        try:
+            missing = confine(Path(argv[4]), Path(argv[5]))
+        except SandboxUnavailableError as exc:
+            missing = [str(exc)]
+        if missing:
+            refusal = "this system cannot confine the model: it lacks " + "; ".join(missing)
+    from fmionnx.runtime.isolated.server import Child
+
+    Child(commands, replies, shared, refusal).serve()
+    return 0
+
+
+if __name__ == "__main__":
+    sys.exit(main(sys.argv[1:]))

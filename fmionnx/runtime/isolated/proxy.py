@@ -1,0 +1,278 @@
+"""The supervisor's side: a runner whose model lives in a child process.
+
+:class:`IsolatedRunner` implements the runner contract (:mod:`fmionnx.core.runner`), so the
+master cannot tell it from the runner it stands for: its port buffers are views of the memory
+block it shares with the child, and a step is one byte down a pipe and one byte back. What a
+model does to its own process becomes a :class:`RunError` naming the component, the FMI
+function (the phase the child was in) and the simulated time:
+
+- the process dies (segfault, ``abort()``, ``exit()``): the pipe closes, the exit status says
+  how;
+- a call does not return within the step timeout: the process is killed.
+
+The run then ends as a fault like any other, so the master writes everything recorded up to
+the last completed step, and the child's temporary folder is removed whatever happened.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import mmap
+import os
+import select
+import shutil
+import signal
+import subprocess
+import sys
+import tempfile
+from collections import deque
+from dataclasses import dataclass
+from pathlib import Path
+from typing import NoReturn
+
+import numpy as np
+
+from fmionnx.core.errors import RunError
+from fmionnx.core.runner import Buffer, Wiring, fault
+from fmionnx.core.types import Component
+from fmionnx.runtime.isolated import channel
+from fmionnx.runtime.isolated.channel import Control, Layout
+
+#: Seconds a child gets to terminate its model and exit before it is killed.
+TERMINATE_GRACE = 5.0
+
+
+@dataclass(frozen=True)
+class IsolationSettings:
+    """How isolated components run: a step timeout (None: wait for ever) and confinement."""
+
+    step_timeout: float | None = None
+    sandbox: bool = False
+
+
+def _memory_file(name: str) -> int:
+    """An anonymous shared file: nothing on disk to leak, whatever way the run ends."""
+    if hasattr(os, "memfd_create"):
+        return os.memfd_create(f"fmionnx-{name}", 0)
+    handle, path = tempfile.mkstemp(prefix="fmionnx-shm-")
+    Path(path).unlink()
+    return handle
+
+
+class IsolatedRunner:
+    """Runs one component's ordinary runner in a child process (``--isolate``)."""
+
+    def __init__(self, component: Component, wiring: Wiring, settings: IsolationSettings) -> None:
+        self.component = component
+        self.lazy_outputs: frozenset[str] = frozenset()
+        self._wiring = wiring
+        self._settings = settings
+        self._process: subprocess.Popen[bytes] | None = None
+        self._commands = self._replies = self._shared = -1
+        self._control: Control | None = None
+        self._block: mmap.mmap | None = None
+        self._data: mmap.mmap | None = None
+        self._buffers: dict[tuple[str, bool], Buffer] = {}
+        self._labels: tuple[str, ...] = channel.FIXED_PHASES
+        self._times = np.zeros(2)
+        #: Replies still to read, oldest first: True for a request (its reply has a payload).
+        self._pending: deque[bool] = deque()
+        self._tmp: Path | None = None
+        self._time = 0.0
+        self._dead = False
+
+    # -- life cycle ----------------------------------------------------------------------------
+
+    def instantiate(self) -> None:
+        """Start the child and ask it to load the model; the answer is awaited in setup.
+
+        Not waiting here lets every isolated component start its process at the same time.
+        """
+        name = self.component.name
+        command_read, command_write = os.pipe()
+        reply_read, reply_write = os.pipe()
+        self._shared = _memory_file(name)
+        os.ftruncate(self._shared, channel.CONTROL_SIZE)
+        self._tmp = Path(tempfile.mkdtemp(prefix=f"fmionnx-isolated-{name}-"))
+        env = dict(os.environ, TMPDIR=str(self._tmp))
+        argv = [sys.executable, "-m", "fmionnx.runtime.isolated.child"]
+        argv += [str(command_read), str(reply_write), str(self._shared)]
+        if self._settings.sandbox:
+            argv += ["--sandbox", str(self._tmp), str(self.component.path)]
+        try:
+            self._process = subprocess.Popen(
+                argv,
+                pass_fds=(command_read, reply_write, self._shared),
+                stdin=subprocess.DEVNULL,
+                env=env,
+            )
+        finally:
+            os.close(command_read)
+            os.close(reply_write)
+        self._commands, self._replies = command_write, reply_read
+        self._block = mmap.mmap(self._shared, channel.CONTROL_SIZE)
+        self._control = Control(self._block)
+        self._times = self._control.times
+        self._request("instantiate", self.component, self._wiring)
+
+    def setup(self, start: float, stop: float) -> None:
+        """Wait for the model to load, then initialize it and map the port buffers it reports."""
+        self._time = start
+        self._await_answer()  # instantiate
+        self._request("setup", start, stop)
+        layout = self._await_answer()
+        assert isinstance(layout, Layout)
+        self._data = mmap.mmap(self._shared, max(layout.size, 8), offset=channel.CONTROL_SIZE)
+        for slot in layout.slots:
+            self._buffers[(slot.port, slot.is_input)] = channel.view(self._data, slot)
+        self.lazy_outputs = layout.lazy_outputs
+        self._labels = channel.FIXED_PHASES + layout.step_labels
+
+    def input_buffer(self, port: str) -> Buffer:
+        """The shared slot the child copies into the model's input before each step."""
+        try:
+            return self._buffers[(port, True)]
+        except KeyError:
+            msg = f"{self.component.name}.{port} is not a runtime input of this component"
+            raise KeyError(msg) from None
+
+    def output_buffer(self, port: str) -> Buffer:
+        """The shared slot the child refreshes after each step."""
+        try:
+            return self._buffers[(port, False)]
+        except KeyError:
+            msg = f"{self.component.name}.{port} is not a numeric output of this component"
+            raise KeyError(msg) from None
+
+    def step(self, t: float, h: float) -> None:
+        """One step in the child: times into shared memory, one byte there and back."""
+        self._time = t
+        times = self._times
+        times[0] = t
+        times[1] = h
+        self._pending.append(False)
+        channel.write_all(self._commands, channel.STEP)
+        self._await(t, h)
+
+    def produce(self, port: str) -> None:
+        """Refresh a lazy output in the child."""
+        self._request("produce", port)
+        self._await_answer()
+
+    def terminate(self) -> None:
+        """Terminate the model, end the child (killing it if it does not end), clean up."""
+        process = self._process
+        if process is None:
+            self._cleanup()
+            return
+        self._process = None
+        try:
+            if not self._dead and process.poll() is None:
+                with contextlib.suppress(OSError, RunError):
+                    self._request("terminate")
+                    while self._pending:  # a step interrupted by Ctrl-C answers first
+                        self._await(self._time, 0.0, timeout=TERMINATE_GRACE)
+            process.wait(TERMINATE_GRACE)
+        except subprocess.TimeoutExpired:
+            pass
+        finally:
+            if process.poll() is None:
+                process.kill()
+                process.wait()
+            self._cleanup()
+
+    # -- talking to the child ------------------------------------------------------------------
+
+    def _request(self, name: str, *args: object) -> None:
+        self._pending.append(True)
+        try:
+            channel.send(self._commands, channel.CALL, (name, args))
+        except BrokenPipeError:
+            self._died(self._time, 0.0)
+
+    def _await_answer(self) -> object:
+        return self._await(self._time, 0.0)
+
+    def _await(self, t: float, h: float, timeout: float | None = None) -> object:
+        """The child's reply to the oldest pending command; faults become RunErrors."""
+        limit = self._settings.step_timeout if timeout is None else timeout
+        if limit is not None and not self._ready(limit):
+            self._kill_hung(t, h, limit)
+        tag = channel.read_exact(self._replies, 1)
+        if tag is None:
+            self._died(t, h)
+        is_request = self._pending.popleft()
+        if tag == channel.OK:
+            return channel.receive_payload(self._replies) if is_request else None
+        payload = channel.receive_payload(self._replies)
+        if not isinstance(payload, tuple):
+            self._died(t, h)
+        message, port, time = payload
+        raise RunError(str(message), component=self.component.name, port=port, time=time)
+
+    def _ready(self, seconds: float) -> bool:
+        poller = select.poll()
+        poller.register(self._replies, select.POLLIN | select.POLLHUP)
+        return bool(poller.poll(seconds * 1000.0))
+
+    def _phase(self) -> int:
+        return self._control.phase.value if self._control is not None else 0
+
+    def _phase_label(self) -> str:
+        index = self._phase()
+        return self._labels[index] if 0 <= index < len(self._labels) else f"phase {index}"
+
+    def _time_of_phase(self, t: float, h: float) -> float:
+        """Outputs are got at the end of the step; everything else happens at its start."""
+        last = len(self._labels) - 1
+        return t + h if self._phase() == last and last >= channel.FIRST_STEP_PHASE else t
+
+    def _died(self, t: float, h: float) -> NoReturn:
+        """The child is gone: say how, in which phase, at which time."""
+        self._dead = True
+        process = self._process
+        code = process.wait() if process is not None else None
+        if code is not None and code < 0:
+            try:
+                how = f"crashed with {signal.Signals(-code).name}"
+            except ValueError:
+                how = f"was killed by signal {-code}"
+        elif code is not None:
+            how = f"ended its process with exit status {code}"
+        else:
+            how = "ended its process"
+        raise fault(
+            self.component.name,
+            f"the model {how} in {self._phase_label()} (it ran isolated in its own process)",
+            time=self._time_of_phase(t, h),
+        )
+
+    def _kill_hung(self, t: float, h: float, limit: float) -> NoReturn:
+        self._dead = True
+        label = self._phase_label()
+        if self._process is not None:
+            self._process.kill()
+            self._process.wait()
+        raise fault(
+            self.component.name,
+            f"{label} did not return within {limit:g} s (the step timeout); its process was "
+            "killed",
+            time=self._time_of_phase(t, h),
+        )
+
+    def _cleanup(self) -> None:
+        self._buffers.clear()
+        self._times = np.zeros(2)
+        self._control = None
+        for handle in (self._commands, self._replies, self._shared):
+            if handle >= 0:
+                with contextlib.suppress(OSError):
+                    os.close(handle)
+        self._commands = self._replies = self._shared = -1
+        for block in (self._data, self._block):
+            if block is not None:
+                with contextlib.suppress(BufferError):
+                    block.close()
+        if self._tmp is not None:
+            shutil.rmtree(self._tmp, ignore_errors=True)
+            self._tmp = None

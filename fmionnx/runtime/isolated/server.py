@@ -1,0 +1,144 @@
+"""The request loop of an isolated component's child process (see :mod:`.child`)."""
+
+from __future__ import annotations
+
+import mmap
+import os
+import traceback
+from collections.abc import Callable
+from typing import Any, cast
+
+import numpy as np
+
+from fmionnx.core.errors import RunError
+from fmionnx.core.runner import Buffer, Runner
+from fmionnx.core.types import Causality
+from fmionnx.runtime.isolated import channel
+from fmionnx.runtime.isolated.channel import Control, Layout, Slot
+
+Phase = tuple[str, Callable[[float, float], None]]
+
+
+class Child:
+    """One runner behind the pipes; the buffers it copies between the runner and shared memory."""
+
+    def __init__(self, commands: int, replies: int, shared: int, refusal: str | None) -> None:
+        self.commands, self.replies, self.shared = commands, replies, shared
+        #: Why the model must not be loaded (the sandbox asked for could not be set up).
+        self.refusal = refusal
+        self.block = mmap.mmap(shared, channel.CONTROL_SIZE)
+        self.control = Control(self.block)
+        self.runner: Runner | None = None
+        self.data: mmap.mmap | None = None
+        self.inputs: list[tuple[Buffer, Buffer]] = []
+        self.outputs: list[tuple[Buffer, Buffer]] = []
+        self.produced: dict[str, tuple[Buffer, Buffer]] = {}
+        self.phases: tuple[Phase, ...] = ()
+
+    # -- the loop ------------------------------------------------------------------------------
+
+    def serve(self) -> None:
+        """Answer commands until terminate, or until the command pipe closes."""
+        while True:
+            op = channel.read_exact(self.commands, 1)
+            if op is None:
+                return
+            try:
+                if op == channel.STEP:
+                    self.step()
+                    channel.write_all(self.replies, channel.OK)
+                    continue
+                request = channel.receive_payload(self.commands)
+                if request is None:
+                    return
+                name, args = cast(tuple[str, tuple[Any, ...]], request)
+                answer = getattr(self, f"do_{name}")(*args)
+                channel.send(self.replies, channel.OK, answer)
+                if name == "terminate":
+                    return
+            except RunError as exc:
+                channel.send(self.replies, channel.ERROR, (str(exc), exc.port, exc.time))
+            except Exception as exc:
+                detail = "".join(traceback.format_exception_only(exc)).strip()
+                channel.send(self.replies, channel.ERROR, (detail, None, None))
+
+    def step(self) -> None:
+        t, h = float(self.control.times[0]), float(self.control.times[1])
+        for shared, own in self.inputs:
+            own[...] = shared
+        phase = self.control.phase
+        for index, (_, part) in enumerate(self.phases, channel.FIRST_STEP_PHASE):
+            phase.value = index
+            part(t, h)
+        for shared, own in self.outputs:
+            shared[...] = own
+
+    # -- requests ------------------------------------------------------------------------------
+
+    def do_instantiate(self, component: Any, wiring: Any) -> None:
+        from fmionnx.kinds.registry import make_runner
+
+        self.control.phase.value = channel.PHASE_INSTANTIATE
+        if self.refusal is not None:
+            raise RunError(f"component `{component.name}`: --sandbox: {self.refusal}")
+        self.runner = make_runner(component, wiring)
+        self.runner.instantiate()
+
+    def do_setup(self, start: float, stop: float) -> Layout:
+        runner = self._runner()
+        self.control.phase.value = channel.PHASE_SETUP
+        runner.setup(start, stop)
+        owned = self._buffers(runner)
+        size = 0
+        slots = []
+        for port, is_input, buffer in owned:
+            slots.append(Slot(port, is_input, buffer.dtype.str, size, buffer.size))
+            size += -(-buffer.nbytes // 8) * 8  # 8-byte aligned
+        os.ftruncate(self.shared, channel.CONTROL_SIZE + max(size, 8))
+        self.data = mmap.mmap(self.shared, max(size, 8), offset=channel.CONTROL_SIZE)
+        for slot, (_, _, own) in zip(slots, owned, strict=True):
+            shared = channel.view(self.data, slot)
+            shared[...] = own  # start values: unconnected inputs keep them
+            if slot.port in runner.lazy_outputs:
+                self.produced[slot.port] = (shared, own)
+            else:
+                (self.inputs if slot.is_input else self.outputs).append((shared, own))
+        phases = getattr(runner, "step_phases", None)
+        self.phases = phases() if phases is not None else (("the step", runner.step),)
+        labels = tuple(label for label, _ in self.phases)
+        return Layout(tuple(slots), size, runner.lazy_outputs, labels)
+
+    def do_produce(self, port: str) -> None:
+        runner = self._runner()
+        self.control.phase.value = channel.PHASE_PRODUCE
+        runner.produce(port)
+        shared, own = self.produced[port]
+        shared[...] = own
+
+    def do_terminate(self) -> None:
+        self.control.phase.value = channel.PHASE_TERMINATE
+        if self.runner is not None:
+            self.runner.terminate()
+
+    # -- helpers -------------------------------------------------------------------------------
+
+    def _runner(self) -> Runner:
+        if self.runner is None:
+            msg = "the isolated runner was used before it was instantiated"
+            raise RuntimeError(msg)
+        return self.runner
+
+    @staticmethod
+    def _buffers(runner: Runner) -> list[tuple[str, bool, Buffer]]:
+        """Every port buffer the runner has: inputs (and driven parameters), then outputs."""
+        found: list[tuple[str, bool, Buffer]] = []
+        for port in runner.component.interface.ports:
+            is_input = port.causality is not Causality.OUTPUT
+            try:
+                buffer = runner.input_buffer(port.name) if is_input else runner.output_buffer(
+                    port.name
+                )
+            except KeyError:
+                continue
+            found.append((port.name, is_input, np.asarray(buffer).reshape(-1)))
+        return found
