@@ -36,8 +36,17 @@ def parse_pairs(items: list[str], option: str) -> dict[str, str]:
 def run(
     target: Annotated[Path, typer.Argument(help="System file (.yaml/.ssp), or a .fmu / .onnx.")],
     out: Annotated[
-        Path | None, typer.Option("--out", "-o", help="Folder for results.csv, run.json, plots.")
+        Path | None,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Folder for results.csv, run.json and plots (default: out/<system name>/). "
+            "Single ONNX model: one .npy per output (default: none).",
+        ),
     ] = None,
+    no_out: Annotated[
+        bool, typer.Option("--no-out", help="Write no results (a dry run of the models).")
+    ] = False,
     stop_time: Annotated[
         float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
     ] = None,
@@ -97,6 +106,8 @@ def run(
         raise fail("--step and --interface apply to a single .fmu only")
     if inputs and suffix != ".onnx":
         raise fail("--input applies to a single .onnx model only")
+    if out is not None and no_out:
+        raise fail("--out and --no-out exclude each other")
     if out is not None:
         _check_out(out, force=force, system_run=suffix != ".onnx")
     if record is not None:
@@ -114,6 +125,8 @@ def run(
             code = _run_system(
                 target,
                 out=out,
+                write=not no_out,
+                force=force,
                 stop_time=stop_time,
                 params=parse_pairs(param or [], "--param"),
                 quiet=quiet,
@@ -129,21 +142,29 @@ def run(
     raise typer.Exit(code)
 
 
-def _check_out(out: Path, *, force: bool, system_run: bool) -> None:
+def _check_out(out: Path, *, force: bool, system_run: bool, default: bool = False) -> None:
     """``--out`` is usable; a folder of someone else's files is refused unless ``--force``.
 
     Checked before the run: learning after minutes of simulation that the results would be
-    mixed into an unrelated folder is too late. See ``fmionnx.results.outdir``.
+    mixed into an unrelated folder is too late. See ``fmionnx.results.outdir``. The default
+    folder (``default``) follows the same rules; the message then says where it came from.
     """
     from fmionnx.results.outdir import foreign_folder
 
     if system_run and not force and foreign_folder(out):
-        msg = (
-            f"--out `{out}` holds files that are not the output of an earlier fmionnx run; "
-            "choose an empty folder or use --force to write into it"
-        )
+        if default:
+            msg = (
+                f"the default results folder `{out}` holds files that are not the output of "
+                "an earlier fmionnx run; choose a folder with --out, or use --force to write "
+                "into it"
+            )
+        else:
+            msg = (
+                f"--out `{out}` holds files that are not the output of an earlier fmionnx run; "
+                "choose an empty folder or use --force to write into it"
+            )
         raise fail(msg)
-    check_output_folder(out, "--out")
+    check_output_folder(out, "--out" if not default else "the default results folder")
 
 
 def _ros2_options(
@@ -214,6 +235,8 @@ def _run_system(
     target: Path,
     *,
     out: Path | None,
+    write: bool = True,
+    force: bool = False,
     stop_time: float | None,
     params: dict[str, str],
     quiet: bool,
@@ -248,6 +271,11 @@ def _run_system(
             f"the run is {steps:.3g} base steps, more than --max-steps {max_steps:.3g}; "
             "check the stop time and step, or pass a larger --max-steps"
         )
+    if out is None and write:  # the system's name is known now; still before the run
+        from fmionnx.results.outdir import default_folder
+
+        out = default_folder(system.name)
+        _check_out(out, force=force, system_run=True, default=True)
     recorder = None
     if record is not None and ros2 is None:  # ROS 2: the supervisor records the wire
         from fmionnx.results.mcap_record import McapRecorder
