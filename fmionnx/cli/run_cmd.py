@@ -1,4 +1,5 @@
-"""``fmionnx run``: run a system (or one FMU / ONNX model) in-process and write its results."""
+"""``fmionnx run``: run a system in-process or as ROS 2 nodes (or one FMU / ONNX model in-process)
+and write its results."""
 
 from __future__ import annotations
 
@@ -27,14 +28,22 @@ def parse_pairs(items: list[str], option: str) -> dict[str, str]:
 
 @app.command(
     epilog="Examples:\n\n"
+    "  fmionnx run systems/sign_follower.yaml            # results in out/sign_follower/\n\n"
     "  fmionnx run systems/sign_follower.yaml --out out/demo\n\n"
     "  fmionnx run systems/sign_follower.yaml --stop-time 10 --param tracker.turnRate=0.6\n\n"
     "  fmionnx run model.fmu --stop-time 5 --step 0.01 --interface me --out out/model\n\n"
+    "  fmionnx run model.fmu -p k=2                      # a single FMU: bare variable names\n\n"
     "  fmionnx run detector.onnx --input image=frame.npy --out out/detector\n\n"
     "  fmionnx run systems/sign_follower.yaml --backend ros2 --sync lockstep --out out/ros2",
 )
 def run(
-    target: Annotated[Path, typer.Argument(help="System file (.yaml/.ssp), or a .fmu / .onnx.")],
+    target: Annotated[
+        Path,
+        typer.Argument(
+            help="System file (.yaml, .ssp, .ssd, or a compiled .fmionnx.json), or a single "
+            "model: .fmu or .onnx."
+        ),
+    ],
     out: Annotated[
         Path | None,
         typer.Option(
@@ -45,51 +54,113 @@ def run(
         ),
     ] = None,
     no_out: Annotated[
-        bool, typer.Option("--no-out", help="Write no results (a dry run of the models).")
+        bool,
+        typer.Option(
+            "--no-out", help="Write no results at all (e.g. to time or smoke-test a run)."
+        ),
     ] = False,
     stop_time: Annotated[
-        float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
+        float | None,
+        typer.Option(
+            "--stop-time",
+            help="Stop time in seconds; replaces the system file's `run.stop` (a single FMU: its "
+            "default experiment's stop time).",
+        ),
     ] = None,
     param: Annotated[
         list[str] | None,
-        typer.Option("--param", "-p", help="`component.name=value` set before initialization."),
+        typer.Option(
+            "--param",
+            "-p",
+            help="Parameter or start value set before initialization, repeatable; the value is "
+            "read as JSON. A system: `component.name=value` (`-p tracker.turnRate=0.6`); a single "
+            "FMU: `name=value` (`-p k=2`).",
+        ),
     ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress, no summary.")] = False,
+    quiet: Annotated[
+        bool,
+        typer.Option(
+            "--quiet",
+            "-q",
+            help="No progress bar, warnings or summary; the last line `Results: <folder>` stays.",
+        ),
+    ] = False,
     record: Annotated[
-        Path | None, typer.Option("--record", help="Also write an MCAP file (frames + signals).")
+        Path | None,
+        typer.Option(
+            "--record",
+            help="Also write an MCAP file. In-process: camera frames and the recorded signals; "
+            "with --backend ros2: every topic as it crossed the wire.",
+        ),
     ] = None,
     step: Annotated[
-        float | None, typer.Option("--step", help="Single FMU: communication step in seconds.")
+        float | None,
+        typer.Option(
+            "--step",
+            help="Single FMU only: communication step in seconds (default: its default "
+            "experiment's step).",
+        ),
     ] = None,
     interface: Annotated[
-        str | None, typer.Option("--interface", help="Single FMU: `cs` or `me`.")
+        str | None,
+        typer.Option(
+            "--interface",
+            help="Single FMU only: `cs` (co-simulation) or `me` (model exchange); default: "
+            "co-simulation when the FMU offers it.",
+        ),
     ] = None,
     inputs: Annotated[
         list[str] | None,
-        typer.Option("--input", "-i", help="Single ONNX model: `name=file.npy` per input."),
+        typer.Option(
+            "--input", "-i", help="Single ONNX model only: `name=file.npy` per input, repeatable."
+        ),
     ] = None,
     backend: Annotated[
-        str, typer.Option("--backend", help="`inprocess` (default) or `ros2` (one node each).")
+        str,
+        typer.Option(
+            "--backend",
+            help="`inprocess`: one deterministic process. `ros2`: one ROS 2 node process per "
+            "component, from the same system file (system files only).",
+        ),
     ] = "inprocess",
     sync: Annotated[
-        str, typer.Option("--sync", help="ROS 2: `lockstep` (reproducible) or `free`.")
+        str,
+        typer.Option(
+            "--sync", help="With --backend ros2: `lockstep` (reproducible) or `free` (paced)."
+        ),
     ] = "lockstep",
     ros_distro: Annotated[
-        str, typer.Option("--ros-distro", help="ROS 2: humble, iron, jazzy or kilted.")
+        str,
+        typer.Option(
+            "--ros-distro", help="With --backend ros2: humble, iron, jazzy or kilted (wire types)."
+        ),
     ] = "humble",
     middleware: Annotated[
-        str, typer.Option("--middleware", help="ROS 2: `dds` (Cyclone DDS) or `rclpy`.")
+        str,
+        typer.Option(
+            "--middleware",
+            help="With --backend ros2: `dds` (Cyclone DDS) or `rclpy` (ROS 2's own).",
+        ),
     ] = "dds",
     rtf: Annotated[
-        float, typer.Option("--rtf", help="ROS 2 free run: simulator pace (x real time).")
+        float,
+        typer.Option(
+            "--rtf", help="With --backend ros2 --sync free: simulator pace (x real time; 0: fast)."
+        ),
     ] = 1.0,
     step_timeout: Annotated[
         float,
-        typer.Option("--step-timeout", help="ROS 2 lockstep: seconds one step may take."),
+        typer.Option(
+            "--step-timeout", help="With --backend ros2 --sync lockstep: seconds one step may take."
+        ),
     ] = 60.0,
     force: Annotated[
         bool,
-        typer.Option("--force", help="Write into an --out folder that holds other files."),
+        typer.Option(
+            "--force",
+            help="Write into a results folder (--out or the default) that holds files fmionnx "
+            "did not write; only the run's own files are replaced.",
+        ),
     ] = False,
     max_steps: Annotated[
         int,
@@ -98,7 +169,11 @@ def run(
         ),
     ] = MAX_RUN_STEPS,
 ) -> None:
-    """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
+    """Run a system in-process or as ROS 2 nodes (--backend ros2), or a single FMU / ONNX model.
+
+    Results go to --out, by default out/<system name>/; the last line names the folder. A fault
+    exits 1 after writing what was recorded; Ctrl-C exits 130, SIGTERM 143.
+    """
     suffix = target.suffix.lower()
     if interface is not None and interface not in ("cs", "me"):
         raise fail(f"--interface must be `cs` or `me`, not `{interface}`")
