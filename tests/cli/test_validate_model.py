@@ -179,6 +179,7 @@ def test_a_file_that_is_neither_a_system_nor_a_model_is_still_e013(tmp_path: Pat
     code, output = validate(notes)
     assert code == 1
     assert "error[E013 unsupported-model]: `notes.txt` is not a system file fmionnx reads" in output
+    assert "hint: system files end in `.ssd`, `.ssp`, `.yaml`, `.yml`" in output
 
 
 def test_run_of_a_corrupt_fmu_reports_only_that(gain: Path) -> None:
