@@ -2,19 +2,26 @@
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
-STAMP := $(VENV)/.installed
+# One set-up path, two sets of extras, one stamp each: the demo needs the package alone; the
+# tests add `.[test]` (pytest, linters, libcosimpy, and ROS 2 Jazzy's rclpy wheels, whose
+# bootstrapper re-executes every Python process of the venv). `.[test]` includes the demo's
+# set, so installing it renews the demo stamp too.
+DEMO_STAMP := $(VENV)/.installed-demo
+TEST_STAMP := $(VENV)/.installed-test
 BUILD := build
 DEMO_OUT := out/demo
 
-.PHONY: help setup system-deps models demo test lint typecheck schema bench docs clean
+.PHONY: help setup setup-demo setup-test system-deps models demo test lint typecheck schema bench docs clean
 
 help:
-	@echo "make demo   - set up, build the models, run the reference scenario"
-	@echo "make test   - set up, build the models, run linters and the whole test suite"
+	@echo "make demo   - set up (the package alone), build the models, run the reference scenario"
+	@echo "make test   - set up (with the test extras), build the models, run linters and the whole test suite"
 	@echo "make bench  - run the benchmarks and print their tables"
 	@echo "make schema - regenerate schemas/system.schema.json"
 
-setup: $(STAMP)
+setup-demo: $(DEMO_STAMP)
+setup-test: $(TEST_STAMP)
+setup: setup-test
 
 # Debian packages the project needs at run time: EGL/Mesa for headless MuJoCo rendering, a C
 # toolchain and cmake for building FMUs from source. Installed only when missing (needs root).
@@ -24,36 +31,44 @@ system-deps:
 # Installing also builds the native kernel (setup.py): its inputs make the stamp stale too.
 NATIVE_KERNEL := setup.py fmionnx/runtime/native/fmi2_group.c fmionnx/runtime/native/manifest.py
 
-$(STAMP): pyproject.toml $(NATIVE_KERNEL) | system-deps
+INSTALL_INPUTS := pyproject.toml $(NATIVE_KERNEL)
+
+$(PY): | system-deps
 	$(PYTHON) -m venv $(VENV)
 	$(PY) -m pip install --quiet --upgrade pip
+
+$(DEMO_STAMP): $(INSTALL_INPUTS) | $(PY)
+	$(PY) -m pip install --quiet -e .
+	touch $(DEMO_STAMP)
+
+$(TEST_STAMP): $(INSTALL_INPUTS) | $(PY)
 	$(PY) -m pip install --quiet -e '.[test]'
 	@# ROS 2's rosidl-parser wheel needs the old `lark-parser`, which ships the same `lark`
 	@# package as fmpy's `lark` 1.x: whichever pip unpacks last wins. Make it lark 1.x.
 	$(PY) -m pip install --quiet --no-deps --force-reinstall \
 	  "lark==$$($(PY) -c 'from importlib.metadata import version; print(version("lark"))')"
-	touch $(STAMP)
+	touch $(TEST_STAMP) $(DEMO_STAMP)
 
-models: $(STAMP)
+models: $(DEMO_STAMP)
 	$(PY) models/build.py --out $(BUILD)/models
 
 demo: models
 	$(VENV)/bin/fmionnx run systems/sign_follower.yaml --out $(DEMO_OUT)
 
-lint: $(STAMP)
+lint: $(TEST_STAMP)
 	$(VENV)/bin/ruff check fmionnx tests models benchmarks
 	$(VENV)/bin/mypy
 
-schema: $(STAMP)
+schema: $(DEMO_STAMP)
 	$(VENV)/bin/fmionnx schema -o schemas/system.schema.json
 
-test: models lint
+test: $(TEST_STAMP) models lint
 	$(VENV)/bin/pytest -q -p no:cacheprovider
 
-bench: models
+bench: $(TEST_STAMP) models
 	$(PY) benchmarks/run.py
 
-docs: $(STAMP)
+docs: $(DEMO_STAMP)
 	$(PY) -m pip install --quiet mkdocs
 	$(VENV)/bin/mkdocs build --strict
 

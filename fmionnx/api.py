@@ -26,7 +26,7 @@ from typing import TYPE_CHECKING, Literal
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.overrides import OverrideError, override_parameter, override_stop, parse_value
-from fmionnx.compile.single import compile_single_model
+from fmionnx.compile.single import check_single_model, compile_single_model
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity, did_you_mean, one_of
 from fmionnx.core.errors import DiagnosticError
 from fmionnx.core.types import (
@@ -46,7 +46,9 @@ __all__ = [
     "CompileResult",
     "OverrideError",
     "System",
+    "check_model",
     "compile_system",
+    "is_model_file",
     "load",
     "parse_value",
     "run_onnx_once",
@@ -254,6 +256,34 @@ def compile_system(path: str | Path) -> CompileResult:
     system = None
     if loaded.spec is not None:
         system = compile_spec(loaded, bag)
+    diagnostics = tuple(bag.sorted())
+    if any(d.severity is Severity.ERROR for d in diagnostics):
+        system = None
+    return CompileResult(system, diagnostics)
+
+
+def is_model_file(path: str | Path) -> bool:
+    """True for a file ``validate`` checks as a lone model: one a component kind reads
+    (``.fmu`` or an unpacked FMU, ``.onnx``, a MuJoCo ``.xml``, a signal ``.csv``) that is not
+    a system file."""
+    from fmionnx.kinds.registry import kind_for_path
+    from fmionnx.spec.frontends import FRONTENDS
+
+    target = Path(path)
+    if target.suffix.lower() in FRONTENDS or target.name.lower().endswith(COMPILED_SUFFIX):
+        return False
+    return kind_for_path(target) is not None
+
+
+def check_model(path: str | Path) -> CompileResult:
+    """Validate one model file alone (``fmionnx validate model.fmu``).
+
+    The model is compiled as ``run`` would compile it (every check a system applies to it),
+    then its kind's deeper checks run: FMPy's validation for an FMU, the ONNX checker and
+    strict shape inference for an ONNX model, MuJoCo's compiler for a scene.
+    """
+    bag = DiagnosticBag()
+    system = check_single_model(Path(path), bag)
     diagnostics = tuple(bag.sorted())
     if any(d.severity is Severity.ERROR for d in diagnostics):
         system = None

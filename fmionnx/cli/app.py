@@ -26,6 +26,43 @@ class ExitCode(enum.IntEnum):
     USAGE = 2
 
 
+def installed_version() -> str:
+    """fmionnx's version from the installed package's metadata (what pip and bug reports see).
+
+    A source tree used without installing has no metadata: then the package's own
+    ``__version__`` (a test keeps the two equal).
+    """
+    from importlib.metadata import PackageNotFoundError, version
+
+    try:
+        return version("fmionnx")
+    except PackageNotFoundError:
+        from fmionnx import __version__
+
+        return __version__
+
+
+def _print_version(value: bool) -> None:
+    if value:
+        print(f"fmionnx {installed_version()}")
+        raise typer.Exit(ExitCode.OK)
+
+
+@app.callback()
+def _application(
+    version: Annotated[
+        bool,
+        typer.Option(
+            "--version",
+            callback=_print_version,
+            is_eager=True,
+            help="Print fmionnx's version and exit.",
+        ),
+    ] = False,
+) -> None:
+    """Compile, check and run systems of FMUs, ONNX models and MuJoCo scenes."""
+
+
 QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print only errors.")]
 
 

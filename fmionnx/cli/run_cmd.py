@@ -1,4 +1,5 @@
-"""``fmionnx run``: run a system (or one FMU / ONNX model) in-process and write its results."""
+"""``fmionnx run``: run a system in-process or as ROS 2 nodes (or one FMU / ONNX model in-process)
+and write its results."""
 
 from __future__ import annotations
 
@@ -28,52 +29,125 @@ def parse_pairs(items: list[str], option: str) -> dict[str, str]:
 
 @app.command(
     epilog="Examples:\n\n"
+    "  fmionnx run systems/sign_follower.yaml            # results in out/sign_follower/\n\n"
     "  fmionnx run systems/sign_follower.yaml --out out/demo\n\n"
     "  fmionnx run systems/sign_follower.yaml --stop-time 10 --param tracker.turnRate=0.6\n\n"
     "  fmionnx run model.fmu --stop-time 5 --step 0.01 --interface me --out out/model\n\n"
+    "  fmionnx run model.fmu -p k=2                      # a single FMU: bare variable names\n\n"
     "  fmionnx run detector.onnx --input image=frame.npy --out out/detector\n\n"
     "  fmionnx run systems/sign_follower.yaml --backend ros2 --sync lockstep --out out/ros2",
 )
 def run(
-    target: Annotated[Path, typer.Argument(help="System file (.yaml/.ssp), or a .fmu / .onnx.")],
+    target: Annotated[
+        Path,
+        typer.Argument(
+            help="System file (.yaml, .ssp, .ssd, or a compiled .fmionnx.json), or a single "
+            "model: .fmu or .onnx."
+        ),
+    ],
     out: Annotated[
-        Path | None, typer.Option("--out", "-o", help="Folder for results.csv, run.json, plots.")
+        Path | None,
+        typer.Option(
+            "--out",
+            "-o",
+            help="Folder for results.csv, run.json and plots (default: out/<system name>/). "
+            "Single ONNX model: one .npy per output (default: none).",
+        ),
     ] = None,
+    no_out: Annotated[
+        bool,
+        typer.Option(
+            "--no-out", help="Write no results at all (e.g. to time or smoke-test a run)."
+        ),
+    ] = False,
     stop_time: Annotated[
-        float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
+        float | None,
+        typer.Option(
+            "--stop-time",
+            help="Stop time in seconds; replaces the system file's `run.stop` (a single FMU: its "
+            "default experiment's stop time).",
+        ),
     ] = None,
     param: Annotated[
         list[str] | None,
-        typer.Option("--param", "-p", help="`component.name=value` set before initialization."),
+        typer.Option(
+            "--param",
+            "-p",
+            help="Parameter or start value set before initialization, repeatable; the value is "
+            "read as JSON. A system: `component.name=value` (`-p tracker.turnRate=0.6`); a single "
+            "FMU: `name=value` (`-p k=2`).",
+        ),
     ] = None,
-    quiet: Annotated[bool, typer.Option("--quiet", "-q", help="No progress, no summary.")] = False,
+    quiet: Annotated[
+        bool,
+        typer.Option(
+            "--quiet",
+            "-q",
+            help="No progress bar, warnings or summary; the last line `Results: <folder>` stays.",
+        ),
+    ] = False,
     record: Annotated[
-        Path | None, typer.Option("--record", help="Also write an MCAP file (frames + signals).")
+        Path | None,
+        typer.Option(
+            "--record",
+            help="Also write an MCAP file. In-process: camera frames and the recorded signals; "
+            "with --backend ros2: every topic as it crossed the wire.",
+        ),
     ] = None,
     step: Annotated[
-        float | None, typer.Option("--step", help="Single FMU: communication step in seconds.")
+        float | None,
+        typer.Option(
+            "--step",
+            help="Single FMU only: communication step in seconds (default: its default "
+            "experiment's step).",
+        ),
     ] = None,
     interface: Annotated[
-        str | None, typer.Option("--interface", help="Single FMU: `cs` or `me`.")
+        str | None,
+        typer.Option(
+            "--interface",
+            help="Single FMU only: `cs` (co-simulation) or `me` (model exchange); default: "
+            "co-simulation when the FMU offers it.",
+        ),
     ] = None,
     inputs: Annotated[
         list[str] | None,
-        typer.Option("--input", "-i", help="Single ONNX model: `name=file.npy` per input."),
+        typer.Option(
+            "--input", "-i", help="Single ONNX model only: `name=file.npy` per input, repeatable."
+        ),
     ] = None,
     backend: Annotated[
-        str, typer.Option("--backend", help="`inprocess` (default) or `ros2` (one node each).")
+        str,
+        typer.Option(
+            "--backend",
+            help="`inprocess`: one deterministic process. `ros2`: one ROS 2 node process per "
+            "component, from the same system file (system files only).",
+        ),
     ] = "inprocess",
     sync: Annotated[
-        str, typer.Option("--sync", help="ROS 2: `lockstep` (reproducible) or `free`.")
+        str,
+        typer.Option(
+            "--sync", help="With --backend ros2: `lockstep` (reproducible) or `free` (paced)."
+        ),
     ] = "lockstep",
     ros_distro: Annotated[
-        str, typer.Option("--ros-distro", help="ROS 2: humble, iron, jazzy or kilted.")
+        str,
+        typer.Option(
+            "--ros-distro", help="With --backend ros2: humble, iron, jazzy or kilted (wire types)."
+        ),
     ] = "humble",
     middleware: Annotated[
-        str, typer.Option("--middleware", help="ROS 2: `dds` (Cyclone DDS) or `rclpy`.")
+        str,
+        typer.Option(
+            "--middleware",
+            help="With --backend ros2: `dds` (Cyclone DDS) or `rclpy` (ROS 2's own).",
+        ),
     ] = "dds",
     rtf: Annotated[
-        float, typer.Option("--rtf", help="ROS 2 free run: simulator pace (x real time).")
+        float,
+        typer.Option(
+            "--rtf", help="With --backend ros2 --sync free: simulator pace (x real time; 0: fast)."
+        ),
     ] = 1.0,
     step_timeout: Annotated[
         float,
@@ -110,7 +184,11 @@ def run(
     ] = CHECKPOINT_EVERY,
     force: Annotated[
         bool,
-        typer.Option("--force", help="Write into an --out folder that holds other files."),
+        typer.Option(
+            "--force",
+            help="Write into a results folder (--out or the default) that holds files fmionnx "
+            "did not write; only the run's own files are replaced.",
+        ),
     ] = False,
     max_steps: Annotated[
         int,
@@ -119,7 +197,11 @@ def run(
         ),
     ] = MAX_RUN_STEPS,
 ) -> None:
-    """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
+    """Run a system in-process or as ROS 2 nodes (--backend ros2), or a single FMU / ONNX model.
+
+    Results go to --out, by default out/<system name>/; the last line names the folder. A fault
+    exits 1 after writing what was recorded; Ctrl-C exits 130, SIGTERM 143.
+    """
     suffix = target.suffix.lower()
     if interface is not None and interface not in ("cs", "me"):
         raise fail(f"--interface must be `cs` or `me`, not `{interface}`")
@@ -127,6 +209,8 @@ def run(
         raise fail("--step and --interface apply to a single .fmu only")
     if inputs and suffix != ".onnx":
         raise fail("--input applies to a single .onnx model only")
+    if out is not None and no_out:
+        raise fail("--out and --no-out exclude each other")
     if out is not None:
         _check_out(out, force=force, system_run=suffix != ".onnx")
     if record is not None:
@@ -156,6 +240,8 @@ def run(
             code = _run_system(
                 target,
                 out=out,
+                write=not no_out,
+                force=force,
                 stop_time=stop_time,
                 params=parse_pairs(param or [], "--param"),
                 quiet=quiet,
@@ -172,21 +258,29 @@ def run(
     raise typer.Exit(code)
 
 
-def _check_out(out: Path, *, force: bool, system_run: bool) -> None:
+def _check_out(out: Path, *, force: bool, system_run: bool, default: bool = False) -> None:
     """``--out`` is usable; a folder of someone else's files is refused unless ``--force``.
 
     Checked before the run: learning after minutes of simulation that the results would be
-    mixed into an unrelated folder is too late. See ``fmionnx.results.outdir``.
+    mixed into an unrelated folder is too late. See ``fmionnx.results.outdir``. The default
+    folder (``default``) follows the same rules; the message then says where it came from.
     """
     from fmionnx.results.outdir import foreign_folder
 
     if system_run and not force and foreign_folder(out):
-        msg = (
-            f"--out `{out}` holds files that are not the output of an earlier fmionnx run; "
-            "choose an empty folder or use --force to write into it"
-        )
+        if default:
+            msg = (
+                f"the default results folder `{out}` holds files that are not the output of "
+                "an earlier fmionnx run; choose a folder with --out, or use --force to write "
+                "into it"
+            )
+        else:
+            msg = (
+                f"--out `{out}` holds files that are not the output of an earlier fmionnx run; "
+                "choose an empty folder or use --force to write into it"
+            )
         raise fail(msg)
-    check_output_folder(out, "--out")
+    check_output_folder(out, "--out" if not default else "the default results folder")
 
 
 def _ros2_options(
@@ -257,6 +351,8 @@ def _run_system(
     target: Path,
     *,
     out: Path | None,
+    write: bool = True,
+    force: bool = False,
     stop_time: float | None,
     params: dict[str, str],
     quiet: bool,
@@ -292,6 +388,11 @@ def _run_system(
             f"the run is {steps:.3g} base steps, more than --max-steps {max_steps:.3g}; "
             "check the stop time and step, or pass a larger --max-steps"
         )
+    if out is None and write:  # the system's name is known now; still before the run
+        from fmionnx.results.outdir import default_folder
+
+        out = default_folder(system.name)
+        _check_out(out, force=force, system_run=True, default=True)
     recorder = None
     if record is not None and ros2 is None:  # ROS 2: the supervisor records the wire
         from fmionnx.results.mcap_record import McapRecorder

@@ -1,4 +1,4 @@
-"""``fmionnx validate``: check system files like a compiler."""
+"""``fmionnx validate``: check system files, or single model files, like a compiler."""
 
 from __future__ import annotations
 
@@ -27,10 +27,18 @@ def _check_format(value: str) -> str:
     epilog="Examples:\n\n"
     "  fmionnx validate systems/sign_follower.yaml\n\n"
     "  fmionnx validate systems/*.yaml --format json > report.json\n\n"
+    "  fmionnx validate build/models/ReadOdometry.fmu build/models/sign_detector.onnx\n\n"
     "  fmionnx validate --locked --format github systems/*.yaml   # in CI",
 )
 def validate(
-    systems: Annotated[list[Path], typer.Argument(help="System files (.yaml, .ssp, .ssd).")],
+    systems: Annotated[
+        list[Path],
+        typer.Argument(
+            help="System files (.yaml, .ssp, .ssd), or single models (.fmu, .onnx, MuJoCo "
+            ".xml, signal .csv) checked alone.",
+            metavar="FILES...",
+        ),
+    ],
     output_format: Annotated[
         str,
         typer.Option(
@@ -46,16 +54,21 @@ def validate(
         typer.Option(
             "--locked",
             help="Also fail when a model's interface differs from `<system>.fmionnx.lock` "
-            "(written by `fmionnx lock`).",
+            "(written by `fmionnx lock`). System files only: a single model has no lock.",
         ),
     ] = False,
 ) -> None:
-    """Check system files and the models they use; exit 1 when anything is wrong."""
+    """Check system files and the models they use, or single models; exit 1 on any error.
+
+    A single model is compiled as `fmionnx run` would, then checked deeper: FMPy's validation
+    and the binary of an FMU, the ONNX checker and shape inference, MuJoCo's scene compiler.
+    """
     results = []
     for path in systems:
-        result = api.compile_system(path)
+        model = api.is_model_file(path)
+        result = api.check_model(path) if model else api.compile_system(path)
         diagnostics = result.diagnostics
-        if locked:
+        if locked and not model:
             merged = [*diagnostics, *check_lock(path)]
             diagnostics = tuple(sorted(dict.fromkeys(merged), key=Diagnostic.sort_key))
         if quiet:

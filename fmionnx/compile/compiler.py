@@ -27,6 +27,7 @@ from fmionnx.core.types import (
     Causality,
     Component,
     ComponentInterface,
+    Port,
     PortRef,
     flat_index,
     is_whole_multiple,
@@ -299,17 +300,13 @@ def _check_unconnected(
         if component.external:
             continue
         explicit = {p.port for p in component.parameters}
-        for port in component.interface.with_causality(Causality.INPUT):
-            if (component.name, port.name) in driven or port.name in explicit:
-                continue
-            start = "its start value" if port.start is not None else "zero"
-            bag.emit(
-                "W030",
-                f"input `{component.name}.{port.name}` is not connected; {start} is used",
-                sources.key(("components", component.name)),
-                hint=f"connect it, or set it under `components.{component.name}.parameters` "
-                "to make the value explicit",
-            )
+        loose = [
+            port
+            for port in component.interface.with_causality(Causality.INPUT)
+            if (component.name, port.name) not in driven and port.name not in explicit
+        ]
+        if loose:
+            _warn_unconnected(component.name, loose, sources, bag)
     if len(spec.components) > 1:
         linked = {component for component, _ in mentioned}
         for component in components:
@@ -319,6 +316,41 @@ def _check_unconnected(
                     f"component `{component.name}` has no connections",
                     sources.key(("components", component.name)),
                 )
+
+
+def _warn_unconnected(
+    component: str, ports: list[Port], sources: SourceMap, bag: DiagnosticBag
+) -> None:
+    """One W030 per component, listing its unconnected inputs (issue #16).
+
+    An FMU read for the first time often has several loose inputs; one warning per port
+    buried the rest of the report (six four-line warnings for one ReadOdometry).
+    """
+    where = sources.key(("components", component))
+    parameters = f"`components.{component}.parameters`"
+    if len(ports) == 1:
+        start = "its start value" if ports[0].start is not None else "zero"
+        bag.emit(
+            "W030",
+            f"input `{component}.{ports[0].name}` is not connected; {start} is used",
+            where,
+            hint=f"connect it, or set it under {parameters} to make the value explicit",
+        )
+        return
+    names = ", ".join(f"`{port.name}`" for port in ports)
+    zero = [f"`{port.name}`" for port in ports if port.start is None]
+    if not zero:
+        used = "their start values are used"
+    elif len(zero) == len(ports):
+        used = "zero is used for each"
+    else:
+        used = f"their start values are used (zero for {', '.join(zero)})"
+    bag.emit(
+        "W030",
+        f"{len(ports)} inputs of `{component}` are not connected: {names}; {used}",
+        where,
+        hint=f"connect them, or set them under {parameters} to make the values explicit",
+    )
 
 
 def _refs(

@@ -133,6 +133,13 @@ CODES: dict[str, ErrorCode] = _codes(
         "schema",
         "An option that does not apply to this component kind.",
     ),
+    ErrorCode(
+        "E019",
+        "invalid-model",
+        _E,
+        "model",
+        "A model fails its format's own validation (FMPy, the ONNX checker and shape inference).",
+    ),
     # --- endpoints
     ErrorCode(
         "E020",

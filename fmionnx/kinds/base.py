@@ -131,6 +131,13 @@ class ComponentKind(Protocol):
         """Problems of an entry that only the kind can see (an FMU without a usable binary)."""
         ...
 
+    def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
+        """Deeper checks of a lone model file (``fmionnx validate model.fmu``) whose interface
+        was read: its format's own validator (FMPy, the ONNX checker) and what the kind needs
+        to run it. A system's validation skips them: they cost more than reading an interface.
+        """
+        ...
+
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> KindConfig:
         """The resolved, frozen configuration of a checked component entry."""
         ...

@@ -8,6 +8,10 @@ A results folder must show one run, never a mix of two. The rules (docs/running.
   again (a plot that no longer exists); files fmionnx never listed are left alone;
 * any other non-empty folder is refused before the run starts, unless ``--force``.
 
+Without ``--out`` a run writes into :func:`default_folder`, ``out/<system name>/`` below the
+working directory, under exactly these rules: a second run of the same system replaces the
+first one's files, and a folder of someone else's files there is refused like any ``--out``.
+
 ``run.json`` is trusted only as a regular file (not a symbolic link) whose ``versions`` name
 fmionnx; stale names are removed only when they stay inside the folder.
 """
@@ -15,10 +19,24 @@ fmionnx; stale names are removed only when they stay inside the folder.
 from __future__ import annotations
 
 import json
+import re
 from pathlib import Path, PurePosixPath
 from typing import Any
 
 RUN_JSON = "run.json"
+#: The folder, relative to the working directory, that holds each system's default results.
+DEFAULT_ROOT = "out"
+
+
+def default_folder(system_name: str) -> Path:
+    """``out/<system name>``: where a run without ``--out`` writes (docs/decisions.md).
+
+    A system file's name is already a plain name; a compiled-system file or an SSP could
+    carry anything, so characters other than letters, digits, ``_``, ``-`` and ``.`` become
+    ``_`` and leading dots are dropped: the folder is always one plain, visible name.
+    """
+    plain = re.sub(r"[^\w.-]", "_", system_name).lstrip(".")
+    return Path(DEFAULT_ROOT) / (plain or "system")
 
 
 def previous_run(out: Path) -> dict[str, Any] | None:

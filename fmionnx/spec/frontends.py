@@ -5,7 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
-from fmionnx.core.diagnostics import DiagnosticBag, Span, one_of
+from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.spec.ssp import load_ssp_system
 from fmionnx.spec.yaml import LoadedSpec, load_yaml_system
 
@@ -29,7 +29,7 @@ def load_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
             "E013",
             f"`{path.name}` is not a system file fmionnx reads",
             Span(path),
-            hint=f"system files end in {one_of(FRONTENDS)}",
+            hint="system files end in " + ", ".join(f"`{s}`" for s in sorted(FRONTENDS)),
         )
         return LoadedSpec(None, SourceMap(path), path)
     return frontend(path, bag)

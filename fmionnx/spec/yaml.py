@@ -24,6 +24,7 @@ from fmionnx.spec.limits import MAX_DOCUMENT_BYTES, check_limits, check_size
 from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import KeyPath, SourceMap
+from fmionnx.spec.yaml_hints import flow_index_hint
 
 #: Kept for callers of the former name; the limits live in :mod:`fmionnx.spec.limits`.
 MAX_SYSTEM_FILE_BYTES = MAX_DOCUMENT_BYTES
@@ -119,7 +120,7 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
         _report_marked(exc, path, bag, "E007")
         return None
     except MarkedYAMLError as exc:
-        _report_marked(exc, path, bag, "E001")
+        _report_marked(exc, path, bag, "E001", text=text)
         return None
     except YAMLError as exc:
         bag.emit("E001", f"invalid YAML: {exc}", Span(path, 1, 1))
@@ -142,7 +143,9 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
         return None
 
 
-def _report_marked(exc: MarkedYAMLError, path: Path, bag: DiagnosticBag, code: str) -> None:
+def _report_marked(
+    exc: MarkedYAMLError, path: Path, bag: DiagnosticBag, code: str, *, text: str = ""
+) -> None:
     mark = exc.problem_mark or exc.context_mark
     if exc.problem and "<stream end>" in exc.problem and exc.context_mark is not None:
         # "expected ']' but got end of file": the opening bracket is the useful position.
@@ -155,7 +158,10 @@ def _report_marked(exc: MarkedYAMLError, path: Path, bag: DiagnosticBag, code: s
         bag.emit(code, problem, span, hint="each key may appear once in a mapping")
         return
     context = f" ({exc.context})" if exc.context else ""
-    bag.emit(code, f"invalid YAML: {problem}{context}", span)
+    hint = None
+    if mark is not None and exc.problem is not None:
+        hint = flow_index_hint(text, mark.line, mark.column, exc.problem)
+    bag.emit(code, f"invalid YAML: {problem}{context}", span, hint=hint)
 
 
 def _plain(node: Any, path: KeyPath, sources: SourceMap) -> Any:

@@ -209,7 +209,7 @@ connections:
 
 def test_isolate_names_must_exist(fixture_fmu, write_system, tmp_path) -> None:
     system = _system(fixture_fmu, write_system, 0)
-    code, output = _finish(_cli(["run", str(system), "--isolate", "bad,nope"], tmp_path / "t"))
+    code, output = _finish(_cli(["run", str(system), "--no-out", "--isolate", "bad,nope"], tmp_path / "t"))
     assert code == 2
     assert "--isolate: no component named `nope`" in output
 
@@ -226,7 +226,7 @@ def _probe_run(fixture_fmu, write_system, tmp_path, mode: int, env: dict[str, st
     )  # fmt: skip
     code = "import sys; from fmionnx.cli import main; sys.argv[0] = 'fmionnx'; main()"
     return subprocess.run(
-        [sys.executable, "-c", code, "run", str(system), "-q", *extra],
+        [sys.executable, "-c", code, "run", str(system), "-q", "--no-out", *extra],
         capture_output=True,
         text=True,
         env=dict(os.environ, COLUMNS="300", **env),

@@ -140,6 +140,12 @@ class FmuKind:
             )
         return tuple(problems)
 
+    def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
+        """FMPy's validation and the shared library of each model identifier (loads fmpy)."""
+        from fmionnx.kinds.fmu.validation import validate_fmu_model
+
+        return validate_fmu_model(path, interface)
+
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> FmuConfig:
         """Co-simulation when the FMU offers it and the entry does not ask for ME."""
         assert isinstance(spec, FmuSpec)

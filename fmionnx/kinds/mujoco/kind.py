@@ -94,6 +94,11 @@ class MujocoKind:
         """Nothing beyond the interface reader's own checks."""
         return ()
 
+    def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
+        """Nothing more: reading the interface compiled the scene with MuJoCo's own compiler
+        (``MjModel.from_xml_path``), which is MuJoCo's validation of a scene."""
+        return ()
+
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> MujocoConfig:
         """Cameras in the order the entry lists them."""
         assert isinstance(spec, MujocoSpec)

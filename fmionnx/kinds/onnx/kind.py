@@ -64,6 +64,12 @@ class OnnxKind:
         """Nothing beyond the interface reader's own checks."""
         return ()
 
+    def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
+        """The ONNX checker and strict shape inference (loads onnx)."""
+        from fmionnx.kinds.onnx.validation import validate_onnx_model
+
+        return validate_onnx_model(path)
+
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> OnnxConfig:
         """Providers and threads as given."""
         assert isinstance(spec, OnnxSpec)

@@ -83,6 +83,10 @@ class SignalKind:
             return (KindProblem("E003", message, "interpolation"),)
         return ()
 
+    def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
+        """Nothing more: reading the interface parsed and checked the whole table."""
+        return ()
+
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> SignalConfig:
         """The outputs' waveforms, or the table's interpolation."""
         assert isinstance(spec, SignalSpec)

@@ -1,0 +1,98 @@
+"""``make demo`` installs what the demo needs, ``make test`` what the tests need (issue #16).
+
+The Makefile runs in a scratch folder where every program it calls (the venv's python, pip,
+fmionnx, ruff, mypy, pytest, the system-deps script) is a stub that logs its arguments, so
+the test sees which set of extras each command installs and that nothing is installed twice.
+"""
+
+from __future__ import annotations
+
+import shutil
+import subprocess
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import REPO
+
+STUB = """#!/bin/sh
+echo "$(basename "$0") $*" >> "{log}"
+"""
+
+INSTALL_INPUTS = (
+    "pyproject.toml",
+    "setup.py",
+    "fmionnx/runtime/native/fmi2_group.c",
+    "fmionnx/runtime/native/manifest.py",
+)
+
+
+@pytest.fixture
+def tree(tmp_path: Path) -> Path:
+    if shutil.which("make") is None:
+        pytest.skip("make is not installed")
+    shutil.copy(REPO / "Makefile", tmp_path / "Makefile")
+    for name in INSTALL_INPUTS:
+        (tmp_path / name).parent.mkdir(parents=True, exist_ok=True)
+        (tmp_path / name).write_text("", encoding="utf-8")
+    (tmp_path / "tools").mkdir()
+    (tmp_path / "tools" / "system-deps.sh").write_text("true\n", encoding="utf-8")
+    bin_dir = tmp_path / ".venv" / "bin"
+    bin_dir.mkdir(parents=True)
+    for program in ("python", "fmionnx", "ruff", "mypy", "pytest"):
+        (bin_dir / program).write_text(STUB.format(log=tmp_path / "log"), encoding="utf-8")
+        (bin_dir / program).chmod(0o755)
+    return tmp_path
+
+
+def make(tree: Path, *targets: str) -> list[str]:
+    """The programs ``make TARGETS`` ran (one line each), the log emptied for the next call."""
+    subprocess.run(["make", "-s", *targets], cwd=tree, check=True, capture_output=True)
+    log = tree / "log"
+    lines = log.read_text(encoding="utf-8").splitlines() if log.exists() else []
+    log.unlink(missing_ok=True)
+    return lines
+
+
+def installs(lines: list[str]) -> list[str]:
+    return [line for line in lines if " -m pip install " in line and "--upgrade pip" not in line]
+
+
+def test_demo_installs_the_package_without_the_test_extras(tree: Path) -> None:
+    lines = make(tree, "demo")
+    assert installs(lines) == ["python -m pip install --quiet -e ."]
+    assert lines[-1] == "fmionnx run systems/sign_follower.yaml --out out/demo"
+    assert not any("[test]" in line or "pytest" in line for line in lines)
+
+
+def test_test_installs_the_test_extras_once_and_runs_the_suite(tree: Path) -> None:
+    lines = make(tree, "test")
+    assert [line for line in installs(lines) if "lark==" not in line] == [
+        "python -m pip install --quiet -e .[test]"
+    ]
+    assert lines[-1] == "pytest -q -p no:cacheprovider"
+
+
+def test_the_test_set_includes_the_demo_set(tree: Path) -> None:
+    make(tree, "test")
+    assert installs(make(tree, "demo")) == []
+
+
+def test_after_the_demo_the_tests_add_their_extras_and_nothing_reinstalls_later(
+    tree: Path,
+) -> None:
+    make(tree, "demo")
+    assert "python -m pip install --quiet -e .[test]" in installs(make(tree, "test"))
+    assert installs(make(tree, "test")) == []
+    assert installs(make(tree, "demo")) == []
+
+
+def test_ci_runs_make_test_only() -> None:
+    script = (REPO / ".ci" / "run").read_text(encoding="utf-8")
+    commands = [
+        line.strip()
+        for line in script.splitlines()
+        if line.strip() and not line.lstrip().startswith("#")
+    ]
+    assert commands[-1] == "make test"
+    assert not any(c.startswith("make ") and c != "make test" for c in commands)
