@@ -3,8 +3,8 @@
 1. master overhead (:mod:`benchmarks.chain`): a chain of N Gain FMUs, five loops side by side;
 2. the reference scenario (:mod:`benchmarks.scenario`): real-time factor against the
    hand-written loop, and where the time goes;
-3. the other benchmark scripts in this folder (``validate_large.py``, ``ros2_*.py``), each run
-   as its own process with its output kept.
+3. the other benchmark scripts in this folder (``validate_large.py``, ``ros2_*.py``,
+   ``isolation.py``), each run as its own process with its output kept.
 
 Targets are reported, not asserted. The whole run takes a few minutes on 2 cores; ``--quick``
 runs every part on a tiny size (what the smoke test does).
@@ -35,7 +35,7 @@ from benchmarks import chain, machine, report, scenario  # noqa: E402
 
 DEFAULT_OUT = REPO / "build" / "bench" / "results.json"
 #: Scripts owned by others that ``make bench`` runs as they are, when present.
-EXTERNAL_PATTERNS = ("validate_large.py", "ros2_*.py")
+EXTERNAL_PATTERNS = ("validate_large.py", "ros2_*.py", "isolation.py")
 EXTERNAL_TIMEOUT = 300.0
 
 

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
-from benchmarks import chain, report, run, scenario
+from benchmarks import chain, isolation, report, run, scenario
 from tests.conftest import built_model
 
 TINY_STEPS = 20
@@ -103,13 +103,34 @@ def test_quick_run_prints_the_tables_and_writes_results_json(tmp_path: Path) -> 
 
 
 def test_other_benchmark_scripts_are_found_by_name(tmp_path: Path) -> None:
-    for name in ("validate_large.py", "ros2_wire.py", "ros2_nodes.py", "chain.py"):
+    for name in ("validate_large.py", "ros2_wire.py", "ros2_nodes.py", "isolation.py", "chain.py"):
         (tmp_path / name).write_text("", encoding="utf-8")
     assert [p.name for p in run.external_scripts(tmp_path)] == [
         "validate_large.py",
         "ros2_nodes.py",
         "ros2_wire.py",
+        "isolation.py",
     ]
+
+
+def test_isolation_benchmark_runs_both_modes_to_the_same_results_and_prints_the_ratio() -> None:
+    for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
+        built_model(name)
+    text = io.StringIO()
+    results = isolation.main(["--quick"], Console(file=text, width=200))
+    chain_rows = {r["mode"]: r for r in results["chain"]}
+    assert chain_rows[isolation.ISOLATED]["isolated"] == "g0, g1, g2, g3"
+    assert all(r["correct"] and r["steps"] == 200 for r in chain_rows.values())
+    scenario_rows = {r["mode"]: r for r in results["scenario"]}
+    assert set(scenario_rows) == {isolation.INPROCESS, isolation.ISOLATED}
+    assert all(r["correct"] for r in scenario_rows.values())
+    assert scenario_rows[isolation.ISOLATED]["vs_inprocess"] > 0
+    assert [t["limit"] for t in results["targets"]] == ["<= 1.5"]
+    assert results["leftover_children"] == []
+    printed = text.getvalue()
+    assert "Chain of 4 Gain FMUs" in printed
+    assert "Reference scenario" in printed
+    assert "Targets" in printed
 
 
 @pytest.mark.parametrize(
