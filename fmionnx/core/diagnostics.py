@@ -124,7 +124,7 @@ CODES: dict[str, ErrorCode] = _codes(
         "unsafe-archive",
         _E,
         "model",
-        "An archive with path traversal, links or an excessive size.",
+        "An archive or model file that reaches outside its place, or an excessive archive.",
     ),
     ErrorCode(
         "E018",
@@ -132,6 +132,13 @@ CODES: dict[str, ErrorCode] = _codes(
         _E,
         "schema",
         "An option that does not apply to this component kind.",
+    ),
+    ErrorCode(
+        "E019",
+        "resource-limit",
+        _E,
+        "model",
+        "A model or file is larger than a resource limit (array elements, file size).",
     ),
     # --- endpoints
     ErrorCode(
