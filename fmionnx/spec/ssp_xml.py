@@ -37,7 +37,6 @@ _SCHEMA_FILES = {
 _VERSION_FOLDERS = {"1": "", "2": "ssp2/"}
 
 
-
 def tag(ns: str, name: str) -> str:
     """Clark notation ``{namespace}name`` for lxml lookups."""
     return f"{{{NS[ns]}}}{name}"

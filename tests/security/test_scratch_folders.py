@@ -24,7 +24,12 @@ from tests.conftest import build_fixture_fmu
 def _child(code: str, tmp: Path) -> subprocess.CompletedProcess[str]:
     env = {**os.environ, "TMPDIR": str(tmp)}
     return subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, env=env, timeout=90, check=False
+        [sys.executable, "-c", code],
+        capture_output=True,
+        text=True,
+        env=env,
+        timeout=90,
+        check=False,
     )
 
 
@@ -54,8 +59,7 @@ def test_a_killed_run_leaves_a_folder_that_the_next_process_removes(tmp: Path) -
     assert len(left) == 1  # the unpacked FMU of the killed run
     assert (left[0] / "modelDescription.xml").is_file()
     after = _child(
-        "import fmionnx\n"
-        f"fmionnx.load({str(fmu)!r}, step=0.01).run(stop_time=0.05)\n",
+        f"import fmionnx\nfmionnx.load({str(fmu)!r}, step=0.01).run(stop_time=0.05)\n",
         tmp,
     )
     assert after.returncode == 0, after.stderr

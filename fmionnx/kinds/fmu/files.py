@@ -139,9 +139,7 @@ def check_model_identifier(identifier: str) -> None:
             f"modelIdentifier `{identifier}` is not a plain name: the shared library it names "
             "would lie outside the FMU's binaries folder"
         )
-        raise ModelError(
-            "E017", msg, hint="FMI requires the model identifier to be a C identifier"
-        )
+        raise ModelError("E017", msg, hint="FMI requires the model identifier to be a C identifier")
 
 
 def contained_library(root: Path, identifier: str) -> None:
