@@ -14,9 +14,10 @@ import pytest
 
 import fmionnx
 from fmionnx.core.errors import DiagnosticError, ModelError
+from fmionnx.kinds.fmu.build import build_fmu
 from fmionnx.kinds.fmu.kind import FMU_KIND
 from tests.components.fmi_xml import fmi2, fmi3, fmu_zip, scalar
-from tests.conftest import build_fixture_fmu
+from tests.conftest import FIXTURES, build_fixture_fmu
 from tests.security.conftest import run_capped
 
 BILLION = 10**9
@@ -157,3 +158,35 @@ def test_a_negative_dimension_is_e012(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="negative dimension") as info:
         FMU_KIND.read_interface(_fmi3_zip(tmp_path / "negative.fmu", variables), None)
     assert info.value.code == "E012"
+
+
+def _source_fmu(tmp_path: Path, edit: tuple[str, str]) -> Path:
+    """The Gain test FMU's sources with one edit of its model description."""
+    folder = tmp_path / "GainSource"
+    shutil.copytree(FIXTURES / "fmus" / "Gain", folder)
+    description = folder / "modelDescription.xml"
+    text = description.read_text(encoding="utf-8")
+    assert edit[0] in text
+    description.write_text(text.replace(edit[0], edit[1]), encoding="utf-8")
+    return folder
+
+
+@pytest.mark.parametrize(
+    ("edit", "message"),
+    [
+        (('<File name="model.c"/>', '<File name="../../outside.c"/>'), "outside the FMU's sources"),
+        (('modelIdentifier="Gain" can', 'modelIdentifier="../../Gain" can'), "not a plain name"),
+        (('modelIdentifier="Gain" can', 'modelIdentifier="Gain&#10;X:BOOL=ON" can'), "control"),
+    ],
+    ids=["source-file", "identifier", "cmake-line"],
+)
+def test_a_source_fmu_naming_files_outside_is_refused_before_building(
+    tmp_path: Path, edit: tuple[str, str], message: str
+) -> None:
+    (tmp_path / "outside.c").write_text("int outside = 1;\n", encoding="utf-8")
+    source = _source_fmu(tmp_path / "work", edit)
+    output = tmp_path / "built.fmu"
+    with pytest.raises(ModelError, match=message) as info:
+        build_fmu(source, output)
+    assert info.value.code == "E017"
+    assert not output.exists()

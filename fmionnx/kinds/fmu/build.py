@@ -16,6 +16,7 @@ from pathlib import Path
 from fmionnx.core.archive import safe_extract, write_deterministic_zip
 from fmionnx.core.errors import BuildError, ModelError
 from fmionnx.core.scratch import scratch
+from fmionnx.kinds.fmu.buildcheck import check_build_inputs
 
 _BUILD_SCRIPT = (
     "import sys\n"
@@ -56,6 +57,7 @@ def build_fmu(source: Path, output: Path | None = None) -> Path:
         if not (unpacked / "sources").is_dir():
             msg = f"`{source}` has no sources/ folder: there is nothing to compile"
             raise ModelError("E015", msg)
+        check_build_inputs(unpacked)
         shutil.rmtree(unpacked / "binaries", ignore_errors=True)
         (tmp / "cmake").mkdir()  # fmpy writes CMakeCache.txt into it before cmake runs
         result = subprocess.run(

@@ -128,12 +128,13 @@ def check_model_identifier(identifier: str) -> None:
     """Raise ModelError (E017) for a model identifier that is not a plain file name.
 
     FMI requires a C identifier; fmionnx insists only on what keeps the library inside the
-    FMU: no folder separators, no drive, no ``.``/``..``, not empty.
+    FMU: no folder separators, no drive, no ``.``/``..``, no control character, not empty.
     """
     if (
         not identifier
         or identifier in (".", "..")
         or any(mark in identifier for mark in _NOT_IN_IDENTIFIER)
+        or any(ord(c) < 32 for c in identifier)
     ):
         msg = (
             f"modelIdentifier `{identifier}` is not a plain name: the shared library it names "
