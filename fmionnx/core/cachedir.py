@@ -80,12 +80,13 @@ def _pid_gone(pid: int) -> bool:
 
 @contextlib.contextmanager
 def _locked(root: Path) -> Iterator[None]:
-    with (root / ".lock").open("a") as handle:
+    """Hold the cache's lock file (opened without following a link planted at its name)."""
+    handle = os.open(root / ".lock", os.O_RDWR | os.O_CREAT | os.O_NOFOLLOW, 0o600)
+    try:
         fcntl.flock(handle, fcntl.LOCK_EX)
-        try:
-            yield
-        finally:
-            fcntl.flock(handle, fcntl.LOCK_UN)
+        yield
+    finally:
+        os.close(handle)  # releases the lock
 
 
 def _remove(entry: Path) -> None:
