@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import math
 import re
 import shutil
 import sys
@@ -29,7 +30,7 @@ from typing import Any
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.errors import FmionnxError, ModelError
-from fmionnx.core.resources import COMPILED_FILE_BYTES
+from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES
 from fmionnx.core.specbase import NO_MODEL_FILE
 from fmionnx.core.steps import MAX_EXACT_STEPS, count_problem, step_problem
 from fmionnx.core.types import Component, KindConfig
@@ -232,7 +233,26 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
         if not 1 <= component.period_steps <= MAX_EXACT_STEPS:
             msg = f"{origin}: component `{component.name}`: period_steps out of range"
             raise CompiledFileError(msg)
+        _check_port_sizes(component, origin)
     return system
+
+
+def _check_port_sizes(component: Component, origin: str) -> None:
+    """Port shapes within the array limit: runners size their buffers from them, and a
+    file with a recomputed hash can hold any shape (the model is not re-read without a store).
+    """
+    try:
+        largest = ARRAY_ELEMENTS.value()
+    except ModelError as exc:
+        raise CompiledFileError(f"{origin}: {exc}") from None
+    for port in component.interface.ports:
+        fixed = [d for d in port.shape if isinstance(d, int)]
+        if any(d < 0 for d in fixed) or math.prod(fixed) > largest:
+            msg = (
+                f"{origin}: component `{component.name}`: port `{port.name}` of shape "
+                f"{list(port.shape)} is out of range ({ARRAY_ELEMENTS.hint()})"
+            )
+            raise CompiledFileError(msg)
 
 
 def write_compiled(system: CompiledSystem, path: Path) -> None:

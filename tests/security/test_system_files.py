@@ -7,6 +7,7 @@ pull request. Both are bounded, and neither can make fmionnx read or write elsew
 from __future__ import annotations
 
 import dataclasses
+import json
 import os
 import shutil
 from pathlib import Path
@@ -17,7 +18,14 @@ from typer.testing import CliRunner
 from fmionnx import api
 from fmionnx.cli.app import app
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.systemfile import CompiledFileError, read_compiled, relocate, write_compiled
+from fmionnx.compile.systemfile import (
+    CompiledFileError,
+    from_json,
+    read_compiled,
+    relocate,
+    to_json,
+    write_compiled,
+)
 from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.lock.check import lock_system
 from fmionnx.lock.model import lock_path
@@ -121,3 +129,13 @@ def test_model_paths_a_lock_names_are_never_opened(system: Path, tmp_path: Path)
     locked.path.write_text(text.replace("path: Gain.fmu", f'path: "{fifo}"'))
     result = CliRunner().invoke(app, ["validate", "--locked", str(system)])
     assert result.exit_code == 0, result.output
+
+
+def test_a_compiled_file_declaring_a_huge_port_is_refused(system: Path) -> None:
+    """Port shapes are not part of the content hash: an edited file must still be bounded."""
+    document = json.loads(to_json(_compiled(system)))
+    port = document["system"]["components"][1]["interface"]["ports"][0]
+    port["shape"] = [1_000_000, 1_000_000]
+    with pytest.raises(CompiledFileError, match=f"port `{port['name']}` of shape") as info:
+        from_json(json.dumps(document))
+    assert "FMIONNX_MAX_ARRAY_ELEMENTS" in str(info.value)
