@@ -94,3 +94,30 @@ def test_folders_of_live_processes_and_of_other_names_are_kept(tmp: Path) -> Non
     assert sweep_stale(tmp) == []
     assert mine.is_dir()
     assert other.is_dir()
+
+
+def test_a_folder_whose_owner_lives_in_another_pid_namespace_is_kept(tmp: Path) -> None:
+    """The process id in the name means nothing there; the owner's lock decides."""
+    holder = subprocess.Popen(
+        [
+            sys.executable,
+            "-c",
+            "import sys\n"
+            "from fmionnx.core.scratch import make_scratch\n"
+            "print(make_scratch('model'), flush=True)\n"
+            "sys.stdin.read()\n",
+        ],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        text=True,
+        env={**os.environ, "TMPDIR": str(tmp)},
+    )
+    try:
+        assert holder.stdout is not None
+        made = Path(holder.stdout.readline().strip())
+        elsewhere = made.rename(tmp / f"{PREFIX}999999999-model-abc")  # an id no process has
+        assert sweep_stale(tmp) == []
+        assert elsewhere.is_dir()
+    finally:
+        holder.communicate("", timeout=30)
+    assert sweep_stale(tmp) == [elsewhere]  # the owner is gone now
