@@ -10,7 +10,8 @@ owner touches on every use (:func:`touch`). Entries used in the last few minutes
 evicted, since another process may be running from them right now; the bound can be exceeded
 by what is in use at once. Eviction renames an entry out of the way before deleting it, so
 no process ever sees half an entry, and it runs under a lock file so two processes do not
-race. Hidden folders of a process that died mid-unpack (``.unpack-<pid>-…``) are removed too.
+race. Hidden folders of a process that died mid-unpack (``.unpack-<pid>-…``) are removed too,
+once untouched for the same minutes.
 """
 
 from __future__ import annotations
@@ -78,6 +79,16 @@ def _pid_gone(pid: int) -> bool:
     return False
 
 
+def _abandoned_work(folder: Path, pid: int, now: float) -> bool:
+    """A work folder whose process is gone: no such process id, and untouched for longer than
+    any unpack takes (the id alone could name a live process in another PID namespace)."""
+    try:
+        idle = now - folder.lstat().st_mtime
+    except OSError:
+        return False
+    return folder.is_dir() and idle > IN_USE_SECONDS and _pid_gone(pid)
+
+
 @contextlib.contextmanager
 def _locked(root: Path) -> Iterator[None]:
     """Hold the cache's lock file (opened without following a link planted at its name)."""
@@ -111,7 +122,7 @@ def evict(root: Path, *, keep: Path, max_bytes: int, max_days: int) -> list[Path
         for child in root.iterdir():
             work = _WORK.match(child.name)
             if work is not None:
-                if child.is_dir() and _pid_gone(int(work[1])):
+                if _abandoned_work(child, int(work[1]), now):
                     shutil.rmtree(child, ignore_errors=True)
                 continue
             if child.name.startswith(".") or not child.is_dir() or child.is_symlink():

@@ -81,6 +81,9 @@ def test_work_folders_of_dead_processes_are_removed(tmp_path: Path, gain_fmu: Pa
     root.mkdir(parents=True)
     dead = root / ".unpack-999999999-abc"  # no process has this id
     (dead / "resources").mkdir(parents=True)
+    fresh = root / ".unpack-999999998-abc"  # may be a live process in another PID namespace
+    fresh.mkdir()
+    _age(dead, 2 * IN_USE_SECONDS)
     unpack_ssp(_ssp(tmp_path / "any.ssp", gain_fmu, "any"))
     assert not dead.exists()
-    assert not list(root.glob(".unpack-*"))
+    assert fresh.is_dir()
