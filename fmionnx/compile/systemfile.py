@@ -17,6 +17,8 @@ from __future__ import annotations
 import dataclasses
 import enum
 import json
+import math
+import re
 import shutil
 import sys
 import types
@@ -28,6 +30,7 @@ from typing import Any
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.errors import FmionnxError, ModelError
+from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES
 from fmionnx.core.specbase import NO_MODEL_FILE
 from fmionnx.core.steps import MAX_EXACT_STEPS, count_problem, step_problem
 from fmionnx.core.types import Component, KindConfig
@@ -39,6 +42,8 @@ FORMAT = "fmionnx-compiled-system"
 VERSION = 1
 #: File name suffix used by ``fmionnx compile`` and the ROS 2 supervisor.
 SUFFIX = ".fmionnx.json"
+#: A model's content hash as the model store names its folder.
+_SHA256 = re.compile(r"[0-9a-f]{64}")
 
 
 class CompiledFileError(FmionnxError):
@@ -228,7 +233,26 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
         if not 1 <= component.period_steps <= MAX_EXACT_STEPS:
             msg = f"{origin}: component `{component.name}`: period_steps out of range"
             raise CompiledFileError(msg)
+        _check_port_sizes(component, origin)
     return system
+
+
+def _check_port_sizes(component: Component, origin: str) -> None:
+    """Port shapes within the array limit: runners size their buffers from them, and a
+    file with a recomputed hash can hold any shape (the model is not re-read without a store).
+    """
+    try:
+        largest = ARRAY_ELEMENTS.value()
+    except ModelError as exc:
+        raise CompiledFileError(f"{origin}: {exc}") from None
+    for port in component.interface.ports:
+        fixed = [d for d in port.shape if isinstance(d, int)]
+        if any(d < 0 for d in fixed) or math.prod(fixed) > largest:
+            msg = (
+                f"{origin}: component `{component.name}`: port `{port.name}` of shape "
+                f"{list(port.shape)} is out of range ({ARRAY_ELEMENTS.hint()})"
+            )
+            raise CompiledFileError(msg)
 
 
 def write_compiled(system: CompiledSystem, path: Path) -> None:
@@ -239,9 +263,25 @@ def write_compiled(system: CompiledSystem, path: Path) -> None:
 
 
 def read_compiled(path: Path, *, models: Path | None = None) -> CompiledSystem:
-    """Read a compiled-system file; with ``models``, find every model there by hash."""
+    """Read a compiled-system file; with ``models``, find every model there by hash.
+
+    The file may come from another host: its size is bounded before it is read
+    (:data:`fmionnx.core.resources.COMPILED_FILE_BYTES`), since parsed JSON takes several
+    times its size in memory.
+    """
     try:
-        text = path.read_text(encoding="utf-8")
+        largest = COMPILED_FILE_BYTES.value()
+        with path.open("rb") as stream:
+            data = stream.read(largest + 1)
+        if len(data) > largest:
+            msg = (
+                f"{path}: the compiled system is larger than {largest} bytes "
+                f"({COMPILED_FILE_BYTES.hint()})"
+            )
+            raise CompiledFileError(msg)
+        text = data.decode("utf-8")
+    except ModelError as exc:  # a malformed FMIONNX_MAX_COMPILED_BYTES
+        raise CompiledFileError(f"{path}: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
         msg = f"{path}: cannot read the compiled system: {exc}"
         raise CompiledFileError(msg) from None
@@ -258,8 +298,19 @@ def has_model_file(component: Component) -> bool:
 
 
 def stored_model(store: Path, component: Component) -> Path:
-    """Where ``component``'s model lives in a model store: ``<store>/<sha256>/<file name>``."""
-    return store / component.interface.content_hash / component.path.name
+    """Where ``component``'s model lives in a model store: ``<store>/<sha256>/<file name>``.
+
+    Both parts come from the compiled-system file, which may have been edited: a hash that is
+    not 64 hex digits or a name like ``..`` would reach outside the store, and is refused.
+    """
+    digest, name = component.interface.content_hash, component.path.name
+    if not _SHA256.fullmatch(digest) or name in ("", ".", "..") or "\\" in name:
+        msg = (
+            f"component `{component.name}`: model `{name}` with hash `{digest[:70]}` "
+            "does not name a file in a model store"
+        )
+        raise CompiledFileError(msg)
+    return store / digest / name
 
 
 def place_models(system: CompiledSystem, store: Path) -> list[Path]:

@@ -3,21 +3,27 @@
 Extraction refuses path traversal (``../``), absolute paths, drive letters, symbolic links and
 archives whose declared or actual size is out of proportion (zip bombs), and writes nothing
 outside the destination folder.
+
+Size is bounded per archive, whatever the size of its members: the member count, the total
+unpacked size and the ratio of unpacked size to archive size (:mod:`fmionnx.core.resources`,
+each changeable by an environment variable). Many small members of zeros are as much a bomb
+as one large one. One member with an absurd ratio is refused too, however normal the rest.
 """
 
 from __future__ import annotations
 
+import os
 import stat
 import zipfile
 from pathlib import Path, PurePosixPath
 
 from fmionnx.core.errors import ModelError
+from fmionnx.core.resources import ARCHIVE_BYTES, ARCHIVE_MEMBERS, ARCHIVE_RATIO, MiB
 from fmionnx.core.safewrite import atomic_binary
 
-#: Upper bounds for one archive; generous for real FMUs, far below a zip bomb.
-MAX_TOTAL_BYTES = 2 * 1024**3
-MAX_MEMBERS = 50_000
-MAX_RATIO = 200
+#: Below this unpacked size a compression ratio says nothing (a small XML file may compress
+#: well); above it the ratio limit applies, to each member and to the archive as a whole.
+RATIO_FLOOR_BYTES = MiB
 
 
 def check_member_name(name: str) -> PurePosixPath:
@@ -52,12 +58,19 @@ def open_zip(path: Path) -> zipfile.ZipFile:
 
 
 def check_archive(archive: zipfile.ZipFile) -> None:
-    """Raise ModelError (E017) when any member is hostile or the archive is a bomb."""
+    """Raise ModelError (E017) when any member is hostile or the archive is a bomb.
+
+    Only the central directory is read: the declared sizes. :func:`safe_extract` enforces
+    the size limit again on the bytes actually written, since declared sizes can lie.
+    """
     members = archive.infolist()
-    if len(members) > MAX_MEMBERS:
-        msg = f"archive has {len(members)} members (more than {MAX_MEMBERS})"
-        raise ModelError("E017", msg)
+    most = ARCHIVE_MEMBERS.value()
+    if len(members) > most:
+        msg = f"archive has {len(members)} members (more than {most})"
+        raise ModelError("E017", msg, hint=ARCHIVE_MEMBERS.hint())
+    ratio = ARCHIVE_RATIO.value()
     total = 0
+    compressed = 0
     for info in members:
         check_member_name(info.filename)
         mode = info.external_attr >> 16
@@ -65,16 +78,35 @@ def check_archive(archive: zipfile.ZipFile) -> None:
             msg = f"archive member `{info.filename}` is a symbolic link"
             raise ModelError("E017", msg)
         total += info.file_size
-        if (
-            info.compress_size
-            and info.file_size / max(info.compress_size, 1) > MAX_RATIO
-            and info.file_size > 1024**2
+        compressed += info.compress_size
+        if info.file_size > RATIO_FLOOR_BYTES and info.file_size > ratio * max(
+            info.compress_size, 1
         ):
-            msg = f"archive member `{info.filename}` expands {info.file_size // max(info.compress_size, 1)}x (zip bomb?)"
-            raise ModelError("E017", msg)
-    if total > MAX_TOTAL_BYTES:
-        msg = f"archive expands to {total} bytes (more than {MAX_TOTAL_BYTES})"
-        raise ModelError("E017", msg)
+            msg = (
+                f"archive member `{info.filename}` expands "
+                f"{info.file_size // max(info.compress_size, 1)}x (zip bomb?)"
+            )
+            raise ModelError("E017", msg, hint=ARCHIVE_RATIO.hint())
+    largest = ARCHIVE_BYTES.value()
+    if total > largest:
+        msg = f"archive expands to {total} bytes (more than {largest})"
+        raise ModelError("E017", msg, hint=ARCHIVE_BYTES.hint())
+    packed = max(1, min(compressed, _archive_size(archive) or compressed))
+    if total > RATIO_FLOOR_BYTES and total > ratio * packed:
+        msg = (
+            f"archive expands {total // packed}x, to {total} bytes from {packed} "
+            f"(zip bomb? {len(members)} members)"
+        )
+        raise ModelError("E017", msg, hint=ARCHIVE_RATIO.hint())
+
+
+def _archive_size(archive: zipfile.ZipFile) -> int:
+    """Bytes of the archive file itself (0 when it is not a file on disk)."""
+    stream = archive.fp
+    try:
+        return os.fstat(stream.fileno()).st_size if stream is not None else 0
+    except (OSError, AttributeError, ValueError):
+        return 0
 
 
 def safe_extract(path: Path, destination: Path) -> Path:
@@ -86,7 +118,8 @@ def safe_extract(path: Path, destination: Path) -> Path:
         check_archive(archive)
         root = destination.resolve()
         root.mkdir(parents=True, exist_ok=True)
-        budget = MAX_TOTAL_BYTES
+        largest = ARCHIVE_BYTES.value()
+        budget = largest
         for info in archive.infolist():
             relative = check_member_name(info.filename)
             target = (root / relative).resolve()
@@ -102,8 +135,8 @@ def safe_extract(path: Path, destination: Path) -> Path:
                     while chunk := source.read(1 << 20):
                         budget -= len(chunk)
                         if budget < 0:
-                            msg = f"archive `{path.name}` expands beyond {MAX_TOTAL_BYTES} bytes"
-                            raise ModelError("E017", msg)
+                            msg = f"archive `{path.name}` expands beyond {largest} bytes"
+                            raise ModelError("E017", msg, hint=ARCHIVE_BYTES.hint())
                         sink.write(chunk)
             except (zipfile.BadZipFile, EOFError) as exc:
                 msg = f"`{path}` is corrupt: {exc}"

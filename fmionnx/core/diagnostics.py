@@ -85,6 +85,13 @@ CODES: dict[str, ErrorCode] = _codes(
     ErrorCode("E005", "format-version", _E, "schema", "Unsupported `fmionnx:` format version."),
     ErrorCode("E006", "encoding", _E, "syntax", "The file is not UTF-8 text."),
     ErrorCode("E007", "duplicate-key", _E, "syntax", "A key appears twice in one mapping."),
+    ErrorCode(
+        "E008",
+        "resource-limit",
+        _E,
+        "model",
+        "A model or file is larger than a resource limit (array elements, file size).",
+    ),
     # --- model files
     ErrorCode("E010", "file-not-found", _E, "model", "A referenced file does not exist."),
     ErrorCode(
@@ -124,7 +131,7 @@ CODES: dict[str, ErrorCode] = _codes(
         "unsafe-archive",
         _E,
         "model",
-        "An archive with path traversal, links or an excessive size.",
+        "An archive or model file that reaches outside its place, or an excessive archive.",
     ),
     ErrorCode(
         "E018",

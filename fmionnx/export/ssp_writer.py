@@ -26,6 +26,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.resolve import model_path
 from fmionnx.core.archive import write_deterministic_zip
 from fmionnx.core.errors import FmionnxError, ModelError
+from fmionnx.core.resources import SSP_XML_BYTES
 from fmionnx.core.safewrite import refuse
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, DType, Port
@@ -303,8 +304,10 @@ def written_by_fmionnx(path: Path) -> bool:
         return False
     try:
         with zipfile.ZipFile(path) as archive:
+            if archive.getinfo(SSD_NAME).file_size > SSP_XML_BYTES.value():
+                return False  # not read: whatever it is, it is no SSD of ours
             ssd = archive.read(SSD_NAME)
-    except (OSError, KeyError, zipfile.BadZipFile):
+    except (OSError, KeyError, zipfile.BadZipFile, ModelError):
         return False
     return _OURS.search(ssd) is not None
 

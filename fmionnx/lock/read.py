@@ -3,6 +3,12 @@
 Parsing reuses the system-file YAML loader (safe: plain data only, duplicate keys refused)
 and its pydantic error mapping; every problem is reported as E082 at its position, because
 for the user they all mean one thing: the lock cannot be trusted, regenerate it.
+
+A lock arrives with the system, in a pull request as often as not, so it is read only from
+its place: a regular file beside the system, never through a symbolic link (which could make
+``validate --locked`` read, and quote in its diagnostics, a file anywhere). The paths a lock
+names are text: ``system`` must be a plain file name, and a component's ``path`` is shown in
+messages but never opened (interfaces are read from the system file's paths).
 """
 
 from __future__ import annotations
@@ -71,15 +77,24 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
             hint=f"run `fmionnx lock {system}` and commit `{path.name}`",
         )
         return None
+    regenerate = f"regenerate it with `fmionnx lock {system}`"
+    if path.is_symlink():
+        bag.emit(
+            "E082",
+            f"lock file `{path.name}` is a symbolic link; a lock is read only as a regular file "
+            "beside its system",
+            Span(path),
+            hint=f"replace the link by the lock itself: {regenerate}",
+        )
+        return None
     scratch = DiagnosticBag()
     text = read_text(path, scratch)
     if text is not None and check_limits(text, path, scratch):
         fast = _fast(text)
         if fast is not None:
-            return LoadedLock(fast, path)
+            return _named_plainly(LoadedLock(fast, path), bag, regenerate)
     else:
         text = None
-    regenerate = f"regenerate it with `fmionnx lock {system}`"
     sources = SourceMap(path)
     data = parse_yaml(text, path, sources, scratch) if text is not None else None
     if data is not None and not isinstance(data, dict):
@@ -110,4 +125,19 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
         )
     if lock is None:
         return None
-    return LoadedLock(lock, path, sources)
+    return _named_plainly(LoadedLock(lock, path, sources), bag, regenerate)
+
+
+def _named_plainly(loaded: LoadedLock, bag: DiagnosticBag, regenerate: str) -> LoadedLock | None:
+    """``loaded``, or None with E082 when its ``system`` is not a plain file name."""
+    name = loaded.lock.system
+    if name and name not in (".", "..") and "/" not in name and "\\" not in name:
+        return loaded
+    bag.emit(
+        "E082",
+        f"lock file `{loaded.path.name}` names the system `{name}`, not a file name "
+        "(a lock lies beside its system and names it without a folder)",
+        loaded.sources.value(("system",)),
+        hint=regenerate,
+    )
+    return None

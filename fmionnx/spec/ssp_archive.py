@@ -6,6 +6,10 @@ temporary folder that is renamed into place only when complete, so a refused (ho
 interrupted archive never leaves a half-filled cache entry, and nothing is written outside
 the cache folder (:func:`fmionnx.core.archive.safe_extract` refuses ``..``, absolute paths, links
 and zip bombs with E017).
+
+The cache is bounded (:func:`fmionnx.core.cachedir.evict`): each use marks an entry as
+recently used, and each new unpack removes entries unused for ``FMIONNX_CACHE_MAX_DAYS`` days
+and then the least recently used beyond ``FMIONNX_CACHE_MAX_BYTES``.
 """
 
 from __future__ import annotations
@@ -16,8 +20,9 @@ import tempfile
 from pathlib import Path
 
 from fmionnx.core.archive import safe_extract
-from fmionnx.core.cachedir import cache_folder
+from fmionnx.core.cachedir import cache_folder, evict, touch, work_prefix
 from fmionnx.core.pathnames import remember_archive
+from fmionnx.core.resources import CACHE_BYTES, CACHE_DAYS
 
 #: Name of the system structure inside an SSP archive (SSP 1.0, section 7).
 SSD_NAME = "SystemStructure.ssd"
@@ -45,10 +50,12 @@ def unpack_ssp(path: Path) -> Path:
     """
     folder = cache_root() / file_digest(path)[:24]
     if folder.is_dir():
+        touch(folder)
         remember_archive(folder, path)
         return folder
+    max_bytes, max_days = CACHE_BYTES.value(), CACHE_DAYS.value()  # a bad setting: before work
     folder.parent.mkdir(parents=True, exist_ok=True)
-    staging = Path(tempfile.mkdtemp(prefix=".unpack-", dir=folder.parent))
+    staging = Path(tempfile.mkdtemp(prefix=work_prefix("unpack"), dir=folder.parent))
     try:
         safe_extract(path, staging)
         try:
@@ -60,5 +67,6 @@ def unpack_ssp(path: Path) -> Path:
     finally:
         if staging.exists():
             shutil.rmtree(staging, ignore_errors=True)
+    evict(folder.parent, keep=folder, max_bytes=max_bytes, max_days=max_days)
     remember_archive(folder, path)
     return folder

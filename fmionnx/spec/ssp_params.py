@@ -33,7 +33,10 @@ def resolve_uri(
 ) -> Path | None:
     """A relative ``source`` URI as a path under ``base``; None (E071/E017) otherwise.
 
-    ``root`` is the unpacked archive: a resource may not point outside it.
+    ``root`` is the unpacked archive, None for a loose ``.ssd``, whose folder (``base``) is
+    then the boundary: a resource may not point outside it, links followed, because an SSD
+    from a supplier must not make fmionnx read (or load and run) files elsewhere on the
+    machine. This is where the file is opened, so the check cannot be skipped.
     """
     parsed = urlparse(text)
     if parsed.scheme or parsed.netloc:
@@ -48,8 +51,15 @@ def resolve_uri(
     except (ValueError, OSError):
         bag.emit("E072", f"`{text}` is not a usable file reference", span)
         return None
-    if root is not None and not path.is_relative_to(root.resolve()):
-        bag.emit("E017", f"`{text}` points outside the SSP archive", span)
+    boundary = (root if root is not None else base).resolve()
+    if not path.is_relative_to(boundary):
+        where = "the SSP archive" if root is not None else "the folder of the .ssd"
+        bag.emit(
+            "E017",
+            f"`{text}` points outside {where}",
+            span,
+            hint="SSP resources are referenced relative to the SSD, inside its archive or folder",
+        )
         return None
     if not path.is_file():
         bag.emit("E072", f"`{text}` does not exist in the SSP", span)

@@ -17,6 +17,8 @@ from typing import Any
 from lxml import etree
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
+from fmionnx.core.errors import ModelError
+from fmionnx.core.resources import SSP_XML_BYTES
 
 SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
@@ -33,9 +35,6 @@ _SCHEMA_FILES = {
 }
 #: Folder of each supported major version inside ``pyssp_standard/resources``.
 _VERSION_FOLDERS = {"1": "", "2": "ssp2/"}
-
-#: Upper bound of one SSP XML file; SSDs of large systems are a few MB.
-MAX_XML_BYTES = 64 * 1024 * 1024
 
 
 def tag(ns: str, name: str) -> str:
@@ -68,8 +67,20 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
     except OSError:
         bag.emit("E010", f"`{path.name}` does not exist", Span(path))
         return None
-    if size > MAX_XML_BYTES:
-        bag.emit("E003", f"`{path.name}` is larger than {MAX_XML_BYTES} bytes", Span(path))
+    # Checked before parsing: SSDs of large systems are a few MB, and lxml's tree of a huge
+    # file takes several times its size in memory.
+    try:
+        largest = SSP_XML_BYTES.value()
+    except ModelError as exc:  # a malformed FMIONNX_MAX_SSP_XML_BYTES
+        bag.emit(exc.code, str(exc), Span(path), hint=exc.hint)
+        return None
+    if size > largest:
+        bag.emit(
+            "E008",
+            f"`{path.name}` is {size} bytes, larger than {largest}",
+            Span(path),
+            hint=SSP_XML_BYTES.hint(),
+        )
         return None
     try:
         return etree.parse(str(path), _parser())

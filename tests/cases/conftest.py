@@ -27,6 +27,21 @@ FMI1_DESCRIPTION = """<?xml version="1.0" encoding="UTF-8"?>
 </fmiModelDescription>
 """
 
+#: An FMI 3 array of 10^9 elements, declared in a few hundred bytes (E008).
+HUGE_ARRAY_DESCRIPTION = """<?xml version="1.0" encoding="UTF-8"?>
+<fmiModelDescription fmiVersion="3.0" modelName="Huge" instantiationToken="{2}">
+  <CoSimulation modelIdentifier="Huge"/>
+  <ModelVariables>
+    <Float64 name="time" valueReference="0" causality="independent" variability="continuous"/>
+    <Float64 name="x" valueReference="1" causality="output"><Dimension start="1000000000"/></Float64>
+  </ModelVariables>
+  <ModelStructure><Output valueReference="1"/></ModelStructure>
+</fmiModelDescription>
+"""
+
+#: Written last; a cache without it (made before a model was added) is made again.
+COMPLETE = ".complete-2"
+
 NO_BINARY_DESCRIPTION = """<?xml version="1.0" encoding="UTF-8"?>
 <fmiModelDescription fmiVersion="2.0" modelName="WindowsOnly" guid="{1}">
   <CoSimulation modelIdentifier="WindowsOnly"/>
@@ -66,7 +81,7 @@ def _tiny_onnx(path: Path) -> None:
 
 def make_case_models() -> Path:
     """Build (once) the folder of models every case may use."""
-    if (MODEL_DIR / ".complete").exists():
+    if (MODEL_DIR / COMPLETE).exists():
         return MODEL_DIR
     MODEL_DIR.mkdir(parents=True, exist_ok=True)
     for name in ("Gain", "Integrator", "Vector3"):
@@ -85,7 +100,9 @@ def make_case_models() -> Path:
     (windows / "modelDescription.xml").write_text(NO_BINARY_DESCRIPTION, encoding="utf-8")
     (windows / "binaries" / "win64" / "WindowsOnly.dll").write_bytes(b"MZ")
     (MODEL_DIR / "a_folder").mkdir(exist_ok=True)
-    (MODEL_DIR / ".complete").write_text("ok\n", encoding="utf-8")
+    with zipfile.ZipFile(MODEL_DIR / "huge_array.fmu", "w") as archive:
+        archive.writestr("modelDescription.xml", HUGE_ARRAY_DESCRIPTION)
+    (MODEL_DIR / COMPLETE).write_text("ok\n", encoding="utf-8")
     return MODEL_DIR
 
 

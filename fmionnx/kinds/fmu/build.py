@@ -11,11 +11,12 @@ from __future__ import annotations
 import shutil
 import subprocess
 import sys
-import tempfile
 from pathlib import Path
 
 from fmionnx.core.archive import safe_extract, write_deterministic_zip
 from fmionnx.core.errors import BuildError, ModelError
+from fmionnx.core.scratch import scratch
+from fmionnx.kinds.fmu.buildcheck import check_build_inputs
 
 _BUILD_SCRIPT = (
     "import sys\n"
@@ -39,8 +40,8 @@ def build_fmu(source: Path, output: Path | None = None) -> Path:
     atomically: a failed build leaves no half-written FMU.
     """
     output = output or default_output(source)
-    with tempfile.TemporaryDirectory(prefix="fmionnx-build-") as tmp:
-        unpacked = Path(tmp) / "fmu"
+    with scratch("build") as tmp:
+        unpacked = tmp / "fmu"
         if source.is_dir():
             shutil.copytree(source, unpacked)
         elif source.is_file():
@@ -56,10 +57,11 @@ def build_fmu(source: Path, output: Path | None = None) -> Path:
         if not (unpacked / "sources").is_dir():
             msg = f"`{source}` has no sources/ folder: there is nothing to compile"
             raise ModelError("E015", msg)
+        check_build_inputs(unpacked)
         shutil.rmtree(unpacked / "binaries", ignore_errors=True)
-        (Path(tmp) / "cmake").mkdir()  # fmpy writes CMakeCache.txt into it before cmake runs
+        (tmp / "cmake").mkdir()  # fmpy writes CMakeCache.txt into it before cmake runs
         result = subprocess.run(
-            [sys.executable, "-c", _BUILD_SCRIPT, str(unpacked), str(Path(tmp) / "cmake")],
+            [sys.executable, "-c", _BUILD_SCRIPT, str(unpacked), str(tmp / "cmake")],
             capture_output=True,
             text=True,
             check=False,

@@ -4,6 +4,12 @@ Only what the interface reader needs is read: the model description's bytes, the
 platform folders and whether C sources are shipped. Archives go through
 :mod:`fmionnx.core.archive`, so hostile member names, links and zip bombs are refused before
 anything is read.
+
+The shared library an FMU runs is ``binaries/<platform>/<modelIdentifier>.so``, a path built
+from a string of the model description. A ``modelIdentifier`` such as ``../../../tmp/x`` or
+``/usr/lib/x`` would make fmpy load a library from anywhere, so the identifier is checked when
+the interface is read (:func:`check_model_identifier`) and the library's real location, links
+followed, again just before it is loaded (:func:`contained_library`).
 """
 
 from __future__ import annotations
@@ -17,6 +23,11 @@ from fmionnx.core.errors import ModelError
 from fmionnx.kinds.cache import sha256_file, sha256_tree
 
 MODEL_DESCRIPTION = "modelDescription.xml"
+
+#: What a model identifier may not contain: it names a file inside ``binaries/<platform>/``.
+_NOT_IN_IDENTIFIER = ("/", "\\", "\0", ":")
+#: Shared-library suffixes fmpy appends on Linux, macOS and Windows.
+_LIBRARY_SUFFIXES = (".so", ".dylib", ".dll")
 
 #: A model description larger than this is not a model description.
 MAX_MODEL_DESCRIPTION_BYTES = 256 * 1024**2
@@ -111,3 +122,40 @@ def _read_folder(path: Path) -> FmuFiles:
     sources = path / "sources"
     has_sources = sources.is_dir() and any(f.is_file() for f in sources.rglob("*"))
     return FmuFiles(data, platforms, has_sources, sha256_tree(path))
+
+
+def check_model_identifier(identifier: str) -> None:
+    """Raise ModelError (E017) for a model identifier that is not a plain file name.
+
+    FMI requires a C identifier; fmionnx insists only on what keeps the library inside the
+    FMU: no folder separators, no drive, no ``.``/``..``, no control character, not empty.
+    """
+    if (
+        not identifier
+        or identifier in (".", "..")
+        or any(mark in identifier for mark in _NOT_IN_IDENTIFIER)
+        or any(ord(c) < 32 for c in identifier)
+    ):
+        msg = (
+            f"modelIdentifier `{identifier}` is not a plain name: the shared library it names "
+            "would lie outside the FMU's binaries folder"
+        )
+        raise ModelError("E017", msg, hint="FMI requires the model identifier to be a C identifier")
+
+
+def contained_library(root: Path, identifier: str) -> None:
+    """Raise ModelError (E017) unless every library ``identifier`` names in ``root`` lies
+    inside ``root`` once links are followed (called right before fmpy loads it)."""
+    check_model_identifier(identifier)
+    inside = root.resolve()
+    binaries = root / "binaries"
+    if not binaries.is_dir():
+        return
+    for platform in binaries.iterdir():
+        for suffix in _LIBRARY_SUFFIXES:
+            library = platform / (identifier + suffix)
+            if (library.exists() or library.is_symlink()) and not library.resolve().is_relative_to(
+                inside
+            ):
+                msg = f"`{library.relative_to(root)}` is a link to a file outside the FMU"
+                raise ModelError("E017", msg)

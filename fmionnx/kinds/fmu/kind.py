@@ -26,7 +26,14 @@ from fmionnx.kinds.fmu.description import (
     parse_model_description,
     shared_description,
 )
-from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, FmuFiles, identity_file, read_fmu_files
+from fmionnx.kinds.fmu.files import (
+    MODEL_DESCRIPTION,
+    FmuFiles,
+    check_model_identifier,
+    contained_library,
+    identity_file,
+    read_fmu_files,
+)
 from fmionnx.kinds.fmu.ports import ports_from_model_description
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
@@ -200,6 +207,7 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
     model_description = shared_description(
         key, lambda: parse_model_description(files.model_description, xml_file)
     )
+    _check_libraries(model_description, path, xml_file)
     return ComponentInterface(
         kind="fmu",
         path=path,
@@ -208,6 +216,20 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
         default_experiment=_experiment(model_description),
         content_hash=files.content_hash,
     )
+
+
+def _check_libraries(md: Any, path: Path, xml_file: Path) -> None:
+    """E017 when a model identifier would make the runner load a library outside the FMU."""
+    for element in (md.coSimulation, md.modelExchange, getattr(md, "scheduledExecution", None)):
+        if element is None:
+            continue
+        try:
+            if path.is_dir():
+                contained_library(path, element.modelIdentifier)
+            else:
+                check_model_identifier(element.modelIdentifier)
+        except ModelError as exc:
+            raise ModelError(exc.code, f"`{xml_file}`: {exc}", hint=exc.hint) from None
 
 
 def _flag(value: object) -> str:

@@ -10,7 +10,9 @@ Rules (documented in ``docs/components.md``):
   complete 1-based index box become ONE port ``base`` of shape ``(n,)`` (or ``(n, m)``) whose
   ``vrs`` hold the value references in row-major element order. Anything else stays scalar.
 * FMI 3 arrays take their shape from ``<Dimension>`` (a fixed ``start`` or the start value of
-  the structural parameter it references) and keep their single value reference.
+  the structural parameter it references) and keep their single value reference. The element
+  count is checked against :data:`fmionnx.core.resources.ARRAY_ELEMENTS` before anything is
+  sized from it (E008): a few bytes of XML can declare an array of 10^9 elements.
 * ``depends_on`` of an output lists the input ports it depends on per ``<ModelStructure>``;
   it is None (unknown) when the output is not listed or has no ``dependencies`` attribute.
 """
@@ -26,6 +28,7 @@ from typing import Any
 
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.resources import ARRAY_ELEMENTS
 from fmionnx.core.types import Causality, DType, Port, Scalar
 
 #: FMI type name -> element type. FMI 2 enumerations are read with ``fmi2GetInteger`` (int32),
@@ -117,10 +120,11 @@ def _record(variable: Any, major: int, xml_file: Path) -> _Scalarish | None:
     if dtype is None:  # FMI 3 Clock: an event, not a value
         return None
     shape = tuple(int(d) for d in (variable.shape or ()))
+    line = int(variable.sourceline or 0)
+    _check_shape(variable, shape, xml_file, line)
     unit: str | None = variable.unit
     if unit is None and variable.declaredType is not None:
         unit = variable.declaredType.unit
-    line = int(variable.sourceline or 0)
     start = _parse_start(variable, dtype, shape, xml_file, line)
     return _Scalarish(
         variable=variable,
@@ -133,6 +137,20 @@ def _record(variable: Any, major: int, xml_file: Path) -> _Scalarish | None:
         vrs=(int(variable.valueReference),),
         line=line,
     )
+
+
+def _check_shape(variable: Any, shape: tuple[int, ...], xml_file: Path, line: int) -> None:
+    """E012 for a negative dimension, E008 for more elements than the limit allows."""
+    if any(d < 0 for d in shape):
+        msg = f"{xml_file}:{line}: `{variable.name}` has a negative dimension {list(shape)}"
+        raise ModelError("E012", msg)
+    elements = math.prod(shape)
+    if elements > ARRAY_ELEMENTS.value():
+        msg = (
+            f"{xml_file}:{line}: `{variable.name}` declares {elements} elements "
+            f"(dimensions {list(shape)})"
+        )
+        raise ARRAY_ELEMENTS.exceeded(msg)
 
 
 def _parse_start(
@@ -193,6 +211,8 @@ def _is_full_box(indices: list[tuple[int, ...]]) -> bool:
         return False
     rank = ranks.pop()
     extents = [max(index[axis] for index in indices) for axis in range(rank)]
+    if math.prod(extents) != len(indices):  # before listing the box: `v[1000000000]` alone
+        return False
     expected = list(itertools.product(*(range(1, n + 1) for n in extents)))
     return indices == expected
 

@@ -18,8 +18,6 @@ component, the FMI function and the simulated time, plus the FMU's last log mess
 from __future__ import annotations
 
 import ctypes
-import shutil
-import tempfile
 from abc import ABC, abstractmethod
 from collections import deque
 from collections.abc import Callable
@@ -32,9 +30,10 @@ import numpy as np
 from fmionnx.core.archive import safe_extract
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
+from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Causality, Component, DType
 from fmionnx.kinds.fmu.description import component_description
-from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
+from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, contained_library
 from fmionnx.kinds.fmu.kind import FmuConfig
 from fmionnx.kinds.fmu.values import (
     RawCall,
@@ -126,7 +125,7 @@ class FmuRunner(ABC):
         if path.is_dir():
             root = path
         else:
-            self._tmp = Path(tempfile.mkdtemp(prefix=f"fmionnx-{self.component.name}-"))
+            self._tmp = make_scratch(self.component.name)
             root = safe_extract(path, self._tmp)
         self._md = component_description(self.component, (root / MODEL_DESCRIPTION).read_bytes)
         self._fmu = self._new_fmu(self._md, root)
@@ -184,7 +183,11 @@ class FmuRunner(ABC):
         """Prepare stepping right after initialization; return what :meth:`step` calls."""
 
     def _fmpy_arguments(self, interface: Any, root: Path) -> dict[str, str]:
-        """Keyword arguments of fmpy's FMU classes; ``interface`` is ``md.coSimulation`` ..."""
+        """Keyword arguments of fmpy's FMU classes; ``interface`` is ``md.coSimulation`` ...
+
+        The library fmpy will load is checked to lie inside ``root`` first (E017).
+        """
+        contained_library(root, interface.modelIdentifier)
         return {
             "guid": self._md.guid,
             "unzipDirectory": str(root),
@@ -271,7 +274,7 @@ class FmuRunner(ABC):
         finally:
             self._advance = _not_set_up  # drops the stepper (a model-exchange integrator ...)
             if self._tmp is not None:
-                shutil.rmtree(self._tmp, ignore_errors=True)
+                remove_scratch(self._tmp)
 
     # -- errors ---------------------------------------------------------------------------------
 

@@ -1,15 +1,23 @@
-"""Read an ONNX model's signature: graph inputs (minus initializers) and outputs."""
+"""Read an ONNX model's signature: graph inputs (minus initializers) and outputs.
+
+Before the signature is trusted, external tensor data is checked to stay beside the model
+(:mod:`.external`, E017) and every tensor shape against the element limit (E008): the runner
+allocates a buffer per input from these shapes.
+"""
 
 from __future__ import annotations
 
 import hashlib
+import math
 from pathlib import Path
 from typing import Any
 
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.resources import ARRAY_ELEMENTS
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.kinds.cache import cached_interface, file_identity
+from fmionnx.kinds.onnx.external import check_external_data
 
 #: ONNX ``TensorProto.DataType`` numbers -> fmionnx dtypes.
 _DTYPES = {
@@ -39,16 +47,30 @@ def read_onnx_interface(path: Path) -> ComponentInterface:
     return cached_interface(("onnx", *file_identity(path)), path, lambda: _read(path))
 
 
-def _read(path: Path) -> ComponentInterface:
+def load_checked_model(path: Path) -> tuple[Any, bytes]:
+    """The ``onnx.ModelProto`` at ``path`` and its bytes, external data checked (not loaded).
+
+    Raises ModelError: E012 not a model, E017 external data outside the model's folder.
+    """
     import onnx
     from google.protobuf.message import DecodeError
 
-    data = path.read_bytes()
+    try:
+        data = path.read_bytes()
+    except OSError as exc:
+        msg = f"cannot read `{path}`: {exc.strerror}"
+        raise ModelError("E010", msg) from None
     try:
         model = onnx.load_model_from_string(data)
     except (DecodeError, ValueError, RuntimeError) as exc:
         msg = f"`{path}` is not an ONNX model (protobuf could not be decoded: {exc})"
         raise ModelError("E012", msg) from None
+    check_external_data(model, path)
+    return model, data
+
+
+def _read(path: Path) -> ComponentInterface:
+    model, data = load_checked_model(path)
     graph = model.graph
     if not graph.output:
         msg = f"`{path}` is not an ONNX model with a graph (no outputs)"
@@ -90,6 +112,7 @@ def _port(value: Any, causality: Causality, path: Path, depends: tuple[str, ...]
             shape.append(str(dim.dim_param))
         else:
             shape.append("?")
+    _check_shape(value.name, causality, shape, path)
     return Port(
         name=value.name,
         causality=causality,
@@ -99,6 +122,22 @@ def _port(value: Any, causality: Causality, path: Path, depends: tuple[str, ...]
         depends_on=depends,
         origin=Span(Path(path.name)),
     )
+
+
+def _check_shape(name: str, causality: Causality, shape: list[int | str], path: Path) -> None:
+    """E012 for a negative dimension; E008 when the fixed dimensions exceed the limit.
+
+    Symbolic dimensions count as 1 here, as in the runner; a connection that fills one is
+    bounded by the port on its other end.
+    """
+    fixed = [d for d in shape if isinstance(d, int)]
+    if any(d < 0 for d in fixed):
+        msg = f"`{path.name}`: {causality.value} `{name}` has a negative dimension {shape}"
+        raise ModelError("E012", msg)
+    elements = math.prod(fixed)
+    if elements > ARRAY_ELEMENTS.value():
+        msg = f"`{path.name}`: {causality.value} `{name}` of shape {shape} has {elements} elements"
+        raise ARRAY_ELEMENTS.exceeded(msg)
 
 
 def _signature(ports: list[Port]) -> str:

@@ -42,8 +42,16 @@ class OnnxRunner:
         self._names: list[str] = []
 
     def instantiate(self) -> None:
-        """Create the onnxruntime session with the spec's providers and thread count."""
+        """Create the onnxruntime session with the spec's providers and thread count.
+
+        The model's external data is checked again first (E017): the file may have changed
+        since it was compiled, and onnxruntime opens whatever its locations name.
+        """
         import onnxruntime as ort
+
+        from fmionnx.kinds.onnx.interface import load_checked_model
+
+        load_checked_model(self.component.path)
 
         config = self.component.config
         assert isinstance(config, OnnxConfig)

@@ -20,7 +20,6 @@ import contextlib
 import mmap
 import os
 import select
-import shutil
 import signal
 import subprocess
 import sys
@@ -34,6 +33,7 @@ import numpy as np
 
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Wiring, fault
+from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Component
 from fmionnx.runtime.isolated import channel
 from fmionnx.runtime.isolated.channel import Control, Layout
@@ -93,7 +93,7 @@ class IsolatedRunner:
         reply_read, reply_write = os.pipe()
         self._shared = _memory_file(name)
         os.ftruncate(self._shared, channel.CONTROL_SIZE)
-        self._tmp = Path(tempfile.mkdtemp(prefix=f"fmionnx-isolated-{name}-"))
+        self._tmp = make_scratch(f"isolated-{name}")
         env = dict(os.environ, TMPDIR=str(self._tmp))
         argv = [sys.executable, "-m", "fmionnx.runtime.isolated.child"]
         argv += [str(command_read), str(reply_write), str(self._shared)]
@@ -274,5 +274,5 @@ class IsolatedRunner:
                 with contextlib.suppress(BufferError):
                     block.close()
         if self._tmp is not None:
-            shutil.rmtree(self._tmp, ignore_errors=True)
+            remove_scratch(self._tmp)
             self._tmp = None
