@@ -89,7 +89,8 @@ def run(
         ),
     ] = MAX_RUN_STEPS,
 ) -> None:
-    """Run a system in-process; faults exit 1 after writing what was recorded, Ctrl-C 130."""
+    """Run a system in-process; faults and failed checks exit 1 after writing what was
+    recorded, Ctrl-C 130."""
     suffix = target.suffix.lower()
     if interface is not None and interface not in ("cs", "me"):
         raise fail(f"--interface must be `cs` or `me`, not `{interface}`")
@@ -275,6 +276,10 @@ def _run_system(
         raise fail(str(exc.diagnostics[0].message), ExitCode.PROBLEMS) from None
     except FmionnxError as exc:  # ROS 2: a bad ROS_DOMAIN_ID, DDS refusing to start
         raise fail(str(exc), ExitCode.PROBLEMS) from None
+    from fmionnx.cli.checks_report import failed, print_checks
+    from fmionnx.runtime.checks import evaluate_checks
+
+    checks = evaluate_checks(system.compiled.checks, result)
     files: list[Path] = []
     if recorder is not None:
         files.append(recorder.finish(result))
@@ -284,10 +289,11 @@ def _run_system(
         from fmionnx.results import write_results
 
         files[:0] = write_results(
-            result, system.compiled, out, aliases=dict(system.aliases), also=files
+            result, system.compiled, out, aliases=dict(system.aliases), also=files, checks=checks
         )
     if not quiet:
         _summary(console, result, files)
+    print_checks(console, checks, quiet=quiet)
     if result.status is RunStatus.FAULT and result.error is not None:
         console.print(f"[bold red]fault:[/] {result.error}")
     elif result.status is RunStatus.INTERRUPTED:
@@ -304,6 +310,8 @@ def _run_system(
         from fmionnx.runtime.stopping import exit_code
 
         return exit_code(result.interrupted_by)
+    if failed(checks):  # the results are written: a failed check is a verdict, not a crash
+        return int(ExitCode.PROBLEMS)
     return int(ExitCode.OK)
 
 

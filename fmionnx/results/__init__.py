@@ -7,9 +7,11 @@ exactly what it recorded.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.runtime.checks import CheckOutcome
 from fmionnx.runtime.result import RunResult
 
 
@@ -20,8 +22,12 @@ def write_results(
     *,
     aliases: dict[str, str] | None = None,
     also: list[Path] | None = None,
+    checks: Sequence[CheckOutcome] | None = None,
 ) -> list[Path]:
     """Write results.csv, the system's plots and run.json into ``out``; returns the files.
+
+    ``run.json`` records the verdict of every check of the system: ``checks`` when the caller
+    has evaluated them already (``run`` prints them too), else evaluated here.
 
     ``run.json`` is written last and lists every file of the run (``also``: files written
     by others, e.g. ``--record`` into ``out``), so the next run into ``out`` knows which
@@ -31,6 +37,7 @@ def write_results(
     from fmionnx.results.outdir import RUN_JSON, previous_run, relative_name, remove_stale
     from fmionnx.results.plots import write_plots
     from fmionnx.results.runinfo import write_run_json
+    from fmionnx.runtime.checks import evaluate_checks
 
     out.mkdir(parents=True, exist_ok=True)
     previous = previous_run(out)
@@ -39,6 +46,8 @@ def write_results(
     path = out / RUN_JSON
     listed = [*files, *(also or []), path]
     names = [name for p in listed if (name := relative_name(p, out)) is not None]
-    files.append(write_run_json(result, system, path, files=names))
+    if checks is None:
+        checks = evaluate_checks(system.checks, result)
+    files.append(write_run_json(result, system, path, files=names, checks=checks))
     remove_stale(out, previous, listed)
     return files
