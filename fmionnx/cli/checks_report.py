@@ -36,8 +36,7 @@ def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: b
     if quiet:
         for outcome in bad:
             console.print(
-                f"[bold red]check failed:[/] {escape(outcome.name)}: {escape(outcome.expression)}"
-                f" (measured {value_text(outcome)}{_note(outcome)})"
+                f"[bold red]check failed:[/] {escape(outcome.name)}: {verdict_text(outcome)}"
             )
         return
     table = Table(title="checks", title_justify="left")
@@ -47,9 +46,10 @@ def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: b
     table.add_column("result", no_wrap=True)
     for outcome in outcomes:
         verdict = "[green]pass[/]" if outcome.passed else "[bold red]FAIL[/]"
+        note = f"\n[yellow]{escape(outcome.note)}[/]" if outcome.note else ""
         table.add_row(
-            f"{escape(outcome.name)}\n[dim]{escape(outcome.expression)}[/]",
-            value_text(outcome) + _note(outcome),
+            f"{escape(outcome.name)}\n[dim]{escape(outcome.expression)}[/]{note}",
+            value_text(outcome),
             f"{outcome.comparison} {outcome.bound:g}",
             verdict,
         )
@@ -60,5 +60,7 @@ def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: b
         console.print(f"[green]all {len(outcomes)} checks passed[/]")
 
 
-def _note(outcome: CheckOutcome) -> str:
-    return f" ({escape(outcome.note)})" if outcome.note else ""
+def verdict_text(outcome: CheckOutcome) -> str:
+    """Why a check failed, in one phrase: the note, or the value against the bound."""
+    measured = f"measured {value_text(outcome)}, expected {outcome.comparison} {outcome.bound:g}"
+    return escape(outcome.note) if outcome.value is None and outcome.note else measured

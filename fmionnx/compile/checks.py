@@ -19,7 +19,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
 
-from fmionnx.compile import checkir as ir
+import fmionnx.compile.checkir as ir
 from fmionnx.compile.checkparse import (
     COMPARISONS,
     Argument,

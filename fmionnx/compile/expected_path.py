@@ -36,7 +36,7 @@ def read_expected_path(path: Path) -> tuple[tuple[float, float], ...]:
                 msg = f"`{path.name}`:1: the header must name the columns `x` and `y`"
                 raise PathFileError(msg)
             x, y = header.index("x"), header.index("y")
-            points = []
+            points: list[tuple[float, float]] = []
             for row in rows:
                 if not any(cell.strip() for cell in row):
                     continue

@@ -19,7 +19,7 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.compile import checkir as ir
+import fmionnx.compile.checkir as ir
 from fmionnx.runtime.result import RunResult, RunStatus
 
 #: A value while evaluating: one number, or one number (or truth) per recorded step.
