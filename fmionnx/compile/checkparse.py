@@ -154,10 +154,10 @@ def tokenize(text: str) -> list[Token]:
         match = _TOKEN.match(text, position)
         if match is None or match.end() == position:
             char = text[position]
-            hint = None
             if char == "`":
-                hint = "close the backtick-quoted name with another `"
-            elif char in "'\"":
+                raise ParseError("a name between backticks is not closed", position, "add a `")
+            hint = None
+            if char in "'\"":
                 hint = "names are written without quotes (or between backticks)"
             elif char in {"&", "|"}:
                 hint = "write `and` / `or`"
