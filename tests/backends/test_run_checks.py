@@ -76,3 +76,15 @@ def test_a_broken_check_stops_run_before_it_starts(write_system, tmp_path) -> No
     assert "has no port `q`" in result.output
     assert "Traceback" not in result.output
     assert not (out / "results.csv").exists()
+
+
+def test_both_backends_record_what_the_checks_read(write_system) -> None:
+    from fmionnx import api
+    from fmionnx.backends.ros2.recording import record_refs
+    from fmionnx.core.types import PortRef
+    from fmionnx.runtime.master import Master
+
+    system = api.load(write_system(CHECKED.format(expect="max(s.x) < 1", name="n"))).compiled
+    expected = (PortRef("s", "y"), PortRef("s", "x"))
+    assert tuple(dict.fromkeys(Master(system).record_refs)) == expected
+    assert tuple(dict.fromkeys(record_refs(system))) == expected  # the ROS 2 nodes: the same
