@@ -25,6 +25,7 @@ meaning); a tuple ``(x, y)`` is a point and a list of points a path.
 
 from __future__ import annotations
 
+import math
 import re
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -349,7 +350,10 @@ class _Parser:
         token = self.token
         if token.kind == "number":
             self.advance()
-            return NumberLit(float(token.text), token.start, token.start + len(token.text))
+            value = float(token.text)
+            if not math.isfinite(value):  # 1e999: a bound no measure could cross
+                raise ParseError(f"`{token.text}` is beyond the range of a number", token.start)
+            return NumberLit(value, token.start, token.start + len(token.text))
         if token.kind == "quoted":
             self.advance()
             return Name(token.text, token.start, token.start + len(token.text))
@@ -383,7 +387,7 @@ class _Parser:
 
     def argument(self) -> Argument:
         token = self.token
-        following = self.tokens[self.index + 1]
+        following = self.tokens[min(self.index + 1, len(self.tokens) - 1)]
         if token.kind == "name" and following.kind == "operator" and following.text == "=":
             self.advance()
             self.advance()

@@ -101,6 +101,7 @@ def _show(node: object) -> str:
         ("max(`unclosed) < 1", "a name between backticks is not closed", 4),
         ("   ", "the expression is empty", 0),
         ("final(, a.b)", "expected a value, found `,`", 6),
+        ("final(a.b) < 1e999", "`1e999` is beyond the range of a number", 13),
     ],
 )
 def test_syntax_errors_say_what_and_where(text: str, message: str, offset: int) -> None:

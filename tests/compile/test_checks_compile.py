@@ -6,9 +6,12 @@ import json
 from pathlib import Path
 
 import pytest
+from hypothesis import HealthCheck, given, settings
+from hypothesis import strategies as st
 
 from fmionnx import api
 from fmionnx.compile import checkir as ir
+from fmionnx.compile.checkparse import ParseError, parse
 from fmionnx.compile.systemfile import CompiledFileError, from_json, to_json
 from fmionnx.core.diagnostics import Diagnostic
 from fmionnx.core.types import PortRef
@@ -285,3 +288,40 @@ def test_a_hand_edited_check_tree_is_refused_with_where(tmp_path: Path) -> None:
     document["system"]["checks"][0]["measure"] = node
     with pytest.raises(CompiledFileError, match="nested too deeply"):
         from_json(json.dumps(document))
+
+
+FRAGMENTS = [
+    *("final(", "max(", "mean(", "first_time(", "abs(", "distance(", "deviation(", "fnal("),
+    *("s.x", "s.y", "s.z3", "s.q", "time", "s.site.B", "s.expected_path", "`s.x`", "s.x[0]"),
+    *("(", ")", "[", "]", ",", "to=", "from=", "=", "<", ">=", "==", "+", "-", "*", "/"),
+    *("and ", "or ", "not ", "0.5", "-1", "1e999", " ", "`", "'", "\\n", "(1, 2)"),
+]
+
+
+@given(st.lists(st.sampled_from(FRAGMENTS), max_size=14))
+@settings(max_examples=300, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+def test_any_expression_ends_in_a_check_or_a_located_diagnostic(
+    tmp_path: Path, fragments: list[str]
+) -> None:
+    expect = "".join(fragments) or "x"
+    text = SYSTEM.format(expect=json.dumps(expect))  # a JSON string is a YAML scalar
+    system, errors = _compile(_write(tmp_path, text))
+    if system is None:
+        assert errors
+        for error in errors:
+            assert error.span is not None
+            assert error.span.line >= 7
+            assert error.message
+    else:
+        assert len(system.checks) == 1  # type: ignore[attr-defined]
+
+
+@given(st.text(max_size=60))
+@settings(max_examples=300, deadline=None)
+def test_the_parser_answers_any_text_with_a_tree_or_a_parse_error(text: str) -> None:
+    start = 0
+    try:
+        parse(text)
+    except ParseError as exc:
+        start = exc.start
+    assert 0 <= start <= len(text)
