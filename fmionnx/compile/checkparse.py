@@ -366,11 +366,11 @@ class _Parser:
             return self.group()
         if token.kind == "end":
             raise ParseError("the expression ends where a value is expected", token.start)
-        hint = (
-            "`=` names an argument inside a call; to compare, write `==`"
-            if token.text == "="
-            else None
-        )
+        hint = None
+        if token.text == "=":
+            hint = "`=` names an argument inside a call; to compare, write `==`"
+        elif token.text in COMPARISONS:
+            hint = "write one comparison: `<`, `<=`, `>`, `>=`, `==` or `!=`"
         raise ParseError(f"expected a value, found {_describe(token)}", token.start, hint)
 
     def call(self, name: Token) -> Node:
