@@ -221,6 +221,12 @@ def depth(node: Node) -> int:
 
 
 class _Parser:
+    """Recursive descent over the tokens, one method per grammar rule.
+
+    ``depth`` counts the parser's own recursion (brackets, calls, prefix operators), so that
+    hostile nesting ends in a ParseError rather than Python's RecursionError.
+    """
+
     def __init__(self, tokens: list[Token]) -> None:
         self.tokens = tokens
         self.index = 0
