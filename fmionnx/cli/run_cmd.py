@@ -200,7 +200,7 @@ def run(
     """Run a system in-process or as ROS 2 nodes (--backend ros2), or a single FMU / ONNX model.
 
     Results go to --out, by default out/<system name>/; the last line names the folder. A fault
-    exits 1 after writing what was recorded; Ctrl-C exits 130, SIGTERM 143.
+    or a failed check exits 1 after writing what was recorded; Ctrl-C exits 130, SIGTERM 143.
     """
     suffix = target.suffix.lower()
     if interface is not None and interface not in ("cs", "me"):
@@ -422,6 +422,10 @@ def _run_system(
         raise fail(str(exc.diagnostics[0].message), ExitCode.PROBLEMS) from None
     except FmionnxError as exc:  # ROS 2: a bad ROS_DOMAIN_ID, DDS refusing to start
         raise fail(str(exc), ExitCode.PROBLEMS) from None
+    from fmionnx.cli.checks_report import failed, print_checks
+    from fmionnx.runtime.checks import evaluate_checks
+
+    checks = evaluate_checks(system.compiled.checks, result)
     files: list[Path] = []
     if recorder is not None:
         files.append(recorder.finish(result))
@@ -431,10 +435,11 @@ def _run_system(
         from fmionnx.results import write_results
 
         files[:0] = write_results(
-            result, system.compiled, out, aliases=dict(system.aliases), also=files
+            result, system.compiled, out, aliases=dict(system.aliases), also=files, checks=checks
         )
     if not quiet:
         _summary(console, result, files)
+    print_checks(console, checks, quiet=quiet)
     if result.status is RunStatus.FAULT and result.error is not None:
         console.print(f"[bold red]fault:[/] {result.error}")
     elif result.status is RunStatus.INTERRUPTED:
@@ -451,6 +456,8 @@ def _run_system(
         from fmionnx.runtime.stopping import exit_code
 
         return exit_code(result.interrupted_by)
+    if failed(checks):  # the results are written: a failed check is a verdict, not a crash
+        return int(ExitCode.PROBLEMS)
     return int(ExitCode.OK)
 
 

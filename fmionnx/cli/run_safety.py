@@ -52,7 +52,7 @@ class RunSafety:
             from fmionnx.results import write_results
 
             assert out is not None
-            write_results(result, compiled, out, aliases=aliases, plots=False)
+            write_results(result, compiled, out, aliases=aliases, checkpoint=True)
 
         def abandon(result: Any) -> None:
             if out is not None:

@@ -10,11 +10,13 @@ import dataclasses
 import re
 from collections import defaultdict
 
+from fmionnx.compile.checks import compile_checks
 from fmionnx.compile.endpoints import (
     ResolvedEndpoint,
     resolve_endpoint,
     split_endpoint,
 )
+from fmionnx.compile.expected_path import expected_path_file
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
 from fmionnx.compile.ir import CompiledSystem, Connection, Plot, plot_file_problem
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
@@ -98,6 +100,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         )
     record = _refs(spec.record or [], "record", by_name, sources, bag)
     plots = _plots(spec, by_name, sources, bag)
+    checks = compile_checks(spec.checks, by_name, sources, bag)
     if run is None or bag.has_errors:
         return None
     ros2 = ros2_settings(spec.ros2) if spec.ros2 is not None else None
@@ -110,6 +113,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         order=execution_order(components, usable),
         plots=plots,
         record=tuple(record),
+        checks=checks,
         ros2=ros2,
         description=spec.description,
     )
@@ -411,8 +415,7 @@ def _plots(
                     hint="write `<mujoco component>.expected_path`",
                 )
             else:
-                scene = components[owner].path
-                reference = scene.with_name(scene.stem + ".path.csv")
+                reference = expected_path_file(components[owner].path)
         texts = tuple(re.sub(r"\s+", "", t) for t in signals)
         plots.append(
             Plot(

@@ -4,7 +4,7 @@ Front ends (YAML, SSP) produce a raw system spec; the compiler reads every model
 interface and produces a :class:`CompiledSystem`. Backends, ``graph``, the exporters, ROS 2
 nodes and sweep workers consume only this; none of them re-reads the system file. It refers to
 no front-end type: kind settings are resolved into each kind's config, plots and records into
-port references, the ROS 2 section into a plan. Runtime state (FMU instances, ORT sessions,
+port references, checks into resolved expression trees, the ROS 2 section into a plan. Runtime state (FMU instances, ORT sessions,
 buffers) lives in runtime objects, never here.
 """
 
@@ -19,6 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from fmionnx.compile.checkir import Check
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.types import (
     Component,
@@ -125,6 +126,7 @@ class CompiledSystem:
     order: tuple[str, ...]
     plots: tuple[Plot, ...] = ()
     record: tuple[PortRef, ...] = ()
+    checks: tuple[Check, ...] = ()
     ros2: Ros2Settings | None = None
     ros2_plan: Ros2Plan | None = None
     description: str = ""

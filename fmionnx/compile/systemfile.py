@@ -219,7 +219,11 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
             f"reads version {VERSION} (compile the system again with this release)"
         )
         raise CompiledFileError(msg)
-    system = _decode(CompiledSystem, document.get("system"), "system")
+    try:
+        system = _decode(CompiledSystem, document.get("system"), "system")
+    except RecursionError:  # e.g. a check expression nested far beyond what the compiler makes
+        msg = f"{origin}: not a compiled-system file (nested too deeply)"
+        raise CompiledFileError(msg) from None
     assert isinstance(system, CompiledSystem)
     if system.content_hash != document.get("content_hash"):
         msg = f"{origin}: damaged: the system does not match its content hash"

@@ -75,7 +75,8 @@ _I = Severity.INFO
 
 #: The stable table of every diagnostic code. Codes are never renumbered; retired codes stay.
 #: Ranges: E00x syntax/schema, E01x model files, E02x endpoints, E03x connection checks,
-#: E04x run settings and parameters, E05x graph, E06x ROS 2, E07x SSP, E08x interface lock.
+#: E04x run settings and parameters, E05x graph, E06x ROS 2, E07x SSP, E08x interface lock,
+#: E09x checks.
 CODES: dict[str, ErrorCode] = _codes(
     # --- system file syntax and schema
     ErrorCode("E001", "syntax", _E, "syntax", "The system file is not well-formed YAML/XML."),
@@ -284,6 +285,22 @@ CODES: dict[str, ErrorCode] = _codes(
     ErrorCode(
         "I080", "lock-binary-changed", _I, "lock", "The model file changed, its interface did not."
     ),
+    # --- checks (issue #16)
+    ErrorCode("E090", "check-syntax", _E, "checks", "A check expression that does not parse."),
+    ErrorCode(
+        "E091", "check-signal", _E, "checks", "A check names a signal that cannot be measured."
+    ),
+    ErrorCode(
+        "E092",
+        "check-reference",
+        _E,
+        "checks",
+        "A check names a site, component or expected path that does not exist.",
+    ),
+    ErrorCode(
+        "E093", "check-meaning", _E, "checks", "A check expression that parses but means nothing."
+    ),
+    ErrorCode("E094", "duplicate-check", _E, "checks", "Two checks share a name."),
 )
 
 

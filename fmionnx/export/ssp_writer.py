@@ -4,8 +4,8 @@ The archive holds ``SystemStructure.ssd`` (validated against the SSP 1.0 XSD bef
 packed), the models under ``resources/`` and one ``.ssv`` per component with scalar
 parameters. SSP 1.0 is written because FMPy reads only 1.0 and every 2.0 reader reads 1.0.
 What SSP cannot say (component periods, ONNX/MuJoCo options, array parameters, the base
-step, record/plots/ros2 sections) goes into ``org.fmionnx`` annotations as JSON, so that
-``fmionnx convert`` gives the system file back. The layout is flat: one root system whose
+step, record/plots/checks/ros2 sections) goes into ``org.fmionnx`` annotations as JSON, so
+that ``fmionnx convert`` gives the system file back. The layout is flat: one root system whose
 components keep their (possibly dotted) names; connections are component to component.
 """
 
@@ -284,7 +284,10 @@ def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSyste
     if spec.run.stop is not None:
         experiment.set("stopTime", repr(spec.run.stop))
     settings = spec.model_dump(
-        mode="json", by_alias=True, exclude_defaults=True, include={"record", "plots", "ros2"}
+        mode="json",
+        by_alias=True,
+        exclude_defaults=True,
+        include={"record", "plots", "checks", "ros2"},
     )
     if spec.run.step is not None:
         settings["run"] = {"step": spec.run.step}

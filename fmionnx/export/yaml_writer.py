@@ -102,7 +102,10 @@ def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
     if connections:
         data["connections"] = connections
     extra = spec.model_dump(
-        mode="json", by_alias=True, exclude_defaults=True, include={"record", "plots", "ros2"}
+        mode="json",
+        by_alias=True,
+        exclude_defaults=True,
+        include={"record", "plots", "checks", "ros2"},
     )
     data.update(extra)
     return data

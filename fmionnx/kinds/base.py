@@ -11,7 +11,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Protocol
+from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
@@ -30,6 +30,9 @@ FMI = "fmi"
 #: The model file needs the files beside it (a scene's meshes, textures, includes): exporters
 #: copy its whole folder.
 MODEL_FOLDER = "model-folder"
+#: The model names fixed points of its world (MuJoCo sites) that checks measure distances to
+#: (``distance(..., to=world.site.B)``): the kind implements :class:`SiteSource`.
+SITES = "sites"
 
 
 @dataclass(frozen=True, slots=True)
@@ -40,6 +43,27 @@ class KindProblem:
     message: str
     key: str
     hint: str | None = None
+
+
+@dataclass(frozen=True, slots=True)
+class Site:
+    """A named point of a model's world, in metres.
+
+    ``position`` is where it is when the model is loaded; ``moves_with`` names the body that
+    carries it when that body can move (then the position is not a fixed landmark).
+    """
+
+    position: tuple[float, float, float]
+    moves_with: str | None = None
+
+
+@runtime_checkable
+class SiteSource(Protocol):
+    """A kind whose models name sites (declared by the :data:`SITES` capability)."""
+
+    def sites(self, path: Path) -> Mapping[str, Site]:
+        """The named sites of the model at ``path`` (raises ModelError when unreadable)."""
+        ...
 
 
 @dataclass(frozen=True, slots=True)

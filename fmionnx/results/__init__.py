@@ -7,9 +7,11 @@ exactly what it recorded.
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.runtime.checks import CheckOutcome
 from fmionnx.runtime.result import RunResult
 
 
@@ -20,13 +22,17 @@ def write_results(
     *,
     aliases: dict[str, str] | None = None,
     also: list[Path] | None = None,
-    plots: bool = True,
+    checks: Sequence[CheckOutcome] | None = None,
+    checkpoint: bool = False,
 ) -> list[Path]:
     """Write results.csv, the system's plots and run.json into ``out``; returns the files.
 
-    ``plots=False`` is for *checkpoints*, the results so far written while a run goes on (so
-    that a run killed outright loses only its last seconds): plots cost more than the data
-    and are drawn by the final write.
+    ``run.json`` records the verdict of every check of the system: ``checks`` when the caller
+    has evaluated them already (``run`` prints them too), else evaluated here.
+
+    ``checkpoint=True`` writes the results so far while a run goes on (so that a run killed
+    outright loses only its last seconds): results.csv and run.json only; plots cost more
+    than the data, and checks judge a whole run, so both are left to the final write.
 
     ``run.json`` is written last and lists every file of the run (``also``: files written
     by others, e.g. ``--record`` into ``out``), so the next run into ``out`` knows which
@@ -36,15 +42,20 @@ def write_results(
     from fmionnx.results.outdir import RUN_JSON, previous_run, relative_name, remove_stale
     from fmionnx.results.plots import write_plots
     from fmionnx.results.runinfo import write_run_json
+    from fmionnx.runtime.checks import evaluate_checks
 
     out.mkdir(parents=True, exist_ok=True)
     previous = previous_run(out)
     files = [write_csv(result, out / "results.csv", aliases=aliases)]
-    if plots:
+    if not checkpoint:
         files.extend(write_plots(result, system, out))
     path = out / RUN_JSON
     listed = [*files, *(also or []), path]
     names = [name for p in listed if (name := relative_name(p, out)) is not None]
-    files.append(write_run_json(result, system, path, files=names))
+    if checkpoint:
+        checks = ()
+    elif checks is None:
+        checks = evaluate_checks(system.checks, result)
+    files.append(write_run_json(result, system, path, files=names, checks=checks))
     remove_stale(out, previous, listed)
     return files

@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import json
 import platform
+from collections.abc import Sequence
 from importlib import metadata
 from pathlib import Path
 from typing import Any
@@ -12,6 +13,7 @@ from fmionnx import __version__
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.safewrite import write_text_atomic
 from fmionnx.kinds.registry import COMPONENT_KINDS
+from fmionnx.runtime.checks import CheckOutcome
 from fmionnx.runtime.result import RunResult
 
 #: Distributions whose versions make a run reproducible: each kind's libraries, and numpy.
@@ -30,9 +32,13 @@ def versions() -> dict[str, str]:
 
 
 def run_info(
-    result: RunResult, system: CompiledSystem, files: list[str] | None = None
+    result: RunResult,
+    system: CompiledSystem,
+    files: list[str] | None = None,
+    checks: Sequence[CheckOutcome] = (),
 ) -> dict[str, Any]:
-    """The run.json document; ``files`` names what the run wrote into its folder."""
+    """The run.json document; ``files`` names what the run wrote into its folder, ``checks``
+    the verdicts of the system's checks."""
     error = result.error
     return {
         "system": system.name,
@@ -60,6 +66,7 @@ def run_info(
             "time": error.time,
         },
         "execution": dict(result.details),
+        "checks": [outcome.as_json() for outcome in checks],
         "columns": ["time", *result.signals],
         "versions": versions(),
         **({} if files is None else {"files": sorted(files)}),
@@ -67,7 +74,13 @@ def run_info(
 
 
 def write_run_json(
-    result: RunResult, system: CompiledSystem, path: Path, *, files: list[str] | None = None
+    result: RunResult,
+    system: CompiledSystem,
+    path: Path,
+    *,
+    files: list[str] | None = None,
+    checks: Sequence[CheckOutcome] = (),
 ) -> Path:
     """Write run.json (indented, keys in a fixed order; atomically, never through a link)."""
-    return write_text_atomic(path, json.dumps(run_info(result, system, files), indent=2) + "\n")
+    document = run_info(result, system, files, checks)
+    return write_text_atomic(path, json.dumps(document, indent=2) + "\n")

@@ -73,6 +73,11 @@ def plot_refs(system: CompiledSystem) -> tuple[PortRef, ...]:
     return tuple(ref for plot in system.plots for ref in plot.refs)
 
 
+def required_refs(system: CompiledSystem) -> tuple[PortRef, ...]:
+    """Signals recorded whatever ``record`` says: what the plots draw and the checks measure."""
+    return (*plot_refs(system), *(ref for check in system.checks for ref in check.refs))
+
+
 @dataclass
 class _Due:
     """One component's work at a communication point where it is due."""
@@ -244,7 +249,7 @@ class Master:
         if self.options.record is not None:
             return self.options.record
         chosen = self.system.record or default_record(self.system)
-        return (*chosen, *plot_refs(self.system))
+        return (*chosen, *required_refs(self.system))
 
     def _build_tracks(self) -> None:
         """One track for recorded inputs (sampled before a step), one for outputs (after)."""

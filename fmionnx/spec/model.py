@@ -108,6 +108,22 @@ class PlotSpec(StrictModel):
         return self
 
 
+class CheckSpec(StrictModel):
+    """A statement about the run's results that ``fmionnx run`` evaluates (docs/checks.md)."""
+
+    name: str | None = Field(
+        default=None,
+        min_length=1,
+        description="Name in the checks table and run.json (default: the expression).",
+    )
+    expect: str = Field(
+        min_length=1,
+        description="`measure <comparison> bound`, e.g. "
+        "`abs(final(tracker.v)) < 0.01` or "
+        "`max(deviation(odometry.posX, odometry.posY, from=world.expected_path)) < 0.3`.",
+    )
+
+
 class QosSpec(StrictModel):
     """A ROS 2 QoS profile."""
 
@@ -173,6 +189,11 @@ class SystemSpec(StrictModel):
         "images excepted).",
     )
     plots: list[PlotSpec] = Field(default_factory=list)
+    checks: list[CheckSpec] = Field(
+        default_factory=list,
+        description="Statements about the results that `fmionnx run` evaluates; a failed check "
+        "makes it exit 1.",
+    )
     ros2: Ros2Spec | None = None
 
     @field_validator("fmionnx")

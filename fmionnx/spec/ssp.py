@@ -40,7 +40,7 @@ INTERFACE_BY_IMPLEMENTATION = {"CoSimulation": "cs", "ModelExchange": "me"}
 #: Keys of the component spec that come from SSD elements, never from our annotation.
 _STRUCTURAL_KEYS = ("kind", "path")
 #: Keys our system-level annotation may carry.
-SYSTEM_ANNOTATION_KEYS = ("description", "run", "record", "plots", "ros2")
+SYSTEM_ANNOTATION_KEYS = ("description", "run", "record", "plots", "checks", "ros2")
 
 
 def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:

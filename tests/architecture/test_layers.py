@@ -49,6 +49,7 @@ ALLOWED = {
 #: The compiled system and what it is made of: usable by the runtime and the backends. The rest
 #: of ``compile`` (the compiler, resolution, type checks) reads front-end models.
 COMPILED_SYSTEM = (
+    "fmionnx.compile.checkir",
     "fmionnx.compile.ir",
     "fmionnx.compile.systemfile",
     "fmionnx.compile.ros2.fields",

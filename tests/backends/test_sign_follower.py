@@ -11,6 +11,7 @@ import pytest
 import fmionnx
 from fmionnx.results.csvfile import write_csv
 from fmionnx.results.plots import read_path
+from fmionnx.runtime.checks import evaluate_checks
 from fmionnx.runtime.result import RunStatus
 from tests.conftest import REPO, built_model
 
@@ -62,3 +63,15 @@ REFERENCE_RESULTS_SHA256 = "f7d1bee80248fff146adbdfdb86c76cc96a7da42a6729166c8b9
 def test_reference_results_csv_is_byte_identical_to_the_recorded_hash(run_result, tmp_path) -> None:
     written = write_csv(run_result, tmp_path / "results.csv")
     assert hashlib.sha256(written.read_bytes()).hexdigest() == REFERENCE_RESULTS_SHA256
+
+
+def test_the_reference_system_states_its_own_checks_and_they_hold(run_result) -> None:
+    outcomes = evaluate_checks(fmionnx.load(SYSTEM).compiled.checks, run_result)
+    assert [o.name for o in outcomes] == ["reaches B", "stops", "stays on the path"]
+    assert all(o.passed for o in outcomes), outcomes
+    measured = {o.name: o.value for o in outcomes}
+    end = np.array([run_result["odometry.posX"][-1], run_result["odometry.posY"][-1]])
+    assert measured["reaches B"] == pytest.approx(np.linalg.norm(end - GOAL_B), abs=1e-9)
+    path = read_path(REPO / "models" / "world" / "sign_course.path.csv")
+    points = np.column_stack([run_result["odometry.posX"], run_result["odometry.posY"]])
+    assert measured["stays on the path"] == pytest.approx(distance_to_polyline(points, path).max())

@@ -3,7 +3,7 @@
 "Equal" compares the compiled IR without file locations: system name, description, run
 start/stop/step, every component (name, kind, period, parameters, the model's ports and
 content hash, its options except `path`), every connection (ends, element count, factor,
-offset), the execution order, record, plots and the ros2 section. Paths, spans and the
+offset), the execution order, record, plots, checks and the ros2 section. Paths, spans and the
 origins of run settings are left out: they say where things are, not what runs.
 """
 
@@ -68,6 +68,9 @@ def fingerprint(system: CompiledSystem) -> dict[str, Any]:
             (p.xy, p.y, p.refs, p.title, p.file, p.reference.name if p.reference else None)
             for p in system.plots
         ],
+        "checks": [
+            (c.name, c.expression, c.measure, c.comparison, c.bound, c.refs) for c in system.checks
+        ],
         "ros2": _unordered(system.ros2),
     }
 
@@ -97,6 +100,18 @@ def test_yaml_ssp_yaml_gives_an_equal_compiled_system(tmp_path: Path, fixture_fm
     )
     archive, back = round_trip(system, tmp_path)
     original = fingerprint(compiled(system))
+    assert fingerprint(compiled(archive)) == original
+    assert fingerprint(compiled(back)) == original
+
+
+def test_round_trip_keeps_the_checks(tmp_path: Path, fixture_fmu) -> None:
+    system = tmp_path / "demo.yaml"
+    text = DEMO.format(integrator=fixture_fmu("Integrator"), gain=fixture_fmu("Gain"))
+    text += "checks:\n  - name: grows\n    expect: first_time(g2.y > 1) < 0.5\n"
+    system.write_text(text, encoding="utf-8")
+    archive, back = round_trip(system, tmp_path)
+    original = fingerprint(compiled(system))
+    assert len(original["checks"]) == 1
     assert fingerprint(compiled(archive)) == original
     assert fingerprint(compiled(back)) == original
 

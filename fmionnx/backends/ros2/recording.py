@@ -22,7 +22,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Runner
 from fmionnx.core.types import Causality, PortRef, flat_index
-from fmionnx.runtime.master import column_names, default_record, is_image, plot_refs
+from fmionnx.runtime.master import column_names, default_record, is_image, required_refs
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions
 
@@ -32,7 +32,7 @@ def record_refs(system: CompiledSystem, options: RunOptions | None = None) -> tu
     if options is not None and options.record is not None:
         return options.record
     chosen = system.record or default_record(system)
-    return (*chosen, *plot_refs(system))
+    return (*chosen, *required_refs(system))
 
 
 @dataclass

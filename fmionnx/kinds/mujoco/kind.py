@@ -11,7 +11,16 @@ from pydantic import Field
 
 from fmionnx.core.specbase import ComponentSpecBase, StrictModel
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
-from fmionnx.kinds.base import CAMERA, MODEL_FOLDER, SIMULATOR, Display, KindProblem, RoleDefault
+from fmionnx.kinds.base import (
+    CAMERA,
+    MODEL_FOLDER,
+    SIMULATOR,
+    SITES,
+    Display,
+    KindProblem,
+    RoleDefault,
+    Site,
+)
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.runner import Runner, Wiring
@@ -72,7 +81,7 @@ class MujocoKind:
     suffixes = (".xml", ".mjcf", ".mjb")
     summary = "MuJoCo physics scene (sensors, actuators, cameras)"
     mime_type = "application/x-mujoco+xml"
-    capabilities = frozenset({SIMULATOR, CAMERA, MODEL_FOLDER})
+    capabilities = frozenset({SIMULATOR, CAMERA, MODEL_FOLDER, SITES})
     libraries = ("mujoco",)
     display = Display(
         "MuJoCo",
@@ -119,6 +128,12 @@ class MujocoKind:
         if isinstance(spec, MujocoSpec):
             cameras = {name: (c.width, c.height) for name, c in spec.cameras.items()}
         return read_mujoco_interface(path, cameras)
+
+    def sites(self, path: Path) -> Mapping[str, Site]:
+        """The scene's named sites: the landmarks checks measure distances to."""
+        from fmionnx.kinds.mujoco.sites import read_sites
+
+        return read_sites(path)
 
 
 MUJOCO_KIND = MujocoKind()

@@ -1,0 +1,66 @@
+"""``fmionnx run``'s checks table: every check of the system with its measured value.
+
+The table goes to stderr beside the run summary (stdout keeps the last line, the results
+folder). With ``--quiet`` only failed checks are printed, one line each: the exit code says
+that a check failed, the line says which one.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Sequence
+
+from rich.console import Console
+from rich.markup import escape
+from rich.table import Table
+
+from fmionnx.runtime.checks import CheckOutcome
+
+
+def failed(outcomes: Sequence[CheckOutcome]) -> list[CheckOutcome]:
+    """The checks that did not hold."""
+    return [o for o in outcomes if not o.passed]
+
+
+def value_text(outcome: CheckOutcome) -> str:
+    """The measured value for people: 4 significant digits, or why there is none."""
+    if outcome.value is None:
+        return "—"
+    return f"{outcome.value:.4g}"
+
+
+def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: bool) -> None:
+    """The checks table (or, quietly, one line per failed check); nothing without checks."""
+    if not outcomes:
+        return
+    bad = failed(outcomes)
+    if quiet:
+        for outcome in bad:
+            console.print(
+                f"[bold red]check failed:[/] {escape(outcome.name)}: {verdict_text(outcome)}"
+            )
+        return
+    table = Table(title="checks", title_justify="left")
+    table.add_column("check", overflow="fold", ratio=1)
+    table.add_column("measured", overflow="fold")
+    table.add_column("expected", no_wrap=True)
+    table.add_column("result", no_wrap=True)
+    for outcome in outcomes:
+        verdict = "[green]pass[/]" if outcome.passed else "[bold red]FAIL[/]"
+        note = f"\n[yellow]{escape(outcome.note)}[/]" if outcome.note else ""
+        table.add_row(
+            f"{escape(outcome.name)}\n[dim]{escape(outcome.expression)}[/]{note}",
+            value_text(outcome),
+            f"{outcome.comparison} {outcome.bound:g}",
+            verdict,
+        )
+    console.print(table)
+    if bad:
+        console.print(f"[bold red]{len(bad)} of {len(outcomes)} checks failed[/]")
+    else:
+        console.print(f"[green]all {len(outcomes)} checks passed[/]")
+
+
+def verdict_text(outcome: CheckOutcome) -> str:
+    """Why a check failed, in one phrase: the note, or the value against the bound."""
+    measured = f"measured {value_text(outcome)}, expected {outcome.comparison} {outcome.bound:g}"
+    return escape(outcome.note) if outcome.value is None and outcome.note else measured
