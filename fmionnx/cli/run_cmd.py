@@ -190,6 +190,14 @@ def run(
             "did not write; only the run's own files are replaced.",
         ),
     ] = False,
+    checks: Annotated[
+        bool,
+        typer.Option(
+            "--checks/--no-checks",
+            help="Evaluate the system's `checks:` after the run: print them, record them in "
+            "run.json, exit 1 when one fails (--no-checks: a shortened or exploratory run).",
+        ),
+    ] = True,
     max_steps: Annotated[
         int,
         typer.Option(
@@ -251,6 +259,7 @@ def run(
                 ros2=ros2,
                 max_steps=max_steps,
                 safety=safety,
+                evaluate=checks,
             )
     except KeyboardInterrupt as exc:
         reason = stop_reason(exc)
@@ -362,6 +371,7 @@ def _run_system(
     ros2: Any = None,
     max_steps: int = MAX_RUN_STEPS,
     safety: RunSafety | None = None,
+    evaluate: bool = True,
 ) -> int:
     import dataclasses
 
@@ -425,7 +435,7 @@ def _run_system(
     from fmionnx.cli.checks_report import failed, print_checks
     from fmionnx.runtime.checks import evaluate_checks
 
-    checks = evaluate_checks(system.compiled.checks, result)
+    checks = evaluate_checks(system.compiled.checks, result) if evaluate else ()
     files: list[Path] = []
     if recorder is not None:
         files.append(recorder.finish(result))

@@ -52,6 +52,14 @@ def test_a_failed_check_exits_1_with_every_result_written(write_system, tmp_path
     assert result.output.strip().splitlines()[-1] == f"Results: {out}"
 
 
+def test_no_checks_skips_the_verdicts_of_a_shortened_run(write_system, tmp_path) -> None:
+    result, out = _run(write_system, tmp_path, "max(s.x) < 1", "--no-checks")
+    assert result.exit_code == 0, result.output
+    assert "FAIL" not in result.output
+    info = json.loads((out / "run.json").read_text(encoding="utf-8"))
+    assert info["checks"] == []
+
+
 def test_checks_that_hold_exit_0_and_are_tabled(write_system, tmp_path) -> None:
     result, out = _run(write_system, tmp_path, "first_time(s.x >= 1.5) <= 1.5", name="half way")
     assert result.exit_code == 0, result.output

@@ -69,7 +69,7 @@ def _finish(child: subprocess.Popen[str], timeout: float) -> tuple[str, str]:
 
 def _run(system: Path, out: Path, *args: str) -> subprocess.CompletedProcess[str]:
     return subprocess.run(
-        fmionnx("run", system, "-q", "--backend", "ros2", "--ros-distro", "jazzy",
+        fmionnx("run", system, "--no-checks", "-q", "--backend", "ros2", "--ros-distro", "jazzy",
                 "--stop-time", STOP, "--out", out, *args),
         capture_output=True,
         text=True,
@@ -99,7 +99,7 @@ def observed_run(rclpy_env: None, tmp_path_factory: pytest.TempPathFactory) -> d
     names = [node.fqn for node in plan.nodes]
     tmp = tmp_path_factory.mktemp("observed")
     run = subprocess.Popen(
-        fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--ros-distro", "jazzy",
+        fmionnx("run", SYSTEM, "--no-checks", "-q", "--backend", "ros2", "--ros-distro", "jazzy",
                 "--stop-time", "8", "--sync", "free", "--out", tmp / "out"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
@@ -185,7 +185,7 @@ def test_lockstep_run_with_middleware_rclpy_equals_the_inprocess_results(
     built_model("ReadOdometry.fmu")
     inprocess = tmp_path / "inprocess"
     subprocess.run(
-        fmionnx("run", SYSTEM, "-q", "--stop-time", STOP, "--out", inprocess),
+        fmionnx("run", SYSTEM, "--no-checks", "-q", "--stop-time", STOP, "--out", inprocess),
         check=True,
         timeout=120,
     )

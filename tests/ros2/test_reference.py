@@ -113,7 +113,7 @@ def test_outside_images_on_camera_image_raw_drive_the_detector_when_the_world_is
     frame = np.full((480, 640, 3), 128, dtype=np.uint8)
     frame[100:300, 200:400] = (220, 20, 20)  # a red board
     run = subprocess.Popen(
-        fmionnx("run", system, "-q", "--backend", "ros2", "--sync", "free", "--out",
+        fmionnx("run", system, "--no-checks", "-q", "--backend", "ros2", "--sync", "free", "--out",
                 tmp_path / "out"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
