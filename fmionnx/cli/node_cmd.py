@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.core.steps import MAX_RUN_STEPS
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -62,6 +63,12 @@ def node(
             "(`fmionnx compile --models`); default: where they were compiled.",
         ),
     ] = None,
+    max_steps: Annotated[
+        int,
+        typer.Option(
+            "--max-steps", help="Refuse runs of more base steps than this (default 10^10)."
+        ),
+    ] = MAX_RUN_STEPS,
 ) -> None:
     """Run one component as a ROS 2 node (Cyclone DDS or rclpy); exit 0 at the stop time, 1 on a fault."""
     from fmionnx import api
@@ -83,6 +90,8 @@ def node(
         raise _fail(str(exc), ExitCode.USAGE) from None
     if not rtf >= 0:  # also NaN
         raise _fail("--rtf must be >= 0 (0: as fast as possible)", ExitCode.USAGE)
+    if max_steps < 1:
+        raise _fail("--max-steps must be at least 1", ExitCode.USAGE)
     problem = distro_problem(distro) if transport is Middleware.RCLPY else None
     if problem is not None:
         raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
@@ -101,6 +110,12 @@ def node(
         values = {k: api.parse_value(v) for k, v in params.items()}
         loaded = api.load(system, models=models)
         compiled = loaded.with_overrides(stop_time=stop_time, params=values).compiled
+        if not supervised and compiled.run.steps > max_steps:  # `run` checked its own nodes
+            raise _fail(
+                f"the run is {compiled.run.steps:.3g} base steps, more than --max-steps "
+                f"{max_steps:.3g}; check the stop time and step, or pass a larger --max-steps",
+                ExitCode.USAGE,
+            )
         plan = plan_for(compiled, distro)
         options = NodeOptions(mode, distro, record_dir, supervised, rtf, transport)
         the_node = Node(compiled, plan, component, options)

@@ -82,3 +82,17 @@ def write_bytes_atomic(path: Path, data: bytes) -> Path:
     with atomic_binary(path) as stream:
         stream.write(data)
     return path
+
+
+def open_growing(path: Path) -> IO[bytes]:
+    """A binary stream at ``path`` for a file that grows while a run goes on (a node's log, a
+    topic recording), readable under its name all along, and never written through a link.
+
+    A symbolic link planted at ``path`` is removed (not followed); ``O_NOFOLLOW`` refuses one
+    planted between that and the open.
+    """
+    if path.is_symlink():
+        path.unlink()
+    flags = os.O_WRONLY | os.O_CREAT | os.O_TRUNC | os.O_NOFOLLOW | os.O_CLOEXEC
+    return os.fdopen(os.open(path, flags, 0o644), "wb")
+

@@ -259,3 +259,29 @@ def test_ros2_backend_options_are_checked_before_anything_starts(
     )
     assert result.exit_code == 2
     assert message in " ".join(result.output.split())
+
+
+def test_ros2_run_writes_no_file_through_a_planted_link(tmp_path: Path, loopback_env) -> None:
+    # links planted where the supervisor writes logs, node records and the topic recording:
+    # each is replaced by the run's own file, and what they pointed at is left untouched
+    system = loop_system(tmp_path, 0.2)
+    out = tmp_path / "out"
+    victim = tmp_path / "victim.txt"
+    victim.write_text("precious\n", encoding="utf-8")
+    planted = [out / "logs" / "gain.log", out / "nodes" / "integ.json", out / "wire.mcap"]
+    for link in planted:
+        link.parent.mkdir(parents=True, exist_ok=True)
+        link.symlink_to(victim)
+    done = subprocess.run(
+        fmionnx("run", system, "-q", "--backend", "ros2", "--out", out, "--force",
+                "--record", out / "wire.mcap"),
+        capture_output=True,
+        text=True,
+        timeout=120,
+        check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    assert victim.read_text(encoding="utf-8") == "precious\n"
+    for path in planted:
+        assert path.is_file(), path
+        assert not path.is_symlink(), path

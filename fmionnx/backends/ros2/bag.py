@@ -25,6 +25,7 @@ from fmionnx.compile.ros2.names import dds_topic
 from fmionnx.compile.ros2.plan import CLOCK_TOPIC, CLOCK_TYPE
 from fmionnx.compile.ros2.qos import QosProfile
 from fmionnx.compile.ros2.types import Ros2Plan
+from fmionnx.core.safewrite import open_growing
 
 #: Seconds between two sweeps over the readers; reader queues hold what arrives meanwhile.
 POLL = 0.002
@@ -54,7 +55,7 @@ class TopicRecorder:
         path.parent.mkdir(parents=True, exist_ok=True)
         self.path = path
         self.messages = 0
-        self._stream: IO[bytes] = path.open("wb")
+        self._stream: IO[bytes] = open_growing(path)
         self._writer: Any = Writer(self._stream)
         self._writer.start(profile="ros2", library="fmionnx")
         self._store = typestore(plan.distro)

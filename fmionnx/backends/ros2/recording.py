@@ -11,6 +11,7 @@ ones, bit for bit, when the values are.
 
 from __future__ import annotations
 
+import io
 import json
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +22,7 @@ import numpy as np
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Runner
+from fmionnx.core.safewrite import write_bytes_atomic, write_text_atomic
 from fmionnx.core.types import Causality, PortRef, flat_index
 from fmionnx.runtime.master import column_names, default_record, is_image, required_refs
 from fmionnx.runtime.recorder import Recorder, Track
@@ -109,7 +111,9 @@ def save_node(
         arrays[f"rows{i}"] = track.rows[: track.count]
         arrays[f"columns{i}"] = np.array(track.columns, dtype=str)
         arrays[f"period{i}"] = np.array(track.period_steps)
-    np.savez(folder / f"{component}.npz", **arrays)
+    packed = io.BytesIO()
+    np.savez(packed, **arrays)
+    write_bytes_atomic(folder / f"{component}.npz", packed.getvalue())
     info = {
         "component": component,
         "status": status,
@@ -123,7 +127,7 @@ def save_node(
             "time": error.time,
         },
     }
-    (folder / f"{component}.json").write_text(json.dumps(info, indent=2), encoding="utf-8")
+    write_text_atomic(folder / f"{component}.json", json.dumps(info, indent=2))
 
 
 def load_status(folder: Path, component: str) -> dict[str, Any] | None:

@@ -26,7 +26,6 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
@@ -56,6 +55,8 @@ from fmionnx.compile.ros2.types import Ros2Plan
 from fmionnx.compile.systemfile import SUFFIX as COMPILED_SUFFIX
 from fmionnx.compile.systemfile import write_compiled
 from fmionnx.core.errors import FmionnxError, RunError
+from fmionnx.core.safewrite import open_growing
+from fmionnx.core.scratch import scratch
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_on_signals, stop_reason
 
@@ -142,7 +143,7 @@ class Children:
     def start(self, component: str, argv: list[str]) -> None:
         """Start one node, output to ``logs/<component>.log``, in a process group of its own."""
         self.logs.mkdir(parents=True, exist_ok=True)
-        with (self.logs / f"{component}.log").open("wb") as log:
+        with open_growing(self.logs / f"{component}.log") as log:
             self.procs[component] = subprocess.Popen(
                 argv,
                 stdin=subprocess.DEVNULL,
@@ -425,7 +426,7 @@ def run_ros2(system: CompiledSystem, options: Ros2Options | None = None) -> RunR
             folder = opts.out
             folder.mkdir(parents=True, exist_ok=True)
         else:
-            folder = Path(stack.enter_context(tempfile.TemporaryDirectory(prefix="fmionnx-ros2-")))
+            folder = stack.enter_context(scratch("ros2"))
         supervisor = Supervisor(system, opts, folder)
         stack.enter_context(stop_on_signals())
         return supervisor.run()
