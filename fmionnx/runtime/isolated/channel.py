@@ -3,8 +3,11 @@
 Two pipes carry commands (supervisor -> child) and replies (child -> supervisor). A step is
 one byte each way: its times are in the shared *control block*, and its port values in the
 shared *data block* behind it, so isolation costs a pipe round trip per step, not a copy of
-every value through a pipe. Rare requests (instantiate, setup, produce, terminate) and their
-answers are length-prefixed pickles of our own plain data between our own processes.
+every value through a pipe. Rare requests (instantiate, setup, produce, terminate) are
+length-prefixed pickles: the child trusts its supervisor. The child's answers are **JSON**,
+bounded in size and checked field by field before use: the child runs a model that may be
+hostile, which can write to the reply pipe and the shared block, and must not be able to make
+the supervisor run code (a pickle could) or read outside the block (see :func:`parse_layout`).
 
 The control block also holds the *phase* the child is in (an index into the labels it
 reported), written before every part of a step, so that when the model kills its process the
@@ -14,11 +17,13 @@ supervisor can say which FMI function it died in.
 from __future__ import annotations
 
 import ctypes
+import json
 import mmap
 import os
 import pickle
 import struct
 from dataclasses import dataclass
+from typing import Any
 
 import numpy as np
 import numpy.typing as npt
@@ -47,6 +52,16 @@ FIXED_PHASES = (
 
 _LENGTH = struct.Struct("<I")
 _PHASE_OFFSET = 16
+
+#: The largest reply the supervisor reads (a layout of thousands of ports fits easily).
+MAX_REPLY_BYTES = 1 << 20
+
+#: Element types a port slot may have (numpy kinds: float, signed, unsigned, bool).
+_SLOT_KINDS = frozenset("fiub")
+
+
+class MalformedReplyError(Exception):
+    """The child's answer is not what the protocol allows (a broken or hostile model)."""
 
 
 @dataclass(frozen=True, slots=True)
@@ -103,16 +118,91 @@ def read_exact(fd: int, size: int) -> bytes | None:
 
 
 def send(fd: int, tag: bytes, payload: object) -> None:
-    """One tagged message with a pickled payload."""
+    """One tagged command with a pickled payload (supervisor -> child only)."""
     data = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
     write_all(fd, tag + _LENGTH.pack(len(data)) + data)
 
 
 def receive_payload(fd: int) -> object | None:
-    """The payload after a tag (None if the pipe closed before it was complete)."""
+    """A command's payload after its tag (None if the pipe closed first); child side only."""
+    data = _framed(fd, None)
+    return None if data is None else pickle.loads(data)
+
+
+def reply(fd: int, tag: bytes, payload: Any) -> None:
+    """One tagged reply with a JSON payload (child -> supervisor)."""
+    data = json.dumps(payload).encode()
+    write_all(fd, tag + _LENGTH.pack(len(data)) + data)
+
+
+def receive_reply(fd: int) -> Any:
+    """A reply's JSON payload after its tag; None if the pipe closed first.
+
+    Raises MalformedReplyError for a reply too large or not JSON.
+    """
+    data = _framed(fd, MAX_REPLY_BYTES)
+    if data is None:
+        return None
+    try:
+        return json.loads(data)
+    except ValueError:
+        raise MalformedReplyError("a reply that is not JSON") from None
+
+
+def _framed(fd: int, limit: int | None) -> bytes | None:
     header = read_exact(fd, _LENGTH.size)
     if header is None:
         return None
     (size,) = _LENGTH.unpack(header)
-    data = read_exact(fd, size)
-    return None if data is None else pickle.loads(data)
+    if limit is not None and size > limit:
+        raise MalformedReplyError(f"a reply of {size} bytes (at most {limit})")
+    return read_exact(fd, size)
+
+
+def layout_document(layout: Layout) -> dict[str, Any]:
+    """The JSON form of a layout (the child's answer to setup)."""
+    return {
+        "slots": [[s.port, s.is_input, s.dtype, s.offset, s.count] for s in layout.slots],
+        "size": layout.size,
+        "lazy_outputs": sorted(layout.lazy_outputs),
+        "step_labels": list(layout.step_labels),
+    }
+
+
+def parse_layout(document: Any, ports: frozenset[str], available: int) -> Layout:
+    """A layout from the child's JSON, checked: known ports, numeric types, every slot inside
+    the ``available`` bytes of the data block (so no view can reach outside the mapping)."""
+    try:
+        slots = []
+        for port, is_input, dtype, offset, count in document["slots"]:
+            if port not in ports or not isinstance(is_input, bool):
+                raise MalformedReplyError(f"a slot for an unknown port {port!r}")
+            element = np.dtype(str(dtype))
+            numbers = (offset, count)
+            if element.kind not in _SLOT_KINDS or element.itemsize > 8:
+                raise MalformedReplyError(f"a slot of type {dtype!r}")
+            if not all(isinstance(n, int) and not isinstance(n, bool) for n in numbers):
+                raise MalformedReplyError("a slot with a non-integer offset or count")
+            if offset < 0 or count < 0 or offset + count * element.itemsize > available:
+                raise MalformedReplyError(f"a slot outside the shared block ({port!r})")
+            slots.append(Slot(port, is_input, element.str, offset, count))
+        size = document["size"]
+        lazy = frozenset(str(p) for p in document["lazy_outputs"]) & ports
+        labels = tuple(str(label)[:200] for label in document["step_labels"][:16])
+    except (KeyError, TypeError, ValueError) as exc:
+        raise MalformedReplyError(f"a malformed layout ({exc})") from None
+    if not isinstance(size, int) or not 0 <= size <= available:
+        raise MalformedReplyError("a layout larger than the shared block")
+    return Layout(tuple(slots), size, lazy, labels)
+
+
+def parse_error(document: Any) -> tuple[str, str | None, float | None]:
+    """(message, port, time) of an error reply, checked and bounded."""
+    try:
+        message, port, time = document
+    except (TypeError, ValueError):
+        raise MalformedReplyError("a malformed error reply") from None
+    text = str(message)[:2000]
+    where = port if isinstance(port, str) else None
+    when = float(time) if isinstance(time, (int, float)) and not isinstance(time, bool) else None
+    return text, where, when

@@ -17,6 +17,7 @@ the last completed step, and the child's temporary folder is removed whatever ha
 from __future__ import annotations
 
 import contextlib
+import fcntl
 import mmap
 import os
 import select
@@ -36,7 +37,7 @@ from fmionnx.core.runner import Buffer, Wiring, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Component
 from fmionnx.runtime.isolated import channel
-from fmionnx.runtime.isolated.channel import Control, Layout
+from fmionnx.runtime.isolated.channel import Control
 
 #: Seconds a child gets to terminate its model and exit before it is killed.
 TERMINATE_GRACE = 5.0
@@ -51,11 +52,20 @@ class IsolationSettings:
 
 
 def _memory_file(name: str) -> int:
-    """An anonymous shared file: nothing on disk to leak, whatever way the run ends."""
+    """An anonymous shared file of :data:`~.channel.CONTROL_SIZE` bytes that cannot shrink.
+
+    Nothing on disk to leak, whatever way the run ends. The child may grow it (it sizes the
+    data block) but never shrink it: memory the supervisor has mapped always stays backed, so
+    a hostile model cannot make the supervisor fault by truncating the file.
+    """
     if hasattr(os, "memfd_create"):
-        return os.memfd_create(f"fmionnx-{name}", 0)
+        handle = os.memfd_create(f"fmionnx-{name}", os.MFD_ALLOW_SEALING)
+        os.ftruncate(handle, channel.CONTROL_SIZE)
+        fcntl.fcntl(handle, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SHRINK)
+        return handle
     handle, path = tempfile.mkstemp(prefix="fmionnx-shm-")
     Path(path).unlink()
+    os.ftruncate(handle, channel.CONTROL_SIZE)
     return handle
 
 
@@ -92,7 +102,6 @@ class IsolatedRunner:
         command_read, command_write = os.pipe()
         reply_read, reply_write = os.pipe()
         self._shared = _memory_file(name)
-        os.ftruncate(self._shared, channel.CONTROL_SIZE)
         self._tmp = make_scratch(f"isolated-{name}")
         env = dict(os.environ, TMPDIR=str(self._tmp))
         argv = [sys.executable, "-m", "fmionnx.runtime.isolated.child"]
@@ -120,8 +129,13 @@ class IsolatedRunner:
         self._time = start
         self._await_answer()  # instantiate
         self._request("setup", start, stop)
-        layout = self._await_answer()
-        assert isinstance(layout, Layout)
+        document = self._await_answer()
+        available = os.fstat(self._shared).st_size - channel.CONTROL_SIZE
+        ports = frozenset(p.name for p in self.component.interface.ports)
+        try:
+            layout = channel.parse_layout(document, ports, available)
+        except channel.MalformedReplyError as exc:
+            self._malformed(str(exc))
         self._data = mmap.mmap(self._shared, max(layout.size, 8), offset=channel.CONTROL_SIZE)
         for slot in layout.slots:
             self._buffers[(slot.port, slot.is_input)] = channel.view(self._data, slot)
@@ -202,13 +216,27 @@ class IsolatedRunner:
         if tag is None:
             self._died(t, h)
         is_request = self._pending.popleft()
-        if tag == channel.OK:
-            return channel.receive_payload(self._replies) if is_request else None
-        payload = channel.receive_payload(self._replies)
-        if not isinstance(payload, tuple):
-            self._died(t, h)
-        message, port, time = payload
-        raise RunError(str(message), component=self.component.name, port=port, time=time)
+        if tag not in (channel.OK, channel.ERROR):
+            self._malformed(f"an unknown reply {tag!r}")
+        try:
+            if tag == channel.OK:
+                return channel.receive_reply(self._replies) if is_request else None
+            message, port, time = channel.parse_error(channel.receive_reply(self._replies))
+        except channel.MalformedReplyError as exc:
+            self._malformed(str(exc))
+        raise RunError(message, component=self.component.name, port=port, time=time)
+
+    def _malformed(self, problem: str) -> NoReturn:
+        """The child broke the protocol (a hostile or corrupted model): stop it, fault."""
+        self._dead = True
+        if self._process is not None:
+            self._process.kill()
+            self._process.wait()
+        raise fault(
+            self.component.name,
+            f"its process sent {problem} in {self._phase_label()}; the process was stopped",
+            time=self._time,
+        )
 
     def _ready(self, seconds: float) -> bool:
         poller = select.poll()

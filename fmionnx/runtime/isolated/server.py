@@ -53,14 +53,16 @@ class Child:
                     return
                 name, args = cast(tuple[str, tuple[Any, ...]], request)
                 answer = getattr(self, f"do_{name}")(*args)
-                channel.send(self.replies, channel.OK, answer)
+                if isinstance(answer, Layout):
+                    answer = channel.layout_document(answer)
+                channel.reply(self.replies, channel.OK, answer)
                 if name == "terminate":
                     return
             except RunError as exc:
-                channel.send(self.replies, channel.ERROR, (str(exc), exc.port, exc.time))
+                channel.reply(self.replies, channel.ERROR, [str(exc), exc.port, exc.time])
             except Exception as exc:
                 detail = "".join(traceback.format_exception_only(exc)).strip()
-                channel.send(self.replies, channel.ERROR, (detail, None, None))
+                channel.reply(self.replies, channel.ERROR, [detail, None, None])
 
     def step(self) -> None:
         t, h = float(self.control.times[0]), float(self.control.times[1])
