@@ -115,6 +115,9 @@ class IsolatedRunner:
                 stdin=subprocess.DEVNULL,
                 env=env,
             )
+        except OSError as exc:  # no process to be had (limits, memory): a fault, not a crash
+            self._dead = True
+            raise fault(name, f"could not start its isolated process: {exc}", time=0.0) from None
         finally:
             os.close(command_read)
             os.close(reply_write)
