@@ -140,10 +140,14 @@ def _corners(
     ]
 
 
-def _to_world(data: Any, geom: int, point: tuple[float, float, float]) -> tuple[float, float, float]:
+def _to_world(
+    data: Any, geom: int, point: tuple[float, float, float]
+) -> tuple[float, float, float]:
     rotation = data.geom_xmat[geom].reshape(3, 3)
     position = data.geom_xpos[geom]
-    x, y, z = (float(position[r] + sum(rotation[r][c] * point[c] for c in range(3))) for r in range(3))
+    x, y, z = (
+        float(position[r] + sum(rotation[r][c] * point[c] for c in range(3))) for r in range(3)
+    )
     return (x, y, z)
 
 
