@@ -24,7 +24,7 @@ from typing import Any
 from fmionnx.compile.ir import CompiledSystem, Plot, Series, plot_file_problem
 from fmionnx.compile.plotfiles import derived_stem, unique_name, with_suffix
 from fmionnx.core.safewrite import write_bytes_atomic
-from fmionnx.results.scenedraw import draw_scene
+from fmionnx.results.scenedraw import SITE_LAYER, draw_scene
 from fmionnx.runtime.result import RunResult
 
 LOG = logging.getLogger("fmionnx.results")
@@ -120,8 +120,9 @@ def draw_xy(axes: Any, plot: Plot, result: RunResult) -> None:
     if x_axis is not None and y_axis is not None and not missing:
         x, y = result.signals[x_axis.columns[0]], result.signals[y_axis.columns[0]]
         axes.plot(x, y, color="tab:blue", lw=1.5, label="simulated", zorder=3)
-        axes.plot(x[:1], y[:1], "o", color="tab:green", label="start", zorder=3)
-        axes.plot(x[-1:], y[-1:], "s", color="tab:red", label="end", zorder=3)
+        # start and end above the sites' markers: a run starts at A, inside its circle
+        axes.plot(x[:1], y[:1], "o", color="tab:green", label="start", zorder=SITE_LAYER + 1)
+        axes.plot(x[-1:], y[-1:], "s", color="tab:red", label="end", zorder=SITE_LAYER + 1)
     _note_missing(axes, missing)
     axes.set_xlabel(x_axis.label if x_axis is not None else (plot.xy or ("x", "y"))[0])
     axes.set_ylabel(y_axis.label if y_axis is not None else (plot.xy or ("x", "y"))[1])
