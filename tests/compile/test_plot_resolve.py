@@ -8,7 +8,9 @@ from __future__ import annotations
 
 from pathlib import Path
 
+import onnx
 import pytest
+from onnx import TensorProto, helper
 
 from fmionnx import api
 from fmionnx.compile.expected_path import read_expected_path
@@ -167,3 +169,49 @@ def test_a_signal_an_xy_axis_cannot_draw_is_e046_at_its_place(
     assert [d.code for d in errors] == ["E046"]
     assert why in errors[0].message
     assert (errors[0].span.line, errors[0].span.col) == (9, 19)  # type: ignore[union-attr]
+
+
+def _wide_model(path: Path) -> Path:
+    """An ONNX model with a ``[1,100]`` input and an input of symbolic size ``[N]``."""
+    graph = helper.make_graph(
+        [
+            helper.make_node("Identity", ["wide"], ["wide_out"]),
+            helper.make_node("Identity", ["free"], ["free_out"]),
+        ],
+        "wide",
+        [
+            helper.make_tensor_value_info("wide", TensorProto.FLOAT, [1, 100]),
+            helper.make_tensor_value_info("free", TensorProto.FLOAT, ["N"]),
+        ],
+        [
+            helper.make_tensor_value_info("wide_out", TensorProto.FLOAT, [1, 100]),
+            helper.make_tensor_value_info("free_out", TensorProto.FLOAT, ["N"]),
+        ],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 8
+    onnx.checker.check_model(model)
+    onnx.save(model, path)
+    return path
+
+
+@pytest.mark.parametrize(
+    ("signal", "why"),
+    [
+        ("net.wide_out", "`net.wide_out` has 100 elements; a time plot draws at most 64 lines"),
+        ("net.free_out", "`net.free_out` has a size known only at run time ([N])"),
+    ],
+)
+def test_a_signal_a_time_plot_cannot_draw_is_e046(tmp_path: Path, signal: str, why: str) -> None:
+    model = _wide_model(tmp_path / "wide.onnx")
+    path = tmp_path / "wide.yaml"
+    path.write_text(
+        "fmionnx: 1\nname: wide\nrun: {stop: 1, step: 0.1}\ncomponents:\n"
+        f"  net: {{kind: onnx, path: {model}}}\nplots:\n  - {{y: ['net.wide_out[0,3]', {signal}]}}\n",
+        encoding="utf-8",
+    )
+    result = api.compile_system(path)
+    errors = [d for d in result.diagnostics if d.code.startswith("E")]
+    assert [d.code for d in errors] == ["E046"], [str(d) for d in errors]
+    assert why in errors[0].message
+    assert (errors[0].span.line, errors[0].span.col) == (7, 31)  # type: ignore[union-attr]
