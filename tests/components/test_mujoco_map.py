@@ -8,6 +8,7 @@ from pathlib import Path
 import pytest
 
 from fmionnx.kinds.base import MAP, MapSource, SceneMap
+from fmionnx.kinds.mujoco import scenemap
 from fmionnx.kinds.mujoco.scenemap import convex_hull
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from tests.conftest import REPO
@@ -105,3 +106,15 @@ def test_convex_hull_drops_inner_and_collinear_points() -> None:
     square = [(0.0, 0.0), (1.0, 0.0), (1.0, 1.0), (0.0, 1.0)]
     assert convex_hull([*square, (0.5, 0.5), (0.5, 0.0), (0.0, 0.0)]) == square
     assert convex_hull([(0.0, 0.0), (1.0, 1.0)]) == [(0.0, 0.0), (1.0, 1.0)]
+
+
+def test_a_map_keeps_the_largest_shapes_when_a_scene_has_too_many(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(scenemap, "MAX_SHAPES", 2)
+    scene = tmp_path / "scene.xml"
+    scene.write_text(SCENE, encoding="utf-8")
+    kept = _kind().scene_map(scene).shapes
+    # ball 0.79 m2 and crate 0.5 m2 stay; plank 0.4 m2 and pillar 0.28 m2 go
+    assert [s.name for s in kept] == ["crate", "ball"]
+    assert scenemap.area(((0.0, 0.0), (2.0, 0.0), (2.0, 1.0), (0.0, 1.0))) == 2.0

@@ -29,6 +29,10 @@ VISIBLE_GROUPS = range(3)
 CIRCLE_POINTS = 24
 #: Decimal places kept (metres): micrometres.
 DIGITS = 6
+#: Most shapes a map keeps (the largest footprints): a map travels in the compiled system,
+#: whose file size is bounded, and a scene of thousands of small static parts (a voxel
+#: terrain) would not make a readable map anyway.
+MAX_SHAPES = 2000
 #: MuJoCo's default geom colour: a geom with a material and this colour shows the material's.
 _DEFAULT_RGBA = (0.5, 0.5, 0.5, 1.0)
 
@@ -60,6 +64,9 @@ def read_scene_map(path: Path) -> SceneMap:
             continue
         top = round(max(z for _, _, z in points), DIGITS)
         shapes.append(MapShape(name, tuple(outline), _geom_rgba(model, i), top))
+    if len(shapes) > MAX_SHAPES:
+        largest = sorted(shapes, key=lambda shape: -area(shape.outline))[:MAX_SHAPES]
+        shapes = [shape for shape in shapes if shape in largest]  # scene order kept
     shapes.sort(key=lambda shape: shape.top)  # stable: scene order among equal heights
     return SceneMap(tuple(sites), tuple(shapes))
 
@@ -172,3 +179,11 @@ def convex_hull(points: list[tuple[float, float]]) -> list[tuple[float, float]]:
             upper.pop()
         upper.append(point)
     return lower[:-1] + upper[:-1]
+
+
+def area(outline: tuple[tuple[float, float], ...]) -> float:
+    """The area enclosed by a polygon (shoelace formula), in square metres."""
+    total = 0.0
+    for (x1, y1), (x2, y2) in zip(outline, outline[1:] + outline[:1], strict=True):
+        total += x1 * y2 - x2 * y1
+    return abs(total) / 2
