@@ -34,6 +34,7 @@ def parse_pairs(items: list[str], option: str) -> dict[str, str]:
     "  fmionnx run systems/sign_follower.yaml --stop-time 10 --param tracker.turnRate=0.6\n\n"
     "  fmionnx run model.fmu --stop-time 5 --step 0.01 --interface me --out out/model\n\n"
     "  fmionnx run model.fmu -p k=2                      # a single FMU: bare variable names\n\n"
+    "  fmionnx run model.fmu --plot                      # and signals.png of its outputs\n\n"
     "  fmionnx run detector.onnx --input image=frame.npy --out out/detector\n\n"
     "  fmionnx run systems/sign_follower.yaml --backend ros2 --sync lockstep --out out/ros2",
 )
@@ -204,6 +205,14 @@ def run(
             "--max-steps", help="Refuse runs of more base steps than this (default 10^10)."
         ),
     ] = MAX_RUN_STEPS,
+    plot: Annotated[
+        bool,
+        typer.Option(
+            "--plot",
+            help="Also draw every recorded signal over time into signals.png in the results "
+            "folder (one panel per port, labelled with its unit); any run, a single FMU too.",
+        ),
+    ] = False,
 ) -> None:
     """Run a system in-process or as ROS 2 nodes (--backend ros2), or a single FMU / ONNX model.
 
@@ -219,6 +228,9 @@ def run(
         raise fail("--input applies to a single .onnx model only")
     if out is not None and no_out:
         raise fail("--out and --no-out exclude each other")
+    if plot and (no_out or suffix == ".onnx"):
+        raise fail("--plot draws the recorded signals into the results folder: not with "
+                   "--no-out or a single ONNX model (one call, no signals over time)")  # fmt: skip
     if out is not None:
         _check_out(out, force=force, system_run=suffix != ".onnx")
     if record is not None:
@@ -237,6 +249,7 @@ def run(
         sandbox=sandbox,
         step_timeout=step_timeout,
         checkpoint_every=checkpoint_every,
+        plot_signals=plot,
     )
     from fmionnx.runtime.stopping import exit_code, stop_on_signals, stop_reason
 
@@ -260,6 +273,7 @@ def run(
                 max_steps=max_steps,
                 safety=safety,
                 evaluate=checks,
+                plot_signals=plot,
             )
     except KeyboardInterrupt as exc:
         reason = stop_reason(exc)
@@ -372,6 +386,7 @@ def _run_system(
     max_steps: int = MAX_RUN_STEPS,
     safety: RunSafety | None = None,
     evaluate: bool = True,
+    plot_signals: bool = False,
 ) -> int:
     import dataclasses
 
@@ -445,7 +460,13 @@ def _run_system(
         from fmionnx.results import write_results
 
         files[:0] = write_results(
-            result, system.compiled, out, aliases=dict(system.aliases), also=files, checks=checks
+            result,
+            system.compiled,
+            out,
+            aliases=dict(system.aliases),
+            also=files,
+            checks=checks,
+            plot_signals=plot_signals,
         )
     if not quiet:
         _summary(console, result, files)

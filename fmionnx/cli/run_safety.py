@@ -32,6 +32,7 @@ class RunSafety:
     sandbox: bool = False
     step_timeout: float | None = 60.0
     checkpoint_every: float = CHECKPOINT_EVERY
+    plot_signals: bool = False
 
     def options(self, options: Any, system: Any, out: Path | None, console: Any) -> Any:
         """``options`` with isolation, the step timeout and the checkpoint/abandon writers."""
@@ -58,7 +59,9 @@ class RunSafety:
             if out is not None:
                 from fmionnx.results import write_results
 
-                write_results(result, compiled, out, aliases=aliases)
+                write_results(
+                    result, compiled, out, aliases=aliases, plot_signals=self.plot_signals
+                )
             console.print(f"[bold red]fault:[/] {result.error}")
             if out is not None:
                 print(f"Results: {out}")

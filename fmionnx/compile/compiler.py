@@ -7,7 +7,6 @@ cannot continue for one component or connection skips just that item.
 from __future__ import annotations
 
 import dataclasses
-import re
 from collections import defaultdict
 
 from fmionnx.compile.checks import compile_checks
@@ -16,9 +15,9 @@ from fmionnx.compile.endpoints import (
     resolve_endpoint,
     split_endpoint,
 )
-from fmionnx.compile.expected_path import expected_path_file
 from fmionnx.compile.graph import execution_order, find_algebraic_loops
-from fmionnx.compile.ir import CompiledSystem, Connection, Plot, plot_file_problem
+from fmionnx.compile.ir import CompiledSystem, Connection
+from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
@@ -99,7 +98,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             notes=[Note("part of the loop", s) for s in spans[1:]],
         )
     record = _refs(spec.record or [], "record", by_name, sources, bag)
-    plots = _plots(spec, by_name, sources, bag)
+    plots = compile_plots(spec, by_name, sources, bag)
     checks = compile_checks(spec.checks, by_name, sources, bag)
     if run is None or bag.has_errors:
         return None
@@ -373,58 +372,3 @@ def _refs(
         if resolved is not None:
             refs.append(resolved.ref)
     return refs
-
-
-def _plots(
-    spec: SystemSpec, components: dict[str, Component], sources: SourceMap, bag: DiagnosticBag
-) -> tuple[Plot, ...]:
-    """Check every plot entry and resolve it: signals to ports (E045 at the signal that does
-    not resolve), the file name, the reference path next to the owning component's model."""
-    interfaces: dict[str, ComponentInterface | None] = {
-        n: c.interface for n, c in components.items()
-    }
-    plots = []
-    for index, plot in enumerate(spec.plots):
-        signals = list(plot.xy or ()) + list(plot.y or ())
-        key = "xy" if plot.xy else "y"
-        refs = []
-        for position, text in enumerate(signals):
-            span = sources.value(("plots", index, key, position))
-            scratch = DiagnosticBag()
-            resolved = resolve_endpoint(text, span, interfaces, scratch)
-            if resolved is None:
-                for diagnostic in scratch:
-                    bag.emit("E045", f"plot: {diagnostic.message}", span, hint=diagnostic.hint)
-            else:
-                refs.append(resolved.ref)
-        if plot.file is not None and (problem := plot_file_problem(plot.file)) is not None:
-            bag.emit(
-                "E045",
-                f"plot file `{plot.file}`: {problem}",
-                sources.value(("plots", index, "file")),
-                hint="give a name such as `trajectory.png`; `--out` chooses the folder",
-            )
-        reference = None
-        if plot.over is not None:
-            owner = plot.over.rsplit(".", 1)[0]
-            if owner not in components:
-                bag.emit(
-                    "E045",
-                    f"plot reference `{plot.over}` names no component",
-                    sources.value(("plots", index, "over")),
-                    hint="write `<mujoco component>.expected_path`",
-                )
-            else:
-                reference = expected_path_file(components[owner].path)
-        texts = tuple(re.sub(r"\s+", "", t) for t in signals)
-        plots.append(
-            Plot(
-                xy=(texts[0], texts[1]) if plot.xy is not None else None,
-                y=texts if plot.xy is None else (),
-                refs=tuple(refs),
-                reference=reference,
-                title=plot.title,
-                file=plot.file,
-            )
-        )
-    return tuple(plots)

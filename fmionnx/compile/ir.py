@@ -26,6 +26,7 @@ from fmionnx.core.types import (
     Port,
     PortRef,
 )
+from fmionnx.kinds.base import SceneMap
 
 if TYPE_CHECKING:
     from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
@@ -99,17 +100,41 @@ def plot_file_problem(name: str) -> str | None:
 
 
 @dataclass(frozen=True, slots=True)
+class Series:
+    """One signal a plot draws, resolved: as written, its results columns, its unit.
+
+    ``columns`` are the results columns the signal fills: one for a scalar, an element or a
+    ``[1]``-shaped port, one per element of an array (a line each in a time plot).
+    """
+
+    signal: str
+    columns: tuple[str, ...]
+    unit: str | None = None
+
+    @property
+    def label(self) -> str:
+        """``odometry.posX [m]``: the signal with its declared unit, for axes and legends."""
+        return f"{self.signal} [{self.unit}]" if self.unit else self.signal
+
+
+@dataclass(frozen=True, slots=True)
 class Plot:
     """A plot ``run`` draws, resolved: an x-y trajectory (``xy``) or signals over time (``y``).
 
-    ``xy``/``y`` are the signals' column names; ``refs`` the ports they read (recorded so that
-    they can be drawn); ``reference`` the expected-path file drawn underneath, if any.
+    ``xy``/``y`` are the signals as written; ``series`` the same signals resolved to results
+    columns and units; ``refs`` the ports they read (recorded so that they can be drawn).
+    What an xy plot draws underneath is resolved too, so that drawing needs no model file:
+    ``path`` the expected path's points, ``scene`` the map of the component's world (its sites
+    and fixed shapes). ``file`` is the image's name inside the output folder, always set by
+    the compiler (given, or derived from the title).
     """
 
     xy: tuple[str, str] | None = None
     y: tuple[str, ...] = ()
     refs: tuple[PortRef, ...] = ()
-    reference: Path | None = None
+    series: tuple[Series, ...] = ()
+    path: tuple[tuple[float, float], ...] = ()
+    scene: SceneMap | None = None
     title: str | None = None
     file: str | None = None
 

@@ -39,7 +39,7 @@ from fmionnx.kinds.registry import COMPONENT_KINDS, config_type
 
 #: The ``format`` of a compiled-system file, and the versions this release reads.
 FORMAT = "fmionnx-compiled-system"
-VERSION = 1
+VERSION = 2
 #: File name suffix used by ``fmionnx compile`` and the ROS 2 supervisor.
 SUFFIX = ".fmionnx.json"
 #: A model's content hash as the model store names its folder.

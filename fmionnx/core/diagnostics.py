@@ -233,7 +233,21 @@ CODES: dict[str, ErrorCode] = _codes(
         "parameter",
         "A value set on a variable that may not be set.",
     ),
-    ErrorCode("E045", "plot", _E, "run", "A plot names a signal that does not exist."),
+    ErrorCode(
+        "E045",
+        "plot",
+        _E,
+        "run",
+        "A plot names a signal, reference or file that does not exist or is not allowed.",
+    ),
+    ErrorCode(
+        "E046",
+        "plot-signal",
+        _E,
+        "run",
+        "A plotted signal that cannot be drawn: an image, a string, a parameter, an array "
+        "on an xy axis.",
+    ),
     ErrorCode(
         "W040", "long-run", _W, "run", "A run of more than 10^8 base steps (it may take hours)."
     ),

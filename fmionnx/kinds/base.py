@@ -33,6 +33,10 @@ MODEL_FOLDER = "model-folder"
 #: The model names fixed points of its world (MuJoCo sites) that checks measure distances to
 #: (``distance(..., to=world.site.B)``): the kind implements :class:`SiteSource`.
 SITES = "sites"
+#: The model has a map: its fixed landmarks seen from above (named sites, visible static
+#: shapes in their colours), which trajectory plots draw underneath: the kind implements
+#: :class:`MapSource`.
+MAP = "map"
 
 
 @dataclass(frozen=True, slots=True)
@@ -63,6 +67,56 @@ class SiteSource(Protocol):
 
     def sites(self, path: Path) -> Mapping[str, Site]:
         """The named sites of the model at ``path`` (raises ModelError when unreadable)."""
+        ...
+
+
+#: A colour as red, green, blue, alpha, each from 0 to 1 (MuJoCo's ``rgba``).
+Rgba = tuple[float, float, float, float]
+
+
+@dataclass(frozen=True, slots=True)
+class MapSite:
+    """A named fixed point of a model's world on the ground plane (metres): ``A``, ``B``."""
+
+    name: str
+    x: float
+    y: float
+    rgba: Rgba
+
+
+@dataclass(frozen=True, slots=True)
+class MapShape:
+    """A fixed, visible part of a model's world seen from above: a sign board, a wall.
+
+    ``outline`` is its footprint on the ground plane, a convex polygon (counter-clockwise,
+    metres); ``top`` its highest point, so that what stands higher is drawn over what it
+    hides, as seen from above.
+    """
+
+    name: str
+    outline: tuple[tuple[float, float], ...]
+    rgba: Rgba
+    top: float
+
+
+@dataclass(frozen=True, slots=True)
+class SceneMap:
+    """The fixed landmarks of a model's world, as a plot draws them under a trajectory.
+
+    Plain numbers only: it is resolved at compile time and kept in the compiled system, so
+    that drawing a plot needs neither the model file nor the kind's library.
+    """
+
+    sites: tuple[MapSite, ...] = ()
+    shapes: tuple[MapShape, ...] = ()
+
+
+@runtime_checkable
+class MapSource(Protocol):
+    """A kind whose models have a map (declared by the :data:`MAP` capability)."""
+
+    def scene_map(self, path: Path) -> SceneMap:
+        """The map of the model at ``path`` (raises ModelError when unreadable)."""
         ...
 
 

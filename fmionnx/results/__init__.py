@@ -24,6 +24,7 @@ def write_results(
     also: list[Path] | None = None,
     checks: Sequence[CheckOutcome] | None = None,
     checkpoint: bool = False,
+    plot_signals: bool = False,
 ) -> list[Path]:
     """Write results.csv, the system's plots and run.json into ``out``; returns the files.
 
@@ -33,6 +34,9 @@ def write_results(
     ``checkpoint=True`` writes the results so far while a run goes on (so that a run killed
     outright loses only its last seconds): results.csv and run.json only; plots cost more
     than the data, and checks judge a whole run, so both are left to the final write.
+
+    ``plot_signals=True`` (``run --plot``) also draws every recorded signal into
+    ``signals.png`` (:mod:`fmionnx.results.signals_plot`).
 
     ``run.json`` is written last and lists every file of the run (``also``: files written
     by others, e.g. ``--record`` into ``out``), so the next run into ``out`` knows which
@@ -48,7 +52,13 @@ def write_results(
     previous = previous_run(out)
     files = [write_csv(result, out / "results.csv", aliases=aliases)]
     if not checkpoint:
-        files.extend(write_plots(result, system, out))
+        plots = write_plots(result, system, out)
+        files.extend(plots)
+        if plot_signals:
+            from fmionnx.results.signals_plot import write_signals_plot
+
+            taken = {p.name for p in plots}
+            files.extend(write_signals_plot(result, system, out, aliases=aliases, taken=taken))
     path = out / RUN_JSON
     listed = [*files, *(also or []), path]
     names = [name for p in listed if (name := relative_name(p, out)) is not None]

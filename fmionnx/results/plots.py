@@ -1,113 +1,201 @@
-"""Plots a system file asks for, drawn with matplotlib's Agg backend (no display needed).
+"""The plots a system file asks for, drawn from the compiled system and the recorded signals.
 
-``xy`` plots draw one signal against another (a trajectory, like the paper's Figure 16/17);
-``over: world.expected_path`` draws the reference path underneath: the file
-``<scene stem>.path.csv`` (columns ``x,y``) next to the MuJoCo scene of component ``world``.
-``y`` plots draw signals over time.
+Everything a plot needs was resolved at compile time (:class:`~fmionnx.compile.ir.Plot`):
+the results columns and unit of every signal, the expected path's points, the map of the
+scene, the file name. Drawing reads no model file and knows no component kind.
+
+* An ``xy`` plot draws one signal against the other over the scene's map (shapes in their
+  colours, sites named) and the expected path, with axes labelled ``odometry.posX [m]``.
+* A ``y`` plot draws signals over time, one panel per unit (a panel's y axis has one unit),
+  each labelled with its signals and unit.
+
+Figures are made with matplotlib's object API (no pyplot state, no display) and written
+atomically inside the output folder. A signal that was not recorded in this run (the Python
+API can choose what to record) is named on the figure and logged, never silently missing.
 """
 
 from __future__ import annotations
 
 import io
-import re
+import logging
 from pathlib import Path
 from typing import Any
 
-import numpy as np
-import numpy.typing as npt
-
-from fmionnx.compile.ir import CompiledSystem, Plot, plot_file_problem
+from fmionnx.compile.ir import CompiledSystem, Plot, Series, plot_file_problem
+from fmionnx.compile.plotfiles import derived_stem, unique_name, with_suffix
 from fmionnx.core.safewrite import write_bytes_atomic
+from fmionnx.results.scenedraw import SITE_LAYER, draw_scene
 from fmionnx.runtime.result import RunResult
 
-
-def read_path(path: Path) -> npt.NDArray[np.float64]:
-    """An ``x,y`` path file as an ``(n, 2)`` array (header line required)."""
-    with path.open(encoding="utf-8") as stream:
-        header = [h.strip() for h in stream.readline().split(",")]
-        data = np.loadtxt(stream, delimiter=",", ndmin=2)
-    return np.asarray(data[:, [header.index("x"), header.index("y")]], dtype=np.float64)
-
-
-def signal_column(text: str) -> str:
-    """The results column of a signal reference (``a.b[1,2]`` keeps its flat index form)."""
-    return re.sub(r"\s+", "", text)
-
-
-def _file_name(index: int, plot: Plot, signals: list[str]) -> str:
-    """``file`` when given; ``trajectory.png`` for an xy plot over a path; else derived.
-
-    A ``file`` that is not a plain name (only a hand-edited compiled system can carry one: the
-    compiler refuses it, E045) is ignored for the derived name, so nothing is written outside
-    the output folder.
-    """
-    if plot.file and plot_file_problem(plot.file) is None:
-        given = str(plot.file)
-        return given if given.endswith((".png", ".svg", ".pdf")) else given + ".png"
-    if plot.xy is not None and plot.reference is not None:
-        stem = "trajectory" if index == 0 else f"trajectory{index}"
-    elif plot.xy is not None:
-        stem = f"{signals[1]}_vs_{signals[0]}"
-    else:
-        stem = f"plot{index}"
-    return re.sub(r"[^\w.\[\]-]+", "_", stem) + ".png"
+LOG = logging.getLogger("fmionnx.results")
+#: Inches: an xy plot is about square, a time plot wide; each extra panel adds height.
+XY_SIZE = (7.0, 6.5)
+TIME_WIDTH, PANEL_HEIGHT = 9.0, 2.6
+DPI = 120
 
 
 def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Path]:
-    """Draw every plot of ``system``; a signal that was not recorded is skipped with a note."""
-    if not system.plots:
-        return []
-    import matplotlib as mpl
-
-    mpl.use("Agg")
-    import matplotlib.pyplot as plt
-
+    """Draw every plot of ``system`` into ``out``; returns the files written."""
     written = []
-    for index, plot in enumerate(system.plots):
-        figure, axes = plt.subplots(figsize=(7, 6) if plot.xy else (9, 4.5))
-        try:
-            if plot.xy is not None:
-                _xy(axes, result, plot)
-                signals = list(plot.xy)
-            else:
-                signals = list(plot.y)
-                _over_time(axes, result, signals)
-            if plot.title:
-                axes.set_title(plot.title)
-            path = out / _file_name(index, plot, signals)
-            figure.tight_layout()
-            image = io.BytesIO()  # drawn in memory, then written atomically (no planted link)
-            figure.savefig(image, dpi=120, format=path.suffix.lstrip(".") or "png")
-            write_bytes_atomic(path, image.getvalue())
-            written.append(path)
-        finally:
-            plt.close(figure)
+    for plot, name in zip(system.plots, plot_file_names(system.plots), strict=True):
+        figure = new_figure(plot)
+        draw_plot(figure, plot, result)
+        written.append(save_figure(figure, out / name))
     return written
 
 
-def _xy(axes: Any, result: RunResult, plot: Plot) -> None:
-    assert plot.xy is not None
-    x_name, y_name = (signal_column(s) for s in plot.xy)
-    if plot.reference is not None and plot.reference.is_file():
-        path = read_path(plot.reference)
-        axes.plot(path[:, 0], path[:, 1], "--", color="goldenrod", lw=2, label="expected path")
-    if x_name in result.signals and y_name in result.signals:
-        x, y = result.signals[x_name], result.signals[y_name]
-        axes.plot(x, y, color="tab:blue", lw=1.5, label="simulated")
-        axes.plot(x[:1], y[:1], "o", color="tab:green", label="start")
-        axes.plot(x[-1:], y[-1:], "s", color="tab:red", label="end")
-    axes.set_xlabel(x_name)
-    axes.set_ylabel(y_name)
+def plot_file_names(plots: tuple[Plot, ...]) -> list[str]:
+    """Each plot's file name: the compiled one, made plain and unique once more.
+
+    The compiler has settled the names; a hand-edited compiled system may still carry one
+    that is not a plain name (it is replaced by a derived one, so nothing is written outside
+    the output folder) or the same name twice (the second gets ``-2``).
+    """
+    taken: set[str] = set()
+    names = []
+    for plot in plots:
+        if plot.file and plot_file_problem(plot.file) is None:
+            name = with_suffix(plot.file)
+            if name not in taken:
+                taken.add(name)
+                names.append(name)
+                continue
+            stem, _, suffix = name.rpartition(".")
+            names.append(unique_name(stem, taken, "." + suffix))
+            continue
+        stem = derived_stem(plot.title, plot.xy, plot.y, over=bool(plot.path or plot.scene))
+        names.append(unique_name(stem, taken))
+    return names
+
+
+def new_figure(plot: Plot) -> Any:
+    """An empty matplotlib Figure sized for ``plot``."""
+    from matplotlib.figure import Figure
+
+    if plot.xy is not None:
+        return Figure(figsize=XY_SIZE, dpi=DPI)
+    panels = len(unit_groups(series_of(plot)))
+    return Figure(figsize=(TIME_WIDTH, 1.4 + PANEL_HEIGHT * max(panels, 1)), dpi=DPI)
+
+
+def save_figure(figure: Any, path: Path) -> Path:
+    """Write ``figure`` to ``path`` (format from the suffix), atomically: drawn in memory, then
+    renamed into place, so a link planted at the name is replaced, not written through."""
+    figure.tight_layout()
+    image = io.BytesIO()
+    figure.savefig(image, format=path.suffix.lstrip(".") or "png")
+    write_bytes_atomic(path, image.getvalue())
+    return path
+
+
+def draw_plot(figure: Any, plot: Plot, result: RunResult) -> None:
+    """Draw ``plot`` of ``result`` on an empty ``figure``."""
+    if plot.xy is not None:
+        axes = figure.subplots()
+        draw_xy(axes, plot, result)
+        if plot.title:
+            axes.set_title(plot.title)
+    else:
+        draw_over_time(figure, plot, result)
+
+
+def series_of(plot: Plot) -> tuple[Series, ...]:
+    """The plot's resolved series; for a compiled system without them (made by hand), each
+    signal as its own column, without a unit."""
+    if plot.series:
+        return plot.series
+    return tuple(Series(s, (s,)) for s in (plot.xy or plot.y))
+
+
+def draw_xy(axes: Any, plot: Plot, result: RunResult) -> None:
+    """A trajectory: y against x over the scene's map and the expected path."""
+    if plot.scene is not None:
+        draw_scene(axes, plot.scene)
+    if plot.path:
+        xs, ys = zip(*plot.path, strict=True)
+        axes.plot(xs, ys, "--", color="goldenrod", lw=2, label="expected path", zorder=2)
+    series = series_of(plot)
+    x_axis, y_axis = (series[0], series[1]) if len(series) == 2 else (None, None)
+    missing = [s for s in series if not _present(s, result)]
+    if x_axis is not None and y_axis is not None and not missing:
+        x, y = result.signals[x_axis.columns[0]], result.signals[y_axis.columns[0]]
+        axes.plot(x, y, color="tab:blue", lw=1.5, label="simulated", zorder=3)
+        # start and end above the sites' markers: a run starts at A, inside its circle
+        axes.plot(x[:1], y[:1], "o", color="tab:green", label="start", zorder=SITE_LAYER + 1)
+        axes.plot(x[-1:], y[-1:], "s", color="tab:red", label="end", zorder=SITE_LAYER + 1)
+    _note_missing(axes, missing)
+    axes.set_xlabel(x_axis.label if x_axis is not None else (plot.xy or ("x", "y"))[0])
+    axes.set_ylabel(y_axis.label if y_axis is not None else (plot.xy or ("x", "y"))[1])
     axes.set_aspect("equal", adjustable="datalim")
     axes.grid(visible=True, alpha=0.3)
-    axes.legend(loc="best")
+    if axes.get_legend_handles_labels()[0]:
+        axes.legend(loc="best")
 
 
-def _over_time(axes: Any, result: RunResult, signals: list[str]) -> None:
-    for text in signals:
-        name = signal_column(text)
-        if name in result.signals:
-            axes.plot(result.time, result.signals[name], label=name)
-    axes.set_xlabel("time [s]")
+def unit_groups(series: tuple[Series, ...]) -> list[tuple[str | None, list[Series]]]:
+    """Series grouped by unit, in order of first appearance (one panel each)."""
+    groups: dict[str | None, list[Series]] = {}
+    for item in series:
+        groups.setdefault(item.unit, []).append(item)
+    return list(groups.items())
+
+
+def draw_over_time(figure: Any, plot: Plot, result: RunResult) -> None:
+    """Signals over time: one panel per unit, stacked, sharing the time axis."""
+    groups = unit_groups(series_of(plot))
+    panels = figure.subplots(max(len(groups), 1), 1, sharex=True, squeeze=False)[:, 0]
+    for axes, (unit, members) in zip(panels, groups, strict=False):
+        draw_panel(axes, result, members, unit)
+    panels[-1].set_xlabel("time [s]")
+    if plot.title:
+        panels[0].set_title(plot.title)
+
+
+def draw_panel(axes: Any, result: RunResult, members: list[Series], unit: str | None) -> None:
+    """One panel: every column of ``members`` over time, the y axis named by them and
+    ``unit``; a legend when it holds more than one line."""
+    missing = []
+    lines = 0
+    for item in members:
+        present = [c for c in item.columns if c in result.signals]
+        if not present:
+            missing.append(item)
+            continue
+        for column in present:
+            label = item.label if len(item.columns) == 1 else _element_label(item, column)
+            axes.plot(result.time, result.signals[column], label=label)
+            lines += 1
+    _note_missing(axes, missing)
+    names = ", ".join(item.signal for item in members)
+    axes.set_ylabel(f"{names} [{unit}]" if unit else names)
     axes.grid(visible=True, alpha=0.3)
-    axes.legend(loc="best")
+    if lines > 1:
+        axes.legend(loc="best", fontsize="small")
+
+
+def _element_label(item: Series, column: str) -> str:
+    """``detector.blobX[2] [px]``: one element's line of an array signal."""
+    element = column[column.rfind("[") :] if column.endswith("]") else ""
+    return f"{item.signal}{element} [{item.unit}]" if item.unit else f"{item.signal}{element}"
+
+
+def _present(item: Series, result: RunResult) -> bool:
+    return bool(item.columns) and all(c in result.signals for c in item.columns)
+
+
+def _note_missing(axes: Any, missing: list[Series]) -> None:
+    """Name the signals this run did not record, on the figure and in the log."""
+    if not missing:
+        return
+    names = ", ".join(f"`{item.signal}`" for item in missing)
+    LOG.warning("plot: %s not recorded in this run; drawn without it", names)
+    axes.text(
+        0.5,
+        0.5,
+        f"not recorded in this run: {names}",
+        transform=axes.transAxes,
+        ha="center",
+        va="center",
+        color="tab:red",
+        gid="not recorded",
+    )

@@ -28,7 +28,8 @@ from dataclasses import dataclass
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
-from fmionnx.core.types import Causality, Component, DType, Port, PortRef, flat_index
+from fmionnx.core.signals import column_names, is_image
+from fmionnx.core.types import Causality, Component, PortRef, flat_index
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
@@ -40,21 +41,6 @@ from fmionnx.runtime.watchdog import Watchdog
 MAX_TABLE = 100_000
 
 BACKEND_NAME = "inprocess"
-
-
-def is_image(port: Port) -> bool:
-    """Camera-like ports (``uint8[H,W,C]``) never go to results.csv."""
-    return port.dtype is DType.UINT8 and len(port.shape) >= 2
-
-
-def column_names(component: str, port: Port, index: tuple[int, ...] | None = None) -> list[str]:
-    """``comp.port`` for a scalar, ``comp.port[i]`` (flat, 0-based) per element of an array."""
-    if index is not None:
-        return [f"{component}.{port.name}[{flat_index(port, index)}]"]
-    if port.is_scalar:
-        return [f"{component}.{port.name}"]
-    size = port.size or 1
-    return [f"{component}.{port.name}[{i}]" for i in range(size)]
 
 
 def default_record(system: CompiledSystem) -> tuple[PortRef, ...]:

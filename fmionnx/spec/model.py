@@ -90,14 +90,19 @@ class PlotSpec(StrictModel):
     y: list[str] | None = Field(default=None, description="Signals plotted over time.")
     over: str | None = Field(
         default=None,
-        description="Reference drawn underneath, e.g. `world.expected_path` (a path file "
-        "next to the component's model).",
+        description="What an xy plot draws underneath: `world.expected_path` (the path file "
+        "next to the component's model, over its map when it has one) or `world.map` (the "
+        "scene's fixed landmarks: sites, walls, sign boards in their colours).",
     )
-    title: str | None = None
+    title: str | None = Field(
+        default=None,
+        description="Title of the figure; the file is named after it (`Trajectory A -> B`: "
+        "`trajectory-a-b.png`).",
+    )
     file: str | None = Field(
         default=None,
         description="Output file name inside the output folder, a plain name without folders "
-        "(default: derived).",
+        "(default: derived from the title, else from the signals).",
     )
 
     @model_validator(mode="after")

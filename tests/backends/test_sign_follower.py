@@ -9,8 +9,8 @@ import numpy as np
 import pytest
 
 import fmionnx
+from fmionnx.compile.expected_path import read_expected_path
 from fmionnx.results.csvfile import write_csv
-from fmionnx.results.plots import read_path
 from fmionnx.runtime.checks import evaluate_checks
 from fmionnx.runtime.result import RunStatus
 from tests.conftest import REPO, built_model
@@ -44,7 +44,7 @@ def test_robot_reaches_b_within_half_a_metre_and_stops(run_result) -> None:
 
 
 def test_robot_path_stays_within_30_cm_of_the_expected_path(run_result) -> None:
-    path = read_path(REPO / "models" / "world" / "sign_course.path.csv")
+    path = np.array(read_expected_path(REPO / "models" / "world" / "sign_course.path.csv"))
     points = np.column_stack([run_result["odometry.posX"], run_result["odometry.posY"]])
     assert distance_to_polyline(points, path).max() < 0.3
     # every corner of the expected path is passed (every turn was taken)
@@ -72,6 +72,6 @@ def test_the_reference_system_states_its_own_checks_and_they_hold(run_result) ->
     measured = {o.name: o.value for o in outcomes}
     end = np.array([run_result["odometry.posX"][-1], run_result["odometry.posY"][-1]])
     assert measured["reaches B"] == pytest.approx(np.linalg.norm(end - GOAL_B), abs=1e-9)
-    path = read_path(REPO / "models" / "world" / "sign_course.path.csv")
+    path = np.array(read_expected_path(REPO / "models" / "world" / "sign_course.path.csv"))
     points = np.column_stack([run_result["odometry.posX"], run_result["odometry.posY"]])
     assert measured["stays on the path"] == pytest.approx(distance_to_polyline(points, path).max())

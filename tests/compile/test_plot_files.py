@@ -9,6 +9,8 @@ import pytest
 
 import fmionnx
 from fmionnx import api
+from fmionnx.compile.ir import plot_file_problem
+from fmionnx.compile.plotfiles import slug, unique_name
 from fmionnx.results import write_results
 from tests.conftest import build_fixture_fmu
 
@@ -63,3 +65,37 @@ def test_a_hand_edited_compiled_system_cannot_write_a_plot_outside(tmp_path: Pat
     assert not (tmp_path / "escape.png").exists()
     pngs = [p for p in written if p.suffix == ".png"]
     assert [p.parent for p in pngs] == [out]
+
+
+@pytest.mark.parametrize(
+    ("title", "name"),
+    [
+        ("Trajectory A -> B", "trajectory-a-b"),
+        ("  Velocity  commands (v, w)  ", "velocity-commands-v-w"),
+        ("Étape ../../etc/passwd", "tape-etc-passwd"),
+        ("->", "plot"),
+        ("x" * 100, "x" * 60),
+    ],
+)
+def test_a_title_becomes_a_plain_file_stem(title: str, name: str) -> None:
+    assert slug(title) == name
+    assert plot_file_problem(name + ".png") is None
+
+
+def test_derived_names_are_unique_and_never_the_signals_figure() -> None:
+    taken: set[str] = {"trajectory.png"}
+    assert [unique_name(s, taken) for s in ("trajectory", "trajectory", "signals")] == [
+        "trajectory-2.png",
+        "trajectory-3.png",
+        "signals-2.png",
+    ]
+
+
+def test_a_hand_edited_compiled_system_with_one_file_twice_writes_two(tmp_path: Path) -> None:
+    system = fmionnx.load(_system(tmp_path, "gain.png"))
+    plot = system.compiled.plots[0]
+    compiled = dataclasses.replace(system.compiled, plots=(plot, plot))
+    out = tmp_path / "out"
+    out.mkdir()
+    written = write_results(system.run(), compiled, out)
+    assert sorted(p.name for p in written if p.suffix == ".png") == ["gain-2.png", "gain.png"]

@@ -54,7 +54,7 @@ def test_the_reference_system_reads_back_equal(reference: CompiledSystem) -> Non
 def test_the_file_names_its_format_version_and_every_model_hash(reference: CompiledSystem) -> None:
     document = json.loads(to_json(reference))
     assert document["format"] == "fmionnx-compiled-system"
-    assert document["version"] == 1
+    assert document["version"] == 2
     assert document["content_hash"] == reference.content_hash
     assert document["models"] == {c.name: c.interface.content_hash for c in reference.components}
     configs = {c["name"]: c["config"]["kind"] for c in document["system"]["components"]}

@@ -25,7 +25,7 @@ from typer.testing import CliRunner
 
 import fmionnx
 from fmionnx.cli.app import app
-from fmionnx.results.plots import read_path
+from fmionnx.compile.expected_path import read_expected_path
 from fmionnx.runtime.result import RunStatus
 from tests.backends.test_sign_follower import GOAL_B, distance_to_polyline
 from tests.conftest import REPO, built_model
@@ -226,7 +226,7 @@ def test_sign_follower_with_the_fmi3_tracker_reaches_b(fmi3_run: Any) -> None:
     end = np.array([fmi3_run["odometry.posX"][-1], fmi3_run["odometry.posY"][-1]])
     assert np.linalg.norm(end - GOAL_B) < 0.5
     assert fmi3_run["tracker.v"][-1] == 0.0
-    path = read_path(REPO / "models" / "world" / "sign_course.path.csv")
+    path = np.array(read_expected_path(REPO / "models" / "world" / "sign_course.path.csv"))
     points = np.column_stack([fmi3_run["odometry.posX"], fmi3_run["odometry.posY"]])
     assert distance_to_polyline(points, path).max() < 0.3
     for corner in path[1:-1]:

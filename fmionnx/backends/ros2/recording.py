@@ -23,8 +23,9 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Runner
 from fmionnx.core.safewrite import write_bytes_atomic, write_text_atomic
+from fmionnx.core.signals import column_names, is_image
 from fmionnx.core.types import Causality, PortRef, flat_index
-from fmionnx.runtime.master import column_names, default_record, is_image, required_refs
+from fmionnx.runtime.master import default_record, required_refs
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import RunOptions
 

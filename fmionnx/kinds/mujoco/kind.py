@@ -13,12 +13,14 @@ from fmionnx.core.specbase import ComponentSpecBase, StrictModel
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
 from fmionnx.kinds.base import (
     CAMERA,
+    MAP,
     MODEL_FOLDER,
     SIMULATOR,
     SITES,
     Display,
     KindProblem,
     RoleDefault,
+    SceneMap,
     Site,
 )
 
@@ -81,7 +83,7 @@ class MujocoKind:
     suffixes = (".xml", ".mjcf", ".mjb")
     summary = "MuJoCo physics scene (sensors, actuators, cameras)"
     mime_type = "application/x-mujoco+xml"
-    capabilities = frozenset({SIMULATOR, CAMERA, MODEL_FOLDER, SITES})
+    capabilities = frozenset({SIMULATOR, CAMERA, MODEL_FOLDER, SITES, MAP})
     libraries = ("mujoco",)
     display = Display(
         "MuJoCo",
@@ -134,6 +136,12 @@ class MujocoKind:
         from fmionnx.kinds.mujoco.sites import read_sites
 
         return read_sites(path)
+
+    def scene_map(self, path: Path) -> SceneMap:
+        """The scene's fixed landmarks seen from above: what trajectory plots draw underneath."""
+        from fmionnx.kinds.mujoco.scenemap import read_scene_map
+
+        return read_scene_map(path)
 
 
 MUJOCO_KIND = MujocoKind()

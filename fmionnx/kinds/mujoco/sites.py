@@ -30,7 +30,7 @@ def read_sites(path: Path) -> dict[str, Site]:
             continue
         x, y, z = (float(v) for v in data.site_xpos[i])
         body = int(model.site_bodyid[i])
-        mover = _moving_body(model, body)
+        mover = moving_body(model, body)
         moves_with = None
         if mover is not None:
             moves_with = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_BODY, mover) or f"#{mover}"
@@ -38,7 +38,7 @@ def read_sites(path: Path) -> dict[str, Site]:
     return sites
 
 
-def _moving_body(model: Any, body: int) -> int | None:
+def moving_body(model: Any, body: int) -> int | None:
     """The body that makes ``body`` move (itself or an ancestor), or None when it is fixed."""
     if int(model.body_weldid[body]) != 0:  # a joint between it and the world
         return body

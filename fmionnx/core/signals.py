@@ -1,0 +1,25 @@
+"""How a port becomes recorded signals: the results columns it fills, and which ports fill none.
+
+The recorder (runtime), the plots resolved at compile time and the results writers must agree
+on one naming, so it lives here, below all of them: ``comp.port`` for a scalar,
+``comp.port[i]`` (flat, 0-based) per element of an array.
+"""
+
+from __future__ import annotations
+
+from fmionnx.core.types import DType, Port, flat_index
+
+
+def is_image(port: Port) -> bool:
+    """Camera-like ports (``uint8[H,W,C]``) never go to results.csv."""
+    return port.dtype is DType.UINT8 and len(port.shape) >= 2
+
+
+def column_names(component: str, port: Port, index: tuple[int, ...] | None = None) -> list[str]:
+    """``comp.port`` for a scalar, ``comp.port[i]`` (flat, 0-based) per element of an array."""
+    if index is not None:
+        return [f"{component}.{port.name}[{flat_index(port, index)}]"]
+    if port.is_scalar:
+        return [f"{component}.{port.name}"]
+    size = port.size or 1
+    return [f"{component}.{port.name}[{i}]" for i in range(size)]
