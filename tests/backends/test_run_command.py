@@ -89,13 +89,17 @@ def test_ctrl_c_stops_cleanly_writes_results_and_exits_130(
 ) -> None:
     system = write_system(CHAIN.format(stop=100000, gain=fixture_fmu("Gain")))
     out = tmp_path / "out"
-    process = _cli("run", str(system), "--out", str(out))
+    process = _cli("run", str(system), "--out", str(out), "--checkpoint-every", "0")
     assert process.stderr is not None
     line = process.stderr.readline()
     while line and not line.startswith("running chain"):
         line = process.stderr.readline()
     assert line.startswith("running chain")
-    time.sleep(1.0)
+    deadline = time.monotonic() + 60
+    while time.monotonic() < deadline:  # a checkpoint after some steps: the loop is running
+        time.sleep(0.1)
+        if (out / "run.json").exists() and json.loads((out / "run.json").read_text())["steps"]:
+            break
     process.send_signal(signal.SIGINT)
     stdout, stderr = process.communicate(timeout=60)
     assert process.returncode == 130, stderr
