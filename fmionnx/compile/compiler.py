@@ -9,6 +9,7 @@ from __future__ import annotations
 import dataclasses
 import re
 from collections import defaultdict
+from dataclasses import dataclass
 
 from fmionnx.compile.checks import compile_checks
 from fmionnx.compile.endpoints import (
@@ -21,8 +22,9 @@ from fmionnx.compile.graph import execution_order, find_algebraic_loops
 from fmionnx.compile.ir import CompiledSystem, Connection, Plot, plot_file_problem
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.ros2.settings import ros2_settings
-from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
-from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
+from fmionnx.compile.unitcheck import check_units
+from fmionnx.core.diagnostics import DiagnosticBag, Note, Severity, Span
 from fmionnx.core.sourcetext import source_lines
 from fmionnx.core.steps import count_problem
 from fmionnx.core.types import (
@@ -167,9 +169,19 @@ def _check_period(
     return steps
 
 
+@dataclass(frozen=True, slots=True)
+class _Transformation:
+    """What a connection entry asks for beyond its ends: ``factor*x+offset`` and whether units
+    are converted automatically (see :mod:`fmionnx.compile.unitcheck`)."""
+
+    factor: float = 1.0
+    offset: float = 0.0
+    convert_units: bool = True
+
+
 def _connection_texts(
     index: int, entry: str | ConnectionSpec, sources: SourceMap
-) -> tuple[str, Span, str, Span, float, float] | None:
+) -> tuple[str, Span, str, Span, _Transformation] | None:
     span = sources.value(("connections", index))
     if isinstance(entry, ConnectionSpec):
         return (
@@ -177,8 +189,7 @@ def _connection_texts(
             sources.value(("connections", index, "from")),
             entry.to,
             sources.value(("connections", index, "to")),
-            entry.factor,
-            entry.offset,
+            _Transformation(entry.factor, entry.offset, entry.convert_units),
         )
     parts = split_connection(entry)
     if parts is None:
@@ -192,7 +203,7 @@ def _connection_texts(
     left_span = (
         Span(span.file, span.line, span.col + quoted + entry.find(left)) if span.col else span
     )
-    return left, left_span, right, right_span, 1.0, 0.0
+    return left, left_span, right, right_span, _Transformation()
 
 
 def _starts_quoted(span: Span) -> bool:
@@ -227,7 +238,7 @@ def _connections(
                 hint="write `source.port -> target.port`",
             )
             continue
-        left, left_span, right, right_span, factor, offset = texts
+        left, left_span, right, right_span, transformation = texts
         src = resolve_endpoint(left, left_span, interfaces, bag)
         dst = resolve_endpoint(right, right_span, interfaces, bag)
         for end in (src, dst):
@@ -239,7 +250,7 @@ def _connections(
                 mentioned.add((parts[0], ""))
         if src is None or dst is None:
             continue
-        connection = _check_connection(src, dst, span, factor, offset, bag)
+        connection = _check_connection(src, dst, span, transformation, bag)
         if connection is not None:
             result.append(connection)
     return result
@@ -249,8 +260,7 @@ def _check_connection(
     src: ResolvedEndpoint,
     dst: ResolvedEndpoint,
     span: Span,
-    factor: float,
-    offset: float,
+    transformation: _Transformation,
     bag: DiagnosticBag,
 ) -> Connection | None:
     if src.ref.component == dst.ref.component and src.ref.port == dst.ref.port:
@@ -259,11 +269,32 @@ def _check_connection(
     ok = check_causality(src, dst, span, bag)
     ok = check_dtype(src, dst, span, bag) and ok
     size = check_count(src, dst, span, bag)
-    converted = factor != 1.0 or offset != 0.0
-    ok = check_unit(src, dst, span, bag, converted=converted) and ok
-    if not ok or size is None:
+    # A connection that is wrong anyway gets its unit errors, but no notes about conversions.
+    found = DiagnosticBag()
+    transform = check_units(
+        src,
+        dst,
+        span,
+        found,
+        factor=transformation.factor,
+        offset=transformation.offset,
+        convert=transformation.convert_units,
+    )
+    usable = ok and size is not None
+    bag.extend(d for d in found if usable or d.severity is not Severity.INFO)
+    if not usable or size is None or transform is None:
         return None
-    return Connection(src.ref, dst.ref, src.port, dst.port, size, factor, offset, span)
+    return Connection(
+        src.ref,
+        dst.ref,
+        src.port,
+        dst.port,
+        size,
+        transform.factor,
+        transform.offset,
+        span,
+        units=transform.units,
+    )
 
 
 def _covered(connection: Connection) -> set[int] | None:

@@ -13,6 +13,10 @@ Rules (documented in ``docs/components.md``):
   the structural parameter it references) and keep their single value reference. The element
   count is checked against :data:`fmionnx.core.resources.ARRAY_ELEMENTS` before anything is
   sized from it (E008): a few bytes of XML can declare an array of 10^9 elements.
+* Units: a variable's ``unit`` (or its declared type's) names a ``<UnitDefinitions>`` entry;
+  its ``<BaseUnit>`` (SI exponents, factor, offset; the same element and attributes in FMI 2
+  and 3) becomes the port's unit definition. A unit without ``<BaseUnit>`` is not related to
+  SI and stays a name. ``relativeQuantity`` (the variable's, else its type's) is kept.
 * ``depends_on`` of an output lists the input ports it depends on per ``<ModelStructure>``;
   it is None (unknown) when the output is not listed or has no ``dependencies`` attribute.
 """
@@ -30,6 +34,7 @@ from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.resources import ARRAY_ELEMENTS
 from fmionnx.core.types import Causality, DType, Port, Scalar
+from fmionnx.core.units import BASE_UNITS, Unit
 
 #: FMI type name -> element type. FMI 2 enumerations are read with ``fmi2GetInteger`` (int32),
 #: FMI 3 enumerations with ``fmi3GetInt64``; see :func:`dtype_of`.
@@ -81,15 +86,43 @@ class _Scalarish:
     start: tuple[Scalar, ...] | None
     vrs: tuple[int, ...]
     line: int
+    unit_definition: Unit | None = None
+    relative_quantity: bool = False
+
+
+def unit_definitions(model_description: Any) -> dict[str, Unit]:
+    """The model's units that relate to SI (those with a ``<BaseUnit>``), by name."""
+    units: dict[str, Unit] = {}
+    for unit in getattr(model_description, "unitDefinitions", None) or ():
+        base = unit.baseUnit
+        if unit.name is None or base is None:
+            continue
+        exponents = tuple(int(getattr(base, name, 0) or 0) for name in BASE_UNITS)
+        factor = float(base.factor if base.factor is not None else 1.0)
+        offset = float(base.offset if base.offset is not None else 0.0)
+        if factor == 0.0 or not (math.isfinite(factor) and math.isfinite(offset)):
+            continue  # no usable definition: the name alone is compared
+        units[str(unit.name)] = Unit(str(unit.name), exponents, factor, offset)
+    return units
+
+
+def _relative(variable: Any) -> bool:
+    """FMI ``relativeQuantity`` of the variable, else of its declared type."""
+    own = getattr(variable, "relativeQuantity", None)
+    if own is not None:
+        return bool(own)
+    declared = variable.declaredType
+    return bool(getattr(declared, "relativeQuantity", False)) if declared is not None else False
 
 
 def ports_from_model_description(model_description: Any, xml_file: Path) -> tuple[Port, ...]:
     """Every port of the model, in declaration order (a group sits at its first element)."""
     major = int(str(model_description.fmiVersion).split(".")[0])
+    units = unit_definitions(model_description)
     records = [
         record
         for variable in model_description.modelVariables
-        if (record := _record(variable, major, xml_file)) is not None
+        if (record := _record(variable, major, xml_file, units)) is not None
     ]
     groups = _groups(records) if major == 2 else {}
     port_name = {id(r.variable): r.name for r in records}
@@ -113,7 +146,9 @@ def ports_from_model_description(model_description: Any, xml_file: Path) -> tupl
     return tuple(ports)
 
 
-def _record(variable: Any, major: int, xml_file: Path) -> _Scalarish | None:
+def _record(
+    variable: Any, major: int, xml_file: Path, units: dict[str, Unit]
+) -> _Scalarish | None:
     if variable.causality not in PORT_CAUSALITIES or getattr(variable, "alias", None) is not None:
         return None
     dtype = dtype_of(variable.type, major)
@@ -136,6 +171,8 @@ def _record(variable: Any, major: int, xml_file: Path) -> _Scalarish | None:
         start=start,
         vrs=(int(variable.valueReference),),
         line=line,
+        unit_definition=units.get(unit) if unit is not None else None,
+        relative_quantity=_relative(variable),
     )
 
 
@@ -220,8 +257,14 @@ def _is_full_box(indices: list[tuple[int, ...]]) -> bool:
 def _uniform(members: list[_Scalarish]) -> bool:
     first = members[0]
     return all(
-        (m.dtype, m.causality, m.variable.variability, m.unit)
-        == (first.dtype, first.causality, first.variable.variability, first.unit)
+        (m.dtype, m.causality, m.variable.variability, m.unit, m.relative_quantity)
+        == (
+            first.dtype,
+            first.causality,
+            first.variable.variability,
+            first.unit,
+            first.relative_quantity,
+        )
         for m in members
     )
 
@@ -274,4 +317,6 @@ def _port(
         depends_on=depends_on,
         vrs=tuple(itertools.chain.from_iterable(m.vrs for m in members)),
         origin=Span(xml_file, first.line),
+        unit_definition=first.unit_definition,
+        relative_quantity=first.relative_quantity,
     )
