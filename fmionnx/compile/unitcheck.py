@@ -90,9 +90,9 @@ def check_units(
     if not convert:
         bag.emit(
             "I033",
-            f"`{src.ref}` is in `{a}` and `{dst.ref}` in `{b}`{same_name}; units are not "
-            f"converted (conversion suppressed), the connection applies "
-            f"{linear_text(factor, offset)}",
+            f"`{src.ref}` is in `{a}` and `{dst.ref}` in `{b}`{same_name}; no automatic "
+            f"conversion (`convert_units: false`): the connection's {linear_text(factor, offset)} "
+            "is the whole transformation",
             span,
         )
         return given
@@ -132,7 +132,7 @@ def _different_quantities(
         how = (
             f"only the connection's {linear_text(given.factor, given.offset)} is applied"
             if why == "explicit"
-            else "values pass without conversion (conversion suppressed)"
+            else "values pass without automatic conversion (`convert_units: false`)"
         )
         bag.emit(
             "W033",

@@ -106,23 +106,51 @@ def unit_definitions(model_description: Any) -> dict[str, Unit]:
     return units
 
 
-def _relative(variable: Any) -> bool:
+def relative_flags(root: Any) -> dict[str, bool]:
+    """``relativeQuantity`` as each variable writes it, by name (absent: not listed).
+
+    Read from the XML itself: fmpy reads the attribute on type definitions but not on
+    variables (it looks for it among the element's children).
+    """
+    flags: dict[str, bool] = {}
+    variables = root.find("ModelVariables")
+    for variable in variables if variables is not None else ():
+        if not isinstance(variable.tag, str):
+            continue  # a comment
+        name = variable.get("name")
+        holder = variable
+        if variable.tag == "ScalarVariable":  # FMI 2: on the type element inside
+            holder = next((c for c in variable if isinstance(c.tag, str)), None)
+        text = holder.get("relativeQuantity") if holder is not None else None
+        if name is not None and text is not None:
+            flags[name] = text in ("true", "1")
+    return flags
+
+
+def _relative(variable: Any, flags: dict[str, bool]) -> bool:
     """FMI ``relativeQuantity`` of the variable, else of its declared type."""
-    own = getattr(variable, "relativeQuantity", None)
+    own = flags.get(str(variable.name))
     if own is not None:
-        return bool(own)
+        return own
     declared = variable.declaredType
     return bool(getattr(declared, "relativeQuantity", False)) if declared is not None else False
 
 
-def ports_from_model_description(model_description: Any, xml_file: Path) -> tuple[Port, ...]:
-    """Every port of the model, in declaration order (a group sits at its first element)."""
+def ports_from_model_description(
+    model_description: Any, xml_file: Path, root: Any = None
+) -> tuple[Port, ...]:
+    """Every port of the model, in declaration order (a group sits at its first element).
+
+    ``root`` is the parsed XML of the same description, for what fmpy does not read
+    (:func:`relative_flags`); without it, only type definitions mark relative quantities.
+    """
     major = int(str(model_description.fmiVersion).split(".")[0])
     units = unit_definitions(model_description)
+    flags = relative_flags(root) if root is not None else {}
     records = [
         record
         for variable in model_description.modelVariables
-        if (record := _record(variable, major, xml_file, units)) is not None
+        if (record := _record(variable, major, xml_file, (units, flags))) is not None
     ]
     groups = _groups(records) if major == 2 else {}
     port_name = {id(r.variable): r.name for r in records}
@@ -147,7 +175,7 @@ def ports_from_model_description(model_description: Any, xml_file: Path) -> tupl
 
 
 def _record(
-    variable: Any, major: int, xml_file: Path, units: dict[str, Unit]
+    variable: Any, major: int, xml_file: Path, unit_facts: tuple[dict[str, Unit], dict[str, bool]]
 ) -> _Scalarish | None:
     if variable.causality not in PORT_CAUSALITIES or getattr(variable, "alias", None) is not None:
         return None
@@ -171,8 +199,8 @@ def _record(
         start=start,
         vrs=(int(variable.valueReference),),
         line=line,
-        unit_definition=units.get(unit) if unit is not None else None,
-        relative_quantity=_relative(variable),
+        unit_definition=unit_facts[0].get(unit) if unit is not None else None,
+        relative_quantity=_relative(variable, unit_facts[1]),
     )
 
 
