@@ -14,9 +14,13 @@ from typer.testing import CliRunner
 
 from fmionnx import api
 from fmionnx.cli.app import app
+from fmionnx.compile.endpoints import ResolvedEndpoint
 from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.compile.systemfile import from_json, to_json
-from fmionnx.core.units import UnitConversion
+from fmionnx.compile.unitcheck import Transform, check_units
+from fmionnx.core.diagnostics import DiagnosticBag, Span
+from fmionnx.core.types import Causality, DType, Port, PortRef
+from fmionnx.core.units import UnitConversion, builtin_unit
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "units.txt"
 PORTS = "abcdefgh"
@@ -176,3 +180,70 @@ def test_onnx_units_naming_no_port_is_e018(tmp_path: Path) -> None:
     assert "no port `x_z`" in found[0].message
     assert found[0].span is not None
     assert found[0].span.line == 17
+
+
+def _end(
+    component: str, unit: str | None, *, relative: bool = False, definition: bool = True
+) -> ResolvedEndpoint:
+    port = Port(
+        "p",
+        Causality.OUTPUT if component == "a" else Causality.INPUT,
+        DType.FLOAT64,
+        unit=unit,
+        unit_definition=builtin_unit(unit) if definition else None,
+        relative_quantity=relative,
+    )
+    return ResolvedEndpoint(PortRef(component, "p"), port, 1)
+
+
+def _check(
+    src: ResolvedEndpoint, dst: ResolvedEndpoint, factor: float = 1.0
+) -> tuple[Transform | None, list[tuple[str, str]]]:
+    bag = DiagnosticBag()
+    transform = check_units(src, dst, Span(Path("s.yaml"), 1, 1), bag, factor=factor)
+    return transform, [(d.code, d.message) for d in bag]
+
+
+def test_a_relative_quantity_on_either_end_converts_without_offset() -> None:
+    for src_relative, dst_relative in ((True, False), (False, True), (True, True)):
+        transform, found = _check(
+            _end("a", "degC", relative=src_relative), _end("b", "K", relative=dst_relative)
+        )
+        assert transform is not None
+        assert (transform.factor, transform.offset) == (1.0, 0.0)
+        assert [code for code, _ in found] == []  # nothing is converted: no note
+    transform, found = _check(_end("a", "degF", relative=True), _end("b", "K"))
+    assert transform is not None
+    assert transform.factor == pytest.approx(5.0 / 9.0)
+    assert transform.offset == 0.0
+    assert "relative quantity: offsets ignored" in found[0][1]
+
+
+def test_names_without_definitions_compare_as_text() -> None:
+    same, found = _check(_end("a", "px", definition=False), _end("b", "px", definition=False))
+    assert same is not None
+    assert found == []
+    _, found = _check(_end("a", "px", definition=False), _end("b", "m"))
+    assert [code for code, _ in found] == ["E033"]
+    explicit, found = _check(_end("a", "px", definition=False), _end("b", "m"), factor=0.001)
+    assert explicit is not None
+    assert (explicit.factor, found) == (0.001, [])
+
+
+def test_an_explicit_factor_that_repeats_the_conversion_warns() -> None:
+    transform, found = _check(_end("a", "km/h"), _end("b", "m/s"), factor=1 / 3.6)
+    assert transform is not None
+    assert sorted(code for code, _ in found) == ["I033", "W033"]
+    assert transform.factor == pytest.approx(1 / 3.6**2)
+
+
+def test_a_port_without_unit_connects_to_anything() -> None:
+    for src, dst in ((_end("a", None), _end("b", "m")), (_end("a", "m"), _end("b", None))):
+        transform, found = _check(src, dst)
+        assert transform is not None
+        assert (transform.units, transform.factor, transform.offset, found) == (
+            None,
+            1.0,
+            0.0,
+            [],
+        )
