@@ -247,3 +247,11 @@ def test_a_port_without_unit_connects_to_anything() -> None:
             0.0,
             [],
         )
+
+
+def test_the_graph_labels_an_edge_with_its_unit_conversion(tmp_path: Path) -> None:
+    from fmionnx.export.graph import to_dot
+
+    dot = to_dot(_compiled(tmp_path))
+    assert "speed → x_a (km/h → m/s)" in dot
+    assert "bare → x_e\\l" in dot  # no unit, no conversion: the label is unchanged
