@@ -20,7 +20,7 @@ from fmionnx.compile.systemfile import from_json, to_json
 from fmionnx.compile.unitcheck import Transform, check_units
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.types import Causality, DType, Port, PortRef
-from fmionnx.core.units import UnitConversion, builtin_unit
+from fmionnx.core.units import Unit, UnitConversion, builtin_unit
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "units.txt"
 PORTS = "abcdefgh"
@@ -255,3 +255,22 @@ def test_the_graph_labels_an_edge_with_its_unit_conversion(tmp_path: Path) -> No
     dot = to_dot(_compiled(tmp_path))
     assert "speed → x_a (km/h → m/s)" in dot
     assert "bare → x_e\\l" in dot  # no unit, no conversion: the label is unchanged
+
+
+def test_equal_names_with_different_definitions_convert_by_definition() -> None:
+    supplier = _end("a", "m")
+    odd = Port(
+        "p",
+        Causality.OUTPUT,
+        DType.FLOAT64,
+        unit="m",
+        unit_definition=Unit("m", supplier.port.unit_definition.exponents, 0.001),  # type: ignore[union-attr]
+    )
+    transform, found = _check(ResolvedEndpoint(PortRef("a", "p"), odd, 1), _end("b", "m"))
+    assert transform is not None
+    assert transform.factor == pytest.approx(0.001)
+    assert [code for code, _ in found] == ["I033"]
+    assert "same name, different definitions" in found[0][1]
+    # Equal definitions under different names convert nothing and say nothing.
+    transform, found = _check(_end("a", "N.m"), _end("b", "J"))
+    assert (transform, found) == (Transform(None, 1.0, 0.0), [])
