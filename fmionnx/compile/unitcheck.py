@@ -106,7 +106,8 @@ def check_units(
         )
     total = compose((units.factor, units.offset), (factor, offset))
     then = f"; with the connection's factor/offset: {linear_text(*total)}" if explicit else ""
-    kind = " (relative quantity: offsets ignored)" if relative and first.offset != second.offset else ""
+    differ = first.offset != second.offset
+    kind = " (relative quantity: offsets ignored)" if relative and differ else ""
     bag.emit(
         "I033",
         f"`{src.ref}` -> `{dst.ref}`: converts `{a}` to `{b}`{same_name}{kind} "

@@ -5,12 +5,13 @@ own name is not part of them). A connection through system connectors is followe
 component connector that drives it, across every system boundary, to each component connector
 it reaches; the linear transformations and unit conversions met on the way are composed into
 one ``factor``/``offset``. A chain whose units were settled here (both connectors of an edge
-name different units declared in ``ssd:Units``, or ``suppressUnitConversion``) is marked ``convert_units=False``, so that the
-compiler does not convert the ports' units a second time; on any other chain the compiler
-converts between the units of the ports themselves (SSP: a connector without a unit has its
-component variable's unit). Parameter bindings on systems are matched to the component whose
-dotted name is the longest prefix of the parameter name, or followed through the system's
-``parameter`` connectors. Outer bindings override inner ones, later bindings earlier ones.
+name different units declared in ``ssd:Units``, or ``suppressUnitConversion``) is marked
+``convert_units=False``, so that the compiler does not convert the ports' units a second
+time; on any other chain the compiler converts between the units of the ports themselves
+(SSP: a connector without a unit has its component variable's unit). Parameter bindings on
+systems are matched to the component whose dotted name is the longest prefix of the parameter
+name, or followed through the system's ``parameter`` connectors. Outer bindings override inner
+ones, later bindings earlier ones.
 """
 
 from __future__ import annotations

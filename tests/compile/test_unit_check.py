@@ -20,9 +20,10 @@ from fmionnx.compile.systemfile import from_json, to_json
 from fmionnx.compile.unitcheck import Transform, check_units
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.types import Causality, DType, Port, PortRef
-from fmionnx.core.units import Unit, UnitConversion, builtin_unit
+from fmionnx.core.units import BUILTIN_UNITS, Unit, UnitConversion, builtin_unit
 
 GOLDEN = Path(__file__).resolve().parent / "golden" / "units.txt"
+BUILTIN_M = BUILTIN_UNITS["m"]
 PORTS = "abcdefgh"
 
 
@@ -258,13 +259,12 @@ def test_the_graph_labels_an_edge_with_its_unit_conversion(tmp_path: Path) -> No
 
 
 def test_equal_names_with_different_definitions_convert_by_definition() -> None:
-    supplier = _end("a", "m")
     odd = Port(
         "p",
         Causality.OUTPUT,
         DType.FLOAT64,
         unit="m",
-        unit_definition=Unit("m", supplier.port.unit_definition.exponents, 0.001),  # type: ignore[union-attr]
+        unit_definition=Unit("m", BUILTIN_M.exponents, 0.001),
     )
     transform, found = _check(ResolvedEndpoint(PortRef("a", "p"), odd, 1), _end("b", "m"))
     assert transform is not None
