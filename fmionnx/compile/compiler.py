@@ -8,6 +8,7 @@ from __future__ import annotations
 
 import dataclasses
 from collections import defaultdict
+from dataclasses import dataclass
 
 from fmionnx.compile.checks import compile_checks
 from fmionnx.compile.endpoints import (
@@ -20,8 +21,9 @@ from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.ros2.settings import ros2_settings
-from fmionnx.compile.typecheck import check_causality, check_count, check_dtype, check_unit
-from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
+from fmionnx.compile.unitcheck import check_units
+from fmionnx.core.diagnostics import DiagnosticBag, Note, Severity, Span
 from fmionnx.core.sourcetext import source_lines
 from fmionnx.core.steps import count_problem
 from fmionnx.core.types import (
@@ -166,9 +168,19 @@ def _check_period(
     return steps
 
 
+@dataclass(frozen=True, slots=True)
+class _Transformation:
+    """What a connection entry asks for beyond its ends: ``factor*x+offset`` and whether units
+    are converted automatically (see :mod:`fmionnx.compile.unitcheck`)."""
+
+    factor: float = 1.0
+    offset: float = 0.0
+    convert_units: bool = True
+
+
 def _connection_texts(
     index: int, entry: str | ConnectionSpec, sources: SourceMap
-) -> tuple[str, Span, str, Span, float, float] | None:
+) -> tuple[str, Span, str, Span, _Transformation] | None:
     span = sources.value(("connections", index))
     if isinstance(entry, ConnectionSpec):
         return (
@@ -176,8 +188,7 @@ def _connection_texts(
             sources.value(("connections", index, "from")),
             entry.to,
             sources.value(("connections", index, "to")),
-            entry.factor,
-            entry.offset,
+            _Transformation(entry.factor, entry.offset, entry.convert_units),
         )
     parts = split_connection(entry)
     if parts is None:
@@ -191,7 +202,7 @@ def _connection_texts(
     left_span = (
         Span(span.file, span.line, span.col + quoted + entry.find(left)) if span.col else span
     )
-    return left, left_span, right, right_span, 1.0, 0.0
+    return left, left_span, right, right_span, _Transformation()
 
 
 def _starts_quoted(span: Span) -> bool:
@@ -226,7 +237,7 @@ def _connections(
                 hint="write `source.port -> target.port`",
             )
             continue
-        left, left_span, right, right_span, factor, offset = texts
+        left, left_span, right, right_span, transformation = texts
         src = resolve_endpoint(left, left_span, interfaces, bag)
         dst = resolve_endpoint(right, right_span, interfaces, bag)
         for end in (src, dst):
@@ -238,7 +249,7 @@ def _connections(
                 mentioned.add((parts[0], ""))
         if src is None or dst is None:
             continue
-        connection = _check_connection(src, dst, span, factor, offset, bag)
+        connection = _check_connection(src, dst, span, transformation, bag)
         if connection is not None:
             result.append(connection)
     return result
@@ -248,8 +259,7 @@ def _check_connection(
     src: ResolvedEndpoint,
     dst: ResolvedEndpoint,
     span: Span,
-    factor: float,
-    offset: float,
+    transformation: _Transformation,
     bag: DiagnosticBag,
 ) -> Connection | None:
     if src.ref.component == dst.ref.component and src.ref.port == dst.ref.port:
@@ -258,11 +268,32 @@ def _check_connection(
     ok = check_causality(src, dst, span, bag)
     ok = check_dtype(src, dst, span, bag) and ok
     size = check_count(src, dst, span, bag)
-    converted = factor != 1.0 or offset != 0.0
-    ok = check_unit(src, dst, span, bag, converted=converted) and ok
-    if not ok or size is None:
+    # A connection that is wrong anyway gets its unit errors, but no notes about conversions.
+    found = DiagnosticBag()
+    transform = check_units(
+        src,
+        dst,
+        span,
+        found,
+        factor=transformation.factor,
+        offset=transformation.offset,
+        convert=transformation.convert_units,
+    )
+    usable = ok and size is not None
+    bag.extend(d for d in found if usable or d.severity is not Severity.INFO)
+    if not usable or size is None or transform is None:
         return None
-    return Connection(src.ref, dst.ref, src.port, dst.port, size, factor, offset, span)
+    return Connection(
+        src.ref,
+        dst.ref,
+        src.port,
+        dst.port,
+        size,
+        transform.factor,
+        transform.offset,
+        span,
+        units=transform.units,
+    )
 
 
 def _covered(connection: Connection) -> set[int] | None:

@@ -26,6 +26,7 @@ from fmionnx.core.types import (
     Port,
     PortRef,
 )
+from fmionnx.core.units import UnitConversion
 from fmionnx.kinds.base import SceneMap
 
 if TYPE_CHECKING:
@@ -38,7 +39,9 @@ class Connection:
     """A checked edge from an output element range to an input element range.
 
     ``size`` elements flow; when an index is given on an end, exactly one element is taken
-    or written there. ``factor``/``offset`` apply ``y = factor * x + offset`` (SSP
+    or written there. ``factor``/``offset`` apply ``y = factor * x + offset``: the whole
+    transformation the runtime applies, i.e. the automatic unit conversion (``units``, when
+    the ends' units differ) followed by the connection's own factor and offset (SSP
     ``LinearTransformation``; identity by default).
     """
 
@@ -50,6 +53,7 @@ class Connection:
     factor: float = 1.0
     offset: float = 0.0
     span: Span | None = None
+    units: UnitConversion | None = None
 
     def __str__(self) -> str:
         return f"{self.src} -> {self.dst}"

@@ -1,4 +1,4 @@
-"""Per-connection checks: causality, element type, element count, unit.
+"""Per-connection checks: causality, element type, element count (units: :mod:`unitcheck`).
 
 The allowed conversions are data (:data:`LOSSLESS`), documented in ``docs/types.md``:
 numeric types convert into each other (bool as 0/1); float -> integer or bool and
@@ -169,25 +169,3 @@ def _count_error(
         span,
         hint=hint,
     )
-
-
-def check_unit(
-    src: ResolvedEndpoint,
-    dst: ResolvedEndpoint,
-    span: Span,
-    bag: DiagnosticBag,
-    *,
-    converted: bool,
-) -> bool:
-    """Units must match when both ends declare one, unless the connection converts explicitly."""
-    a, b = src.port.unit, dst.port.unit
-    if a is None or b is None or a == b or converted:
-        return True
-    bag.emit(
-        "E033",
-        f"unit mismatch: `{src.ref}` is in `{a}` but `{dst.ref}` expects `{b}`",
-        span,
-        hint="convert with the long form `{from: ..., to: ..., factor: ..., offset: ...}`",
-        notes=declared_note(dst.port),
-    )
-    return False

@@ -187,7 +187,13 @@ CODES: dict[str, ErrorCode] = _codes(
     ),
     ErrorCode("E031", "dtype", _E, "connection", "Element types on both ends cannot be converted."),
     ErrorCode("E032", "shape", _E, "connection", "Element counts on both ends differ."),
-    ErrorCode("E033", "unit", _E, "connection", "Both ends declare units and they differ."),
+    ErrorCode(
+        "E033",
+        "unit",
+        _E,
+        "connection",
+        "The ends' units measure different quantities, or differ and cannot be compared.",
+    ),
     ErrorCode(
         "E034",
         "multiple-drivers",
@@ -210,6 +216,22 @@ CODES: dict[str, ErrorCode] = _codes(
         _W,
         "connection",
         "A conversion that may lose precision or range.",
+    ),
+    ErrorCode(
+        "I033",
+        "unit-conversion",
+        _I,
+        "connection",
+        "Units of the same quantity that differ: the connection converts (or, suppressed, says "
+        "it does not).",
+    ),
+    ErrorCode(
+        "W033",
+        "unit-suspicious",
+        _W,
+        "connection",
+        "Values pass between different quantities (conversion suppressed), or a factor that "
+        "repeats the automatic unit conversion.",
     ),
     # --- run settings and parameters
     ErrorCode("E040", "run-settings", _E, "run", "Start, stop or step time are inconsistent."),

@@ -14,6 +14,7 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fmionnx.core.diagnostics import Span
+from fmionnx.core.units import Unit
 
 #: A scalar value as found in start values and parameters.
 Scalar = float | int | bool | str
@@ -106,6 +107,12 @@ class Port:
     *directly* (within the same step); ``None`` means unknown, which the compiler treats as
     "all inputs". ``vrs`` holds FMU value references, one per element (FMI 2 exporters write
     arrays as scalars ``x[1]``..``x[n]``; the FMU reader groups them into one port).
+
+    ``unit`` is the unit's name as the model writes it (what tables and plot labels show);
+    ``unit_definition`` is what the name means (SI exponents, factor, offset) when the model
+    defines it or the name is a built-in unit, else None: then only the name can be compared.
+    ``relative_quantity`` (FMI ``relativeQuantity``) marks a difference, such as a temperature
+    difference, whose unit conversion ignores offsets.
     """
 
     name: str
@@ -119,6 +126,8 @@ class Port:
     depends_on: tuple[str, ...] | None = None
     vrs: tuple[int, ...] = ()
     origin: Span | None = None
+    unit_definition: Unit | None = None
+    relative_quantity: bool = False
 
     @property
     def is_scalar(self) -> bool:

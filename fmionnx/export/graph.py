@@ -33,7 +33,10 @@ def _grouped(system: CompiledSystem) -> dict[tuple[str, str], list[str]]:
     edges: dict[tuple[str, str], list[str]] = defaultdict(list)
     for connection in system.connections:
         key = (connection.src.component, connection.dst.component)
-        edges[key].append(f"{connection.src.port_label} → {connection.dst.port_label}")
+        text = f"{connection.src.port_label} → {connection.dst.port_label}"
+        if connection.units is not None:  # a unit conversion is part of what the edge does
+            text += f" ({connection.units.source} → {connection.units.target})"
+        edges[key].append(text)
     return edges
 
 

@@ -30,6 +30,7 @@ from fmionnx.core.resources import SSP_XML_BYTES
 from fmionnx.core.safewrite import refuse
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, DType, Port
+from fmionnx.core.units import BASE_UNITS, Unit
 from fmionnx.kinds.base import FMI, MODEL_FOLDER
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
@@ -68,14 +69,21 @@ def _annotation(parent: Any, payload: dict[str, Any]) -> None:
     options.text = json.dumps(payload, sort_keys=True)
 
 
-def _type_element(parent: Any, port: Port | None) -> None:
-    """The connector's ``ssc:`` type from the compiled port (omitted without one)."""
+def _type_element(parent: Any, port: Port | None, units: dict[str, Unit]) -> None:
+    """The connector's ``ssc:`` type from the compiled port (omitted without one).
+
+    A unit with a definition is collected in ``units`` for ``ssd:Units`` (the first definition
+    of a name wins), so that a reader of the file converts between connector units as the
+    compiler converted between port units.
+    """
     if port is None:
         return
     if port.dtype.is_float:
         typed = _sub(parent, "ssc", "Real")
         if port.unit:
             typed.set("unit", port.unit)
+            if port.unit_definition is not None:
+                units.setdefault(port.unit, port.unit_definition)
     elif port.dtype.is_integer:
         _sub(parent, "ssc", "Integer")
     elif port.dtype is DType.BOOL:
@@ -84,6 +92,21 @@ def _type_element(parent: Any, port: Port | None) -> None:
         _sub(parent, "ssc", "String")
     else:
         _sub(parent, "ssc", "Binary")
+
+
+def _units_element(parent: Any, units: dict[str, Unit]) -> None:
+    """``ssd:Units``: each connector unit with its SI exponents, factor and offset."""
+    element = _sub(parent, "ssd", "Units")
+    for name, unit in units.items():
+        node = _sub(element, "ssc", "Unit", name=name)
+        base = _sub(node, "ssc", "BaseUnit")
+        for symbol, power in zip(BASE_UNITS, unit.exponents, strict=True):
+            if power:
+                base.set(symbol, str(power))
+        if unit.factor != 1.0:
+            base.set("factor", repr(unit.factor))
+        if unit.offset != 0.0:
+            base.set("offset", repr(unit.offset))
 
 
 _KIND_BY_CAUSALITY = {
@@ -104,6 +127,7 @@ class _Writer:
         self.connectors: dict[str, dict[str, tuple[str, Port | None]]] = {
             name: {} for name in spec.components
         }
+        self.units: dict[str, Unit] = {}
 
     def _port(self, component: str, port: str) -> Port | None:
         if self.system is None:
@@ -128,8 +152,10 @@ class _Writer:
     def connections(self, parent: Any) -> None:
         entries = []
         for entry in self.spec.connections:
+            convert = True
             if isinstance(entry, ConnectionSpec):
                 left, right, factor, offset = entry.from_, entry.to, entry.factor, entry.offset
+                convert = entry.convert_units
             else:
                 parts = split_connection(entry)
                 if parts is None:
@@ -138,11 +164,11 @@ class _Writer:
                 (left, right), factor, offset = parts, 1.0, 0.0
             src = self._endpoint(left, "output")
             dst = self._endpoint(right, "input")
-            entries.append((src, dst, factor, offset))
+            entries.append((src, dst, factor, offset, convert))
         if not entries:
             return
         connections = _sub(parent, "ssd", "Connections")
-        for src, dst, factor, offset in entries:
+        for src, dst, factor, offset, convert in entries:
             node = _sub(
                 connections,
                 "ssd",
@@ -152,6 +178,8 @@ class _Writer:
                 endElement=dst[0],
                 endConnector=dst[1],
             )
+            if not convert:
+                node.set("suppressUnitConversion", "true")
             if factor != 1.0 or offset != 0.0:
                 _sub(node, "ssc", "LinearTransformation", factor=repr(factor), offset=repr(offset))
 
@@ -166,7 +194,7 @@ class _Writer:
             connectors = _sub(node, "ssd", "Connectors")
             for label, (kind, port) in self.connectors[name].items():
                 connector = _sub(connectors, "ssd", "Connector", name=label, kind=kind)
-                _type_element(connector, port)
+                _type_element(connector, port, self.units)
         scalars = {k: v for k, v in spec.parameters.items() if not isinstance(v, list)}
         arrays = {k: v for k, v in spec.parameters.items() if isinstance(v, list)}
         if scalars:
@@ -280,6 +308,8 @@ def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSyste
         writer.component(elements, name, component, staging)
     for child in scratch:
         top.append(child)
+    if writer.units:
+        _units_element(root, writer.units)
     experiment = _sub(root, "ssd", "DefaultExperiment", startTime=repr(spec.run.start))
     if spec.run.stop is not None:
         experiment.set("stopTime", repr(spec.run.stop))

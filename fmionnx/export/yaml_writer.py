@@ -93,8 +93,13 @@ def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
     data["components"] = components
     connections: list[Any] = []
     for entry in spec.connections:
-        if isinstance(entry, ConnectionSpec) and (entry.factor != 1.0 or entry.offset != 0.0):
-            connections.append(entry.model_dump(mode="json", by_alias=True))
+        if isinstance(entry, ConnectionSpec) and (
+            entry.factor != 1.0 or entry.offset != 0.0 or not entry.convert_units
+        ):
+            connections.append(
+                entry.model_dump(mode="json", by_alias=True, exclude={"convert_units"})
+                | ({} if entry.convert_units else {"convert_units": False})
+            )
         elif isinstance(entry, ConnectionSpec):
             connections.append(f"{entry.from_} -> {entry.to}")
         else:

@@ -69,6 +69,12 @@ class ConnectionSpec(StrictModel):
     to: str = Field(description="Destination endpoint `component.port[index]`.")
     factor: float = Field(default=1.0, description="Linear transformation: y = factor*x + offset.")
     offset: float = Field(default=0.0, description="Linear transformation offset.")
+    convert_units: bool = Field(
+        default=True,
+        description="Convert between the ends' units (km/h -> m/s) before `factor`/`offset`. "
+        "`false` (SSP `suppressUnitConversion`): `factor`/`offset` are the whole "
+        "transformation.",
+    )
 
     model_config = StrictModel.model_config | {"populate_by_name": True, "allow_inf_nan": False}
 

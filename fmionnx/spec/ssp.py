@@ -261,15 +261,14 @@ def _connections(flat: FlatSystem, ssd: Path, sources: SourceMap) -> list[Any]:
         for path in (("connections", index), ("connections", index, "from")):
             sources.record(path, span, span)
         sources.record(("connections", index, "to"), span, span)
-        if connection.factor == 1.0 and connection.offset == 0.0:
+        plain = connection.factor == 1.0 and connection.offset == 0.0
+        if plain and connection.convert_units:
             result.append(f"{connection.src} -> {connection.dst}")
         else:
-            result.append(
-                {
-                    "from": connection.src,
-                    "to": connection.dst,
-                    "factor": connection.factor,
-                    "offset": connection.offset,
-                }
-            )
+            entry: dict[str, Any] = {"from": connection.src, "to": connection.dst}
+            if not plain:
+                entry.update(factor=connection.factor, offset=connection.offset)
+            if not connection.convert_units:
+                entry["convert_units"] = False
+            result.append(entry)
     return result

@@ -4,9 +4,14 @@ Components get dotted names from the root system down (``sub.inner.gain``; the r
 own name is not part of them). A connection through system connectors is followed from the
 component connector that drives it, across every system boundary, to each component connector
 it reaches; the linear transformations and unit conversions met on the way are composed into
-one ``factor``/``offset``. Parameter bindings on systems are matched to the component whose
-dotted name is the longest prefix of the parameter name, or followed through the system's
-``parameter`` connectors. Outer bindings override inner ones, later bindings earlier ones.
+one ``factor``/``offset``. A chain whose units were settled here (both connectors of an edge
+name different units declared in ``ssd:Units``, or ``suppressUnitConversion``) is marked
+``convert_units=False``, so that the compiler does not convert the ports' units a second
+time; on any other chain the compiler converts between the units of the ports themselves
+(SSP: a connector without a unit has its component variable's unit). Parameter bindings on
+systems are matched to the component whose dotted name is the longest prefix of the parameter
+name, or followed through the system's ``parameter`` connectors. Outer bindings override inner
+ones, later bindings earlier ones.
 """
 
 from __future__ import annotations
@@ -33,6 +38,7 @@ class FlatConnection:
     factor: float
     offset: float
     line: int
+    convert_units: bool = True
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,6 +48,7 @@ class _Edge:
     factor: float
     offset: float
     line: int
+    units_settled: bool = False
 
 
 @dataclass
@@ -121,7 +128,11 @@ class _Flattener:
         if connection.transformation is not None:
             t = connection.transformation
             factor, offset = t.factor * factor, t.factor * offset + t.offset
-        return _Edge(start, end, factor, offset, connection.line)
+        first, second = self.connectors.get(start), self.connectors.get(end)
+        declared = [c is not None and c.unit in self.document.units for c in (first, second)]
+        differ = first is not None and second is not None and first.unit != second.unit
+        settled = connection.suppress_unit_conversion or (all(declared) and differ)
+        return _Edge(start, end, factor, offset, connection.line, settled)
 
     def _unit_conversion(self, start: Pin, end: Pin, connection: Connection) -> tuple[float, float]:
         """``(a, b)`` with ``target = a * source + b`` between the connectors' units."""
@@ -138,8 +149,8 @@ class _Flattener:
             missing = first.unit if source is None else second.unit
             self.bag.emit(
                 "W070",
-                f"unit `{missing}` is not declared in `ssd:Units`; no unit conversion from "
-                f"`{first.unit}` to `{second.unit}` is applied",
+                f"unit `{missing}` is not declared in `ssd:Units`; the units of the ports "
+                f"themselves decide the conversion from `{first.unit}` to `{second.unit}`",
                 self.span(connection.line),
             )
             return 1.0, 0.0
@@ -160,7 +171,7 @@ class _Flattener:
         for edge in ordered:
             if edge.start[0] not in self.components:
                 continue
-            self._follow(edge.start, edge, 1.0, 0.0, (), flat, reached)
+            self._follow(edge.start, edge, (1.0, 0.0, False), (), flat, reached)
         for edge in ordered:
             dangling = edge.start[0] not in self.components and edge.start not in reached
             if dangling and not self.edges_into(edge.start):
@@ -179,13 +190,16 @@ class _Flattener:
         self,
         source: Pin,
         edge: _Edge,
-        factor: float,
-        offset: float,
+        so_far: tuple[float, float, bool],
         seen: tuple[Pin, ...],
         flat: FlatSystem,
         reached: set[Pin],
     ) -> None:
+        """Follow ``edge`` on; ``so_far`` is the chain's factor, offset and whether its units
+        were settled on the way."""
+        factor, offset, settled = so_far
         factor, offset = edge.factor * factor, edge.factor * offset + edge.offset
+        settled = settled or edge.units_settled
         target = edge.end
         if target in seen:
             return
@@ -197,12 +211,15 @@ class _Flattener:
                     factor,
                     offset,
                     edge.line,
+                    convert_units=not settled,
                 )
             )
             return
         reached.add(target)
         for following in self.edges.get(target, []):
-            self._follow(source, following, factor, offset, (*seen, target), flat, reached)
+            self._follow(
+                source, following, (factor, offset, settled), (*seen, target), flat, reached
+            )
 
     def _text(self, pin: Pin, line: int) -> str:
         """``comp.port[i]`` of a component pin, FMI 2 element names made 0-based."""

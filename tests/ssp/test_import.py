@@ -114,7 +114,8 @@ def test_unit_conversion_without_declared_unit_is_a_warning(loose) -> None:
     assert (
         "W070",
         4,
-        "unit `mm` is not declared in `ssd:Units`; no unit conversion from `mm` to `m` is applied",
+        "unit `mm` is not declared in `ssd:Units`; the units of the ports themselves decide "
+        "the conversion from `mm` to `m`",
     ) in found
 
 

@@ -211,7 +211,7 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
     return ComponentInterface(
         kind="fmu",
         path=path,
-        ports=ports_from_model_description(model_description, xml_file),
+        ports=ports_from_model_description(model_description, xml_file, root),
         facts=_facts(model_description, files),
         default_experiment=_experiment(model_description),
         content_hash=files.content_hash,

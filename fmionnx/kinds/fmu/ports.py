@@ -13,6 +13,10 @@ Rules (documented in ``docs/components.md``):
   the structural parameter it references) and keep their single value reference. The element
   count is checked against :data:`fmionnx.core.resources.ARRAY_ELEMENTS` before anything is
   sized from it (E008): a few bytes of XML can declare an array of 10^9 elements.
+* Units: a variable's ``unit`` (or its declared type's) names a ``<UnitDefinitions>`` entry;
+  its ``<BaseUnit>`` (SI exponents, factor, offset; the same element and attributes in FMI 2
+  and 3) becomes the port's unit definition. A unit without ``<BaseUnit>`` is not related to
+  SI and stays a name. ``relativeQuantity`` (the variable's, else its type's) is kept.
 * ``depends_on`` of an output lists the input ports it depends on per ``<ModelStructure>``;
   it is None (unknown) when the output is not listed or has no ``dependencies`` attribute.
 """
@@ -30,6 +34,7 @@ from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.resources import ARRAY_ELEMENTS
 from fmionnx.core.types import Causality, DType, Port, Scalar
+from fmionnx.core.units import BASE_UNITS, Unit
 
 #: FMI type name -> element type. FMI 2 enumerations are read with ``fmi2GetInteger`` (int32),
 #: FMI 3 enumerations with ``fmi3GetInt64``; see :func:`dtype_of`.
@@ -81,15 +86,71 @@ class _Scalarish:
     start: tuple[Scalar, ...] | None
     vrs: tuple[int, ...]
     line: int
+    unit_definition: Unit | None = None
+    relative_quantity: bool = False
 
 
-def ports_from_model_description(model_description: Any, xml_file: Path) -> tuple[Port, ...]:
-    """Every port of the model, in declaration order (a group sits at its first element)."""
+def unit_definitions(model_description: Any) -> dict[str, Unit]:
+    """The model's units that relate to SI (those with a ``<BaseUnit>``), by name."""
+    units: dict[str, Unit] = {}
+    for unit in getattr(model_description, "unitDefinitions", None) or ():
+        base = unit.baseUnit
+        if unit.name is None or base is None:
+            continue
+        exponents = tuple(int(getattr(base, name, 0) or 0) for name in BASE_UNITS)
+        factor = float(base.factor if base.factor is not None else 1.0)
+        offset = float(base.offset if base.offset is not None else 0.0)
+        if factor == 0.0 or not (math.isfinite(factor) and math.isfinite(offset)):
+            continue  # no usable definition: the name alone is compared
+        units[str(unit.name)] = Unit(str(unit.name), exponents, factor, offset)
+    return units
+
+
+def relative_flags(root: Any) -> dict[str, bool]:
+    """``relativeQuantity`` as each variable writes it, by name (absent: not listed).
+
+    Read from the XML itself: fmpy reads the attribute on type definitions but not on
+    variables (it looks for it among the element's children).
+    """
+    flags: dict[str, bool] = {}
+    variables = root.find("ModelVariables")
+    for variable in variables if variables is not None else ():
+        if not isinstance(variable.tag, str):
+            continue  # a comment
+        name = variable.get("name")
+        holder = variable
+        if variable.tag == "ScalarVariable":  # FMI 2: on the type element inside
+            holder = next((c for c in variable if isinstance(c.tag, str)), None)
+        text = holder.get("relativeQuantity") if holder is not None else None
+        if name is not None and text is not None:
+            flags[name] = text in ("true", "1")
+    return flags
+
+
+def _relative(variable: Any, flags: dict[str, bool]) -> bool:
+    """FMI ``relativeQuantity`` of the variable, else of its declared type."""
+    own = flags.get(str(variable.name))
+    if own is not None:
+        return own
+    declared = variable.declaredType
+    return bool(getattr(declared, "relativeQuantity", False)) if declared is not None else False
+
+
+def ports_from_model_description(
+    model_description: Any, xml_file: Path, root: Any = None
+) -> tuple[Port, ...]:
+    """Every port of the model, in declaration order (a group sits at its first element).
+
+    ``root`` is the parsed XML of the same description, for what fmpy does not read
+    (:func:`relative_flags`); without it, only type definitions mark relative quantities.
+    """
     major = int(str(model_description.fmiVersion).split(".")[0])
+    units = unit_definitions(model_description)
+    flags = relative_flags(root) if root is not None else {}
     records = [
         record
         for variable in model_description.modelVariables
-        if (record := _record(variable, major, xml_file)) is not None
+        if (record := _record(variable, major, xml_file, (units, flags))) is not None
     ]
     groups = _groups(records) if major == 2 else {}
     port_name = {id(r.variable): r.name for r in records}
@@ -113,7 +174,9 @@ def ports_from_model_description(model_description: Any, xml_file: Path) -> tupl
     return tuple(ports)
 
 
-def _record(variable: Any, major: int, xml_file: Path) -> _Scalarish | None:
+def _record(
+    variable: Any, major: int, xml_file: Path, unit_facts: tuple[dict[str, Unit], dict[str, bool]]
+) -> _Scalarish | None:
     if variable.causality not in PORT_CAUSALITIES or getattr(variable, "alias", None) is not None:
         return None
     dtype = dtype_of(variable.type, major)
@@ -136,6 +199,8 @@ def _record(variable: Any, major: int, xml_file: Path) -> _Scalarish | None:
         start=start,
         vrs=(int(variable.valueReference),),
         line=line,
+        unit_definition=unit_facts[0].get(unit) if unit is not None else None,
+        relative_quantity=_relative(variable, unit_facts[1]),
     )
 
 
@@ -220,8 +285,14 @@ def _is_full_box(indices: list[tuple[int, ...]]) -> bool:
 def _uniform(members: list[_Scalarish]) -> bool:
     first = members[0]
     return all(
-        (m.dtype, m.causality, m.variable.variability, m.unit)
-        == (first.dtype, first.causality, first.variable.variability, first.unit)
+        (m.dtype, m.causality, m.variable.variability, m.unit, m.relative_quantity)
+        == (
+            first.dtype,
+            first.causality,
+            first.variable.variability,
+            first.unit,
+            first.relative_quantity,
+        )
         for m in members
     )
 
@@ -274,4 +345,6 @@ def _port(
         depends_on=depends_on,
         vrs=tuple(itertools.chain.from_iterable(m.vrs for m in members)),
         origin=Span(xml_file, first.line),
+        unit_definition=first.unit_definition,
+        relative_quantity=first.relative_quantity,
     )

@@ -16,9 +16,11 @@ from typing import Any
 from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
+from fmionnx.core.units import builtin_unit
 from fmionnx.kinds.mujoco.files import check_scene_files
 
-#: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case).
+#: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case); every
+#: name is a built-in unit (:data:`fmionnx.core.units.BUILTIN_UNITS`), so it has a definition.
 _SENSOR_UNITS = {
     "framepos": "m",
     "jointpos": None,  # slide joints in m, hinges in rad: depends on the joint
@@ -116,15 +118,17 @@ def read_mujoco_interface(
             continue
         dim = int(model.sensor_dim[i])
         kind = mujoco.mjtSensor(int(model.sensor_type[i])).name.removeprefix("mjSENS_").lower()
+        unit = _sensor_unit(model, i, kind)
         ports.append(
             Port(
                 name=name,
                 causality=Causality.OUTPUT,
                 dtype=DType.FLOAT64,
                 shape=() if dim == 1 else (dim,),
-                unit=_sensor_unit(model, i, kind),
+                unit=unit,
                 description=f"{kind} sensor",
                 depends_on=(),
+                unit_definition=builtin_unit(unit),
             )
         )
     for i in range(model.nu):
@@ -149,6 +153,7 @@ def read_mujoco_interface(
                     unit="m",
                     description=f"world position of site {name}",
                     depends_on=(),
+                    unit_definition=builtin_unit("m"),
                 )
             )
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)]

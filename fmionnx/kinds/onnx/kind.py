@@ -12,6 +12,7 @@ from pydantic import Field
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
 from fmionnx.kinds.base import Display, KindProblem, RoleDefault
+from fmionnx.kinds.onnx.units import unit_problems, with_units
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.runner import Runner, Wiring
@@ -27,6 +28,12 @@ class OnnxSpec(ComponentSpecBase):
     )
     threads: int | None = Field(
         default=None, ge=1, description="Intra-op threads of the session (default: onnxruntime's)."
+    )
+    units: dict[str, str] = Field(
+        default_factory=dict,
+        description="Units of ports by port name (`{speed: km/h}`): an ONNX graph declares "
+        "none. Built-in names (m, km, s, h, m/s, km/h, rad, deg, K, degC, N ...) are converted "
+        "on connections; other names are compared as written.",
     )
 
 
@@ -61,8 +68,9 @@ class OnnxKind:
     def check(
         self, spec: ComponentSpecBase, interface: ComponentInterface
     ) -> tuple[KindProblem, ...]:
-        """Nothing beyond the interface reader's own checks."""
-        return ()
+        """``units`` names ports of the graph and gives each a unit name (E018)."""
+        assert isinstance(spec, OnnxSpec)
+        return unit_problems(spec.units, interface)
 
     def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
         """The ONNX checker and strict shape inference (loads onnx)."""
@@ -82,10 +90,13 @@ class OnnxKind:
         return OnnxRunner(component, dict(wiring.sizes or {}))
 
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
-        """Read the model's inputs and outputs."""
+        """Read the model's inputs and outputs; the entry's ``units`` name their units."""
         from fmionnx.kinds.onnx.interface import read_onnx_interface
 
-        return read_onnx_interface(path)
+        interface = read_onnx_interface(path)
+        if isinstance(spec, OnnxSpec) and spec.units:
+            interface = with_units(interface, spec.units)
+        return interface
 
 
 ONNX_KIND = OnnxKind()

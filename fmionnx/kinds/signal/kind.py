@@ -8,6 +8,7 @@ from typing import TYPE_CHECKING
 
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
+from fmionnx.core.units import builtin_unit
 from fmionnx.kinds.base import Display, KindProblem, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.signal.spec import NAME, SignalSpec
@@ -50,6 +51,7 @@ class SignalKind:
                     Causality.OUTPUT,
                     DType.FLOAT64,
                     unit=output.unit,
+                    unit_definition=builtin_unit(output.unit),
                     depends_on=(),
                     description=waveform(output).text(),
                 )
