@@ -65,7 +65,7 @@ def fingerprint(system: CompiledSystem) -> dict[str, Any]:
         "order": system.order,
         "record": [str(r) for r in system.record],
         "plots": [
-            (p.xy, p.y, p.refs, p.title, p.file, p.reference.name if p.reference else None)
+            (p.xy, p.y, p.refs, p.series, p.title, p.file, p.path, p.scene)
             for p in system.plots
         ],
         "checks": [
