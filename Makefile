@@ -11,12 +11,14 @@ TEST_STAMP := $(VENV)/.installed-test
 BUILD := build
 DEMO_OUT := out/demo
 
-.PHONY: help setup setup-demo setup-test system-deps models demo test lint typecheck schema bench docs clean
+.PHONY: help setup setup-demo setup-test system-deps models demo test lint typecheck schema bench fuzz soak docs clean
 
 help:
 	@echo "make demo   - set up (the package alone), build the models, run the reference scenario"
 	@echo "make test   - set up (with the test extras), build the models, run linters and the whole test suite"
 	@echo "make bench  - run the benchmarks and print their tables"
+	@echo "make fuzz   - run the fuzzers (tests/fuzz) with the long budget: thousands of inputs each"
+	@echo "make soak   - run the reference scenario for a simulated hour, watching RSS, files, threads"
 	@echo "make schema - regenerate schemas/system.schema.json"
 
 setup-demo: $(DEMO_STAMP)
@@ -67,6 +69,13 @@ test: $(TEST_STAMP) models lint
 
 bench: $(TEST_STAMP) models
 	$(PY) benchmarks/run.py
+
+# `make test` runs the same fuzzers with a short, derandomized budget (tests/fuzz/conftest.py).
+fuzz: $(TEST_STAMP) models
+	FMIONNX_FUZZ=long $(VENV)/bin/pytest -q -p no:cacheprovider tests/fuzz
+
+soak: models
+	$(PY) benchmarks/soak.py
 
 docs: $(DEMO_STAMP)
 	$(PY) -m pip install --quiet mkdocs
