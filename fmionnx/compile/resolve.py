@@ -65,6 +65,9 @@ def read_interface(
     except ModelError as exc:
         bag.emit(exc.code, f"component `{name}`: {exc}", span, hint=exc.hint)
         return None
+    except OSError as exc:  # a name too long, a loop of links: the file cannot be looked at
+        bag.emit("E010", f"component `{name}`: `{path}` cannot be read: {exc.strerror}", span)
+        return None
     for problem in kind.check(spec, interface):
         where = sources.value(("components", name, problem.key))
         bag.emit(problem.code, f"component `{name}`: {problem.message}", where, hint=problem.hint)

@@ -15,6 +15,7 @@ from __future__ import annotations
 import os
 import stat
 import zipfile
+import zlib
 from pathlib import Path, PurePosixPath
 
 from fmionnx.core.errors import ModelError
@@ -24,6 +25,23 @@ from fmionnx.core.safewrite import atomic_binary
 #: Below this unpacked size a compression ratio says nothing (a small XML file may compress
 #: well); above it the ratio limit applies, to each member and to the archive as a whole.
 RATIO_FLOOR_BYTES = MiB
+
+#: What reading a damaged or unusual zip raises besides BadZipFile: a truncated stream
+#: (EOFError), an unknown compression method or version (NotImplementedError), an encrypted
+#: member (RuntimeError), corrupt deflate data (zlib.error), a negative offset in the central
+#: directory (ValueError, OSError EINVAL). Every one is a damaged archive to the user.
+CORRUPT_ZIP_ERRORS = (
+    zipfile.BadZipFile,
+    EOFError,
+    NotImplementedError,
+    RuntimeError,
+    zlib.error,
+    ValueError,
+    OSError,
+)
+
+#: The longest name one path component may have on the file systems fmionnx unpacks to.
+MAX_NAME_BYTES = 255
 
 
 def check_member_name(name: str) -> PurePosixPath:
@@ -35,6 +53,9 @@ def check_member_name(name: str) -> PurePosixPath:
         raise ModelError("E017", msg)
     if any(part == ".." for part in path.parts):
         msg = f"archive member `{name}` points outside the archive (`..`)"
+        raise ModelError("E017", msg)
+    if any(len(part.encode("utf-8", "surrogateescape")) > MAX_NAME_BYTES for part in path.parts):
+        msg = f"archive member `{name[:80]}...` has a name longer than {MAX_NAME_BYTES} bytes"
         raise ModelError("E017", msg)
     return path
 
@@ -49,12 +70,15 @@ def open_zip(path: Path) -> zipfile.ZipFile:
         raise ModelError("E011", msg)
     try:
         return zipfile.ZipFile(path)
+    except FileNotFoundError as exc:
+        msg = f"cannot read `{path}`: {exc.strerror}"
+        raise ModelError("E010", msg) from None
     except zipfile.BadZipFile:
         msg = f"`{path}` is not a zip archive (corrupt or not an FMU/SSP)"
         raise ModelError("E012", msg) from None
-    except OSError as exc:
-        msg = f"cannot read `{path}`: {exc.strerror}"
-        raise ModelError("E010", msg) from None
+    except CORRUPT_ZIP_ERRORS as exc:
+        msg = f"`{path}` is a damaged zip archive: {exc}"
+        raise ModelError("E012", msg) from None
 
 
 def check_archive(archive: zipfile.ZipFile) -> None:
@@ -138,8 +162,8 @@ def safe_extract(path: Path, destination: Path) -> Path:
                             msg = f"archive `{path.name}` expands beyond {largest} bytes"
                             raise ModelError("E017", msg, hint=ARCHIVE_BYTES.hint())
                         sink.write(chunk)
-            except (zipfile.BadZipFile, EOFError) as exc:
-                msg = f"`{path}` is corrupt: {exc}"
+            except CORRUPT_ZIP_ERRORS as exc:
+                msg = f"`{path}` is corrupt: member `{info.filename[:80]}`: {exc}"
                 raise ModelError("E012", msg) from None
     return root
 

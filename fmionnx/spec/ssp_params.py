@@ -61,8 +61,12 @@ def resolve_uri(
             hint="SSP resources are referenced relative to the SSD, inside its archive or folder",
         )
         return None
-    if not path.is_file():
-        bag.emit("E072", f"`{text}` does not exist in the SSP", span)
+    try:
+        exists = path.is_file()
+    except OSError:  # a name longer than the file system allows: no such resource either
+        exists = False
+    if not exists:
+        bag.emit("E072", f"`{text[:200]}` does not exist in the SSP", span)
         return None
     return path
 

@@ -45,6 +45,15 @@ class _TagError(Exception):
         self.tag = tag
 
 
+class _StructureError(Exception):
+    """YAML that is valid but not what a system file may hold (a merge key, a cycle)."""
+
+    def __init__(self, path: KeyPath, message: str, hint: str) -> None:
+        self.path = path
+        self.message = message
+        self.hint = hint
+
+
 def read_text(path: Path, bag: DiagnosticBag) -> str | None:
     """Read a UTF-8 text file, reporting missing files, directories and bad encodings."""
     span = Span(path)
@@ -116,6 +125,14 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
     yaml.allow_duplicate_keys = False
     try:
         node = yaml.load(text)
+    except TypeError:  # ruamel hashes every key: a mapping or list as a key cannot be
+        bag.emit(
+            "E001",
+            "invalid YAML: a mapping key is itself a mapping or a list",
+            Span(path, 1, 1),
+            hint="keys of a system file are plain names",
+        )
+        return None
     except DuplicateKeyError as exc:
         _report_marked(exc, path, bag, "E007")
         return None
@@ -141,6 +158,9 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
             hint="system files hold plain maps, lists, strings and numbers",
         )
         return None
+    except _StructureError as exc:
+        bag.emit("E003", exc.message, sources.value(exc.path), hint=exc.hint)
+        return None
 
 
 def _report_marked(
@@ -164,11 +184,32 @@ def _report_marked(
     bag.emit(code, f"invalid YAML: {problem}{context}", span, hint=hint)
 
 
-def _plain(node: Any, path: KeyPath, sources: SourceMap) -> Any:
-    """Convert ruamel nodes to plain dict/list/scalars and record spans (recursive)."""
+def _plain(
+    node: Any, path: KeyPath, sources: SourceMap, inside: frozenset[int] = frozenset()
+) -> Any:
+    """Convert ruamel nodes to plain dict/list/scalars and record spans (recursive).
+
+    ``inside``: the containers being converted, so that an alias to one of them (``&a [*a]``,
+    a structure that contains itself) is refused instead of recursing for ever.
+    """
     file = sources.file
+    if isinstance(node, (CommentedMap, CommentedSeq)):
+        if id(node) in inside:
+            raise _StructureError(
+                path,
+                "a YAML alias refers to a mapping or list that contains it (a structure that "
+                "contains itself)",
+                "an alias (`*name`) may only repeat a node defined before and outside it",
+            )
+        inside = inside | {id(node)}
     if isinstance(node, CommentedMap):
         _reject_tag(node, path)
+        if getattr(node, "merge", None):
+            raise _StructureError(
+                path,
+                "YAML merge keys (`<<`) are not allowed in a system file",
+                "write the keys out, or repeat a whole value with an alias (`*name`)",
+            )
         result: dict[str, Any] = {}
         for key in node:
             key_line, key_col = node.lc.key(key)
@@ -179,7 +220,7 @@ def _plain(node: Any, path: KeyPath, sources: SourceMap) -> Any:
                 Span(file, value_line + 1, value_col + 1),
                 Span(file, key_line + 1, key_col + 1),
             )
-            result[str(key)] = _plain(node[key], child, sources)
+            result[str(key)] = _plain(node[key], child, sources, inside)
         return result
     if isinstance(node, CommentedSeq):
         _reject_tag(node, path)
@@ -188,7 +229,7 @@ def _plain(node: Any, path: KeyPath, sources: SourceMap) -> Any:
             line, col = node.lc.item(index)
             child = (*path, index)
             sources.record(child, Span(file, line + 1, col + 1))
-            items.append(_plain(item, child, sources))
+            items.append(_plain(item, child, sources, inside))
         return items
     if isinstance(node, bool) or node is None:
         return node

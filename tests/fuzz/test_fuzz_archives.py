@@ -148,16 +148,6 @@ def test_zip_mutations_change_the_archive() -> None:
     differs()
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason=(
-        "known bugs, issue #17 fuzz report: corrupt deflate data in modelDescription.xml "
-        "(zlib.error), its encrypted flag set (RuntimeError), a zip version above 6.3 in the "
-        "central directory (NotImplementedError) and a central-directory offset that makes a "
-        "local header offset negative (OSError EINVAL) escape fmionnx/core/archive.py open_zip "
-        "and fmionnx/kinds/fmu/files.py"
-    ),
-)
 @given(mutant=MUTATED_FMUS)
 @fuzz_settings(200)
 def test_mutated_fmus_end_in_diagnostics(folder: Path, mutant: Mutant) -> None:
@@ -175,15 +165,6 @@ def test_mutated_fmus_end_in_diagnostics(folder: Path, mutant: Mutant) -> None:
         path.unlink(missing_ok=True)
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason=(
-        "known bugs, issue #17 fuzz report: corrupt deflate data (zlib.error), an unsupported "
-        "compression method or zip version (NotImplementedError), an encrypted flag "
-        "(RuntimeError), a lying offset (OSError EINVAL), lzma/bzip2 garbage (OSError) and an "
-        "over-long member name (OSError) escape fmionnx/core/archive.py's open_zip/safe_extract"
-    ),
-)
 @given(mutant=MUTATED_SSPS)
 @fuzz_settings(100)
 def test_mutated_ssp_archives_end_in_diagnostics(

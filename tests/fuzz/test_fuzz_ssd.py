@@ -86,14 +86,6 @@ def test_structure_mutated_ssp_xml_ends_in_diagnostics(
     validate_in_process(write(folder, name, mutated), mutated)
 
 
-@pytest.mark.xfail(
-    strict=False,
-    reason=(
-        "known bug, issue #17 fuzz report: an SSD `source` (ParameterBinding or Component) whose "
-        "file name exceeds 255 bytes raises OSError (ENAMETOOLONG) from Path.is_file/exists "
-        "instead of a diagnostic"
-    ),
-)
 @given(st.data())
 @fuzz_settings(80)
 def test_attribute_mutations_that_pass_the_schema_reach_the_compiler(

@@ -18,7 +18,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
-from fmionnx.core.archive import check_archive, open_zip
+from fmionnx.core.archive import CORRUPT_ZIP_ERRORS, check_archive, open_zip
 from fmionnx.core.errors import ModelError
 from fmionnx.kinds.cache import sha256_file, sha256_tree
 
@@ -81,7 +81,7 @@ def _read_archive(path: Path, archive: zipfile.ZipFile) -> FmuFiles:
         raise ModelError("E017", msg)
     try:
         data = archive.read(info)
-    except (zipfile.BadZipFile, EOFError, NotImplementedError) as exc:
+    except CORRUPT_ZIP_ERRORS as exc:
         msg = f"`{path.name}` is corrupt: {exc}"
         raise ModelError("E012", msg) from None
     platforms: set[str] = set()

@@ -14,7 +14,7 @@ from typing import Any
 import numpy as np
 
 from fmionnx.core.runner import Buffer, fault
-from fmionnx.core.types import Causality, Component, Port
+from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.onnx.kind import OnnxConfig
 
 
@@ -71,6 +71,14 @@ class OnnxRunner:
 
     def setup(self, start: float, stop: float) -> None:
         """Allocate input buffers from start values, run once so outputs hold initial values."""
+        strings = [p.name for p in self.component.interface.ports if p.dtype is DType.STRING]
+        if strings:  # readable (validate, inspect), but no buffer of numbers can carry them
+            raise fault(
+                self.component.name,
+                f"string tensors ({', '.join(strings)}) cannot be run: fmionnx passes numbers "
+                "between components",
+                time=start,
+            )
         explicit = {p.port: p.value for p in self.component.parameters}
         for port in self.component.interface.with_causality(Causality.INPUT):
             shape = concrete_shape(port, self._sizes.get(port.name))

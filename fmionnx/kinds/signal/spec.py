@@ -57,7 +57,9 @@ class RampSpec(_Numbers):
 class SineSpec(_Numbers):
     """``offset + amplitude * sin(2π * frequency * t + phase)``, ``t`` the simulated time."""
 
-    frequency: float = Field(ge=0, description="Frequency in Hz.")
+    frequency: float = Field(
+        ge=0, le=1e12, description="Frequency in Hz (at most 10^12: a sampled stimulus)."
+    )
     amplitude: float = Field(default=1.0, description="Amplitude.")
     phase: float = Field(default=0.0, description="Phase at t = 0, in radians.")
     offset: float = Field(default=0.0, description="Value added to the sine.")

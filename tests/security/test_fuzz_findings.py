@@ -1,0 +1,102 @@
+"""The inputs the fuzzers (tests/fuzz) found to escape as tracebacks, each pinned: every one
+now ends in a diagnostic with a code, or a clean fault."""
+
+from __future__ import annotations
+
+import struct
+import zipfile
+from pathlib import Path
+
+import pytest
+
+import fmionnx
+from fmionnx.core.diagnostics import DiagnosticBag
+from fmionnx.core.errors import DiagnosticError, ModelError
+from fmionnx.kinds.fmu.kind import FMU_KIND
+from fmionnx.spec.sourcemap import SourceMap
+from fmionnx.spec.yaml import parse_yaml
+from tests.conftest import build_fixture_fmu
+
+
+def _yaml_problems(text: str, tmp_path: Path) -> list[tuple[str, str]]:
+    path = tmp_path / "system.yaml"
+    bag = DiagnosticBag()
+    assert parse_yaml(text, path, SourceMap(path), bag) is None
+    return [(d.code, str(d.message)) for d in bag.sorted()]
+
+
+@pytest.mark.parametrize(
+    ("text", "code", "words"),
+    [
+        ("components:\n  <<: {a: 1}\n", "E003", "merge keys"),
+        ("<<: {run: {stop: 1}}\nfmionnx: 1\n", "E003", "merge keys"),
+        ("&a [*a]\n", "E003", "contains itself"),
+        ("&m {a: *m}\n", "E003", "contains itself"),
+        ("? b: {c: 1}\n: x\n", "E001", "key is itself a mapping"),
+    ],
+)
+def test_yaml_structures_a_system_file_cannot_hold_are_diagnostics(
+    tmp_path: Path, text: str, code: str, words: str
+) -> None:
+    problems = _yaml_problems(text, tmp_path)
+    assert len(problems) == 1
+    assert problems[0][0] == code
+    assert words in problems[0][1]
+
+
+def _damaged(tmp_path: Path, damage: str) -> Path:
+    """A copy of a real FMU with one kind of damage the fuzzers found."""
+    data = bytearray(build_fixture_fmu("Gain").read_bytes())
+    with zipfile.ZipFile(build_fixture_fmu("Gain")) as archive:
+        info = archive.getinfo("modelDescription.xml")
+    local = info.header_offset
+    name_length, extra_length = struct.unpack_from("<HH", data, local + 26)
+    start = local + 30 + name_length + extra_length
+    if damage == "deflate":
+        data[start] = 0xFF  # a reserved deflate block type
+    elif damage == "encrypted":
+        central = data.rfind(b"PK\x01\x02", 0)
+        while central >= 0:  # set the flag on every central-directory entry
+            flags = struct.unpack_from("<H", data, central + 8)[0]
+            struct.pack_into("<H", data, central + 8, flags | 1)
+            central = data.rfind(b"PK\x01\x02", 0, central)
+    elif damage == "version":
+        central = data.find(b"PK\x01\x02")
+        while central >= 0:
+            struct.pack_into("<H", data, central + 6, 200)
+            central = data.find(b"PK\x01\x02", central + 4)
+    path = tmp_path / f"damaged-{damage}.fmu"
+    path.write_bytes(bytes(data))
+    return path
+
+
+@pytest.mark.parametrize("damage", ["deflate", "encrypted", "version"])
+def test_a_damaged_fmu_zip_is_e012(tmp_path: Path, damage: str) -> None:
+    with pytest.raises(ModelError) as info:
+        FMU_KIND.read_interface(_damaged(tmp_path, damage), None)
+    assert info.value.code == "E012"
+
+
+def test_a_model_path_longer_than_the_file_system_allows_is_e010(tmp_path: Path) -> None:
+    system = tmp_path / "system.yaml"
+    system.write_text(
+        f"fmionnx: 1\nname: long\nrun: {{stop: 1, step: 0.1}}\n"
+        f"components:\n  a: {{kind: fmu, path: {'x' * 300}.fmu}}\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(DiagnosticError) as info:
+        fmionnx.load(system)
+    assert [d.code for d in info.value.diagnostics] == ["E010"]
+    assert "cannot be read" in str(info.value.diagnostics[0].message)
+
+
+def test_a_sine_too_fast_to_sample_is_refused_at_compile_time(tmp_path: Path) -> None:
+    system = tmp_path / "system.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: fast\nrun: {stop: 1, step: 0.1}\n"
+        "components:\n  s: {kind: signal, outputs: {y: {sine: {frequency: 1e308}}}}\n",
+        encoding="utf-8",
+    )
+    with pytest.raises(DiagnosticError) as info:
+        fmionnx.load(system)
+    assert "1000000000000" in str(info.value.diagnostics[0].message)
