@@ -31,7 +31,9 @@ import shlex
 import shutil
 import subprocess
 import sys
+import threading
 from collections.abc import Iterator
+from concurrent.futures import Future, ThreadPoolExecutor
 from dataclasses import dataclass, field
 from pathlib import Path
 
@@ -141,7 +143,7 @@ def _program(command: str) -> str:
     try:
         words = shlex.split(command, comments=True)
     except ValueError:
-        return command.split()[0]
+        return command.split(maxsplit=1)[0]
     return words[0] if words else ""
 
 
@@ -171,7 +173,34 @@ def scratch_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
 # A command's output depends only on the commands run before it in a fresh copy (fmionnx runs
 # are deterministic), so blocks that start the same way share one run: the 32 s reference
 # scenario is shown in several places and runs once per session.
-_RUNS: dict[tuple[str, ...], tuple[int, list[str]]] = {}
+_RUNS: dict[tuple[str, ...], Future[tuple[int, list[str]]]] = {}
+_RUNS_LOCK = threading.Lock()
+
+
+def _shell(text: str, cwd: Path, env: dict[str, str]) -> tuple[int, list[str]]:
+    done = subprocess.run(
+        ["bash", "-c", text], cwd=cwd, env=env, stdin=subprocess.DEVNULL,
+        stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
+        timeout=TIMEOUT_S, check=False,
+    )  # fmt: skip
+    return done.returncode, [line.rstrip() for line in done.stdout.splitlines()]
+
+
+def _run_once(
+    history: tuple[str, ...], text: str, cwd: Path, env: dict[str, str]
+) -> tuple[int, list[str]]:
+    """Run a command unless a block that began the same way ran (or is running) it already."""
+    with _RUNS_LOCK:
+        future = _RUNS.get(history)
+        owner = future is None
+        if future is None:
+            future = _RUNS[history] = Future()
+    if owner:
+        try:
+            future.set_result(_shell(text, cwd, env))
+        except BaseException as error:  # the waiting blocks must see it too
+            future.set_exception(error)
+    return future.result()
 
 
 def _strip_comment(command: str) -> str:
@@ -202,19 +231,14 @@ def run_block(block: Block, scratch: Path) -> list[str]:
                 "test; mark the block `<!-- docs-test: not-run: REASON -->`"
             )
             continue
-        elif history in _RUNS:
-            status, output = _RUNS[history]
         else:
-            done = subprocess.run(
-                ["bash", "-c", text], cwd=cwd, env=env, stdin=subprocess.DEVNULL,
-                stdout=subprocess.PIPE, stderr=subprocess.STDOUT, text=True,
-                timeout=TIMEOUT_S, check=False,
-            )  # fmt: skip
-            status, output = done.returncode, [line.rstrip() for line in done.stdout.splitlines()]
-            _RUNS[history] = (status, output)
+            status, output = _run_once(history, text, cwd, env)
         # A transcript showing an error diagnostic or a failed check documents a failing
         # command; any other command must succeed, whatever it printed.
-        fails = any(re.search(r"\berror\[E\d{3}|^fault:|check(s)? failed", line) for line in command.expected)
+        fails = any(
+            re.search(r"\berror\[E\d{3}|^fault:|check(s)? failed", line)
+            for line in command.expected
+        )
         if (status != 0) != fails:
             problems.append(
                 f"{block.where}: line {command.line}: `{command.text}` exited {status}, the doc "
@@ -247,7 +271,9 @@ def contained(part: object, whole: object) -> bool:
 
 BLOCKS = all_blocks()
 CONSOLE = [b for b in BLOCKS if b.lang == "console" and "not-run" not in b.markers]
-CHECKED_YAML = [b for b in BLOCKS if b.lang == "yaml" and b.markers.keys() & {"part-of", "valid-system"}]
+CHECKED_YAML = [
+    b for b in BLOCKS if b.lang == "yaml" and b.markers.keys() & {"part-of", "valid-system"}
+]
 
 
 def test_markers_are_known_and_give_reasons() -> None:
@@ -267,17 +293,37 @@ def test_whole_systems_in_yaml_blocks_are_marked() -> None:
         if block.lang != "yaml" or block.markers:
             continue
         text = "\n".join(block.body)
-        if re.search(r"^fmionnx:", text, re.MULTILINE) and re.search(r"^components:", text, re.MULTILINE):
+        if re.search(r"^fmionnx:", text, re.MULTILINE) and re.search(
+            r"^components:", text, re.MULTILINE
+        ):
             unmarked.append(block.where)
     assert not unmarked, f"mark these system examples (valid-system, part-of, not-run): {unmarked}"
 
 
+@pytest.fixture(scope="session")
+def console_results(
+    scratch_template: Path, tmp_path_factory: pytest.TempPathFactory
+) -> Iterator[dict[str, Future[list[str]]]]:
+    """Start every console block at once, the slowest first, on as many workers as cores.
+
+    The commands are separate processes, mostly single-threaded: running blocks side by side
+    keeps the docs test at the length of its longest run (the reference scenario) plus a
+    share of the rest, instead of their sum.
+    """
+    slow_first = sorted(CONSOLE, key=lambda b: not any("fmionnx run " in line for line in b.body))
+    with ThreadPoolExecutor(max_workers=max(2, min(4, os.cpu_count() or 1))) as pool:
+        results: dict[str, Future[list[str]]] = {}
+        for block in slow_first:
+            scratch = tmp_path_factory.mktemp("docs-block") / "work"
+            shutil.copytree(scratch_template, scratch, symlinks=True)
+            results[block.where] = pool.submit(run_block, block, scratch)
+        yield results
+
+
 @pytest.mark.parametrize("block", CONSOLE, ids=[b.where for b in CONSOLE])
-def test_console_block(block: Block, scratch_template: Path, tmp_path: Path) -> None:
+def test_console_block(block: Block, console_results: dict[str, Future[list[str]]]) -> None:
     """Run the block's commands in a fresh copy and compare what they print with the doc."""
-    scratch = tmp_path / "work"
-    shutil.copytree(scratch_template, scratch, symlinks=True)
-    problems = run_block(block, scratch)
+    problems = console_results[block.where].result()
     assert not problems, "\n\n".join(problems)
 
 
