@@ -302,7 +302,9 @@ def test_whole_systems_in_yaml_blocks_are_marked() -> None:
 
 @pytest.fixture(scope="session")
 def console_results(
-    scratch_template: Path, tmp_path_factory: pytest.TempPathFactory
+    request: pytest.FixtureRequest,
+    scratch_template: Path,
+    tmp_path_factory: pytest.TempPathFactory,
 ) -> Iterator[dict[str, Future[list[str]]]]:
     """Start every console block at once, the slowest first, on as many workers as cores.
 
@@ -310,7 +312,12 @@ def console_results(
     keeps the docs test at the length of its longest run (the reference scenario) plus a
     share of the rest, instead of their sum.
     """
-    slow_first = sorted(CONSOLE, key=lambda b: not any("fmionnx run " in line for line in b.body))
+    selected = [
+        item.callspec.params["block"]
+        for item in request.session.items
+        if isinstance(item, pytest.Function) and item.originalname == "test_console_block"
+    ]
+    slow_first = sorted(selected, key=lambda b: not any("fmionnx run " in line for line in b.body))
     with ThreadPoolExecutor(max_workers=max(2, min(4, os.cpu_count() or 1))) as pool:
         results: dict[str, Future[list[str]]] = {}
         for block in slow_first:
@@ -358,3 +365,11 @@ def test_matcher_is_strict() -> None:
     assert not lines_match([], ["unexpected output"])
     assert lines_match(["...", "end"], ["end"])
     assert not lines_match(["a ... c"], ["a b"])
+
+
+def test_unmarked_block_that_cannot_run_fails(tmp_path: Path) -> None:
+    """A command the test cannot run is a failure, not a silent skip, until the block is marked."""
+    block = Block(REPO / "README.md", 1, "console", ["$ make demo"], {})
+    problems = run_block(block, tmp_path)
+    assert problems
+    assert "not-run" in problems[0]
