@@ -173,7 +173,7 @@ def scratch_template(tmp_path_factory: pytest.TempPathFactory) -> Path:
 # A command's output depends only on the commands run before it in a fresh copy (fmionnx runs
 # are deterministic), so blocks that start the same way share one run: the 32 s reference
 # scenario is shown in several places and runs once per session.
-_RUNS: dict[tuple[str, ...], Future[tuple[int, list[str]]]] = {}
+_RUNS: dict[tuple[str, ...], Future[tuple[int, list[str], Path]]] = {}
 _RUNS_LOCK = threading.Lock()
 
 
@@ -187,9 +187,14 @@ def _shell(text: str, cwd: Path, env: dict[str, str]) -> tuple[int, list[str]]:
 
 
 def _run_once(
-    history: tuple[str, ...], text: str, cwd: Path, env: dict[str, str]
+    history: tuple[str, ...], text: str, scratch: Path, cwd: Path, env: dict[str, str]
 ) -> tuple[int, list[str]]:
-    """Run a command unless a block that began the same way ran (or is running) it already."""
+    """Run a command unless a block that began the same way ran (or is running) it already.
+
+    The first block to get there runs it and keeps a copy of its scratch folder afterwards;
+    the others take that copy as their own, so the files the command wrote are there for
+    their next commands exactly as if they had run it.
+    """
     with _RUNS_LOCK:
         future = _RUNS.get(history)
         owner = future is None
@@ -197,10 +202,18 @@ def _run_once(
             future = _RUNS[history] = Future()
     if owner:
         try:
-            future.set_result(_shell(text, cwd, env))
+            status, output = _shell(text, cwd, env)
+            snapshot = scratch.with_name(f"{scratch.name}-after-{len(history)}")
+            shutil.copytree(scratch, snapshot, symlinks=True)
+            future.set_result((status, output, snapshot))
         except BaseException as error:  # the waiting blocks must see it too
             future.set_exception(error)
-    return future.result()
+            raise
+        return status, output
+    status, output, snapshot = future.result()
+    shutil.rmtree(scratch)
+    shutil.copytree(snapshot, scratch, symlinks=True)
+    return status, output
 
 
 def _strip_comment(command: str) -> str:
@@ -232,7 +245,7 @@ def run_block(block: Block, scratch: Path) -> list[str]:
             )
             continue
         else:
-            status, output = _run_once(history, text, cwd, env)
+            status, output = _run_once(history, text, scratch, cwd, env)
         # A transcript showing an error diagnostic or a failed check documents a failing
         # command; any other command must succeed, whatever it printed.
         fails = any(
