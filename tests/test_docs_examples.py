@@ -56,6 +56,9 @@ ACTIVATE = {". .venv/bin/activate", "source .venv/bin/activate"}
 SCRATCH_TREES = ["systems", "schemas", "models", "tests/fixtures"]
 KNOWN_MARKERS = {"not-run", "part-of", "valid-system"}
 TIMEOUT_S = 120
+# What a transcript of a failing command shows: a diagnostic summary with errors, an error
+# annotation, a run fault or failed checks. Such a command must exit non-zero, any other 0.
+FAILURE = re.compile(r"^\d+ errors?\b|\berror\[E\d{3}|^::error |^fault:|checks? failed")
 
 
 @dataclass
@@ -248,10 +251,7 @@ def run_block(block: Block, scratch: Path) -> list[str]:
             status, output = _run_once(history, text, scratch, cwd, env)
         # A transcript showing an error diagnostic or a failed check documents a failing
         # command; any other command must succeed, whatever it printed.
-        fails = any(
-            re.search(r"\berror\[E\d{3}|^fault:|check(s)? failed", line)
-            for line in command.expected
-        )
+        fails = any(FAILURE.search(line) for line in command.expected)
         if (status != 0) != fails:
             problems.append(
                 f"{block.where}: line {command.line}: `{command.text}` exited {status}, the doc "
