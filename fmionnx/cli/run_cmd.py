@@ -458,6 +458,12 @@ def _run_system(
             f"[yellow]interrupted{by}[/] at t={result.simulated_time + result.start:g} s; "
             "the results recorded so far are written"
         )
+    elif result.ended_by is not None:
+        ended = result.ended_by
+        console.print(
+            f"[green]ended[/] at t={ended.time:g} s by component `{ended.component}`: "
+            f"{ended.reason}"
+        )
     if out is not None:
         print(f"Results: {out}")  # the last line names the folder (make demo)
     if result.status is RunStatus.FAULT:

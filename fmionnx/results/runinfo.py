@@ -47,6 +47,7 @@ def run_info(
         "backend": result.backend,
         "status": result.status.value,
         "interrupted_by": result.interrupted_by,
+        "ended_by": None if result.ended_by is None else result.ended_by.as_dict(),
         "start_time": result.start,
         "stop_time": result.stop,
         "step": result.step,

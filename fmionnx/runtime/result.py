@@ -36,6 +36,22 @@ class RunStatus(enum.StrEnum):
     RUNNING = "running"
 
 
+@dataclass(frozen=True)
+class EndedBy:
+    """A run a model ended before its stop time (FMI ``terminateSimulation``): not a fault.
+
+    ``time`` is the simulated time the run ended at (the time of the last row).
+    """
+
+    component: str
+    time: float
+    reason: str
+
+    def as_dict(self) -> dict[str, str | float]:
+        """The ``ended_by`` object of ``run.json``."""
+        return {"component": self.component, "time": self.time, "reason": self.reason}
+
+
 #: ``progress(steps_done, total_steps, time)``; called every few hundred steps.
 ProgressCallback = Callable[[int, int, float], None]
 
@@ -92,6 +108,8 @@ class RunResult:
     details: dict[str, str | int | bool | None] = field(default_factory=dict)
     #: For an interrupted run: the signal that stopped it (``SIGINT``, ``SIGTERM``, ``SIGHUP``).
     interrupted_by: str | None = None
+    #: For a completed run that a model ended before the stop time: which, when and why.
+    ended_by: EndedBy | None = None
 
     @classmethod
     def after(
@@ -105,6 +123,7 @@ class RunResult:
         error: RunError | None = None,
         details: dict[str, str | int | bool | None] | None = None,
         interrupted_by: str | None = None,
+        ended_by: EndedBy | None = None,
     ) -> RunResult:
         """The result of ``system`` after ``steps_done`` base steps: run settings and the time
         column (``t_0 .. t_n``, computed, never accumulated) come from the system."""
@@ -123,6 +142,7 @@ class RunResult:
             error=error,
             details=details or {},
             interrupted_by=interrupted_by,
+            ended_by=ended_by,
         )
 
     @property

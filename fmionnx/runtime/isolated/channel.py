@@ -23,6 +23,8 @@ from dataclasses import dataclass
 import numpy as np
 import numpy.typing as npt
 
+from fmionnx.core.errors import ModelTerminated, RunError
+
 #: Bytes of the control block; the data block starts here (a page boundary, as mmap wants).
 CONTROL_SIZE = mmap.ALLOCATIONGRANULARITY
 
@@ -106,6 +108,34 @@ def send(fd: int, tag: bytes, payload: object) -> None:
     """One tagged message with a pickled payload."""
     data = pickle.dumps(payload, protocol=pickle.HIGHEST_PROTOCOL)
     write_all(fd, tag + _LENGTH.pack(len(data)) + data)
+
+
+#: The kind of an error reply whose RunError is a model's request to end the run.
+TERMINATED = "terminated"
+
+
+def error_document(exc: RunError) -> tuple[str, str | None, float | None, str | None, str]:
+    """(message, port, time, kind, reason) of a RunError raised in the child.
+
+    The kind keeps a :class:`ModelTerminated` (the model's normal end of the run) apart from
+    a fault across the process boundary; a fault's kind is None.
+    """
+    if isinstance(exc, ModelTerminated):
+        return (str(exc), exc.port, exc.time, TERMINATED, exc.reason)
+    return (str(exc), exc.port, exc.time, None, "")
+
+
+def error_from(document: tuple[object, ...], component: str) -> RunError:
+    """The RunError an error reply describes (a ModelTerminated for a termination request)."""
+    padded = (*document, None, None, None, None, "")[:5]
+    message, port, time, kind, reason = padded
+    where = port if isinstance(port, str) else None
+    when = float(time) if isinstance(time, (int, float)) and not isinstance(time, bool) else None
+    if kind == TERMINATED:
+        return ModelTerminated(
+            str(message), reason=str(reason), component=component, port=where, time=when
+        )
+    return RunError(str(message), component=component, port=where, time=when)
 
 
 def receive_payload(fd: int) -> object | None:

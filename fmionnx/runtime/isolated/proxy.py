@@ -207,8 +207,7 @@ class IsolatedRunner:
         payload = channel.receive_payload(self._replies)
         if not isinstance(payload, tuple):
             self._died(t, h)
-        message, port, time = payload
-        raise RunError(str(message), component=self.component.name, port=port, time=time)
+        raise channel.error_from(payload, self.component.name)
 
     def _ready(self, seconds: float) -> bool:
         poller = select.poll()
