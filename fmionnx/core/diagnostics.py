@@ -235,6 +235,13 @@ CODES: dict[str, ErrorCode] = _codes(
     ),
     ErrorCode("E045", "plot", _E, "run", "A plot names a signal that does not exist."),
     ErrorCode(
+        "E046",
+        "output-interval",
+        _E,
+        "run",
+        "The output interval is not a whole multiple of the base step.",
+    ),
+    ErrorCode(
         "W040", "long-run", _W, "run", "A run of more than 10^8 base steps (it may take hours)."
     ),
     # --- graph

@@ -51,6 +51,7 @@ def run_info(
         "start_time": result.start,
         "stop_time": result.stop,
         "step": result.step,
+        "output_interval": system.run.output_interval,
         "steps": result.steps_done,
         "simulated_time": result.simulated_time,
         "wall_time": round(result.wall_time, 6),

@@ -126,8 +126,19 @@ class RunResult:
         ended_by: EndedBy | None = None,
     ) -> RunResult:
         """The result of ``system`` after ``steps_done`` base steps: run settings and the time
-        column (``t_0 .. t_n``, computed, never accumulated) come from the system."""
+        column (``t_0 .. t_n``, computed, never accumulated) come from the system.
+
+        ``signals`` holds every base step; with an output interval only every k-th row and the
+        last one are kept (:func:`output_rows`), for every backend alike.
+        """
         run = system.run
+        every = run.output_every
+        if every > 1:
+            rows = output_rows(steps_done, every)
+            signals = {name: values[rows] for name, values in signals.items()}
+            time = np.asarray(run.start + rows * run.step, dtype=np.float64)
+        else:
+            time = np.asarray(run.start + np.arange(steps_done + 1) * run.step, dtype=np.float64)
         return cls(
             system=system.name,
             backend=backend,
@@ -137,7 +148,7 @@ class RunResult:
             step=run.step,
             steps_done=steps_done,
             wall_time=wall_time,
-            time=np.asarray(run.start + np.arange(steps_done + 1) * run.step, dtype=np.float64),
+            time=time,
             signals=signals,
             error=error,
             details=details or {},
@@ -162,6 +173,15 @@ class RunResult:
         if name == "time":
             return self.time
         return self.signals[name]
+
+
+def output_rows(steps_done: int, every: int) -> npt.NDArray[np.int64]:
+    """Base steps written with an output interval of ``every`` steps: ``0, k, 2k, ...`` and
+    always the last one (a run's end, also an early end on a fault or a model's request)."""
+    rows = np.arange(0, steps_done + 1, every, dtype=np.int64)
+    if rows[-1] != steps_done:
+        rows = np.append(rows, np.int64(steps_done))
+    return rows
 
 
 class Backend(abc.ABC):
