@@ -279,6 +279,9 @@ CODES: dict[str, ErrorCode] = _codes(
         "An SSP element references something that does not exist.",
     ),
     ErrorCode("W070", "ssp-ignored", _W, "ssp", "An SSP element that fmionnx reads but ignores."),
+    ErrorCode(
+        "I070", "ssp-layout", _I, "ssp", "The SSP diagram layout (geometry) is not used."
+    ),
     # --- interface lock (issue: CI)
     ErrorCode(
         "E080",

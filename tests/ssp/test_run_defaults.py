@@ -86,3 +86,10 @@ def test_a_bad_step_on_the_command_line_is_a_diagnostic_not_a_traceback(tmp_path
     assert "E040" in result.output
     assert "Traceback" not in result.output
 
+
+def test_diagram_layout_is_one_note_not_a_warning_per_element(tmp_path: Path) -> None:
+    path = _signal_ssd(tmp_path, experiment='<ssd:DefaultExperiment stopTime="1"/>', geometry=True)
+    found = [(d.code, d.message) for d in api.compile_system(path).diagnostics]
+    assert [code for code, _ in found] == ["I070"]
+    assert "4 elements" in found[0][1]
+    assert "`ConnectorGeometry`, `ElementGeometry`, `SystemGeometry`" in found[0][1]
