@@ -93,3 +93,17 @@ def test_diagram_layout_is_one_note_not_a_warning_per_element(tmp_path: Path) ->
     assert [code for code, _ in found] == ["I070"]
     assert "4 elements" in found[0][1]
     assert "`ConnectorGeometry`, `ElementGeometry`, `SystemGeometry`" in found[0][1]
+
+
+def test_output_interval_travels_through_an_exported_ssp(tmp_path: Path) -> None:
+    system = tmp_path / "s.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: s\nrun: {stop: 1, step: 0.01, output_interval: 0.1}\n"
+        "components:\n  src: {kind: signal, outputs: {u: {constant: 1}}}\n",
+        encoding="utf-8",
+    )
+    archive = tmp_path / "s.ssp"
+    result = CliRunner().invoke(app, ["export", str(system), "-o", str(archive)])
+    assert result.exit_code == 0, result.output
+    run = fmionnx.load(archive).compiled.run
+    assert (run.step, run.output_interval, run.output_every) == (0.01, 0.1, 10)
