@@ -126,3 +126,30 @@ def test_cli_reports_who_ended_the_run_and_exits_0(
     rows = (out / "results.csv").read_text(encoding="utf-8").splitlines()
     assert rows[-1].startswith("0.31,")
     assert len(rows) == 1 + 32
+
+
+@pytest.mark.parametrize("solver", ["euler", "cvode"])
+def test_fmi2_model_exchange_termination_ends_the_run(
+    fixture_fmu, write_system, solver: str
+) -> None:
+    # Integrator (ME) asks to terminate from fmi2CompletedIntegratorStep once x >= xStop
+    path = write_system(
+        f"""
+fmionnx: 1
+name: me_ending
+run: {{stop: 2.0, step: 0.1}}
+components:
+  integ: {{kind: fmu, path: {fixture_fmu("Integrator")}, interface: me, solver: {solver},
+           parameters: {{u: 1.0, xStop: 0.45}}}}
+record: [integ.x]
+"""
+    )
+    result = fmionnx.load(path).run()
+    assert result.status is RunStatus.COMPLETED
+    assert result.ended_by is not None
+    assert result.ended_by.component == "integ"
+    # the end of the step in which x passed xStop (the model sees it one Euler step later)
+    assert 0.45 < result.ended_by.time < 0.65
+    assert result.time[-1] == result.ended_by.time
+    assert result.steps_done < 20
+    assert result["integ.x"][-1] >= 0.45
