@@ -25,7 +25,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.overrides import OverrideError, override_parameter, override_stop, parse_value
+from fmionnx.compile.overrides import (
+    OverrideError,
+    override_output_interval,
+    override_parameter,
+    override_stop,
+    parse_value,
+)
+from fmionnx.compile.runflags import RunFlags, apply_run_flags, mark_command_line
 from fmionnx.compile.single import check_single_model, compile_single_model
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity, did_you_mean, one_of
 from fmionnx.core.errors import DiagnosticError
@@ -81,11 +88,14 @@ class System:
         *,
         stop_time: float | None = None,
         params: Mapping[str, Scalar | list[Scalar]] | None = None,
+        output_interval: float | None = None,
     ) -> System:
-        """A new System with a different stop time and/or parameter values."""
+        """A new System with a different stop time, output interval and/or parameter values."""
         compiled = self.compiled
         if stop_time is not None:
             compiled = override_stop(compiled, stop_time)
+        if output_interval is not None:
+            compiled = override_output_interval(compiled, output_interval)
         for key, value in (params or {}).items():
             compiled = override_parameter(compiled, key, value)
         return dataclasses.replace(self, compiled=compiled)
@@ -126,24 +136,33 @@ def load(
     interface: Literal["cs", "me"] | None = None,
     step: float | None = None,
     models: Path | None = None,
+    start: float | None = None,
 ) -> System:
     """Compile a system file or a single model, or read a compiled system; raises
     DiagnosticError on errors (CompiledFileError for an unusable compiled-system file).
 
-    ``interface`` and ``step`` apply to a single ``.fmu`` only. A compiled-system file
-    (``*.fmionnx.json``, written by ``fmionnx compile``) is read as it is, nothing compiled;
-    ``models`` names the store its models are found in by hash (default: where they were).
+    ``interface`` applies to a single ``.fmu`` only; ``step`` and ``start`` replace the run's
+    base step and start time of any system before it is compiled (:mod:`.compile.runflags`).
+    A compiled-system file (``*.fmionnx.json``, written by ``fmionnx compile``) is read as it
+    is, nothing compiled (``step``/``start`` are refused: OverrideError); ``models`` names the
+    store its models are found in by hash (default: where they were).
     """
     target = Path(path)
+    flags = RunFlags(start=start, step=step)
     if target.name.lower().endswith(COMPILED_SUFFIX):
         from fmionnx.compile.systemfile import read_compiled
 
+        if flags.keys:
+            msg = "--step and --start-time need a system file: a compiled system is run as it is"
+            raise OverrideError(msg)
         return System(read_compiled(target, models=models))
     bag = DiagnosticBag()
     if target.suffix.lower() in MODEL_SUFFIXES:
-        compiled = compile_single_model(target, bag, interface=interface, step=step)
+        compiled = compile_single_model(target, bag, interface=interface, step=step, start=start)
+        if compiled is not None:
+            compiled = mark_command_line(compiled, flags)
     else:
-        result = compile_system(target)
+        result = compile_system(target, flags)
         bag.extend(result.diagnostics)
         compiled = result.system
     diagnostics = tuple(bag.sorted())
@@ -246,16 +265,21 @@ class CompileResult:
         return all(d.severity is not Severity.ERROR for d in self.diagnostics)
 
 
-def compile_system(path: str | Path) -> CompileResult:
-    """Load, check and compile a system file (YAML or SSP) into the IR."""
+def compile_system(path: str | Path, flags: RunFlags | None = None) -> CompileResult:
+    """Load, check and compile a system file (YAML or SSP) into the IR; ``flags`` replace its
+    start time and base step first (``fmionnx run --start-time/--step``)."""
     from fmionnx.compile.compiler import compile_spec
     from fmionnx.spec.frontends import load_system
 
     bag = DiagnosticBag()
     loaded = load_system(Path(path), bag)
+    if flags is not None:
+        loaded = apply_run_flags(loaded, flags, bag)
     system = None
     if loaded.spec is not None:
         system = compile_spec(loaded, bag)
+        if system is not None and flags is not None:
+            system = mark_command_line(system, flags)
     diagnostics = tuple(bag.sorted())
     if any(d.severity is Severity.ERROR for d in diagnostics):
         system = None

@@ -99,8 +99,25 @@ def run(
         float | None,
         typer.Option(
             "--step",
-            help="Single FMU only: communication step in seconds (default: its default "
-            "experiment's step).",
+            help="Base (communication) step in seconds; replaces `run.step` and is checked like "
+            "it (default: the system file's, else the fastest period, else the models' default "
+            "experiment step).",
+        ),
+    ] = None,
+    start_time: Annotated[
+        float | None,
+        typer.Option(
+            "--start-time",
+            help="Start time in seconds; replaces `run.start` (a single FMU: 0).",
+        ),
+    ] = None,
+    output_interval: Annotated[
+        float | None,
+        typer.Option(
+            "--output-interval",
+            help="Seconds between two rows of results.csv, a whole multiple of the step; "
+            "replaces `run.output_interval` (default: every step). The last point is always "
+            "written.",
         ),
     ] = None,
     interface: Annotated[
@@ -222,8 +239,11 @@ def run(
     suffix = target.suffix.lower()
     if interface is not None and interface not in ("cs", "me"):
         raise fail(f"--interface must be `cs` or `me`, not `{interface}`")
-    if (step is not None or interface is not None) and suffix != ".fmu":
-        raise fail("--step and --interface apply to a single .fmu only")
+    if interface is not None and suffix != ".fmu":
+        raise fail("--interface applies to a single .fmu only")
+    if suffix == ".onnx" and (step, start_time, output_interval) != (None, None, None):
+        raise fail("--step, --start-time and --output-interval apply to systems and FMUs, not to "
+                   "a single ONNX model's inference")
     if inputs and suffix != ".onnx":
         raise fail("--input applies to a single .onnx model only")
     if out is not None and no_out:
@@ -270,6 +290,8 @@ def run(
                 step=step,
                 interface=interface,
                 ros2=ros2,
+                start_time=start_time,
+                output_interval=output_interval,
                 max_steps=max_steps,
                 safety=safety,
                 evaluate=checks,
@@ -359,6 +381,8 @@ def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
 
     try:
         system = api.load(target, **kwargs)
+    except api.OverrideError as exc:  # --step on a compiled system
+        raise fail(str(exc)) from None
     except DiagnosticError as exc:
         TextReporter().render(
             [FileResult(target, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
@@ -387,6 +411,8 @@ def _run_system(
     safety: RunSafety | None = None,
     evaluate: bool = True,
     plot_signals: bool = False,
+    start_time: float | None = None,
+    output_interval: float | None = None,
 ) -> int:
     import dataclasses
 
@@ -397,13 +423,15 @@ def _run_system(
     from fmionnx.runtime.result import RunOptions, RunStatus
 
     console = Console(stderr=True, highlight=False)
-    kwargs: dict[str, Any] = {}
+    kwargs: dict[str, Any] = {"step": step, "start": start_time}
     if target.suffix.lower() == ".fmu":
-        kwargs = {"interface": interface, "step": step}
+        kwargs["interface"] = interface
     system = load_target(target, quiet=quiet, **kwargs)
     try:
         system = system.with_overrides(
-            stop_time=stop_time, params={k: parse_value(v) for k, v in params.items()}
+            stop_time=stop_time,
+            params={k: parse_value(v) for k, v in params.items()},
+            output_interval=output_interval,
         )
     except OverrideError as exc:
         raise fail(str(exc)) from None
@@ -478,6 +506,12 @@ def _run_system(
         console.print(
             f"[yellow]interrupted{by}[/] at t={result.simulated_time + result.start:g} s; "
             "the results recorded so far are written"
+        )
+    elif result.ended_by is not None:
+        ended = result.ended_by
+        console.print(
+            f"[green]ended[/] at t={ended.time:g} s by component `{ended.component}`: "
+            f"{ended.reason}"
         )
     if out is not None:
         print(f"Results: {out}")  # the last line names the folder (make demo)

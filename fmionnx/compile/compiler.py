@@ -37,6 +37,7 @@ from fmionnx.core.types import (
 )
 from fmionnx.kinds.base import SIMULATOR
 from fmionnx.kinds.registry import COMPONENT_KINDS
+from fmionnx.spec.frontends import SSP_SUFFIXES
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import LoadedSpec
@@ -53,7 +54,8 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         interfaces[name] = read_interface(name, component_spec, loaded.path, sources, bag)
     readable = {n: i for n, i in interfaces.items() if i is not None}
     periods = {n: s.period for n, s in spec.components.items() if s.period is not None}
-    run = resolve_run(spec.run, readable, periods, sources, bag)
+    from_ssp = loaded.path.suffix.lower() in SSP_SUFFIXES  # SSP has no step size of its own
+    run = resolve_run(spec.run, readable, periods, sources, bag, fallback_step=from_ssp)
 
     components: list[Component] = []
     for name, component_spec in spec.components.items():

@@ -76,6 +76,15 @@ class RunSettings:
     stop: float
     step: float
     origins: tuple[tuple[str, Origin], ...] = ()
+    #: Seconds between two recorded rows (a whole multiple of ``step``); None: every step.
+    output_interval: float | None = None
+
+    @property
+    def output_every(self) -> int:
+        """Base steps between two recorded rows (1 without an output interval)."""
+        if self.output_interval is None:
+            return 1
+        return max(1, round(self.output_interval / self.step))
 
     @property
     def steps(self) -> int:

@@ -10,10 +10,10 @@ import dataclasses
 import json
 import math
 
-from fmionnx.compile.ir import CompiledSystem, Origin, RunSettings
+from fmionnx.compile.ir import CompiledSystem, Origin
 from fmionnx.core.diagnostics import did_you_mean, one_of
 from fmionnx.core.errors import FmionnxError
-from fmionnx.core.steps import count_problem
+from fmionnx.core.steps import count_problem, output_interval_problem, suggest_interval
 from fmionnx.core.types import (
     Causality,
     DType,
@@ -50,7 +50,24 @@ def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
         msg = f"--stop-time {stop} is not a whole number of base steps ({run.step} s) after the start"
         raise OverrideError(msg)
     origins = (*((k, o) for k, o in run.origins if k != "stop"), ("stop", Origin.COMMAND_LINE))
-    return dataclasses.replace(system, run=RunSettings(run.start, stop, run.step, origins))
+    return dataclasses.replace(system, run=dataclasses.replace(run, stop=stop, origins=origins))
+
+
+def override_output_interval(system: CompiledSystem, interval: float) -> CompiledSystem:
+    """The system writing a row every ``interval`` seconds (a whole multiple of the step)."""
+    run = system.run
+    problem = output_interval_problem(interval, run.step)
+    if problem is not None:
+        suggestion = suggest_interval(interval, run.step)
+        msg = f"--output-interval {problem} (E047); use e.g. {suggestion:.12g}"
+        raise OverrideError(msg)
+    origins = (
+        *((k, o) for k, o in run.origins if k != "output_interval"),
+        ("output_interval", Origin.COMMAND_LINE),
+    )
+    return dataclasses.replace(
+        system, run=dataclasses.replace(run, origins=origins, output_interval=interval)
+    )
 
 
 def _finite_float(text: str) -> float:

@@ -10,7 +10,15 @@ from fmionnx.compile.typecheck import declared_note
 from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.specbase import ComponentSpecBase, ParameterLiteral
-from fmionnx.core.steps import MAX_RUN_STEPS, WARN_STEPS, count_problem, step_problem
+from fmionnx.core.steps import (
+    MAX_RUN_STEPS,
+    WARN_STEPS,
+    count_problem,
+    default_step,
+    output_interval_problem,
+    step_problem,
+    suggest_interval,
+)
 from fmionnx.core.types import (
     Causality,
     ComponentInterface,
@@ -183,8 +191,14 @@ def resolve_run(
     periods: dict[str, float],
     sources: SourceMap,
     bag: DiagnosticBag,
+    *,
+    fallback_step: bool = False,
 ) -> RunSettings | None:
-    """Resolve start/stop/step, recording where each value came from; never guess silently."""
+    """Resolve start/stop/step, recording where each value came from; never guess silently.
+
+    ``fallback_step`` (an SSP file, whose format has no step): when nothing gives a step, the
+    built-in :func:`default_step` of the run's length is used, and recorded as such.
+    """
     origins: list[tuple[str, Origin]] = [("start", Origin.SYSTEM_FILE)]
     experiments = [i.default_experiment for i in interfaces.values() if i.default_experiment]
     stop = run.stop
@@ -214,6 +228,9 @@ def resolve_run(
         if steps:
             step = steps[0]
             origins.append(("step", Origin.MODEL_DEFAULT))
+        elif fallback_step and math.isfinite(stop - run.start) and stop > run.start:
+            step = default_step(stop - run.start)
+            origins.append(("step", Origin.BUILTIN_DEFAULT))
         else:
             bag.emit(
                 "E004",
@@ -252,7 +269,20 @@ def resolve_run(
             hint="choose a step that divides the run length",
         )
         return None
-    settings = RunSettings(run.start, stop, step, tuple(origins))
+    interval = run.output_interval
+    if interval is not None:
+        problem = output_interval_problem(interval, step)
+        if problem is not None:
+            bag.emit(
+                "E047",
+                f"`run.output_interval` {problem}",
+                sources.value(("run", "output_interval")),
+                hint="use a whole multiple of the step, e.g. "
+                f"{suggest_interval(interval, step):.12g}",
+            )
+            return None
+        origins.append(("output_interval", Origin.SYSTEM_FILE))
+    settings = RunSettings(run.start, stop, step, tuple(origins), interval)
     if settings.steps > WARN_STEPS:
         bag.emit(
             "W040",

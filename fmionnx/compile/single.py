@@ -11,6 +11,7 @@ would have given.
 from __future__ import annotations
 
 import dataclasses
+import math
 import re
 from pathlib import Path
 from typing import Literal
@@ -38,6 +39,7 @@ def compile_single_model(
     *,
     interface: Literal["cs", "me"] | None = None,
     step: float | None = None,
+    start: float | None = None,
 ) -> CompiledSystem | None:
     """Compile a one-component system around ``path`` (an FMU or ONNX model) to run it.
 
@@ -51,12 +53,15 @@ def compile_single_model(
     if problem is not None:  # checked here: RunSpec would raise a bare ValidationError
         bag.emit("E040", f"--step {problem}", Span(path))
         return None
+    if start is not None and not math.isfinite(start):
+        bag.emit("E040", f"--start-time {start} is not a finite number of seconds", Span(path))
+        return None
     absolute = str(path.resolve())
     if path.suffix.lower() == ".onnx":
         run = RunSpec(start=0.0, stop=1.0, step=1.0)
         spec: ComponentSpecBase = OnnxSpec(path=absolute)
     else:
-        run = RunSpec(step=step)
+        run = RunSpec(step=step, start=start or 0.0)
         spec = FmuSpec(path=absolute, interface=interface)
     if _read_alone(path, spec, bag) is None:
         return None

@@ -32,7 +32,12 @@ from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES
 from fmionnx.core.specbase import NO_MODEL_FILE
-from fmionnx.core.steps import MAX_EXACT_STEPS, count_problem, step_problem
+from fmionnx.core.steps import (
+    MAX_EXACT_STEPS,
+    count_problem,
+    output_interval_problem,
+    step_problem,
+)
 from fmionnx.core.types import Component, KindConfig
 from fmionnx.kinds.base import MODEL_FOLDER
 from fmionnx.kinds.registry import COMPONENT_KINDS, config_type
@@ -230,6 +235,8 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
         raise CompiledFileError(msg)
     run = system.run  # checked as when compiled: a hand-edited file could hold any numbers
     problem = step_problem(run.step) or count_problem(run.stop - run.start, run.step, "the run")
+    if problem is None and run.output_interval is not None:
+        problem = output_interval_problem(run.output_interval, run.step)
     if problem is not None or not run.stop > run.start:
         msg = f"{origin}: run settings out of range: {problem or 'stop is not after start'}"
         raise CompiledFileError(msg)

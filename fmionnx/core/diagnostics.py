@@ -271,6 +271,13 @@ CODES: dict[str, ErrorCode] = _codes(
         "on an xy axis.",
     ),
     ErrorCode(
+        "E047",
+        "output-interval",
+        _E,
+        "run",
+        "The output interval is not a whole multiple of the base step.",
+    ),
+    ErrorCode(
         "W040", "long-run", _W, "run", "A run of more than 10^8 base steps (it may take hours)."
     ),
     # --- graph
@@ -308,6 +315,9 @@ CODES: dict[str, ErrorCode] = _codes(
         "An SSP element references something that does not exist.",
     ),
     ErrorCode("W070", "ssp-ignored", _W, "ssp", "An SSP element that fmionnx reads but ignores."),
+    ErrorCode(
+        "I070", "ssp-layout", _I, "ssp", "The SSP diagram layout (geometry) is not used."
+    ),
     # --- interface lock (issue: CI)
     ErrorCode(
         "E080",

@@ -58,3 +58,26 @@ class RunError(FmionnxError):
         self.port = port
         self.time = time
         super().__init__(message)
+
+
+class ModelTerminated(RunError):  # noqa: N818 - no error: the model's own end of the run
+    """A model asked to end the simulation (FMI ``terminateSimulation``, ``fmi2Terminated``).
+
+    Not a fault: the model finished what it simulates (a stop condition inside it). It is a
+    RunError so that every layer passing faults on (isolation, ROS 2 nodes) carries it
+    unchanged; the master catches it first and ends the run normally at the end of the step
+    that asked (``docs/execution.md``). ``reason`` is the bare reason, without the
+    ``component `x` at t=...`` prefix of the message.
+    """
+
+    def __init__(
+        self,
+        message: str,
+        *,
+        reason: str,
+        component: str | None = None,
+        port: str | None = None,
+        time: float | None = None,
+    ) -> None:
+        self.reason = reason
+        super().__init__(message, component=component, port=port, time=time)

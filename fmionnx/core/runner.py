@@ -16,7 +16,7 @@ from typing import Protocol
 import numpy as np
 import numpy.typing as npt
 
-from fmionnx.core.errors import RunError
+from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.types import Component
 
 Buffer = npt.NDArray[np.generic]
@@ -102,4 +102,14 @@ def fault(runner_component: str, message: str, *, time: float, port: str | None 
         where += f", port `{port}`"
     return RunError(
         f"{where} at t={time:.6g} s: {message}", component=runner_component, port=port, time=time
+    )
+
+
+def terminated(runner_component: str, reason: str, *, time: float) -> ModelTerminated:
+    """The model asked to end the run (not a fault): same wording as :func:`fault`."""
+    return ModelTerminated(
+        f"component `{runner_component}` at t={time:.6g} s: {reason}",
+        reason=reason,
+        component=runner_component,
+        time=time,
     )

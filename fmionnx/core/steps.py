@@ -43,3 +43,47 @@ def count_problem(length: float, step: float, what: str) -> str | None:
     if not math.isfinite(ratio) or ratio > MAX_EXACT_STEPS:
         return f"{what} is more than 2**53 base steps of {step}, too many to count exactly"
     return None
+
+
+def output_interval_problem(interval: float, step: float) -> str | None:
+    """Why ``interval`` cannot separate two rows of results (a phrase), or None when it can.
+
+    Rows exist only at communication points, so the interval is a whole multiple of the base
+    step (``run.output_interval``, ``--output-interval``; E047).
+    """
+    problem = step_problem(interval)
+    if problem is not None:
+        return problem
+    ratio = interval / step
+    nearest = round(ratio) if math.isfinite(ratio) else 0
+    if nearest < 1 or not math.isclose(ratio, nearest, rel_tol=1e-6, abs_tol=1e-6):
+        return f"{interval} is not a whole multiple of the base step {step}"
+    if nearest > MAX_EXACT_STEPS:
+        return f"{interval} is more than 2**53 base steps of {step}"
+    return None
+
+
+def suggest_interval(interval: float, step: float) -> float:
+    """The whole multiple of ``step`` nearest to ``interval`` (at least one step)."""
+    ratio = interval / step
+    return step * max(1, round(ratio)) if math.isfinite(ratio) and ratio < MAX_EXACT_STEPS else step
+
+
+#: Most base steps of a run whose step nothing gives (an SSD without one: :func:`default_step`).
+DEFAULT_STEPS = 1000
+
+
+def default_step(length: float) -> float:
+    """The base step of a run of ``length`` seconds that nothing else gives a step to.
+
+    SSP has no step size (neither 1.0 nor 2.0), so an SSD from a tool that writes none, with
+    models that declare none, still needs one. Like FMPy for an FMU without a default step,
+    the step follows the length of the run: the smallest "round" step (1, 2 or 5 times a power
+    of ten) that divides the run into at most :data:`DEFAULT_STEPS` steps (a 10 s run: 0.01 s).
+    """
+    decade = 10.0 ** math.floor(math.log10(length / DEFAULT_STEPS))
+    for factor in (1.0, 2.0, 5.0, 10.0):
+        step = factor * decade
+        if length / step <= DEFAULT_STEPS * (1 + 1e-9):
+            return step
+    return 10.0 * decade

@@ -319,8 +319,9 @@ def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSyste
         exclude_defaults=True,
         include={"record", "plots", "checks", "ros2"},
     )
-    if spec.run.step is not None:
-        settings["run"] = {"step": spec.run.step}
+    run = spec.run.model_dump(mode="json", include={"step", "output_interval"}, exclude_none=True)
+    if run:  # SSP's DefaultExperiment has neither (1.0 nor 2.0): our annotation carries them
+        settings["run"] = run
     if settings:
         _annotation(root, settings)
     _check(root, "ssd", SSD_NAME)

@@ -26,13 +26,13 @@ from collections.abc import Callable
 from dataclasses import dataclass
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.core.errors import RunError
+from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
 from fmionnx.core.signals import column_names, is_image
 from fmionnx.core.types import Causality, Component, PortRef, flat_index
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.recorder import Recorder, Track
-from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_reason
 from fmionnx.runtime.transfer import Transfer, make_transfer
 from fmionnx.runtime.watchdog import Watchdog
@@ -110,6 +110,8 @@ class Master:
         #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
         self.native = NativeStatus(used=False, reason="not prepared")
         self._watchdog: Watchdog | None = None
+        #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
+        self.ended_by: EndedBy | None = None
         self._started = _time.perf_counter()
 
     # -- preparation ---------------------------------------------------------------------------
@@ -309,7 +311,7 @@ class Master:
         n = self._clock[0]
         return RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
-            self.native.details(), reason,
+            self.native.details(), reason, self.ended_by,
         )  # fmt: skip
 
     def _loop(self) -> None:
@@ -335,7 +337,13 @@ class Master:
                     transfer(t)
                 if due.before is not None:
                     due.before.sample()
-                due.step(t, due.h)
+                try:
+                    due.step(t, due.h)
+                except ModelTerminated as exc:
+                    if due.after is not None:
+                        due.after.sample()  # the step completed: its outputs are the last row
+                    self._end_by(exc, n)
+                    return
                 if due.after is not None:
                     due.after.sample()
             if progress is not None and n % every == 0:
@@ -343,6 +351,20 @@ class Master:
         clock[0] = total
         if progress is not None:
             progress(total, total, run.stop)
+
+    def _end_by(self, request: ModelTerminated, n: int) -> None:
+        """A model asked to end the run during its step from ``t_n``: end it normally there.
+
+        The run ends at the end of that step (``t_n + period``, at most the stop time), so the
+        last row holds the step's outputs; components after it in the order do not step at
+        ``t_n`` and, like every component between its steps, hold their values to that row.
+        """
+        run = self.system.run
+        name = request.component or ""
+        period = self.system.component(name).period_steps if name else 1
+        end = min(n + period, run.steps)
+        self._clock[0] = end
+        self.ended_by = EndedBy(name, run.start + end * run.step, request.reason)
 
     def _partial(self, status: RunStatus, error: RunError | None = None) -> RunResult:
         """The results of the steps completed so far."""

@@ -36,6 +36,22 @@ class RunStatus(enum.StrEnum):
     RUNNING = "running"
 
 
+@dataclass(frozen=True)
+class EndedBy:
+    """A run a model ended before its stop time (FMI ``terminateSimulation``): not a fault.
+
+    ``time`` is the simulated time the run ended at (the time of the last row).
+    """
+
+    component: str
+    time: float
+    reason: str
+
+    def as_dict(self) -> dict[str, str | float]:
+        """The ``ended_by`` object of ``run.json``."""
+        return {"component": self.component, "time": self.time, "reason": self.reason}
+
+
 #: ``progress(steps_done, total_steps, time)``; called every few hundred steps.
 ProgressCallback = Callable[[int, int, float], None]
 
@@ -92,6 +108,8 @@ class RunResult:
     details: dict[str, str | int | bool | None] = field(default_factory=dict)
     #: For an interrupted run: the signal that stopped it (``SIGINT``, ``SIGTERM``, ``SIGHUP``).
     interrupted_by: str | None = None
+    #: For a completed run that a model ended before the stop time: which, when and why.
+    ended_by: EndedBy | None = None
 
     @classmethod
     def after(
@@ -105,10 +123,22 @@ class RunResult:
         error: RunError | None = None,
         details: dict[str, str | int | bool | None] | None = None,
         interrupted_by: str | None = None,
+        ended_by: EndedBy | None = None,
     ) -> RunResult:
         """The result of ``system`` after ``steps_done`` base steps: run settings and the time
-        column (``t_0 .. t_n``, computed, never accumulated) come from the system."""
+        column (``t_0 .. t_n``, computed, never accumulated) come from the system.
+
+        ``signals`` holds every base step; with an output interval only every k-th row and the
+        last one are kept (:func:`output_rows`), for every backend alike.
+        """
         run = system.run
+        every = run.output_every
+        if every > 1:
+            rows = output_rows(steps_done, every)
+            signals = {name: values[rows] for name, values in signals.items()}
+            time = np.asarray(run.start + rows * run.step, dtype=np.float64)
+        else:
+            time = np.asarray(run.start + np.arange(steps_done + 1) * run.step, dtype=np.float64)
         return cls(
             system=system.name,
             backend=backend,
@@ -118,11 +148,12 @@ class RunResult:
             step=run.step,
             steps_done=steps_done,
             wall_time=wall_time,
-            time=np.asarray(run.start + np.arange(steps_done + 1) * run.step, dtype=np.float64),
+            time=time,
             signals=signals,
             error=error,
             details=details or {},
             interrupted_by=interrupted_by,
+            ended_by=ended_by,
         )
 
     @property
@@ -142,6 +173,15 @@ class RunResult:
         if name == "time":
             return self.time
         return self.signals[name]
+
+
+def output_rows(steps_done: int, every: int) -> npt.NDArray[np.int64]:
+    """Base steps written with an output interval of ``every`` steps: ``0, k, 2k, ...`` and
+    always the last one (a run's end, also an early end on a fault or a model's request)."""
+    rows = np.arange(0, steps_done + 1, every, dtype=np.int64)
+    if rows[-1] != steps_done:
+        rows = np.append(rows, np.int64(steps_done))
+    return rows
 
 
 class Backend(abc.ABC):

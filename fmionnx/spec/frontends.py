@@ -11,6 +11,9 @@ from fmionnx.spec.yaml import LoadedSpec, load_yaml_system
 
 FrontEnd = Callable[[Path, DiagnosticBag], LoadedSpec]
 
+#: Suffixes of SSP files: a format without a step size, so the compiler has a default for it.
+SSP_SUFFIXES = frozenset({".ssp", ".ssd"})
+
 FRONTENDS: Mapping[str, FrontEnd] = {
     ".yaml": load_yaml_system,
     ".yml": load_yaml_system,

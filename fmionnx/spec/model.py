@@ -50,8 +50,14 @@ class RunSpec(StrictModel):
     step: float | None = Field(
         default=None, gt=0, description="Base step in seconds: the fastest component's period."
     )
+    output_interval: float | None = Field(
+        default=None,
+        gt=0,
+        description="Seconds between two rows of results.csv: a whole multiple of the base "
+        "step (default: every base step). The last point of the run is always written.",
+    )
 
-    @field_validator("step")
+    @field_validator("step", "output_interval")
     @classmethod
     def _normal_step(cls, value: float | None) -> float | None:
         # `gt=0` lets a subnormal such as 5e-324 through; it is positive but has no precision.

@@ -279,13 +279,18 @@ _UNDERSTOOD = {
     "MappingEntry",
     *_TYPES,
 }
-#: Read and harmlessly ignored (layout, documentation, metadata): W070 once per kind.
-_HARMLESS = {
+#: The diagram's layout: every tool writes it, nothing computes with it. One I070 note per
+#: file at most (a W070 per element, or per kind, buried every finding that mattered).
+_LAYOUT = {
     "ConnectorGeometry",
     "ElementGeometry",
     "ConnectionGeometry",
     "SystemGeometry",
     "GraphicalElements",
+}
+#: Read and harmlessly ignored (documentation, metadata): W070 once per kind.
+_HARMLESS = {
+    *_LAYOUT,
     "Enumerations",
     "MetaData",
     "Signature",
@@ -308,6 +313,7 @@ _READ_ANNOTATIONS = {FMIONNX_ANNOTATION, OMS_ANNOTATION}
 def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
     """W070 for harmless elements fmionnx skips, E071 for those that change the result."""
     warned: set[str] = set()
+    layout: list[Any] = []
     for node in tree.getroot().iter():
         if not isinstance(node.tag, str):
             continue
@@ -315,7 +321,9 @@ def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
         if parent is not None and parent.tag == tag("ssc", "Annotation"):
             continue
         if any(
-            a.tag == tag("ssc", "Annotation") or etree_local(a.tag) in _UNSUPPORTED
+            a.tag == tag("ssc", "Annotation")
+            or etree_local(a.tag) in _UNSUPPORTED
+            or etree_local(a.tag) in _LAYOUT  # a diagram's notes and shapes: layout too
             for a in node.iterancestors()
         ):
             continue
@@ -335,6 +343,8 @@ def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
                 Span(file, node.sourceline),
                 hint="see docs/ssp.md for what fmionnx reads",
             )
+        elif local in _LAYOUT:
+            layout.append(node)
         elif local in _HARMLESS and local not in warned:
             warned.add(local)
             bag.emit(
@@ -348,6 +358,14 @@ def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
                 f"`{short(node.tag)}` is not read by fmionnx and is ignored",
                 Span(file, node.sourceline),
             )
+    if layout:
+        kinds = ", ".join(sorted({f"`{etree_local(n.tag)}`" for n in layout}))
+        bag.emit(
+            "I070",
+            f"the diagram layout ({len(layout)} elements: {kinds}) is not used: it does not "
+            "change what the system computes",
+            Span(file, layout[0].sourceline),
+        )
 
 
 def etree_local(name: str) -> str:

@@ -89,11 +89,13 @@ def test_a_hostile_layout_is_refused(slot: list[object], size: int, problem: str
 
 
 def test_error_replies_are_bounded_and_typed() -> None:
-    message, port, time = channel.parse_error(["x" * 10_000, {"evil": 1}, "soon"])
+    message, port, time, kind, _ = channel.parse_error(["x" * 10_000, {"evil": 1}, "soon"])
     assert len(message) == 2000
-    assert (port, time) == (None, None)
+    assert (port, time, kind) == (None, None, None)
     with pytest.raises(channel.MalformedReplyError):
         channel.parse_error({"not": "a triple"})
+    with pytest.raises(channel.MalformedReplyError):
+        channel.parse_error(["one", "two"])
 
 
 def test_the_shared_file_cannot_shrink_under_the_supervisors_mapping() -> None:

@@ -110,11 +110,16 @@ def test_faulty_mode_1_outputs_nan_from_fail_time(fixture_fmu: BuildFmu) -> None
     assert all(math.isnan(y) for y in after)
 
 
-def test_faulty_mode_2_discards_and_stops_at_fail_time(fixture_fmu: BuildFmu) -> None:
+def test_faulty_mode_10_completes_the_step_then_fmpy_stops_on_fmi2_terminated(
+    fixture_fmu: BuildFmu,
+) -> None:
+    # FMPy's own reading of fmi2Discard + fmi2Terminated: the end of the simulation at the
+    # last successful time, which is the end of the step from failAt (0.5). A plain discard
+    # (mode 2) reports fmi2Terminated false: FMPy would retry it for ever, fmionnx faults.
     result = simulate_fmu(
         str(fixture_fmu("Faulty")),
         stop_time=1.0,
         output_interval=0.1,
-        start_values={"mode": 2},
+        start_values={"mode": 10},
     )
-    assert result[-1]["time"] == pytest.approx(0.5)
+    assert result[-1]["time"] == pytest.approx(0.6)

@@ -91,7 +91,7 @@ def test_gain_facts_and_default_experiment(fixture_fmu: BuildFmu) -> None:
 
 def test_integrator_state_output_has_no_direct_feedthrough(fixture_fmu: BuildFmu) -> None:
     interface = FMU_KIND.read_interface(fixture_fmu("Integrator"), None)
-    assert [p.name for p in interface.ports] == ["u", "x0", "x"]
+    assert [p.name for p in interface.ports] == ["u", "x0", "x", "xStop"]
     x = interface.port("x")
     assert x is not None
     assert x.depends_on == ()
@@ -109,7 +109,7 @@ def test_faulty_is_cs_only_with_integer_mode(fixture_fmu: BuildFmu) -> None:
 
 def test_vector3_fmi3_arrays_keep_one_value_reference(fixture_fmu: BuildFmu) -> None:
     interface = FMU_KIND.read_interface(fixture_fmu("Vector3"), None)
-    assert [p.name for p in interface.ports] == ["u", "k", "y", "count"]
+    assert [p.name for p in interface.ports] == ["u", "k", "y", "count", "stopAt"]
     u, y, count = interface.port("u"), interface.port("y"), interface.port("count")
     assert u is not None
     assert y is not None

@@ -321,7 +321,7 @@ def test_validate_and_graph_commands_read_ssp(foreign_ssp: Path) -> None:
     runner = CliRunner()
     result = runner.invoke(app, ["validate", str(foreign_ssp)])
     assert result.exit_code == 0, result.output
-    assert "W070" in result.output
+    assert "I070" in result.output  # its ConnectorGeometry: one note, no warning
     result = runner.invoke(app, ["graph", str(foreign_ssp), "--format", "mermaid"])
     assert result.exit_code == 0, result.output
     assert "ctrl.gain2" in result.output

@@ -60,7 +60,7 @@ from fmionnx.compile.ros2.names import dds_topic
 from fmionnx.compile.ros2.plan import CLOCK_TYPE
 from fmionnx.compile.ros2.qos import Durability, QosProfile, Reliability
 from fmionnx.compile.ros2.types import NodePlan, Ros2Plan, TopicPlan
-from fmionnx.core.errors import FmionnxError, RunError
+from fmionnx.core.errors import FmionnxError, ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, Wiring
 from fmionnx.core.types import Component, DType
 from fmionnx.kinds.base import SIMULATOR
@@ -477,6 +477,9 @@ class Node:
             else:
                 self._free(runner, clock_in)
             log.info("finished at step %d", self.steps_done)
+        except ModelTerminated as exc:
+            # The model ended the simulation (FMI terminateSimulation): the node ends normally.
+            log.info("ended by the model at step %d: %s", self.steps_done, exc.reason)
         except RunError as exc:
             status, error, code = "fault", exc, 1
             log.error("fault: %s", exc)  # noqa: TRY400 - the fault is the message, not a bug

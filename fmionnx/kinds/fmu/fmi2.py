@@ -13,9 +13,18 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core.errors import ModelTerminated
+from fmionnx.core.runner import terminated
 from fmionnx.core.types import Component, DType
 from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
-from fmionnx.kinds.fmu.runner import FMI_WARNING, Fmi2CsCalls, FmuRunner, Stepper
+from fmionnx.kinds.fmu.runner import (
+    FMI_DISCARD,
+    FMI_OK,
+    FMI_WARNING,
+    Fmi2CsCalls,
+    FmuRunner,
+    Stepper,
+)
 from fmionnx.kinds.fmu.values import ValueFunctions
 
 #: FMI 2 get/set functions: type name and C element type per dtype.
@@ -104,7 +113,27 @@ class Fmi2CoSimulation(Fmi2Runner):
     def _do_step(self, t: float, h: float) -> None:
         status = self._do_step_function(self._instance, t, h, _NO_ROLLBACK)
         if status > FMI_WARNING:
+            if status == FMI_DISCARD:
+                ending = self.termination_requested(t, h)
+                if ending is not None:
+                    raise ending
             self._check("fmi2DoStep", status, t)
+
+    def termination_requested(self, t: float, h: float) -> ModelTerminated | None:
+        """After ``fmi2DoStep`` returned ``fmi2Discard``: does the FMU ask to end the run?
+
+        FMI 2.0 (section 4.2.3): the master then asks ``fmi2GetBooleanStatus(fmi2Terminated)``;
+        true means the slave wants to terminate the simulation, which FMPy and the reference
+        tools treat as the end of the run, not as a failure. A refused query counts as false
+        (a plain discard: the fault it was). The native kernel asks through this too.
+        """
+        from fmpy.fmi2 import fmi2Terminated
+
+        flag = ctypes.c_int(0)
+        query = self._fmu.dll.fmi2GetBooleanStatus
+        if query(self._instance, fmi2Terminated, ctypes.byref(flag)) != FMI_OK or not flag.value:
+            return None
+        return terminated(self.component.name, "the FMU requested termination", time=t + h)
 
     def fmi2_cs_calls(self) -> Fmi2CsCalls | None:
         """The prepared per-step calls (after ``setup``; None before)."""

@@ -14,7 +14,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
-from fmionnx.core.runner import fault
+from fmionnx.core.runner import terminated
 from fmionnx.core.types import DType
 from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
 from fmionnx.kinds.fmu.runner import FMI_WARNING, FmuRunner, Stepper
@@ -66,7 +66,7 @@ class Fmi3Runner(FmuRunner):
 
 
 class Fmi3CoSimulation(Fmi3Runner):
-    """FMI 3 co-simulation: one raw ``fmi3DoStep`` per step; a termination request stops the run."""
+    """FMI 3 co-simulation: one raw ``fmi3DoStep`` per step; ``terminateSimulation`` ends the run."""
 
     _do_step_function: Callable[..., int]
     _do_step_tail: tuple[object, ...]
@@ -98,7 +98,7 @@ class Fmi3CoSimulation(Fmi3Runner):
         if status > FMI_WARNING:
             self._check("fmi3DoStep", status, t)
         if self._terminate_requested.value:
-            raise fault(self.component.name, "the FMU requested termination", time=t + h)
+            raise terminated(self.component.name, "the FMU requested termination", time=t + h)
 
 
 class Fmi3ModelExchange(Fmi3Runner):

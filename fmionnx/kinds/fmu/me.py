@@ -19,7 +19,7 @@ from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
-from fmionnx.core.runner import fault
+from fmionnx.core.runner import fault, terminated
 
 if TYPE_CHECKING:
     from fmionnx.kinds.fmu.kind import FmuConfig
@@ -119,7 +119,7 @@ class ModelExchange:
         while needed and not terminate:
             needed, terminate, _, _, defined, next_time = update()
         if terminate:
-            raise fault(self._runner.component.name, "the FMU requested termination", time=t)
+            raise terminated(self._runner.component.name, "the FMU requested termination", time=t)
         self._next_event = float(next_time) if defined else math.inf
 
     def _guarded(self, t: float, function: Any, *args: Any) -> Any:
@@ -156,7 +156,9 @@ class ModelExchange:
             if self._needs_completed:
                 step_event, terminate = fmu.completedIntegratorStep()
             if terminate:
-                raise fault(self._runner.component.name, "the FMU requested termination", time=time)
+                raise terminated(
+                    self._runner.component.name, "the FMU requested termination", time=time
+                )
             time_event = _close(time, self._next_event)
             if state_event or step_event or time_event:
                 fmu.enterEventMode()

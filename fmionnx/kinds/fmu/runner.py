@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from fmionnx.core.archive import safe_extract
-from fmionnx.core.errors import RunError
+from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Causality, Component, DType
@@ -52,8 +52,12 @@ LOG_MESSAGE_CHARS = 300
 #: Characters of the FMU's log a fault message quotes (the newest ones).
 LOG_CHARS = 600
 
-#: The highest status a run goes on after (FMI 2 and 3 share the numbering).
+#: FMI status values (FMI 2 and 3 share the numbering).
+FMI_OK = 0
+#: The highest status a run goes on after.
 FMI_WARNING = 1
+#: ``fmi2DoStep``'s "only part of the step was computed": with ``fmi2Terminated``, the end.
+FMI_DISCARD = 2
 
 #: Advances an initialized instance from communication point ``t`` by ``h``.
 Stepper = Callable[[float, float], None]
@@ -112,6 +116,8 @@ class FmuRunner(ABC):
         self._set_calls: list[RawCall] = []
         self._get_calls: list[RawCall] = []
         self._advance: Stepper = _not_set_up
+        #: A termination request of the last advance, raised once its outputs are got.
+        self._ending: ModelTerminated | None = None
         self._terminated = False
         self._time = 0.0
         assert isinstance(component.config, FmuConfig)
@@ -199,7 +205,9 @@ class FmuRunner(ABC):
         """Keep a log message of the FMU for fault messages (the loggers' common part)."""
         text = message.decode("utf-8", "replace") if message else ""
         if len(text) > LOG_MESSAGE_CHARS:
-            text = f"{text[:LOG_MESSAGE_CHARS]}... ({len(text) - LOG_MESSAGE_CHARS} more characters)"
+            text = (
+                f"{text[:LOG_MESSAGE_CHARS]}... ({len(text) - LOG_MESSAGE_CHARS} more characters)"
+            )
         self._log.append(f"[{status_label(status)}] {text}")
 
     # -- buffers --------------------------------------------------------------------------------
@@ -223,10 +231,20 @@ class FmuRunner(ABC):
     # -- stepping -------------------------------------------------------------------------------
 
     def step(self, t: float, h: float) -> None:
-        """Set inputs, advance by ``h`` (doStep, or integrate for ME), get outputs."""
+        """Set inputs, advance by ``h`` (doStep, or integrate for ME), get outputs.
+
+        A model that asks to end the simulation completed its step: its outputs are got
+        first, then :class:`ModelTerminated` is raised.
+        """
         self._set_inputs(t, h)
-        self._advance(t, h)
+        self._advance_step(t, h)
         self._get_outputs(t, h)
+
+    def _advance_step(self, t: float, h: float) -> None:
+        try:
+            self._advance(t, h)
+        except ModelTerminated as exc:
+            self._ending = exc
 
     def _set_inputs(self, t: float, h: float) -> None:
         for function, args, name in self._set_calls:
@@ -239,6 +257,9 @@ class FmuRunner(ABC):
             status = function(*args)
             if status > FMI_WARNING:
                 self._check(name, status, t + h)
+        if self._ending is not None:
+            ending, self._ending = self._ending, None
+            raise ending
 
     def step_phases(self) -> tuple[tuple[str, Stepper], ...]:
         """:meth:`step` in its three parts, each labelled with the FMI functions it calls.
@@ -251,7 +272,7 @@ class FmuRunner(ABC):
         getters = "/".join(dict.fromkeys(name for _, _, name in self._get_calls))
         return (
             (setters or "setting inputs", self._set_inputs),
-            (self.advance_function, self._advance),
+            (self.advance_function, self._advance_step),
             (getters or "getting outputs", self._get_outputs),
         )
 
@@ -287,7 +308,9 @@ class FmuRunner(ABC):
             return
         raise self.fault_for(function, status, t, port=port)
 
-    def fault_for(self, function: str, status: int, t: float, *, port: str | None = None) -> RunError:
+    def fault_for(
+        self, function: str, status: int, t: float, *, port: str | None = None
+    ) -> RunError:
         """RunError for an FMI call that returned ``status``, with the last log lines."""
         message = f"{function} returned {status_label(status)}"
         if self._log:

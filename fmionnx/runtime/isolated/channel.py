@@ -28,6 +28,8 @@ from typing import Any
 import numpy as np
 import numpy.typing as npt
 
+from fmionnx.core.errors import ModelTerminated, RunError
+
 #: Bytes of the control block; the data block starts here (a page boundary, as mmap wants).
 CONTROL_SIZE = mmap.ALLOCATIONGRANULARITY
 
@@ -123,6 +125,33 @@ def send(fd: int, tag: bytes, payload: object) -> None:
     write_all(fd, tag + _LENGTH.pack(len(data)) + data)
 
 
+#: The kind of an error reply whose RunError is a model's request to end the run.
+TERMINATED = "terminated"
+
+
+def error_document(exc: RunError) -> list[str | float | None]:
+    """[message, port, time, kind, reason] of a RunError raised in the child (JSON).
+
+    The kind keeps a :class:`ModelTerminated` (the model's normal end of the run) apart from
+    a fault across the process boundary; a fault's kind is None.
+    """
+    if isinstance(exc, ModelTerminated):
+        return [str(exc), exc.port, exc.time, TERMINATED, exc.reason]
+    return [str(exc), exc.port, exc.time, None, ""]
+
+
+#: An error reply, checked: (message, port, time, kind, reason).
+ParsedError = tuple[str, str | None, float | None, str | None, str]
+
+
+def error_from(parsed: ParsedError, component: str) -> RunError:
+    """The RunError a checked error reply describes (a ModelTerminated for a termination)."""
+    message, port, time, kind, reason = parsed
+    if kind == TERMINATED:
+        return ModelTerminated(message, reason=reason, component=component, port=port, time=time)
+    return RunError(message, component=component, port=port, time=time)
+
+
 def receive_payload(fd: int) -> object | None:
     """A command's payload after its tag (None if the pipe closed first); child side only."""
     data = _framed(fd, None)
@@ -196,13 +225,12 @@ def parse_layout(document: Any, ports: frozenset[str], available: int) -> Layout
     return Layout(tuple(slots), size, lazy, labels)
 
 
-def parse_error(document: Any) -> tuple[str, str | None, float | None]:
-    """(message, port, time) of an error reply, checked and bounded."""
-    try:
-        message, port, time = document
-    except (TypeError, ValueError):
-        raise MalformedReplyError("a malformed error reply") from None
+def parse_error(document: Any) -> ParsedError:
+    """(message, port, time, kind, reason) of an error reply, checked and bounded."""
+    if not isinstance(document, list) or len(document) not in (3, 5):
+        raise MalformedReplyError("a malformed error reply")
+    message, port, time, kind, reason = (*document, None, "")[:5]
     text = str(message)[:2000]
     where = port if isinstance(port, str) else None
     when = float(time) if isinstance(time, (int, float)) and not isinstance(time, bool) else None
-    return text, where, when
+    return text, where, when, TERMINATED if kind == TERMINATED else None, str(reason)[:500]

@@ -224,10 +224,10 @@ class IsolatedRunner:
         try:
             if tag == channel.OK:
                 return channel.receive_reply(self._replies) if is_request else None
-            message, port, time = channel.parse_error(channel.receive_reply(self._replies))
+            parsed = channel.parse_error(channel.receive_reply(self._replies))
         except channel.MalformedReplyError as exc:
             self._malformed(str(exc))
-        raise RunError(message, component=self.component.name, port=port, time=time)
+        raise channel.error_from(parsed, self.component.name)
 
     def _malformed(self, problem: str) -> NoReturn:
         """The child broke the protocol (a hostile or corrupted model): stop it, fault."""

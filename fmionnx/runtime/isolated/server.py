@@ -10,7 +10,7 @@ from typing import Any, cast
 
 import numpy as np
 
-from fmionnx.core.errors import RunError
+from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner
 from fmionnx.core.types import Causality
 from fmionnx.runtime.isolated import channel
@@ -59,7 +59,7 @@ class Child:
                 if name == "terminate":
                     return
             except RunError as exc:
-                channel.reply(self.replies, channel.ERROR, [str(exc), exc.port, exc.time])
+                channel.reply(self.replies, channel.ERROR, channel.error_document(exc))
             except Exception as exc:
                 detail = "".join(traceback.format_exception_only(exc)).strip()
                 channel.reply(self.replies, channel.ERROR, [detail, None, None])
@@ -69,9 +69,16 @@ class Child:
         for shared, own in self.inputs:
             own[...] = shared
         phase = self.control.phase
-        for index, (_, part) in enumerate(self.phases, channel.FIRST_STEP_PHASE):
-            phase.value = index
-            part(t, h)
+        try:
+            for index, (_, part) in enumerate(self.phases, channel.FIRST_STEP_PHASE):
+                phase.value = index
+                part(t, h)
+        except ModelTerminated:
+            self._publish()  # the step completed: the master records its outputs
+            raise
+        self._publish()
+
+    def _publish(self) -> None:
         for shared, own in self.outputs:
             shared[...] = own
 

@@ -7,7 +7,8 @@ transfers, set, doStep, get — and then samples the members' recorder tracks, w
 equivalent to sampling them between the members' steps: during a group step each member's
 input buffer is written only by its own transfers and its output buffer only by its own get.
 On a fault, the tracks are sampled exactly as far as the Python path would have got, and
-the RunError is the one the Python path raises (same function, status, time, FMU log).
+the RunError is the one the Python path raises (same function, status, time, FMU log); a
+member whose ``fmi2Discard`` asks to terminate ends the run as in Python (ModelTerminated).
 """
 
 from __future__ import annotations
@@ -19,7 +20,8 @@ from dataclasses import dataclass
 from fmionnx.compile.ir import Connection
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer
-from fmionnx.kinds.fmu.runner import Fmi2CsCalls, FmuRunner
+from fmionnx.kinds.fmu.fmi2 import Fmi2CoSimulation
+from fmionnx.kinds.fmu.runner import FMI_DISCARD, FMI_WARNING, Fmi2CsCalls, FmuRunner
 from fmionnx.kinds.fmu.values import RawCall
 from fmionnx.runtime.native import kernel as k
 from fmionnx.runtime.recorder import Track
@@ -102,6 +104,28 @@ class NativeGroup:
         for track in self._samples:
             track.sample()
 
+    @staticmethod
+    def _termination(plan: MemberPlan, status: int, t: float, h: float) -> RunError | None:
+        """A ``fmi2Discard`` from a member that asks to end the run (``fmi2Terminated``).
+
+        The kernel stops at any status above Warning; the Python side asks the FMU whether
+        it terminated, exactly as the Python path does, and then gets the completed step's
+        outputs and samples its track as the Python path would before ending the run.
+        """
+        if status != FMI_DISCARD or not isinstance(plan.runner, Fmi2CoSimulation):
+            return None
+        ending = plan.runner.termination_requested(t, h)
+        if ending is None:
+            return None
+        for function, args, name in plan.calls.get_calls:
+            got = int(function(*args))
+            if got > FMI_WARNING:
+                return plan.runner.fault_for(name, got, t + h)
+        after = plan.tracks[1]
+        if after is not None:
+            after.sample()
+        return ending
+
     def _fault(self, code: int, t: float, h: float) -> RunError:
         """Record what the Python path would have recorded, then name the fault as it does."""
         index = int(self._group.failed_member)
@@ -119,5 +143,6 @@ class NativeGroup:
         if code == k.SET:
             return plan.runner.fault_for(plan.calls.set_calls[0][2], status, t)
         if code == k.DO_STEP:
-            return plan.runner.fault_for("fmi2DoStep", status, t)
+            ending = self._termination(plan, status, t, h)
+            return ending or plan.runner.fault_for("fmi2DoStep", status, t)
         return plan.runner.fault_for(plan.calls.get_calls[0][2], status, t + h)
