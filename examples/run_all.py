@@ -57,7 +57,7 @@ class Example:
     name: str
     steps: tuple[Step, ...]
     #: Problems found in the results (empty: fine); runs after every command succeeded.
-    verify: Callable[[], list[str]] = lambda: []
+    verify: Callable[[], list[str]] = list
     #: Documentation pictures: destination file name in the example folder -> how to make it.
     pictures: dict[str, Callable[[Path], None]] = field(default_factory=dict)
     #: Extra environment of every command.
@@ -74,7 +74,7 @@ class Example:
         return BUILD / self.name
 
 
-class ExampleFailed(Exception):
+class ExampleError(Exception):
     """An example did not do what its README says; the message says what and shows output."""
 
 
@@ -109,10 +109,12 @@ def _copy_plot(run_dir: Path, *, containing: str) -> Callable[[Path], None]:
 
     def make(destination: Path) -> None:
         record = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
-        names = [n for n in record.get("files", []) if n.endswith(".png") and containing in n.lower()]
+        names = [
+            n for n in record.get("files", []) if n.endswith(".png") and containing in n.lower()
+        ]
         if not names:
             msg = f"no plot with `{containing}` in its name among {record.get('files')}"
-            raise ExampleFailed(msg)
+            raise ExampleError(msg)
         shutil.copyfile(run_dir / sorted(names)[0], destination)
 
     return make
@@ -143,11 +145,13 @@ def from_scratch() -> Example:
         name="from-scratch",
         steps=(
             Step("python examples/from-scratch/build.py"),
-            Step(f"fmionnx validate {models}/Heater.fmu {models}/PIController.fmu "
-                 f"{models}/feedforward.onnx"),
+            Step(
+                f"fmionnx validate {models}/Heater.fmu {models}/PIController.fmu "
+                f"{models}/feedforward.onnx"
+            ),
             Step("fmionnx validate examples/from-scratch/heating.yaml"),
             Step(f"fmionnx run examples/from-scratch/heating.yaml --out {out}"),
-        ),  # fmt: skip
+        ),
         verify=lambda: _checks_passed(REPO / out / "run.json", 6),
         pictures={
             "temperatures.png": _copy_plot(REPO / out, containing="temperatures"),
@@ -215,6 +219,7 @@ def ssp_roundtrip() -> Example:
             Step(f"fmionnx export {out}/heating.yaml -o {out}/heating_fmionnx.ssp"),
             Step(f"fmionnx run {out}/heating_fmionnx.ssp --out {out}/run-exported"),
             Step(f"python examples/ssp-roundtrip/read_with_fmpy.py {out}/heating_fmionnx.ssp"),
+            Step(f"cmp {out}/run-ssp/results.csv {out}/run-exported/results.csv"),
         ),
         verify=lambda: _roundtrip_results(REPO / out),
         pictures={"roundtrip.png": _roundtrip_picture(REPO / out)},
@@ -231,7 +236,9 @@ def _external_results(out: Path) -> list[str]:
     table = _columns(out / "results.csv")
     # The in-process reference reaches x = 3.02 m at the first (blue) sign by 8 s and turns left.
     if table["odometry.posX"][-1] < 2.5:
-        problems.append(f"the robot drove to x = {table['odometry.posX'][-1]:.2f} m, not past 2.5 m")
+        problems.append(
+            f"the robot drove to x = {table['odometry.posX'][-1]:.2f} m, not past 2.5 m"
+        )
     if max(table["detector.blobSize[2]"]) < 100:
         problems.append("the detector never saw the blue board in the outside camera images")
     if max(table["tracker.w"]) < 0.5:
@@ -248,11 +255,15 @@ def external_simulator() -> Example:
         steps=(
             Step(f"fmionnx validate {system}"),
             Step(f"fmionnx ros2 launch-file {system} -o {out}/sign_follower_external.launch.py"),
-            Step("fmionnx node systems/sign_follower.yaml world --sync free --stop-time 10",
-                 background=True),
-            Step(f"fmionnx run {system} --backend ros2 --sync free --stop-time 10 --no-checks "
-                 f"--out {out}/out"),
-        ),  # fmt: skip
+            Step(
+                "fmionnx node systems/sign_follower.yaml world --sync free --stop-time 10",
+                background=True,
+            ),
+            Step(
+                f"fmionnx run {system} --backend ros2 --sync free --stop-time 10 --no-checks "
+                f"--out {out}/out"
+            ),
+        ),
         verify=lambda: _external_results(REPO / out / "out"),
         pictures={"trajectory.png": _copy_plot(REPO / out / "out", containing="trajectory")},
         # A domain of its own and loopback only: parallel runs on this host never meet.
@@ -305,10 +316,10 @@ def _stop(process: subprocess.Popen[bytes]) -> None:
 
 
 def run_example(example: Example, *, pictures: bool) -> None:
-    """Run every step; raise ExampleFailed with what went wrong."""
+    """Run every step; raise ExampleError with what went wrong."""
     problems = readme_problems(example)
     if problems:
-        raise ExampleFailed("\n".join(problems))
+        raise ExampleError("\n".join(problems))
     logs = REPO / example.out / "logs"
     shutil.rmtree(logs, ignore_errors=True)
     logs.mkdir(parents=True)
@@ -337,23 +348,23 @@ def run_example(example: Example, *, pictures: bool) -> None:
             except subprocess.TimeoutExpired:
                 _stop(process)
                 msg = f"`{step.command}` took more than {STEP_TIMEOUT:g} s:\n{_tail(log)}"
-                raise ExampleFailed(msg) from None
+                raise ExampleError(msg) from None
             if code != 0:
-                raise ExampleFailed(f"`{step.command}` exited {code}:\n{_tail(log)}")
+                raise ExampleError(f"`{step.command}` exited {code}:\n{_tail(log)}")
         for step, process, log in background:
             try:
                 code = process.wait(timeout=60)
             except subprocess.TimeoutExpired:
                 msg = f"`{step.command}` did not end after the run:\n{_tail(log)}"
-                raise ExampleFailed(msg) from None
+                raise ExampleError(msg) from None
             if code != 0:
-                raise ExampleFailed(f"`{step.command}` exited {code}:\n{_tail(log)}")
+                raise ExampleError(f"`{step.command}` exited {code}:\n{_tail(log)}")
     finally:
         for _, process, _ in background:
             _stop(process)
     problems = example.verify()
     if problems:
-        raise ExampleFailed("\n".join(problems))
+        raise ExampleError("\n".join(problems))
     if pictures:
         for name, make in example.pictures.items():
             destination = example.folder / name
@@ -361,7 +372,7 @@ def run_example(example: Example, *, pictures: bool) -> None:
             size = destination.stat().st_size
             if size > PICTURE_LIMIT:
                 msg = f"{destination} is {size} bytes, over the {PICTURE_LIMIT} of a picture"
-                raise ExampleFailed(msg)
+                raise ExampleError(msg)
 
 
 def main(argv: list[str] | None = None) -> int:
@@ -387,12 +398,16 @@ def main(argv: list[str] | None = None) -> int:
         began = time.perf_counter()
         try:
             run_example(example, pictures=args.pictures)
-        except ExampleFailed as exc:
+        except ExampleError as exc:
             failed += 1
-            print(f"{example.name:<{width}}  FAIL  {time.perf_counter() - began:6.1f} s", flush=True)
+            print(
+                f"{example.name:<{width}}  FAIL  {time.perf_counter() - began:6.1f} s", flush=True
+            )
             print(f"  {exc}", flush=True)
         else:
-            print(f"{example.name:<{width}}  pass  {time.perf_counter() - began:6.1f} s", flush=True)
+            print(
+                f"{example.name:<{width}}  pass  {time.perf_counter() - began:6.1f} s", flush=True
+            )
     total = time.perf_counter() - started
     print(f"{len(examples) - failed} of {len(examples)} examples passed in {total:.1f} s")
     return 1 if failed else 0

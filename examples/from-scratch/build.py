@@ -92,7 +92,10 @@ def build_feedforward(out: Path, *, force: bool = False) -> str:
 def build(out: Path = DEFAULT_OUT, *, force: bool = False) -> list[str]:
     """Build everything the heating system needs into ``out``; the log lines."""
     out.mkdir(parents=True, exist_ok=True)
-    return [*(build_fmu(name, out, force=force) for name in FMUS), build_feedforward(out, force=force)]
+    return [
+        *(build_fmu(name, out, force=force) for name in FMUS),
+        build_feedforward(out, force=force),
+    ]
 
 
 def main(argv: list[str] | None = None) -> int:

@@ -42,9 +42,7 @@ def measurements(seed: int = 1) -> tuple[np.ndarray, np.ndarray]:
     return np.column_stack([setpoint, outside]), power
 
 
-def train(
-    features: np.ndarray, power: np.ndarray, seed: int = 2
-) -> dict[str, np.ndarray]:
+def train(features: np.ndarray, power: np.ndarray, seed: int = 2) -> dict[str, np.ndarray]:
     """Fixed random hidden layer, least-squares output layer; returns the network's tensors."""
     rng = np.random.default_rng(seed)
     mean = features.mean(axis=0)
@@ -67,7 +65,9 @@ def train(
 
 def predict(weights: dict[str, np.ndarray], features: np.ndarray) -> np.ndarray:
     """What the ONNX graph computes, in numpy (used to report the fit)."""
-    hidden = np.tanh(((features - weights["mean"]) / weights["scale"]) @ weights["w1"] + weights["b1"])
+    hidden = np.tanh(
+        ((features - weights["mean"]) / weights["scale"]) @ weights["w1"] + weights["b1"]
+    )
     result: np.ndarray = hidden @ weights["w2"] + weights["b2"]
     return result.ravel()
 

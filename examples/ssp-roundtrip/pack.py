@@ -23,7 +23,10 @@ VENDOR = HERE / "vendor"
 BUILD_SCRIPT = HERE.parent / "from-scratch" / "build.py"
 FMU_BUILD = HERE.parent.parent / "build" / "examples" / "from-scratch"
 #: Archive member -> FMU built by the from-scratch example.
-FMUS = {"resources/0001_room.fmu": "Heater.fmu", "resources/0002_controller.fmu": "PIController.fmu"}
+FMUS = {
+    "resources/0001_room.fmu": "Heater.fmu",
+    "resources/0002_controller.fmu": "PIController.fmu",
+}
 DEFAULT_OUT = Path("build/examples/ssp-roundtrip/heating.ssp")
 
 
