@@ -256,11 +256,11 @@ def external_simulator() -> Example:
             Step(f"fmionnx validate {system}"),
             Step(f"fmionnx ros2 launch-file {system} -o {out}/sign_follower_external.launch.py"),
             Step(
-                "fmionnx node systems/sign_follower.yaml world --sync free --stop-time 10",
+                "fmionnx node systems/sign_follower.yaml world --sync free --stop-time 12",
                 background=True,
             ),
             Step(
-                f"fmionnx run {system} --backend ros2 --sync free --stop-time 10 --no-checks "
+                f"fmionnx run {system} --backend ros2 --sync free --stop-time 12 --no-checks "
                 f"--out {out}/out"
             ),
         ),
