@@ -95,7 +95,9 @@ def _checks_passed(run_json: Path, expected: int) -> list[str]:
     checks = record.get("checks") or []
     problems = [f"check failed: {c['name']}" for c in checks if not c.get("passed")]
     if len(checks) != expected:
-        problems.append(f"{run_json}: {len(checks)} checks evaluated, the system states {expected}")
+        problems.append(
+            f"{run_json}: {len(checks)} checks evaluated, the example expects {expected}"
+        )
     return problems
 
 
