@@ -11,11 +11,12 @@ TEST_STAMP := $(VENV)/.installed-test
 BUILD := build
 DEMO_OUT := out/demo
 
-.PHONY: help setup setup-demo setup-test system-deps models demo test lint typecheck schema bench fuzz soak docs clean
+.PHONY: help setup setup-demo setup-test system-deps models demo examples test lint typecheck schema bench fuzz soak docs clean
 
 help:
 	@echo "make demo   - set up (the package alone), build the models, run the reference scenario"
 	@echo "make test   - set up (with the test extras), build the models, run linters and the whole test suite"
+	@echo "make examples - run every example in examples/ (one line each: name, pass/fail, time)"
 	@echo "make bench  - run the benchmarks and print their tables"
 	@echo "make fuzz   - run the fuzzers (tests/fuzz) with the long budget: thousands of inputs each"
 	@echo "make soak   - run the reference scenario for a simulated hour, watching RSS, files, threads"
@@ -57,14 +58,20 @@ models: $(DEMO_STAMP)
 demo: models
 	$(VENV)/bin/fmionnx run systems/sign_follower.yaml --out $(DEMO_OUT)
 
+# Every example's README commands, outputs in build/examples/ (about 70 s on
+# 2 cores); the examples need the package alone, so the demo's set-up suffices.
+examples: models
+	$(PY) examples/run_all.py
+
 lint: $(TEST_STAMP)
-	$(VENV)/bin/ruff check fmionnx tests models benchmarks
+	$(VENV)/bin/ruff check fmionnx tests models benchmarks examples
 	$(VENV)/bin/mypy
+	$(VENV)/bin/mypy examples
 
 schema: $(DEMO_STAMP)
 	$(VENV)/bin/fmionnx schema -o schemas/system.schema.json
 
-test: $(TEST_STAMP) models lint
+test: $(TEST_STAMP) models lint examples
 	$(VENV)/bin/pytest -q -p no:cacheprovider
 
 bench: $(TEST_STAMP) models

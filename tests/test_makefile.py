@@ -96,3 +96,16 @@ def test_ci_runs_make_test_only() -> None:
     ]
     assert commands[-1] == "make test"
     assert not any(c.startswith("make ") and c != "make test" for c in commands)
+
+
+def test_test_lints_and_runs_the_examples_before_the_suite(tree: Path) -> None:
+    lines = make(tree, "test")
+    assert "ruff check fmionnx tests models benchmarks examples" in lines
+    assert "mypy examples" in lines
+    assert lines.index("python examples/run_all.py") < lines.index("pytest -q -p no:cacheprovider")
+
+
+def test_examples_need_the_demo_set_only(tree: Path) -> None:
+    lines = make(tree, "examples")
+    assert installs(lines) == ["python -m pip install --quiet -e ."]
+    assert lines[-1] == "python examples/run_all.py"

@@ -1,0 +1,419 @@
+"""Run every example the way its README tells a user to, and say which ones work (``make examples``).
+
+Why a runner: an example that is not run rots. Each example below is the list of commands its
+README shows, run from the repository root with this interpreter's ``fmionnx``; the runner
+refuses a command the README does not show (so the two cannot drift apart), fails an example
+when a command exits non-zero (``fmionnx run`` exits 1 when a check of the system fails), and
+then checks the results itself where a system cannot state its own checks (an SSP from another
+tool, a shortened ROS 2 run). One line per example: name, pass/fail, wall time; exit 1 when one
+failed, with the tail of the failing command's output.
+
+``--pictures`` also refreshes the documentation images the READMEs show (small PNGs, committed
+on purpose: see docs/decisions.md) from the results of a passing run.
+
+Usage: ``python examples/run_all.py [--only NAME ...] [--pictures] [--list]``.
+"""
+
+from __future__ import annotations
+
+import argparse
+import csv
+import filecmp
+import json
+import os
+import random
+import shlex
+import shutil
+import signal
+import subprocess
+import sys
+import time
+from collections.abc import Callable
+from dataclasses import dataclass, field
+from pathlib import Path
+
+EXAMPLES = Path(__file__).resolve().parent
+REPO = EXAMPLES.parent
+BUILD = Path("build/examples")
+#: A documentation picture larger than this is refused: they live in git.
+PICTURE_LIMIT = 100_000
+STEP_TIMEOUT = 300.0
+TAIL_LINES = 30
+
+
+@dataclass(frozen=True)
+class Step:
+    """One command of a README, as a user types it from the repository root."""
+
+    command: str
+    #: Started and left running; the runner waits for it after the last foreground command.
+    background: bool = False
+
+
+@dataclass(frozen=True)
+class Example:
+    """An example folder: the commands its README shows, and what must hold afterwards."""
+
+    name: str
+    steps: tuple[Step, ...]
+    #: Problems found in the results (empty: fine); runs after every command succeeded.
+    verify: Callable[[], list[str]] = list
+    #: Documentation pictures: destination file name in the example folder -> how to make it.
+    pictures: dict[str, Callable[[Path], None]] = field(default_factory=dict)
+    #: Extra environment of every command.
+    env: dict[str, str] = field(default_factory=dict)
+
+    @property
+    def folder(self) -> Path:
+        """The example's folder, which holds its README."""
+        return EXAMPLES / self.name
+
+    @property
+    def out(self) -> Path:
+        """Where its commands write (below build/, never in git)."""
+        return BUILD / self.name
+
+
+class ExampleError(Exception):
+    """An example did not do what its README says; the message says what and shows output."""
+
+
+# -- reading results ----------------------------------------------------------------------------
+
+
+def _columns(path: Path) -> dict[str, list[float]]:
+    """``results.csv`` as columns of floats."""
+    with path.open(encoding="utf-8", newline="") as stream:
+        rows = list(csv.reader(stream))
+    header, values = rows[0], rows[1:]
+    return {name: [float(row[i]) for row in values] for i, name in enumerate(header)}
+
+
+def _checks_passed(run_json: Path, expected: int) -> list[str]:
+    """Problems unless ``run.json`` records ``expected`` checks, every one passed."""
+    record = json.loads(run_json.read_text(encoding="utf-8"))
+    checks = record.get("checks") or []
+    problems = [f"check failed: {c['name']}" for c in checks if not c.get("passed")]
+    if len(checks) != expected:
+        problems.append(
+            f"{run_json}: {len(checks)} checks evaluated, the example expects {expected}"
+        )
+    return problems
+
+
+def _copy_plot(run_dir: Path, *, containing: str) -> Callable[[Path], None]:
+    """A picture maker copying the plot of ``run_dir`` whose name contains ``containing``.
+
+    The plot is looked up in the files ``run.json`` lists rather than by an exact name, since
+    plot file names derived from titles may change; systems written for the examples name
+    their plot files (``file:``) and are found by that name.
+    """
+
+    def make(destination: Path) -> None:
+        record = json.loads((run_dir / "run.json").read_text(encoding="utf-8"))
+        names = [
+            n for n in record.get("files", []) if n.endswith(".png") and containing in n.lower()
+        ]
+        if not names:
+            msg = f"no plot with `{containing}` in its name among {record.get('files')}"
+            raise ExampleError(msg)
+        shutil.copyfile(run_dir / sorted(names)[0], destination)
+
+    return make
+
+
+# -- the examples -------------------------------------------------------------------------------
+
+
+def robot() -> Example:
+    """The reference robot, its system file used where it lives (systems/)."""
+    out = BUILD / "robot" / "out"
+    return Example(
+        name="robot",
+        steps=(
+            Step("fmionnx validate systems/sign_follower.yaml"),
+            Step(f"fmionnx run systems/sign_follower.yaml --out {out}"),
+        ),
+        verify=lambda: _checks_passed(REPO / out / "run.json", 3),
+        pictures={"trajectory.png": _copy_plot(REPO / out, containing="trajectory")},
+    )
+
+
+def from_scratch() -> Example:
+    """Heater and PI controller FMUs from C, a learned ONNX feed-forward, signal stimuli."""
+    out = BUILD / "from-scratch" / "out"
+    models = BUILD / "from-scratch"
+    return Example(
+        name="from-scratch",
+        steps=(
+            Step("python examples/from-scratch/build.py"),
+            Step(
+                f"fmionnx validate {models}/Heater.fmu {models}/PIController.fmu "
+                f"{models}/feedforward.onnx"
+            ),
+            Step("fmionnx validate examples/from-scratch/heating.yaml"),
+            Step(f"fmionnx run examples/from-scratch/heating.yaml --out {out}"),
+        ),
+        verify=lambda: _checks_passed(REPO / out / "run.json", 6),
+        pictures={
+            "temperatures.png": _copy_plot(REPO / out, containing="temperatures"),
+            "power.png": _copy_plot(REPO / out, containing="power"),
+        },
+    )
+
+
+def _roundtrip_results(out: Path) -> list[str]:
+    runs = [out / name / "results.csv" for name in ("run-ssp", "run-yaml", "run-exported")]
+    problems = [
+        f"{run} differs from {runs[0]}"
+        for run in runs[1:]
+        if not filecmp.cmp(runs[0], run, shallow=False)
+    ]
+    table = _columns(runs[0])
+    final = table["room.T"][-1]
+    if abs(final - 21.0) > 0.02 * 21.0:  # the vendor's setpoint, from controller.ssv
+        problems.append(f"room.T ends at {final:.3f} degC, not within 2 % of the setpoint 21")
+    return problems
+
+
+def _roundtrip_picture(out: Path) -> Callable[[Path], None]:
+    """The three runs' room temperature in one plot: they lie on top of each other."""
+
+    def make(destination: Path) -> None:
+        import matplotlib as mpl
+
+        mpl.use("Agg")
+        import matplotlib.pyplot as plt
+
+        figure, axes = plt.subplots(figsize=(8, 4))
+        styles = {
+            "run-ssp": ("heating.ssp (as the other tool wrote it)", "-", 4.0),
+            "run-yaml": ("heating.yaml (fmionnx convert)", "--", 2.5),
+            "run-exported": ("heating_fmionnx.ssp (fmionnx export)", ":", 2.0),
+        }
+        for folder, (label, style, width) in styles.items():
+            table = _columns(out / folder / "results.csv")
+            axes.plot(table["time"], table["room.T"], style, lw=width, label=label)
+        axes.axhline(21.0, color="grey", lw=0.8)
+        axes.set_xlabel("time [s]")
+        axes.set_ylabel("room.T [degC]")
+        axes.set_title("One system, three files, identical results")
+        axes.grid(visible=True, alpha=0.3)
+        axes.legend(loc="lower right")
+        figure.tight_layout()
+        figure.savefig(destination, dpi=90)
+        plt.close(figure)
+
+    return make
+
+
+def ssp_roundtrip() -> Example:
+    """An OMSimulator-style SSP: imported, run, converted to YAML, exported back, run again."""
+    out = BUILD / "ssp-roundtrip"
+    return Example(
+        name="ssp-roundtrip",
+        steps=(
+            Step("python examples/ssp-roundtrip/pack.py"),
+            Step(f"fmionnx validate {out}/heating.ssp"),
+            Step(f"fmionnx run {out}/heating.ssp --out {out}/run-ssp"),
+            Step(f"fmionnx convert {out}/heating.ssp -o {out}/heating.yaml"),
+            Step(f"fmionnx run {out}/heating.yaml --out {out}/run-yaml"),
+            Step(f"fmionnx export {out}/heating.yaml -o {out}/heating_fmionnx.ssp"),
+            Step(f"fmionnx run {out}/heating_fmionnx.ssp --out {out}/run-exported"),
+            Step(f"python examples/ssp-roundtrip/read_with_fmpy.py {out}/heating_fmionnx.ssp"),
+            Step(f"cmp {out}/run-ssp/results.csv {out}/run-exported/results.csv"),
+        ),
+        verify=lambda: _roundtrip_results(REPO / out),
+        pictures={"roundtrip.png": _roundtrip_picture(REPO / out)},
+    )
+
+
+def _external_results(out: Path) -> list[str]:
+    record = json.loads((out / "run.json").read_text(encoding="utf-8"))
+    problems = []
+    if record.get("backend") != "ros2" or record.get("status") != "completed":
+        problems.append(f"run.json: backend {record.get('backend')}, status {record.get('status')}")
+    if (record.get("execution") or {}).get("external") != "world":
+        problems.append("run.json: the world is not recorded as external")
+    table = _columns(out / "results.csv")
+    # The in-process reference reaches x = 3.02 m at the first (blue) sign by 8 s and turns left.
+    if table["odometry.posX"][-1] < 2.5:
+        problems.append(
+            f"the robot drove to x = {table['odometry.posX'][-1]:.2f} m, not past 2.5 m"
+        )
+    if max(table["detector.blobSize[2]"]) < 100:
+        problems.append("the detector never saw the blue board in the outside camera images")
+    if max(table["tracker.w"]) < 0.5:
+        problems.append("the tracker never turned left at the blue board")
+    return problems
+
+
+def external_simulator() -> Example:
+    """The robot's software as ROS 2 nodes against a simulator started as its own process."""
+    out = BUILD / "external-simulator"
+    system = "examples/external-simulator/sign_follower_external.yaml"
+    return Example(
+        name="external-simulator",
+        steps=(
+            Step(f"fmionnx validate {system}"),
+            Step(f"fmionnx ros2 launch-file {system} -o {out}/sign_follower_external.launch.py"),
+            Step(
+                "fmionnx node systems/sign_follower.yaml world --sync free --stop-time 12",
+                background=True,
+            ),
+            Step(
+                f"fmionnx run {system} --backend ros2 --sync free --stop-time 12 --no-checks "
+                f"--out {out}/out"
+            ),
+        ),
+        verify=lambda: _external_results(REPO / out / "out"),
+        pictures={"trajectory.png": _copy_plot(REPO / out / "out", containing="trajectory")},
+        # A domain of its own and loopback only: parallel runs on this host never meet.
+        env={
+            "ROS_DOMAIN_ID": str(random.SystemRandom().randint(1, 99)),
+            "ROS_LOCALHOST_ONLY": "1",
+        },
+    )
+
+
+ALL: tuple[Callable[[], Example], ...] = (robot, from_scratch, ssp_roundtrip, external_simulator)
+
+
+# -- running ------------------------------------------------------------------------------------
+
+
+def argv_of(command: str) -> list[str]:
+    """The process to start for a README command: ``fmionnx``/``python`` are this venv's."""
+    words = shlex.split(command)
+    if words[0] == "fmionnx":
+        return [sys.executable, "-m", "fmionnx", *words[1:]]
+    if words[0] == "python":
+        return [sys.executable, *words[1:]]
+    return words
+
+
+def readme_problems(example: Example) -> list[str]:
+    """Commands the runner runs that the example's README does not show (verbatim)."""
+    readme = example.folder / "README.md"
+    if not readme.is_file():
+        return [f"{readme} is missing"]
+    text = readme.read_text(encoding="utf-8")
+    return [f"{readme} does not show `{s.command}`" for s in example.steps if s.command not in text]
+
+
+def _tail(log: Path) -> str:
+    lines = log.read_text(encoding="utf-8", errors="replace").splitlines()
+    return "\n".join(f"    {line}" for line in lines[-TAIL_LINES:])
+
+
+def _stop(process: subprocess.Popen[bytes]) -> None:
+    """End a background command we started (its own process group) and reap it."""
+    if process.poll() is None:
+        os.killpg(process.pid, signal.SIGTERM)
+        try:
+            process.wait(timeout=15)
+        except subprocess.TimeoutExpired:
+            os.killpg(process.pid, signal.SIGKILL)
+            process.wait()
+
+
+def run_example(example: Example, *, pictures: bool) -> None:
+    """Run every step; raise ExampleError with what went wrong."""
+    problems = readme_problems(example)
+    if problems:
+        raise ExampleError("\n".join(problems))
+    logs = REPO / example.out / "logs"
+    shutil.rmtree(logs, ignore_errors=True)
+    logs.mkdir(parents=True)
+    env = {**os.environ, **example.env}
+    background: list[tuple[Step, subprocess.Popen[bytes], Path]] = []
+    try:
+        for index, step in enumerate(example.steps, 1):
+            log = logs / f"{index}.log"
+            with log.open("wb") as stream:
+                stream.write(f"$ {step.command}\n".encode())
+                stream.flush()
+                process = subprocess.Popen(
+                    argv_of(step.command),
+                    cwd=REPO,
+                    env=env,
+                    stdin=subprocess.DEVNULL,
+                    stdout=stream,
+                    stderr=subprocess.STDOUT,
+                    start_new_session=True,  # its own group: stopped as a whole on failure
+                )
+            if step.background:
+                background.append((step, process, log))
+                continue
+            try:
+                code = process.wait(timeout=STEP_TIMEOUT)
+            except subprocess.TimeoutExpired:
+                _stop(process)
+                msg = f"`{step.command}` took more than {STEP_TIMEOUT:g} s:\n{_tail(log)}"
+                raise ExampleError(msg) from None
+            if code != 0:
+                raise ExampleError(f"`{step.command}` exited {code}:\n{_tail(log)}")
+        for step, process, log in background:
+            try:
+                code = process.wait(timeout=60)
+            except subprocess.TimeoutExpired:
+                msg = f"`{step.command}` did not end after the run:\n{_tail(log)}"
+                raise ExampleError(msg) from None
+            if code != 0:
+                raise ExampleError(f"`{step.command}` exited {code}:\n{_tail(log)}")
+    finally:
+        for _, process, _ in background:
+            _stop(process)
+    problems = example.verify()
+    if problems:
+        raise ExampleError("\n".join(problems))
+    if pictures:
+        for name, make in example.pictures.items():
+            destination = example.folder / name
+            make(destination)
+            size = destination.stat().st_size
+            if size > PICTURE_LIMIT:
+                msg = f"{destination} is {size} bytes, over the {PICTURE_LIMIT} of a picture"
+                raise ExampleError(msg)
+
+
+def main(argv: list[str] | None = None) -> int:
+    """Command line; exit 1 when an example failed."""
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0] if __doc__ else None)
+    parser.add_argument("--only", nargs="+", metavar="NAME", help="run these examples only")
+    parser.add_argument("--pictures", action="store_true", help="refresh the READMEs' pictures")
+    parser.add_argument("--list", action="store_true", help="print the examples' names and exit")
+    args = parser.parse_args(argv)
+    examples = [make() for make in ALL]
+    if args.list:
+        print("\n".join(e.name for e in examples))
+        return 0
+    if args.only:
+        unknown = set(args.only) - {e.name for e in examples}
+        if unknown:
+            parser.error(f"no example {', '.join(sorted(unknown))}; see --list")
+        examples = [e for e in examples if e.name in args.only]
+    width = max(len(e.name) for e in examples)
+    failed = 0
+    started = time.perf_counter()
+    for example in examples:
+        began = time.perf_counter()
+        try:
+            run_example(example, pictures=args.pictures)
+        except ExampleError as exc:
+            failed += 1
+            print(
+                f"{example.name:<{width}}  FAIL  {time.perf_counter() - began:6.1f} s", flush=True
+            )
+            print(f"  {exc}", flush=True)
+        else:
+            print(
+                f"{example.name:<{width}}  pass  {time.perf_counter() - began:6.1f} s", flush=True
+            )
+    total = time.perf_counter() - started
+    print(f"{len(examples) - failed} of {len(examples)} examples passed in {total:.1f} s")
+    return 1 if failed else 0
+
+
+if __name__ == "__main__":
+    sys.exit(main())
