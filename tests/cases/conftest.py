@@ -80,12 +80,16 @@ def _tiny_onnx(path: Path) -> None:
 
 
 def make_case_models() -> Path:
-    """Build (once) the folder of models every case may use."""
-    if (MODEL_DIR / COMPLETE).exists():
+    """Build (once per change of the fixture FMUs' sources) the folder of models every case
+    may use: the marker names the source-hashed builds it was made from."""
+    built = {name: build_fixture_fmu(name) for name in ("Gain", "Integrator", "Vector3")}
+    stamp = "\n".join(path.name for path in built.values()) + "\n"
+    marker = MODEL_DIR / COMPLETE
+    if marker.exists() and marker.read_text(encoding="utf-8") == stamp:
         return MODEL_DIR
     MODEL_DIR.mkdir(parents=True, exist_ok=True)
-    for name in ("Gain", "Integrator", "Vector3"):
-        shutil.copy(build_fixture_fmu(name), MODEL_DIR / f"{name}.fmu")
+    for name, path in built.items():
+        shutil.copy(path, MODEL_DIR / f"{name}.fmu")
     _tiny_onnx(MODEL_DIR / "tiny.onnx")
     shutil.copy(CASES / "models" / "scene.xml", MODEL_DIR / "scene.xml")
     (MODEL_DIR / "notzip.fmu").write_text("this is not a zip archive\n", encoding="utf-8")
@@ -102,7 +106,7 @@ def make_case_models() -> Path:
     (MODEL_DIR / "a_folder").mkdir(exist_ok=True)
     with zipfile.ZipFile(MODEL_DIR / "huge_array.fmu", "w") as archive:
         archive.writestr("modelDescription.xml", HUGE_ARRAY_DESCRIPTION)
-    (MODEL_DIR / COMPLETE).write_text("ok\n", encoding="utf-8")
+    marker.write_text(stamp, encoding="utf-8")
     return MODEL_DIR
 
 
