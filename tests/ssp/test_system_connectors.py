@@ -15,6 +15,8 @@ from pathlib import Path
 import pytest
 
 import fmionnx
+from fmionnx import api
+from fmionnx.compile.overrides import OverrideError
 from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.core.types import PortRef
 from fmionnx.spec.frontends import load_system
@@ -335,3 +337,103 @@ def test_boolean_value_through_a_transformation_is_e071(make_ssp) -> None:
     assert [(c, line) for c, line, _ in found if c.startswith("E")] == [
         ("E071", line_of(ssv, 'name="drive_value"'))
     ]
+
+
+# --- open system connectors: named inputs of the system, set with --param
+
+
+def test_open_connectors_become_named_system_inputs(make_ssp) -> None:
+    spec, found = load(make_ssp(top_ssd(binding="")))
+    assert spec is not None, found
+    assert not [f for f in found if f[0] == "W070"], found
+    inputs = {
+        name: [t if isinstance(t, str) else t.model_dump() for t in entry.to]
+        for name, entry in spec.inputs.items()
+    }
+    # k_top -(x2 +1)-> sub.k_in -(x0.5)-> gain2.k: 0.5 * (2 v + 1) = 1.0 v + 0.5.
+    assert inputs == {
+        "drive": [{"to": "integ.u", "factor": 0.5, "offset": 0.0}],
+        "k_top": [{"to": "sub.gain2.k", "factor": 1.0, "offset": 0.5}],
+        "gain_k": ["gain1.k"],
+    }
+    # The targets are set from outside: no warning about an unconnected integ.u.
+    result = api.compile_system(make_ssp(top_ssd(binding="")))
+    assert result.ok, result.diagnostics
+    loose = [d.message for d in result.diagnostics if d.code == "W030"]
+    assert not [m for m in loose if "integ.u" in m or "gain2.k" in m], loose
+
+
+def test_nested_open_connector_is_named_with_its_system(make_ssp) -> None:
+    text = top_ssd(binding="").replace(connection(".k_top", "sub.k_in", 2, 1), "")
+    spec, found = load(make_ssp(text))
+    assert spec is not None, found
+    assert set(spec.inputs) == {"drive", "gain_k", "sub.k_in"}
+    (target,) = spec.inputs["sub.k_in"].to
+    assert not isinstance(target, str)
+    assert (target.to, target.factor, target.offset) == ("sub.gain2.k", 0.5, 0.0)
+
+
+def test_param_sets_system_inputs_like_the_bound_values(make_ssp) -> None:
+    system = fmionnx.load(make_ssp(top_ssd(binding="")))
+    record = (PortRef("integ", "x"), PortRef("gain1", "y"), PortRef("sub.gain2", "y"))
+    # The values TOP_SSV and TOP_SSM gave: drive = 4, k_top = 6, gain_k = 3; same results:
+    # integ.u = 2, x(1) = 2, gain1.y = 6, gain2.k = 6 + 0.5 = 6.5, gain2.y = 6.5 * 13 = 84.5.
+    run = system.run(params={"drive": 4, "k_top": 6, "gain_k": 3}, record=record)
+    assert run["integ.x"][-1] == pytest.approx(2.0)
+    assert run["sub.gain2.y"][-1] == pytest.approx(84.5)
+    # Unset, the targets keep their start values: integ.u = 0, so everything stays at 0 but
+    # gain2.u = 2 * 0 + 1 = 1 and gain2.k = 2 (the Gain FMU's start): gain2.y = 2.
+    run = system.run(record=record)
+    assert run["integ.x"][-1] == pytest.approx(0.0)
+    assert run["sub.gain2.y"][-1] == pytest.approx(2.0)
+
+
+def test_param_on_a_system_input_refuses_what_cannot_be_set(make_ssp) -> None:
+    system = fmionnx.load(make_ssp(top_ssd(binding="")))
+    with pytest.raises(OverrideError, match=r"a system input takes one value"):
+        system.with_overrides(params={"drive": [1, 2]})
+    with pytest.raises(OverrideError, match=r"reaches `integ.u` through a linear"):
+        system.with_overrides(params={"drive": True})
+    with pytest.raises(OverrideError, match=r"system inputs: drive, gain_k, k_top"):
+        system.with_overrides(params={"driv": 1})
+
+
+def test_cli_run_param_names_the_open_connector(make_ssp, tmp_path: Path) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    archive = make_ssp(top_ssd(binding=""))
+    out = tmp_path / "out"
+    args = ["run", str(archive), "--out", str(out), "--param", "drive=4", "--param", "gain_k=3"]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    rows = (out / "results.csv").read_text(encoding="utf-8").splitlines()
+    header, last = rows[0].split(","), rows[-1].split(",")
+    # integ.u = 0.5 * 4 = 2: x(1) = 2; gain1.y = 3 * 2 = 6.
+    assert float(last[header.index("integ.x")]) == pytest.approx(2.0)
+    assert float(last[header.index("gain1.y")]) == pytest.approx(6.0)
+
+
+def test_yaml_inputs_must_reach_settable_ports(tmp_path: Path, fixture_fmu) -> None:
+    system = tmp_path / "inputs.yaml"
+    system.write_text(
+        "fmionnx: 1\n"
+        "name: inputs\n"
+        "run: {stop: 1, step: 0.1}\n"
+        "components:\n"
+        f"  g: {{kind: fmu, path: {fixture_fmu('Gain')}}}\n"
+        "inputs:\n"
+        "  level: {to: [g.k, {to: g.u, factor: 2}]}\n"
+        "  wrong: {to: [g.y]}\n",
+        encoding="utf-8",
+    )
+    result = api.compile_system(system)
+    assert [
+        (d.code, d.span.line if d.span else 0) for d in result.diagnostics if d.code.startswith("E")
+    ] == [("E044", 8)]
+    system.write_text(system.read_text(encoding="utf-8").replace("  wrong: {to: [g.y]}\n", ""))
+    loaded = fmionnx.load(system)
+    # level = 1.5: g.k = 1.5, g.u = 3: g.y = 4.5.
+    run = loaded.run(params={"level": 1.5}, record=(PortRef("g", "y"),))
+    assert run["g.y"][-1] == pytest.approx(4.5)
