@@ -9,10 +9,12 @@ with its own. Every number below is worked out by hand in the comment next to it
 
 from __future__ import annotations
 
+import zipfile
 from collections.abc import Callable
 from pathlib import Path
 
 import pytest
+from lxml import etree
 
 import fmionnx
 from fmionnx import api
@@ -437,3 +439,45 @@ def test_yaml_inputs_must_reach_settable_ports(tmp_path: Path, fixture_fmu) -> N
     # level = 1.5: g.k = 1.5, g.u = 3: g.y = 4.5.
     run = loaded.run(params={"level": 1.5}, record=(PortRef("g", "y"),))
     assert run["g.y"][-1] == pytest.approx(4.5)
+
+
+def test_system_inputs_survive_export_and_convert(tmp_path: Path, fixture_fmu) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+    from fmionnx.spec.ssp_xml import schema
+
+    system = tmp_path / "inputs.yaml"
+    system.write_text(
+        "fmionnx: 1\n"
+        "name: inputs\n"
+        "run: {stop: 1, step: 0.1}\n"
+        "components:\n"
+        f"  g: {{kind: fmu, path: {fixture_fmu('Gain')}}}\n"
+        "inputs:\n"
+        "  level: {to: [g.k, {to: g.u, factor: 2, offset: 1}]}\n"
+        "  sub.gain: {to: [g.k]}\n",
+        encoding="utf-8",
+    )
+    archive = tmp_path / "inputs.ssp"
+    runner = CliRunner()
+    result = runner.invoke(app, ["export", str(system), "-o", str(archive)])
+    assert result.exit_code == 0, result.output
+    with zipfile.ZipFile(archive) as members:
+        ssd = etree.fromstring(members.read("SystemStructure.ssd"))
+    assert schema("ssd", "1").validate(etree.ElementTree(ssd)), schema("ssd", "1").error_log
+    spec, found = load(archive)
+    assert spec is not None, found
+    assert {
+        n: [t if isinstance(t, str) else t.model_dump() for t in e.to]
+        for n, e in spec.inputs.items()
+    } == {
+        "level": ["g.k", {"to": "g.u", "factor": 2.0, "offset": 1.0}],
+        "sub.gain": ["g.k"],
+    }
+    converted = tmp_path / "back.yaml"
+    result = runner.invoke(app, ["convert", str(archive), "-o", str(converted)])
+    assert result.exit_code == 0, result.output
+    # level = 1.5 through the converted file: g.k = 1.5, g.u = 2 * 1.5 + 1 = 4: g.y = 6.
+    run = fmionnx.load(converted).run(params={"level": 1.5}, record=(PortRef("g", "y"),))
+    assert run["g.y"][-1] == pytest.approx(6.0)
