@@ -228,7 +228,10 @@ class SystemGraph:
 
     def _report_cycle(self, loop: list[Pin], back: Pin) -> None:
         self.broken = True
-        names = " -> ".join(pin_text(p) for p in (*loop, back))
+        shown = [pin_text(p) for p in (*loop, back)]
+        if len(shown) > 8:  # a hostile file's cycle of thousands: its ends say where it is
+            shown = [*shown[:4], f"... ({len(shown) - 6} more)", *shown[-2:]]
+        names = " -> ".join(shown)
         closing = next(e for e in self.edges[loop[-1]] if e.end == back)
         self.bag.emit(
             "E073",

@@ -481,3 +481,31 @@ def test_system_inputs_survive_export_and_convert(tmp_path: Path, fixture_fmu) -
     # level = 1.5 through the converted file: g.k = 1.5, g.u = 2 * 1.5 + 1 = 4: g.y = 6.
     run = fmionnx.load(converted).run(params={"level": 1.5}, record=(PortRef("g", "y"),))
     assert run["g.y"][-1] == pytest.approx(6.0)
+
+
+def test_a_long_cycle_of_system_connectors_is_one_short_e073(tmp_path: Path) -> None:
+    # A hostile file: 5000 connectors of one system passed round in a circle. The graph is
+    # walked without recursion, and the message names the ends of the cycle only.
+    count = 5000
+    connectors = "".join(f'<ssd:Connector name="c{i}" kind="input"/>' for i in range(count))
+    edges = "".join(
+        f'<ssd:Connection startConnector="c{i}" endConnector="c{(i + 1) % count}"/>'
+        for i in range(count)
+    )
+    path = tmp_path / "ring.ssd"
+    path.write_text(
+        f'<?xml version="1.0"?><ssd:SystemStructureDescription {SSP_NAMESPACES} name="s" '
+        f'version="1.0"><ssd:System name="r"><ssd:Connectors>{connectors}</ssd:Connectors>'
+        f"<ssd:Connections>{edges}</ssd:Connections></ssd:System>"
+        "</ssd:SystemStructureDescription>",
+        encoding="utf-8",
+    )
+    spec, found = load(path)
+    assert spec is None
+    assert [(c, m) for c, _, m in found] == [
+        (
+            "E073",
+            "connections through system connectors form a cycle: c0 -> c1 -> c2 -> c3 -> "
+            f"... ({count - 5} more) -> c{count - 1} -> c0",
+        )
+    ]
