@@ -21,6 +21,7 @@ from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.ros2.settings import ros2_settings
+from fmionnx.compile.sysinputs import compile_inputs
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
 from fmionnx.compile.unitcheck import check_units
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Severity, Span
@@ -89,6 +90,9 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     connections = _connections(spec, interfaces, sources, bag, mentioned)
     by_name = {c.name: c for c in components}
     _check_drivers(connections, bag)
+    inputs = compile_inputs(spec, interfaces, sources, bag)
+    # A port a system input reaches is set from outside, like a connected one.
+    mentioned |= {(t.ref.component, t.ref.port) for i in inputs for t in i.targets}
     _check_unconnected(components, mentioned, spec, sources, bag)
     usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
     for loop in find_algebraic_loops(components, usable):
@@ -119,6 +123,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         checks=checks,
         ros2=ros2,
         description=spec.description,
+        inputs=inputs,
     )
     if ros2 is not None:
         # The ROS 2 section is checked like the rest of the file and its plan kept in the

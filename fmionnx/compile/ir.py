@@ -35,6 +35,29 @@ if TYPE_CHECKING:
 
 
 @dataclass(frozen=True, slots=True)
+class InputTarget:
+    """A settable port a system input reaches: ``value * factor + offset`` is set on it."""
+
+    ref: PortRef
+    factor: float = 1.0
+    offset: float = 0.0
+
+
+@dataclass(frozen=True, slots=True)
+class SystemInput:
+    """A named input of the whole system (``inputs:``; an open SSP system connector).
+
+    Nothing drives it during a run: ``--param NAME=value`` sets the parameters or input start
+    values of the ports it reaches, each through its own linear transformation, so that a
+    system from another tool keeps the names its author gave its inputs.
+    """
+
+    name: str
+    targets: tuple[InputTarget, ...]
+    span: Span | None = None
+
+
+@dataclass(frozen=True, slots=True)
 class Connection:
     """A checked edge from an output element range to an input element range.
 
@@ -168,6 +191,7 @@ class CompiledSystem:
     ros2: Ros2Settings | None = None
     ros2_plan: Ros2Plan | None = None
     description: str = ""
+    inputs: tuple[SystemInput, ...] = ()
 
     def component(self, name: str) -> Component:
         """The component called ``name`` (KeyError when absent)."""
@@ -205,6 +229,11 @@ class CompiledSystem:
             "connections": [[str(c.src), str(c.dst), c.factor, c.offset] for c in self.connections],
             "order": list(self.order),
         }
+        if self.inputs:  # absent when empty: the hashes of systems without inputs stay as they were
+            payload["inputs"] = [
+                [i.name, [[str(t.ref), t.factor, t.offset] for t in i.targets]]
+                for i in self.inputs
+            ]
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()
 

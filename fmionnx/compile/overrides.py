@@ -10,7 +10,7 @@ import dataclasses
 import json
 import math
 
-from fmionnx.compile.ir import CompiledSystem, Origin
+from fmionnx.compile.ir import CompiledSystem, Origin, SystemInput
 from fmionnx.core.diagnostics import did_you_mean, one_of
 from fmionnx.core.errors import FmionnxError
 from fmionnx.core.steps import count_problem, output_interval_problem, suggest_interval
@@ -124,8 +124,48 @@ def override_parameter(
 ) -> CompiledSystem:
     """The system with ``component.name = value`` set before initialization.
 
-    A one-model system also accepts the bare variable name (``--param k=2``).
+    ``key`` may also name a system input (``inputs:``, an SSP system's open connector):
+    then every port it reaches gets the value through its own transformation. A one-model
+    system also accepts the bare variable name (``--param k=2``).
     """
+    for system_input in system.inputs:
+        if system_input.name == key:
+            return _override_input(system, system_input, value)
+    return _override_port(system, key, value)
+
+
+def _override_input(
+    system: CompiledSystem, system_input: SystemInput, value: Scalar | list[Scalar]
+) -> CompiledSystem:
+    key = system_input.name
+    if isinstance(value, list):
+        msg = f"--param `{key}`: a system input takes one value, got `{value}`"
+        raise OverrideError(msg)
+    for target in system_input.targets:
+        item: Scalar = value
+        if target.factor != 1.0 or target.offset != 0.0:
+            if isinstance(value, bool) or not isinstance(value, int | float):
+                msg = (
+                    f"--param `{key}`: `{value}` reaches `{target.ref}` through a linear "
+                    "transformation and must be a number"
+                )
+                raise OverrideError(msg)
+            item = target.factor * value + target.offset
+            if math.isinf(item):
+                msg = f"--param `{key}`: {number_text(value)} becomes infinite at `{target.ref}`"
+                raise OverrideError(msg)
+        try:
+            system = _override_port(system, str(target.ref), item)
+        except OverrideError as exc:
+            detail = str(exc).split(": ", 1)[-1]  # without the target's own `--param` prefix
+            msg = f"--param `{key}` (a system input, reaching `{target.ref}`): {detail}"
+            raise OverrideError(msg) from exc
+    return system
+
+
+def _override_port(
+    system: CompiledSystem, key: str, value: Scalar | list[Scalar]
+) -> CompiledSystem:
     names = [c.name for c in system.components]
     owners = [n for n in names if key.startswith(n + ".")]
     if owners:
@@ -134,7 +174,12 @@ def override_parameter(
     elif len(names) == 1:
         component_name, port_name = names[0], key  # a lone model: plain variable names
     elif "." not in key:
-        msg = f"--param `{key}`: expected `component.name=value` (components: {', '.join(names)})"
+        inputs = [i.name for i in system.inputs]
+        also = f"; system inputs: {', '.join(inputs)}" if inputs else ""
+        msg = (
+            f"--param `{key}`: expected `component.name=value` (components: {', '.join(names)}"
+            f"{also})"
+        )
         raise OverrideError(msg)
     else:
         guess = key.split(".", 1)[0]

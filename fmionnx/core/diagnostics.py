@@ -314,6 +314,13 @@ CODES: dict[str, ErrorCode] = _codes(
         "ssp",
         "An SSP element references something that does not exist.",
     ),
+    ErrorCode(
+        "E073",
+        "ssp-junction",
+        _E,
+        "ssp",
+        "System connectors that cannot be flattened (driven twice, or in a cycle).",
+    ),
     ErrorCode("W070", "ssp-ignored", _W, "ssp", "An SSP element that fmionnx reads but ignores."),
     ErrorCode(
         "I070", "ssp-layout", _I, "ssp", "The SSP diagram layout (geometry) is not used."

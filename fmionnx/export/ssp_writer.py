@@ -33,7 +33,7 @@ from fmionnx.core.types import Causality, DType, Port
 from fmionnx.core.units import BASE_UNITS, Unit
 from fmionnx.kinds.base import FMI, MODEL_FOLDER
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
+from fmionnx.spec.model import ConnectionSpec, InputTargetSpec, SystemSpec, split_connection
 from fmionnx.spec.ssp import MIME_BY_KIND
 from fmionnx.spec.ssp_archive import SSD_NAME
 from fmionnx.spec.ssp_names import port_label_to_fmi
@@ -183,6 +183,50 @@ class _Writer:
             if factor != 1.0 or offset != 0.0:
                 _sub(node, "ssc", "LinearTransformation", factor=repr(factor), offset=repr(offset))
 
+    def inputs(self, system: Any, scratch: Any) -> None:
+        """System inputs as connectors of the root system connected to the ports they set.
+
+        This is how other tools write a system's top-level inputs and parameters, and how the
+        SSP front end reads them back as open connectors, transformations included. The kind
+        is ``parameter`` when every target is a parameter, else ``input``.
+        """
+        if not self.spec.inputs:
+            return
+        connectors = etree.Element(_q("ssd", "Connectors"))
+        system.insert(0, connectors)  # before Elements, as the schema orders them
+        connections = scratch.find(_q("ssd", "Connections"))
+        if connections is None:
+            connections = _sub(scratch, "ssd", "Connections")
+        for name, entry in self.spec.inputs.items():
+            kinds: set[str] = set()
+            floats = True
+            for item in entry.to:
+                target = item if isinstance(item, InputTargetSpec) else InputTargetSpec(to=item)
+                component, label = self._endpoint(target.to, "input")
+                kind, port = self.connectors[component][label]
+                kinds.add(kind)
+                floats = floats and port is not None and port.dtype.is_float
+                node = _sub(
+                    connections,
+                    "ssd",
+                    "Connection",
+                    startConnector=name,
+                    endElement=component,
+                    endConnector=label,
+                )
+                if target.factor != 1.0 or target.offset != 0.0:
+                    _sub(
+                        node,
+                        "ssc",
+                        "LinearTransformation",
+                        factor=repr(target.factor),
+                        offset=repr(target.offset),
+                    )
+            kind = "parameter" if kinds == {"parameter"} else "input"
+            connector = _sub(connectors, "ssd", "Connector", name=name, kind=kind)
+            if floats:  # no unit: each target keeps its own, through its transformation
+                _sub(connector, "ssc", "Real")
+
     def component(self, parent: Any, name: str, spec: ComponentSpecBase, staging: Path) -> None:
         source = self._pack(name, spec, staging)
         node = _sub(parent, "ssd", "Component", name=name, type=MIME_BY_KIND[spec.kind])
@@ -304,6 +348,7 @@ def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSyste
     # Connections first: they decide which connectors each component declares.
     scratch = etree.Element("scratch")
     writer.connections(scratch)
+    writer.inputs(top, scratch)
     for name, component in spec.components.items():
         writer.component(elements, name, component, staging)
     for child in scratch:

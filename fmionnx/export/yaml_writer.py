@@ -106,6 +106,19 @@ def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
             connections.append(entry)
     if connections:
         data["connections"] = connections
+    if spec.inputs:
+        data["inputs"] = {
+            name: {
+                "to": [
+                    item
+                    if isinstance(item, str)
+                    else item.model_dump(mode="json", exclude_defaults=True)
+                    for item in entry.to
+                ],
+                **({"description": entry.description} if entry.description else {}),
+            }
+            for name, entry in spec.inputs.items()
+        }
     extra = spec.model_dump(
         mode="json",
         by_alias=True,

@@ -38,6 +38,8 @@ ENDPOINT_RE = re.compile(
     r"(?:\[(?P<index>\s*\d+\s*(?:,\s*\d+\s*)*)\])?\s*$"
 )
 ARROW = "->"
+#: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``).
+DOTTED_NAME = re.compile(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*")
 
 
 class RunSpec(StrictModel):
@@ -91,6 +93,27 @@ def split_connection(text: str) -> tuple[str, str] | None:
         return None
     left, right = text.split(ARROW)
     return left.strip(), right.strip()
+
+
+class InputTargetSpec(StrictModel):
+    """A port a system input sets, with the transformation on the way."""
+
+    to: str = Field(description="Parameter or input `component.port` the value goes to.")
+    factor: float = Field(default=1.0, description="The port gets factor*value + offset.")
+    offset: float = Field(default=0.0, description="Offset of the transformation.")
+
+    model_config = StrictModel.model_config | {"allow_inf_nan": False}
+
+
+class SystemInputSpec(StrictModel):
+    """A named input of the system: ``--param NAME=value`` sets every port it reaches."""
+
+    to: list[str | InputTargetSpec] = Field(
+        min_length=1,
+        description="Parameters or inputs (`component.port`, or `{to, factor, offset}`) the "
+        "value is set on.",
+    )
+    description: str = ""
 
 
 class PlotSpec(StrictModel):
@@ -200,6 +223,11 @@ class SystemSpec(StrictModel):
         default_factory=list,
         description="`src.port[i] -> dst.port[j]`, or the long form with `from`/`to`.",
     )
+    inputs: dict[str, SystemInputSpec] = Field(
+        default_factory=dict,
+        description="Named inputs of the system (an SSP system's open input and parameter "
+        "connectors): `fmionnx run --param NAME=value` sets the ports each reaches.",
+    )
     record: list[str] | None = Field(
         default=None,
         description="Signals written to results.csv (default: every connected output, "
@@ -221,11 +249,23 @@ class SystemSpec(StrictModel):
             raise ValueError(msg)
         return value
 
+    @field_validator("inputs")
+    @classmethod
+    def _input_names(cls, value: dict[str, Any]) -> dict[str, Any]:
+        for name in value:
+            if not DOTTED_NAME.fullmatch(name):
+                msg = (
+                    f"system input name `{name}` must start with a letter or `_` and contain "
+                    "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
+                )
+                raise ValueError(msg)
+        return value
+
     @field_validator("components")
     @classmethod
     def _component_names(cls, value: dict[str, Any]) -> dict[str, Any]:
         for name in value:
-            if not re.fullmatch(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*", name):
+            if not DOTTED_NAME.fullmatch(name):
                 msg = (
                     f"component name `{name}` must start with a letter or `_` and contain "
                     "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"

@@ -21,7 +21,7 @@ from fmionnx.core.diagnostics import DiagnosticBag, Severity, Span
 from fmionnx.core.errors import ModelError
 from fmionnx.kinds.base import FMI
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.model import SystemSpec
+from fmionnx.spec.model import DOTTED_NAME, SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.ssp_archive import SSD_NAME, unpack_ssp
@@ -175,6 +175,10 @@ def _system_data(
     data["components"] = components
     sources.record(("connections",), Span(ssd, document.root.line))
     data["connections"] = _connections(flat, ssd, sources)
+    inputs = _inputs(flat, ssd, sources, bag)
+    if inputs:
+        sources.record(("inputs",), Span(ssd, document.root.line))
+        data["inputs"] = inputs
     return data
 
 
@@ -251,6 +255,37 @@ def _component(
         if (*key, "parameters") not in sources.spans:
             sources.record((*key, "parameters"), span, span)
     return entry
+
+
+def _inputs(
+    flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag
+) -> dict[str, Any]:
+    """Open system connectors as ``inputs:`` entries, named ``conn`` or ``sub.conn``."""
+    result: dict[str, Any] = {}
+    for name, item in flat.inputs.items():
+        span = Span(ssd, item.line)
+        if not item.targets:  # its connections were refused already
+            continue
+        if not DOTTED_NAME.fullmatch(name):
+            bag.emit(
+                "W070",
+                f"open system connector `{name}` cannot be named on the command line (letters, "
+                "digits, `_`, `-` only); the ports it reaches keep their start values",
+                span,
+            )
+            continue
+        targets: list[Any] = []
+        sources.record(("inputs", name), span, span)
+        for index, target in enumerate(item.targets):
+            sources.record(("inputs", name, "to", index), Span(ssd, target.line))
+            if target.factor == 1.0 and target.offset == 0.0:
+                targets.append(target.endpoint)
+            else:
+                targets.append(
+                    {"to": target.endpoint, "factor": target.factor, "offset": target.offset}
+                )
+        result[name] = {"to": targets}
+    return result
 
 
 def _connections(flat: FlatSystem, ssd: Path, sources: SourceMap) -> list[Any]:

@@ -1,17 +1,22 @@
 """Flatten an SSD's system hierarchy into components, connections and parameter values.
 
 Components get dotted names from the root system down (``sub.inner.gain``; the root system's
-own name is not part of them). A connection through system connectors is followed from the
-component connector that drives it, across every system boundary, to each component connector
-it reaches; the linear transformations and unit conversions met on the way are composed into
-one ``factor``/``offset``. A chain whose units were settled here (both connectors of an edge
-name different units declared in ``ssd:Units``, or ``suppressUnitConversion``) is marked
+own name is not part of them). A system connector is a junction (:mod:`fmionnx.spec.ssp_graph`):
+a connection through system connectors is followed from the component connector that drives
+it, across every system boundary, to each component connector it reaches; the linear
+transformations and unit conversions met on the way are composed into one ``factor``/
+``offset``. A chain whose units were settled here (both connectors of an edge name different
+units declared in ``ssd:Units``, or ``suppressUnitConversion``) is marked
 ``convert_units=False``, so that the compiler does not convert the ports' units a second
 time; on any other chain the compiler converts between the units of the ports themselves
-(SSP: a connector without a unit has its component variable's unit). Parameter bindings on
-systems are matched to the component whose dotted name is the longest prefix of the parameter
-name, or followed through the system's ``parameter`` connectors. Outer bindings override inner
-ones, later bindings earlier ones.
+(SSP: a connector without a unit has its component variable's unit).
+
+Values bound to components and to system connectors are resolved by
+:mod:`fmionnx.spec.ssp_bind`. What is left over are *open* system connectors: an ``input`` or
+``parameter`` connector that nothing drives and no binding sets. Each becomes a named system
+input (``conn`` on the root system, ``sub.conn`` on a nested one) whose value the command line
+can set (``--param conn=1``) and that reaches the component connectors at the ends of its
+chains, transformations included.
 """
 
 from __future__ import annotations
@@ -21,12 +26,15 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.spec.ssp_bind import bind_parameters
+from fmionnx.spec.ssp_graph import Pin, Reached, SystemGraph, pin_text, system_text
 from fmionnx.spec.ssp_names import fmi_to_port_label
-from fmionnx.spec.ssp_params import BoundValue, binding_values
-from fmionnx.spec.ssp_tree import Connection, Connector, Document, Element, Unit
+from fmionnx.spec.ssp_params import BoundValue
+from fmionnx.spec.ssp_tree import Document, Element
 
-Pin = tuple[tuple[str, ...], str]
 FMU_MIME = "application/x-fmu-sharedlibrary"
+#: Kinds of system connectors that, left open, can be set from outside the system.
+SETTABLE_KINDS = ("input", "parameter")
 
 
 @dataclass(frozen=True, slots=True)
@@ -42,13 +50,22 @@ class FlatConnection:
 
 
 @dataclass(frozen=True, slots=True)
-class _Edge:
-    start: Pin
-    end: Pin
+class FlatTarget:
+    """A component connector an open system input reaches, and the chain's transformation."""
+
+    endpoint: str
     factor: float
     offset: float
     line: int
-    units_settled: bool = False
+
+
+@dataclass(frozen=True, slots=True)
+class FlatInput:
+    """An open system connector: its name, where it is declared, what it reaches."""
+
+    name: str
+    line: int
+    targets: tuple[FlatTarget, ...]
 
 
 @dataclass
@@ -58,255 +75,96 @@ class FlatSystem:
     components: dict[str, Element] = field(default_factory=dict)
     connections: list[FlatConnection] = field(default_factory=list)
     parameters: dict[str, dict[str, BoundValue]] = field(default_factory=lambda: defaultdict(dict))
+    inputs: dict[str, FlatInput] = field(default_factory=dict)
 
 
-def _walk(
-    element: Element, path: tuple[str, ...], out: list[tuple[tuple[str, ...], Element]]
-) -> None:
-    out.append((path, element))
-    for child in element.children:
-        _walk(child, (*path, child.name), out)
-
-
-class _Flattener:
-    def __init__(
-        self, document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag
-    ) -> None:
-        self.document = document
-        self.ssd = ssd
-        self.root = root
-        self.bag = bag
-        self.elements: list[tuple[tuple[str, ...], Element]] = []
-        _walk(document.root, (), self.elements)
-        self.components = {p: e for p, e in self.elements if not e.is_system}
-        self.connectors: dict[Pin, Connector] = {
-            (p, c.name): c for p, e in self.elements for c in e.connectors
-        }
-        self.edges: dict[Pin, list[_Edge]] = defaultdict(list)
-
-    def span(self, line: int) -> Span:
-        return Span(self.ssd, line)
-
-    # --- connections
-    def collect_edges(self) -> list[_Edge]:
-        ordered: list[_Edge] = []
-        for path, element in self.elements:
-            if not element.is_system:
-                continue
-            for connection in element.connections:
-                edge = self._edge(path, connection)
-                if edge is not None:
-                    self.edges[edge.start].append(edge)
-                    ordered.append(edge)
-        return ordered
-
-    def _pin(self, path: tuple[str, ...], element: str | None, connector: str) -> Pin:
-        return ((*path, element) if element else path, connector)
-
-    def _edge(self, path: tuple[str, ...], connection: Connection) -> _Edge | None:
-        start = self._pin(path, connection.start_element, connection.start_connector)
-        end = self._pin(path, connection.end_element, connection.end_connector)
-        known = {p for p, _ in self.elements}
-        for pin, role in ((start, "start"), (end, "end")):
-            if pin[0] not in known:
-                self.bag.emit(
-                    "E072",
-                    f"connection {role} element `{pin[0][-1]}` does not exist in system "
-                    f"`{'.'.join(path) or self.document.root.name}`",
-                    self.span(connection.line),
-                )
-                return None
-            if pin[0] not in self.components and pin not in self.connectors:
-                self.bag.emit(
-                    "E072",
-                    f"system `{'.'.join(pin[0]) or self.document.root.name}` has no connector "
-                    f"`{pin[1]}`",
-                    self.span(connection.line),
-                )
-                return None
-        factor, offset = self._unit_conversion(start, end, connection)
-        if connection.transformation is not None:
-            t = connection.transformation
-            factor, offset = t.factor * factor, t.factor * offset + t.offset
-        first, second = self.connectors.get(start), self.connectors.get(end)
-        declared = [c is not None and c.unit in self.document.units for c in (first, second)]
-        differ = first is not None and second is not None and first.unit != second.unit
-        settled = connection.suppress_unit_conversion or (all(declared) and differ)
-        return _Edge(start, end, factor, offset, connection.line, settled)
-
-    def _unit_conversion(self, start: Pin, end: Pin, connection: Connection) -> tuple[float, float]:
-        """``(a, b)`` with ``target = a * source + b`` between the connectors' units."""
-        if connection.suppress_unit_conversion:
-            return 1.0, 0.0
-        first, second = self.connectors.get(start), self.connectors.get(end)
-        if first is None or second is None or not first.unit or not second.unit:
-            return 1.0, 0.0
-        if first.unit == second.unit:
-            return 1.0, 0.0
-        units = self.document.units
-        source, target = units.get(first.unit), units.get(second.unit)
-        if source is None or target is None:
-            missing = first.unit if source is None else second.unit
-            self.bag.emit(
-                "W070",
-                f"unit `{missing}` is not declared in `ssd:Units`; the units of the ports "
-                f"themselves decide the conversion from `{first.unit}` to `{second.unit}`",
-                self.span(connection.line),
+def endpoint_text(graph: SystemGraph, pin: Pin, line: int) -> str | None:
+    """``comp.port[i]`` of a component pin, FMI 2 element names made 0-based (None: E072)."""
+    label = pin[1]
+    if graph.components[pin[0]].type == FMU_MIME:
+        shifted = fmi_to_port_label(label)
+        if shifted is None:
+            graph.bag.emit(
+                "E072",
+                f"connector `{label}` of FMU component `{'.'.join(pin[0])}`: FMI element "
+                "names count from 1",
+                graph.span(line),
             )
-            return 1.0, 0.0
-        if source.exponents != target.exponents:
-            self.bag.emit(
-                "E033",
-                f"connector units `{first.unit}` and `{second.unit}` measure different quantities",
-                self.span(connection.line),
-                hint="connect compatible signals, or set suppressUnitConversion with a "
-                "LinearTransformation",
-            )
-            return 1.0, 0.0
-        return _conversion(source, target)
+            return None
+        label = shifted
+    return ".".join(pin[0]) + "." + label
 
-    def flatten_connections(self, flat: FlatSystem) -> None:
-        ordered = self.collect_edges()
-        reached: set[Pin] = set()
-        for edge in ordered:
-            if edge.start[0] not in self.components:
+
+def _flatten_connections(graph: SystemGraph, flat: FlatSystem) -> set[Pin]:
+    """Component-to-component connections; returns the system connectors they pass."""
+    driven: set[Pin] = set()
+    for edge in graph.ordered:
+        if graph.is_system_pin(edge.start):
+            continue
+        driven |= graph.passes(edge)
+        for reached in graph.reach(edge):
+            src = endpoint_text(graph, edge.start, edge.line)
+            dst = endpoint_text(graph, reached.pin, reached.line)
+            if src is None or dst is None:
                 continue
-            self._follow(edge.start, edge, (1.0, 0.0, False), (), flat, reached)
-        for edge in ordered:
-            dangling = edge.start[0] not in self.components and edge.start not in reached
-            if dangling and not self.edges_into(edge.start):
-                where = ".".join(edge.start[0]) or "the root system"
-                self.bag.emit(
-                    "W070",
-                    f"connector `{edge.start[1]}` of {where} is driven by no component; "
-                    "the inputs it feeds keep their start values",
-                    self.span(edge.line),
-                )
-
-    def edges_into(self, pin: Pin) -> bool:
-        return any(e.end == pin for edges in self.edges.values() for e in edges)
-
-    def _follow(
-        self,
-        source: Pin,
-        edge: _Edge,
-        so_far: tuple[float, float, bool],
-        seen: tuple[Pin, ...],
-        flat: FlatSystem,
-        reached: set[Pin],
-    ) -> None:
-        """Follow ``edge`` on; ``so_far`` is the chain's factor, offset and whether its units
-        were settled on the way."""
-        factor, offset, settled = so_far
-        factor, offset = edge.factor * factor, edge.factor * offset + edge.offset
-        settled = settled or edge.units_settled
-        target = edge.end
-        if target in seen:
-            return
-        if target[0] in self.components:
             flat.connections.append(
                 FlatConnection(
-                    self._text(source, edge.line),
-                    self._text(target, edge.line),
-                    factor,
-                    offset,
-                    edge.line,
-                    convert_units=not settled,
+                    src,
+                    dst,
+                    reached.factor,
+                    reached.offset,
+                    reached.line,
+                    convert_units=not reached.settled,
                 )
             )
-            return
-        reached.add(target)
-        for following in self.edges.get(target, []):
-            self._follow(
-                source, following, (factor, offset, settled), (*seen, target), flat, reached
+    return driven
+
+
+def _open_connectors(graph: SystemGraph, covered: set[Pin], flat: FlatSystem) -> None:
+    """Open settable system connectors become system inputs; other loose ends a W070."""
+    heads = [
+        pin for pin in graph.edges if graph.is_system_pin(pin) and pin not in graph.into
+    ]
+    for pin in heads:
+        if pin in covered or graph.broken:
+            continue
+        connector = graph.connectors[pin]
+        reached = graph.reach_from(pin)
+        if connector.kind in SETTABLE_KINDS and reached:
+            targets = [_target(graph, r) for r in reached]
+            name = pin_text(pin)
+            flat.inputs[name] = FlatInput(
+                name, connector.line, tuple(t for t in targets if t is not None)
             )
-
-    def _text(self, pin: Pin, line: int) -> str:
-        """``comp.port[i]`` of a component pin, FMI 2 element names made 0-based."""
-        label = pin[1]
-        if self.components[pin[0]].type == FMU_MIME:
-            shifted = fmi_to_port_label(label)
-            if shifted is None:
-                self.bag.emit(
-                    "E072",
-                    f"connector `{label}` of FMU component `{'.'.join(pin[0])}`: FMI element "
-                    "names count from 1",
-                    self.span(line),
-                )
-            else:
-                label = shifted
-        return ".".join(pin[0]) + "." + label
-
-    # --- parameters
-    def bind_parameters(self, flat: FlatSystem) -> None:
-        # Innermost first, so that outer bindings (processed later) override them.
-        for path, element in sorted(self.elements, key=lambda item: -len(item[0])):
-            for binding in element.bindings:
-                for value in binding_values(binding, self.ssd, self.root, self.bag):
-                    self._assign(path, element, value, flat)
-
-    def _assign(
-        self, path: tuple[str, ...], element: Element, value: BoundValue, flat: FlatSystem
-    ) -> None:
-        if not element.is_system:
-            flat.parameters[".".join(path)][value.name] = value
-            return
-        for pin in self._parameter_targets(path, value.name):
-            flat.parameters[".".join(pin[0])][pin[1]] = BoundValue(pin[1], value.value, value.span)
-            return
-        best: tuple[str, ...] | None = None
-        for component in self.components:
-            if component[: len(path)] != path or len(component) == len(path):
-                continue
-            prefix = ".".join(component[len(path) :]) + "."
-            if value.name.startswith(prefix) and (best is None or len(component) > len(best)):
-                best = component
-        if best is None:
-            self.bag.emit(
-                "E072",
-                f"parameter `{value.name}` bound on system `{element.name}` names no component "
-                "inside it",
-                value.span,
-                hint="prefix the parameter with the component name (`gain.k`) or give the "
-                "binding a `prefix`",
+            continue
+        first = graph.edges[pin][0]
+        where = f"connector `{pin[1]}` of {system_text(pin[0], graph.root_name)}"
+        if not reached:
+            message = f"{where} leads to no component connector; it is not used"
+        else:
+            message = (
+                f"{where} is driven by no component; the inputs it feeds keep their start "
+                "values"
             )
-            return
-        name = value.name[len(".".join(best[len(path) :])) + 1 :]
-        flat.parameters[".".join(best)][name] = BoundValue(name, value.value, value.span)
-
-    def _parameter_targets(self, path: tuple[str, ...], name: str) -> list[Pin]:
-        """Component pins reached from the system's parameter connector ``name``."""
-        start = (path, name)
-        if start not in self.connectors:
-            return []
-        found: list[Pin] = []
-        stack, seen = [start], {start}
-        while stack:
-            pin = stack.pop()
-            for edge in self.edges.get(pin, []):
-                if edge.end in seen:
-                    continue
-                seen.add(edge.end)
-                if edge.end[0] in self.components:
-                    found.append(edge.end)
-                else:
-                    stack.append(edge.end)
-        return found
+        graph.bag.emit("W070", message, graph.span(first.line))
 
 
-def _conversion(source: Unit, target: Unit) -> tuple[float, float]:
-    # value_SI = f * x + o on both sides, so x_target = (f_s * x + o_s - o_t) / f_t.
-    return source.factor / target.factor, (source.offset - target.offset) / target.factor
+def _target(graph: SystemGraph, reached: Reached) -> FlatTarget | None:
+    endpoint = endpoint_text(graph, reached.pin, reached.line)
+    if endpoint is None:
+        return None
+    return FlatTarget(endpoint, reached.factor, reached.offset, reached.line)
 
 
 def flatten(document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag) -> FlatSystem:
     """Flatten ``document``; problems go into ``bag``."""
-    flattener = _Flattener(document, ssd, root, bag)
+    graph = SystemGraph(document, ssd, bag)
     flat = FlatSystem()
-    for path, element in flattener.components.items():
+    for path, element in graph.components.items():
         flat.components[".".join(path)] = element
-    flattener.flatten_connections(flat)
-    flattener.bind_parameters(flat)
+    driven = _flatten_connections(graph, flat)
+    bound = bind_parameters(graph, root, flat.parameters)
+    _open_connectors(graph, driven | bound, flat)
     _check_duplicates(flat, ssd, bag)
     return flat
 

@@ -115,9 +115,13 @@ class _Entry:
     span: Span
 
 
-def read_mapping(element: Any, file: Path, bag: DiagnosticBag) -> dict[str, _Entry]:
-    """``source name -> entry`` of a ``ssm:ParameterMapping`` element."""
-    entries: dict[str, _Entry] = {}
+def read_mapping(element: Any, file: Path, bag: DiagnosticBag) -> dict[str, list[_Entry]]:
+    """``source name -> entries`` of a ``ssm:ParameterMapping`` element.
+
+    One source may feed several targets (OMSimulator maps one value onto the same connector
+    of several systems), so every entry is kept, in file order.
+    """
+    entries: dict[str, list[_Entry]] = {}
     for node in element.iterfind(tag("ssm", "MappingEntry")):
         span = Span(file, node.sourceline)
         linear = node.find(tag("ssc", "LinearTransformation"))
@@ -129,7 +133,9 @@ def read_mapping(element: Any, file: Path, bag: DiagnosticBag) -> dict[str, _Ent
         elif len(node):
             bag.emit("E071", "only linear transformations are supported in mappings", span)
             continue
-        entries[node.get("source")] = _Entry(node.get("target"), transformation, span)
+        entries.setdefault(node.get("source"), []).append(
+            _Entry(node.get("target"), transformation, span)
+        )
     return entries
 
 
@@ -175,7 +181,7 @@ def binding_values(
         if loaded is None:
             return []
         values = read_parameter_set(loaded[0], loaded[1], bag)
-    mapping: dict[str, _Entry] = {}
+    mapping: dict[str, list[_Entry]] = {}
     if binding.inline_mapping is not None:
         mapping = read_mapping(binding.inline_mapping, ssd, bag)
     elif binding.mapping_source is not None:
@@ -183,8 +189,9 @@ def binding_values(
         if loaded is not None:
             mapping = read_mapping(loaded[0], loaded[1], bag)
     # The prefix is prepended before mapping and name resolution (SSD XSD, `prefix`).
-    result = []
+    result: list[BoundValue] = []
     for value in values:
         full = BoundValue(binding.prefix + value.name, value.value, value.span)
-        result.append(_apply(full, mapping.get(full.name), bag))
+        entries: list[_Entry | None] = [*mapping.get(full.name, [])] or [None]
+        result.extend(_apply(full, entry, bag) for entry in entries)
     return result
