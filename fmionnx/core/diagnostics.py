@@ -177,6 +177,20 @@ CODES: dict[str, ErrorCode] = _codes(
         "endpoint",
         "An endpoint that is not of the form `component.port[index]`.",
     ),
+    ErrorCode(
+        "E024",
+        "missing-function",
+        _E,
+        "model",
+        "An FMU's shared library does not export a function its interface type requires.",
+    ),
+    ErrorCode(
+        "E025",
+        "clock-unsupported",
+        _E,
+        "model",
+        "A system uses FMI 3 clocks (a connected clock, or a model that needs clock activation).",
+    ),
     # --- connection checks
     ErrorCode(
         "E030",

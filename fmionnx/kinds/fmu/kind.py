@@ -145,6 +145,8 @@ class FmuKind:
                     hint,
                 )
             )
+        elif not problems:
+            problems.extend(_missing_functions(interface, self.resolve(spec, interface).interface))
         return tuple(problems)
 
     def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
@@ -180,6 +182,29 @@ class FmuKind:
             read_fmu_files(path)  # raises the folder's error
         key = ("fmu", *file_identity(identity_of))
         return cached_interface(key, path, lambda: load_fmu_interface(path))
+
+
+def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindProblem]:
+    """E024 when the library a run would load lacks a function of the chosen interface type."""
+    from fmionnx.kinds.fmu.exports import PLATFORM_FOLDER, describe_missing, missing_functions
+
+    major = int((interface.fact("fmiVersion") or "0").split(".")[0] or 0)
+    identifier = interface.fact(f"modelIdentifier{chosen.upper()}")
+    if identifier is None:
+        return []
+    missing = missing_functions(interface.path, major, chosen, identifier)
+    if not missing:
+        return []
+    library = f"binaries/{PLATFORM_FOLDER[major]}/{identifier}.so"
+    return [
+        KindProblem(
+            "E024",
+            describe_missing(missing, library),
+            "path",
+            "rebuild the FMU (`fmionnx build-fmu` if it ships sources); a shared library "
+            "exports the unprefixed FMI names",
+        )
+    ]
 
 
 def load_fmu_interface(path: Path) -> ComponentInterface:

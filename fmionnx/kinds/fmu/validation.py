@@ -21,6 +21,7 @@ from fmionnx.kinds.fmu.description import (
     parse_model_description,
     shared_description,
 )
+from fmionnx.kinds.fmu.exports import PLATFORM_FOLDER, describe_missing, missing_functions
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, read_fmu_files
 
 #: Binary folders of this machine (FMI 2 and FMI 3 names) and the library suffix in them.
@@ -53,6 +54,7 @@ def validate_fmu_model(path: Path, interface: ComponentInterface) -> tuple[KindP
         if "\\" in name
     ]
     problems += _missing_libraries(interface, members)
+    problems += _missing_exports(path, interface)
     return tuple(problems)
 
 
@@ -69,6 +71,24 @@ def _member_names(path: Path) -> list[str]:
     with open_zip(path) as archive:
         check_archive(archive)
         return [info.orig_filename for info in archive.infolist() if not info.is_dir()]
+
+
+def _missing_exports(path: Path, interface: ComponentInterface) -> list[KindProblem]:
+    """E024 per offered interface type whose library lacks a function the standard requires."""
+    major = int((interface.fact("fmiVersion") or "0").split(".")[0] or 0)
+    problems = []
+    for short in ("cs", "me"):
+        identifier = interface.fact(f"modelIdentifier{short.upper()}")
+        if identifier is None:
+            continue
+        missing = missing_functions(path, major, short, identifier)
+        if missing:
+            library = f"binaries/{PLATFORM_FOLDER[major]}/{identifier}.so"
+            what = _INTERFACE_NAMES[short.upper()]
+            problems.append(
+                KindProblem("E024", f"{describe_missing(missing, library)} ({what})", "path")
+            )
+    return problems
 
 
 def _missing_libraries(interface: ComponentInterface, members: list[str]) -> list[KindProblem]:
