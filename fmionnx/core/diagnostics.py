@@ -186,10 +186,11 @@ CODES: dict[str, ErrorCode] = _codes(
     ),
     ErrorCode(
         "E025",
-        "clock-unsupported",
+        "unsupported-variable",
         _E,
         "model",
-        "A system uses FMI 3 clocks (a connected clock, or a model that needs clock activation).",
+        "A system uses a model variable fmionnx does not support yet: an FMI 3 clock (named in "
+        "an endpoint, or needed by the model).",
     ),
     # --- connection checks
     ErrorCode(

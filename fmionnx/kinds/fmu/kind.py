@@ -21,6 +21,7 @@ from fmionnx.core.types import Component, ComponentInterface, Experiment, KindCo
 from fmionnx.core.xmlsafe import parse_safely
 from fmionnx.kinds.base import FMI, Display, KindProblem, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
+from fmionnx.kinds.fmu.clocks import clock_facts, clock_problems
 from fmionnx.kinds.fmu.description import (
     description_key,
     parse_model_description,
@@ -59,6 +60,9 @@ FACT_KEYS = (
     "canBeInstantiatedOnlyOncePerProcess",
     "numberOfContinuousStates",
     "numberOfEventIndicators",
+    # FMI 3 clocks (:mod:`fmionnx.kinds.fmu.clocks`): `unsupported.<clock name>`, one per clock,
+    # and the ports updated only at clock ticks
+    "clockedVariables",
 )
 
 
@@ -114,7 +118,8 @@ class FmuKind:
     def check(
         self, spec: ComponentSpecBase, interface: ComponentInterface
     ) -> tuple[KindProblem, ...]:
-        """E016 for an interface type the FMU does not offer; E015 without a binary for here."""
+        """E016 for an interface type the FMU does not offer; E015 without a binary for here;
+        E025 for clocks the model needs; E024 for functions its library lacks."""
         assert isinstance(spec, FmuSpec)
         problems = []
         offered = (interface.fact("interfaceTypes") or "").split(",")
@@ -145,7 +150,8 @@ class FmuKind:
                     hint,
                 )
             )
-        elif not problems:
+        problems.extend(clock_problems(interface.facts))
+        if not problems:
             problems.extend(_missing_functions(interface, self.resolve(spec, interface).interface))
         return tuple(problems)
 
@@ -233,11 +239,13 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
         key, lambda: parse_model_description(files.model_description, xml_file)
     )
     _check_libraries(model_description, path, xml_file)
+    ports = ports_from_model_description(model_description, xml_file, root)
+    clocks = clock_facts(root, frozenset(p.name for p in ports))
     return ComponentInterface(
         kind="fmu",
         path=path,
-        ports=ports_from_model_description(model_description, xml_file, root),
-        facts=_facts(model_description, files),
+        ports=ports,
+        facts=_facts(model_description, files) + tuple(clocks),
         default_experiment=_experiment(model_description),
         content_hash=files.content_hash,
     )

@@ -11,7 +11,9 @@ the FMU offers: a folder for Linux holding another library fails only when a run
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 from fmionnx.core.archive import check_archive, open_zip
 from fmionnx.core.types import ComponentInterface
@@ -42,7 +44,9 @@ def validate_fmu_model(path: Path, interface: ComponentInterface) -> tuple[KindP
     )
     try:
         found = validate_model_description(
-            description, validate_variable_names=True, validate_model_structure=True
+            _without_aliases(description),
+            validate_variable_names=True,
+            validate_model_structure=True,
         )
     except Exception as exc:  # FMPy's checks assume a sane description; this one is not
         found = [f"the validation stopped: {exc}"]
@@ -56,6 +60,21 @@ def validate_fmu_model(path: Path, interface: ComponentInterface) -> tuple[KindP
     problems += _missing_libraries(interface, members)
     problems += _missing_exports(path, interface)
     return tuple(problems)
+
+
+def _without_aliases(description: Any) -> Any:
+    """A shallow copy without FMI 3 ``<Alias>`` entries, for FMPy's model-structure check.
+
+    FMPy lists each alias as a variable of its own and then expects it among the
+    ``<InitialUnknown>`` elements, which name value references: an output with an alias is
+    always reported as missing. The shared description itself is never changed.
+    """
+    variables = description.modelVariables
+    if not any(getattr(v, "alias", None) is not None for v in variables):
+        return description
+    trimmed = copy.copy(description)
+    trimmed.modelVariables = [v for v in variables if getattr(v, "alias", None) is None]
+    return trimmed
 
 
 def _first_line(text: str) -> str:
