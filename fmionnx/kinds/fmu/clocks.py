@@ -51,7 +51,10 @@ def _describe(clock: Any) -> str:
         if value is None:
             continue
         unit = " s" if attribute in ("intervalDecimal", "shiftDecimal") else ""
-        parts.append(f"{label} {value}{unit}")
+        if attribute == "intervalDecimal" and parts[-1].startswith("interval "):
+            parts[-1] += f" {value}{unit}"  # "interval constant 0.1 s"
+        else:
+            parts.append(f"{label} {value}{unit}")
     return ", ".join(parts)[:_MAX_TEXT]
 
 
