@@ -118,7 +118,10 @@ def _library_bytes(path: Path, member: str) -> bytes | None:
 
 
 def _exports(path: Path, member: str) -> frozenset[str] | None:
-    key = (*file_identity(identity_file(path)), member)
+    library = path / member
+    # a folder's library changes without its model description: key by the library itself
+    identity = library if path.is_dir() and library.is_file() else identity_file(path)
+    key = (*file_identity(identity), member)
     empty: frozenset[str] = frozenset({""})  # "not readable", distinct from "exports nothing"
 
     def load() -> frozenset[str]:
