@@ -61,6 +61,7 @@ def test_missing_functions_are_named_before_the_run(tmp_path: Path) -> None:
     assert "E024" in output
     assert "`fmi3GetFloat32`" in output
     assert "more" in output
+    assert "prefixed with" not in output
     assert "`fmi3DoStep`" not in output  # it is there
     assert "undefined symbol" not in output
     assert "Traceback" not in output
@@ -73,6 +74,7 @@ def test_a_prefixed_library_is_e024_in_validate(tmp_path: Path) -> None:
     assert "E024" in output
     assert "`fmi3GetVersion`" in output
     assert "E019" not in output  # its aliases are no FMPy finding (see validation.py)
+    assert "prefixed with `Scale3_`" in output
     assert "more" in output  # every required name is missing; a dozen are quoted
 
 

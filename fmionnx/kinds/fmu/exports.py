@@ -155,11 +155,33 @@ def missing_functions(
     return tuple(name for name in required if name not in exported)
 
 
-def describe_missing(missing: tuple[str, ...], library: str) -> str:
-    """The E024 message: every missing name, at most a dozen quoted."""
+def function_prefix(path: Path, major: int, identifier: str) -> str | None:
+    """The prefix the library puts before the FMI names (``Model_`` of ``Model_fmi3DoStep``).
+
+    None when the library exports no prefixed FMI name. A library built from source without
+    the standard's rule (FMI 3: ``FMI3_OVERRIDE_FUNCTION_PREFIX``) exports only such names.
+    """
+    folder = PLATFORM_FOLDER.get(major)
+    exported = _exports(path, f"binaries/{folder}/{identifier}.so") if folder else None
+    marker = f"fmi{major}"
+    for name in sorted(exported or ()):
+        at = name.find(marker)
+        if at > 0 and name[at:] in REQUIRED[major, "cs"] + REQUIRED[major, "me"]:
+            return name[:at]
+    return None
+
+
+def describe_missing(missing: tuple[str, ...], library: str, prefix: str | None = None) -> str:
+    """The E024 message: every missing name, at most a dozen quoted, and a prefix if found."""
     shown = ", ".join(f"`{name}`" for name in missing[:12])
     more = f" and {len(missing) - 12} more" if len(missing) > 12 else ""
-    return f"`{library}` does not export {shown}{more}, which the FMI standard requires"
+    text = f"`{library}` does not export {shown}{more}, which the FMI standard requires"
+    if prefix is not None:
+        text += (
+            f"; it exports them prefixed with `{prefix}` (compiled from source as for static "
+            "linking, without the standard's rule that a shared library has unprefixed names)"
+        )
+    return text
 
 
 def clear_exports() -> None:

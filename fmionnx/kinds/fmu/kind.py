@@ -192,7 +192,12 @@ class FmuKind:
 
 def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindProblem]:
     """E024 when the library a run would load lacks a function of the chosen interface type."""
-    from fmionnx.kinds.fmu.exports import PLATFORM_FOLDER, describe_missing, missing_functions
+    from fmionnx.kinds.fmu.exports import (
+        PLATFORM_FOLDER,
+        describe_missing,
+        function_prefix,
+        missing_functions,
+    )
 
     major = int((interface.fact("fmiVersion") or "0").split(".")[0] or 0)
     identifier = interface.fact(f"modelIdentifier{chosen.upper()}")
@@ -205,7 +210,9 @@ def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindP
     return [
         KindProblem(
             "E024",
-            describe_missing(missing, library),
+            describe_missing(
+                missing, library, function_prefix(interface.path, major, identifier)
+            ),
             "path",
             "rebuild the FMU (`fmionnx build-fmu` if it ships sources); a shared library "
             "exports the unprefixed FMI names",

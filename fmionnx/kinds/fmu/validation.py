@@ -23,7 +23,12 @@ from fmionnx.kinds.fmu.description import (
     parse_model_description,
     shared_description,
 )
-from fmionnx.kinds.fmu.exports import PLATFORM_FOLDER, describe_missing, missing_functions
+from fmionnx.kinds.fmu.exports import (
+    PLATFORM_FOLDER,
+    describe_missing,
+    function_prefix,
+    missing_functions,
+)
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, read_fmu_files
 
 #: Binary folders of this machine (FMI 2 and FMI 3 names) and the library suffix in them.
@@ -104,9 +109,9 @@ def _missing_exports(path: Path, interface: ComponentInterface) -> list[KindProb
         if missing:
             library = f"binaries/{PLATFORM_FOLDER[major]}/{identifier}.so"
             what = _INTERFACE_NAMES[short.upper()]
-            problems.append(
-                KindProblem("E024", f"{describe_missing(missing, library)} ({what})", "path")
-            )
+            prefix = function_prefix(path, major, identifier)
+            text = describe_missing(missing, library, prefix)
+            problems.append(KindProblem("E024", f"{text} ({what})", "path"))
     return problems
 
 
