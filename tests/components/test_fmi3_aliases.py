@@ -90,3 +90,18 @@ def test_an_unknown_port_still_lists_the_aliases(scale3: Path) -> None:
     assert result.exit_code == 1
     assert "E021" in result.output
     assert "y_out" in result.output  # did you mean
+
+
+def test_a_variable_and_its_alias_both_given_is_a_clean_fault(scale3: Path) -> None:
+    system = scale3 / "system.yaml"
+    system.write_text(
+        SYSTEM.format(record="b.y", parameter="u").replace(
+            "b: {kind: fmu, path: Scale3.fmu}",
+            "b: {kind: fmu, path: Scale3.fmu, parameters: {u: 1.0}}",
+        ),
+        encoding="utf-8",
+    )
+    result = CliRunner().invoke(app, ["run", str(system), "--out", str(scale3 / "out")])
+    assert result.exit_code == 1
+    assert "`u` and `u_in` name the same FMU variable" in " ".join(result.output.split())
+    assert "Traceback" not in result.output

@@ -13,13 +13,18 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 
+from fmionnx.core.errors import RunError
 from fmionnx.core.types import Port
 
 
 def settable_inputs(
     ports: Sequence[Port], given: frozenset[str]
 ) -> tuple[list[Port], dict[str, str]]:
-    """The ports to set, in order, and each left-out port with the set port it yields to."""
+    """The ports to set, in order, and each left-out port with the set port it yields to.
+
+    Raises RunError when two given ports share value references (a variable and its alias
+    both driven or given): one value would silently overwrite the other.
+    """
     by_vrs: dict[tuple[int, ...], list[Port]] = {}
     for port in ports:
         by_vrs.setdefault(port.vrs, []).append(port)
@@ -28,6 +33,13 @@ def settable_inputs(
     for port in ports:
         sharing = by_vrs[port.vrs]
         chosen = [p for p in sharing if p.name in given] or sharing[:1]
+        if len(chosen) > 1 and port is chosen[0]:
+            names = " and ".join(f"`{p.name}`" for p in chosen)
+            msg = (
+                f"{names} name the same FMU variable (an FMI 3 alias) and both are given a "
+                "value by a connection or parameter: give it one"
+            )
+            raise RunError(msg)
         if port in chosen:
             kept.append(port)
         else:
