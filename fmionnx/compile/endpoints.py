@@ -70,6 +70,15 @@ def resolve_endpoint(
     if interface is None:
         return None
     port = interface.port(port_name)
+    unsupported = interface.fact(f"unsupported.{port_name}") if port is None else None
+    if unsupported is not None:
+        bag.emit(
+            "E025",
+            f"`{component}.{port_name}` is not supported yet: it is an {unsupported}",
+            span,
+            notes=[Note(f"read from `{interface.path.name}`")],
+        )
+        return None
     if port is None:
         names = [p.name for p in interface.ports]
         hint = did_you_mean(port_name, names) or one_of(names)

@@ -177,6 +177,21 @@ CODES: dict[str, ErrorCode] = _codes(
         "endpoint",
         "An endpoint that is not of the form `component.port[index]`.",
     ),
+    ErrorCode(
+        "E024",
+        "missing-function",
+        _E,
+        "model",
+        "An FMU's shared library does not export a function its interface type requires.",
+    ),
+    ErrorCode(
+        "E025",
+        "unsupported-variable",
+        _E,
+        "model",
+        "A system uses a model variable fmionnx does not support yet: an FMI 3 clock (named in "
+        "an endpoint, or needed by the model).",
+    ),
     # --- connection checks
     ErrorCode(
         "E030",

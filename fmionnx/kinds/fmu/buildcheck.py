@@ -1,6 +1,6 @@
 """What a source FMU tells its build must stay inside the FMU.
 
-``fmionnx build-fmu`` hands a supplier's FMU to cmake through ``fmpy.build``, which writes the
+``fmionnx build-fmu`` hands a supplier's FMU to cmake (:mod:`.build`), which writes the
 model identifier, the source file names and the preprocessor definitions of
 ``modelDescription.xml`` (FMI 2 ``<SourceFiles>``) or ``sources/buildDescription.xml`` into a
 CMake cache, one ``NAME:TYPE=value`` per line. So before anything is built:

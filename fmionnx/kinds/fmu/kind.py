@@ -21,6 +21,7 @@ from fmionnx.core.types import Component, ComponentInterface, Experiment, KindCo
 from fmionnx.core.xmlsafe import parse_safely
 from fmionnx.kinds.base import FMI, Display, KindProblem, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
+from fmionnx.kinds.fmu.clocks import clock_facts, clock_problems
 from fmionnx.kinds.fmu.description import (
     description_key,
     parse_model_description,
@@ -59,6 +60,9 @@ FACT_KEYS = (
     "canBeInstantiatedOnlyOncePerProcess",
     "numberOfContinuousStates",
     "numberOfEventIndicators",
+    # FMI 3 clocks (:mod:`fmionnx.kinds.fmu.clocks`): `unsupported.<clock name>`, one per clock,
+    # and the ports updated only at clock ticks
+    "clockedVariables",
 )
 
 
@@ -114,7 +118,8 @@ class FmuKind:
     def check(
         self, spec: ComponentSpecBase, interface: ComponentInterface
     ) -> tuple[KindProblem, ...]:
-        """E016 for an interface type the FMU does not offer; E015 without a binary for here."""
+        """E016 for an interface type the FMU does not offer; E015 without a binary for here;
+        E025 for clocks the model needs; E024 for functions its library lacks."""
         assert isinstance(spec, FmuSpec)
         problems = []
         offered = (interface.fact("interfaceTypes") or "").split(",")
@@ -145,6 +150,9 @@ class FmuKind:
                     hint,
                 )
             )
+        problems.extend(clock_problems(interface.facts))
+        if not problems:
+            problems.extend(_missing_functions(interface, self.resolve(spec, interface).interface))
         return tuple(problems)
 
     def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
@@ -182,6 +190,36 @@ class FmuKind:
         return cached_interface(key, path, lambda: load_fmu_interface(path))
 
 
+def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindProblem]:
+    """E024 when the library a run would load lacks a function of the chosen interface type."""
+    from fmionnx.kinds.fmu.exports import (
+        PLATFORM_FOLDER,
+        describe_missing,
+        function_prefix,
+        missing_functions,
+    )
+
+    major = int((interface.fact("fmiVersion") or "0").split(".")[0] or 0)
+    identifier = interface.fact(f"modelIdentifier{chosen.upper()}")
+    if identifier is None:
+        return []
+    missing = missing_functions(interface.path, major, chosen, identifier)
+    if not missing:
+        return []
+    library = f"binaries/{PLATFORM_FOLDER[major]}/{identifier}.so"
+    return [
+        KindProblem(
+            "E024",
+            describe_missing(
+                missing, library, function_prefix(interface.path, major, identifier)
+            ),
+            "path",
+            "rebuild the FMU (`fmionnx build-fmu` if it ships sources); a shared library "
+            "exports the unprefixed FMI names",
+        )
+    ]
+
+
 def load_fmu_interface(path: Path) -> ComponentInterface:
     """Read the interface without the interface cache (see :meth:`FmuKind.read_interface`).
 
@@ -208,11 +246,13 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
         key, lambda: parse_model_description(files.model_description, xml_file)
     )
     _check_libraries(model_description, path, xml_file)
+    ports = ports_from_model_description(model_description, xml_file, root)
+    clocks = clock_facts(root, frozenset(p.name for p in ports))
     return ComponentInterface(
         kind="fmu",
         path=path,
-        ports=ports_from_model_description(model_description, xml_file, root),
-        facts=_facts(model_description, files),
+        ports=ports,
+        facts=_facts(model_description, files) + tuple(clocks),
         default_experiment=_experiment(model_description),
         content_hash=files.content_hash,
     )

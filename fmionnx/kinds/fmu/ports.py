@@ -4,7 +4,9 @@ Rules (documented in ``docs/components.md``):
 
 * Causalities ``input``, ``output``, ``parameter``, ``calculatedParameter`` and
   ``structuralParameter`` become ports; ``local`` and ``independent`` do not. FMI 3 clocks are
-  not data and are skipped; FMI 3 alias names are skipped (the aliased variable is the port).
+  not data and are skipped. An FMI 3 ``<Alias>`` of a port variable is a port of its own,
+  right after it: same value reference, type, shape, causality and unit, its own name and
+  description (as FMPy records it); reading it reads the aliased variable.
 * FMI 2 has no arrays, so exporters write ``v[1]`` .. ``v[n]`` as scalars. Scalars
   ``base[i]`` (or ``base[i,j]``) that share type, causality, variability and unit and fill a
   complete 1-based index box become ONE port ``base`` of shape ``(n,)`` (or ``(n, m)``) whose
@@ -26,7 +28,7 @@ from __future__ import annotations
 import itertools
 import math
 import re
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
@@ -88,6 +90,8 @@ class _Scalarish:
     line: int
     unit_definition: Unit | None = None
     relative_quantity: bool = False
+    #: An alias's own description (None: the variable's).
+    description: str | None = None
 
 
 def unit_definitions(model_description: Any) -> dict[str, Unit]:
@@ -167,6 +171,8 @@ def ports_from_model_description(
         if group is None:
             depends = _depends_on([record], outputs, port_name)
             ports.append(_port(record.name, [record], depends, xml_file))
+            for alias in _aliases(record, major):
+                ports.append(_port(alias.name, [alias], depends, xml_file))
         elif group not in emitted:
             emitted.add(group)
             depends = _depends_on(groups[group], outputs, port_name)
@@ -202,6 +208,17 @@ def _record(
         unit_definition=unit_facts[0].get(unit) if unit is not None else None,
         relative_quantity=_relative(variable, unit_facts[1]),
     )
+
+
+def _aliases(record: _Scalarish, major: int) -> list[_Scalarish]:
+    """The FMI 3 ``<Alias>`` names of a port variable, each a record of the same variable."""
+    if major < 3:
+        return []  # FMI 2 aliases are variables of their own, sharing a value reference
+    return [
+        replace(record, name=str(alias.name), description=alias.description or "")
+        for alias in getattr(record.variable, "aliases", None) or ()
+        if alias.name
+    ]
 
 
 def _check_shape(variable: Any, shape: tuple[int, ...], xml_file: Path, line: int) -> None:
@@ -341,7 +358,11 @@ def _port(
         unit=first.unit,
         start=start,
         variability=first.variable.variability,
-        description=first.variable.description or "",
+        description=(
+            first.description
+            if first.description is not None
+            else first.variable.description or ""
+        ),
         depends_on=depends_on,
         vrs=tuple(itertools.chain.from_iterable(m.vrs for m in members)),
         origin=Span(xml_file, first.line),

@@ -32,6 +32,7 @@ from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Causality, Component, DType
+from fmionnx.kinds.fmu.aliases import settable_inputs
 from fmionnx.kinds.fmu.description import component_description
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, contained_library
 from fmionnx.kinds.fmu.kind import FmuConfig
@@ -112,6 +113,9 @@ class FmuRunner(ABC):
         self._fmu: Any = None
         self._instance: ctypes.c_void_p | None = None
         self._inputs: list[ValueGroup] = []
+        #: Input ports not set because another port of the same value references is (aliases),
+        #: with that port.
+        self._stand_in: dict[str, str] = {}
         self._outputs: list[ValueGroup] = []
         self._set_calls: list[RawCall] = []
         self._get_calls: list[RawCall] = []
@@ -153,6 +157,11 @@ class FmuRunner(ABC):
             or (p.causality is Causality.PARAMETER and p.name in self._driven)
         ]
         out_ports = list(interface.with_causality(Causality.OUTPUT))
+        given = self._driven | {p.port for p in component.parameters}
+        try:
+            in_ports, self._stand_in = settable_inputs(in_ports, given)
+        except RunError as exc:
+            raise RunError(f"component `{component.name}`: {exc}", component=component.name) from None
         self._inputs = build_groups(dll, inst, in_ports, self.values, setter=True)
         self._outputs = build_groups(dll, inst, out_ports, self.values, setter=False)
         self._set_calls = [g.call for g in self._inputs]
@@ -213,7 +222,12 @@ class FmuRunner(ABC):
     # -- buffers --------------------------------------------------------------------------------
 
     def input_buffer(self, port: str) -> Buffer:
-        """Flat view of the input's slot in its type group."""
+        """Flat view of the input's slot in its type group.
+
+        An input alias left unset (:mod:`.aliases`) has none: sharing the variable's slot would
+        let whoever copies every input buffer (the isolated child) write the alias's stale
+        value over the variable's.
+        """
         for group in self._inputs:
             if port in group.views:
                 return group.views[port]

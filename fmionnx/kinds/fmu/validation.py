@@ -11,7 +11,9 @@ the FMU offers: a folder for Linux holding another library fails only when a run
 
 from __future__ import annotations
 
+import copy
 from pathlib import Path, PurePosixPath
+from typing import Any
 
 from fmionnx.core.archive import check_archive, open_zip
 from fmionnx.core.types import ComponentInterface
@@ -20,6 +22,12 @@ from fmionnx.kinds.fmu.description import (
     description_key,
     parse_model_description,
     shared_description,
+)
+from fmionnx.kinds.fmu.exports import (
+    PLATFORM_FOLDER,
+    describe_missing,
+    function_prefix,
+    missing_functions,
 )
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, read_fmu_files
 
@@ -41,7 +49,9 @@ def validate_fmu_model(path: Path, interface: ComponentInterface) -> tuple[KindP
     )
     try:
         found = validate_model_description(
-            description, validate_variable_names=True, validate_model_structure=True
+            _without_aliases(description),
+            validate_variable_names=True,
+            validate_model_structure=True,
         )
     except Exception as exc:  # FMPy's checks assume a sane description; this one is not
         found = [f"the validation stopped: {exc}"]
@@ -53,7 +63,23 @@ def validate_fmu_model(path: Path, interface: ComponentInterface) -> tuple[KindP
         if "\\" in name
     ]
     problems += _missing_libraries(interface, members)
+    problems += _missing_exports(path, interface)
     return tuple(problems)
+
+
+def _without_aliases(description: Any) -> Any:
+    """A shallow copy without FMI 3 ``<Alias>`` entries, for FMPy's model-structure check.
+
+    FMPy lists each alias as a variable of its own and then expects it among the
+    ``<InitialUnknown>`` elements, which name value references: an output with an alias is
+    always reported as missing. The shared description itself is never changed.
+    """
+    variables = description.modelVariables
+    if not any(getattr(v, "alias", None) is not None for v in variables):
+        return description
+    trimmed = copy.copy(description)
+    trimmed.modelVariables = [v for v in variables if getattr(v, "alias", None) is None]
+    return trimmed
 
 
 def _first_line(text: str) -> str:
@@ -69,6 +95,24 @@ def _member_names(path: Path) -> list[str]:
     with open_zip(path) as archive:
         check_archive(archive)
         return [info.orig_filename for info in archive.infolist() if not info.is_dir()]
+
+
+def _missing_exports(path: Path, interface: ComponentInterface) -> list[KindProblem]:
+    """E024 per offered interface type whose library lacks a function the standard requires."""
+    major = int((interface.fact("fmiVersion") or "0").split(".")[0] or 0)
+    problems = []
+    for short in ("cs", "me"):
+        identifier = interface.fact(f"modelIdentifier{short.upper()}")
+        if identifier is None:
+            continue
+        missing = missing_functions(path, major, short, identifier)
+        if missing:
+            library = f"binaries/{PLATFORM_FOLDER[major]}/{identifier}.so"
+            what = _INTERFACE_NAMES[short.upper()]
+            prefix = function_prefix(path, major, identifier)
+            text = describe_missing(missing, library, prefix)
+            problems.append(KindProblem("E024", f"{text} ({what})", "path"))
+    return problems
 
 
 def _missing_libraries(interface: ComponentInterface, members: list[str]) -> list[KindProblem]:
