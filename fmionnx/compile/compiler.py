@@ -16,8 +16,9 @@ from fmionnx.compile.endpoints import (
     resolve_endpoint,
     split_endpoint,
 )
-from fmionnx.compile.graph import execution_order, find_algebraic_loops
+from fmionnx.compile.graph import execution_order, execution_order_with_loops
 from fmionnx.compile.ir import CompiledSystem, Connection
+from fmionnx.compile.loops import compile_loops
 from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
 from fmionnx.compile.ros2.settings import ros2_settings
@@ -95,16 +96,9 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     mentioned |= {(t.ref.component, t.ref.port) for i in inputs for t in i.targets}
     _check_unconnected(components, mentioned, spec, sources, bag)
     usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
-    for loop in find_algebraic_loops(components, usable):
-        spans = [c.span for c in usable if f"{c.src.component}.{c.src.port}" in loop]
-        bag.emit(
-            "E035",
-            "algebraic loop: " + " -> ".join([*loop, loop[0]]),
-            spans[0] if spans else Span(loaded.path),
-            hint="break the loop with a component whose output does not depend directly on its "
-            "input (a delay, a state), or declare the dependencies in the model",
-            notes=[Note("part of the loop", s) for s in spans[1:]],
-        )
+    loops = compile_loops(
+        components, usable, spec.run.algebraic_loops, loaded.path, sources, bag
+    )
     record = _refs(spec.record or [], "record", by_name, sources, bag)
     plots = compile_plots(spec, by_name, sources, bag)
     checks = compile_checks(spec.checks, by_name, sources, bag)
@@ -117,13 +111,18 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         run=run,
         components=tuple(components),
         connections=tuple(usable),
-        order=execution_order(components, usable),
+        order=(
+            execution_order_with_loops(components, usable, [loop.members for loop in loops])
+            if loops
+            else execution_order(components, usable)
+        ),
         plots=plots,
         record=tuple(record),
         checks=checks,
         ros2=ros2,
         description=spec.description,
         inputs=inputs,
+        loops=loops,
     )
     if ros2 is not None:
         # The ROS 2 section is checked like the rest of the file and its plan kept in the

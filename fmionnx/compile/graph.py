@@ -30,29 +30,68 @@ def direct_inputs(component: Component, output: Port) -> tuple[str, ...]:
     return tuple(p.name for p in component.interface.with_causality(Causality.INPUT))
 
 
-def find_algebraic_loops(
+def _feedthrough_graph(
     components: Sequence[Component], connections: Iterable[Connection]
-) -> list[list[str]]:
-    """Cycles through direct-feedthrough ports, each as a list of ``comp.port`` names."""
+) -> nx.DiGraph:
+    """Port-level graph: connections, and each used output's direct dependencies."""
     by_name = {c.name: c for c in components}
     graph: nx.DiGraph = nx.DiGraph()
     used_outputs: set[tuple[str, str]] = set()
     for connection in connections:
-        src = f"{connection.src.component}.{connection.src.port}"
-        dst = f"{connection.dst.component}.{connection.dst.port}"
-        graph.add_edge(src, dst)
-        used_outputs.add((connection.src.component, connection.src.port))
+        src = (connection.src.component, connection.src.port)
+        graph.add_edge(src, (connection.dst.component, connection.dst.port))
+        used_outputs.add(src)
     for component_name, port_name in used_outputs:
         component = by_name[component_name]
         output = component.port(port_name)
         for input_name in direct_inputs(component, output):
-            graph.add_edge(f"{component_name}.{input_name}", f"{component_name}.{port_name}")
-    loops = []
+            graph.add_edge((component_name, input_name), (component_name, port_name))
+    return graph
+
+
+def _loop_parts(graph: nx.DiGraph) -> list[tuple[set[str], list[str]]]:
+    """Each strongly connected part with a cycle: its components and one cycle (``comp.port``)."""
+    parts = []
     for scc in nx.strongly_connected_components(graph):
         if len(scc) > 1:
             cycle = nx.find_cycle(graph.subgraph(scc))
-            loops.append([edge[0] for edge in cycle])
-    return sorted(loops)
+            names = [f"{edge[0][0]}.{edge[0][1]}" for edge in cycle]
+            parts.append(({component for component, _ in scc}, names))
+    return parts
+
+
+def find_algebraic_loops(
+    components: Sequence[Component], connections: Iterable[Connection]
+) -> list[list[str]]:
+    """Cycles through direct-feedthrough ports, each as a list of ``comp.port`` names."""
+    graph = _feedthrough_graph(components, connections)
+    return sorted(cycle for _, cycle in _loop_parts(graph))
+
+
+def loop_groups(
+    components: Sequence[Component], connections: Iterable[Connection]
+) -> list[tuple[tuple[str, ...], list[str]]]:
+    """The algebraic loops as component sets: (members in declaration order, one cycle).
+
+    Loops that share a component are one group: stepping that component once per iteration
+    serves both, so they are solved together. Groups are sorted by their first member.
+    """
+    position = {c.name: i for i, c in enumerate(components)}
+    merged: list[tuple[set[str], list[str]]] = []
+    for part, cycle in sorted(
+        _loop_parts(_feedthrough_graph(components, connections)), key=lambda p: p[1]
+    ):
+        members = set(part)
+        touching = [group for group in merged if group[0] & members]
+        for group in touching:
+            merged.remove(group)
+            members |= group[0]
+        first = touching[0][1] if touching else cycle
+        merged.append((members, first))
+    groups = [
+        (tuple(sorted(members, key=position.__getitem__)), cycle) for members, cycle in merged
+    ]
+    return sorted(groups, key=lambda g: position[g[0][0]])
 
 
 def execution_order(
@@ -107,3 +146,52 @@ def dataflow_graph(system: CompiledSystem) -> nx.MultiDiGraph:
             size=connection.size,
         )
     return graph
+
+
+def execution_order_with_loops(
+    components: Sequence[Component],
+    connections: Sequence[Connection],
+    loops: Sequence[Sequence[str]],
+) -> tuple[str, ...]:
+    """:func:`execution_order` with each iterated loop's members kept together.
+
+    Each loop is one node of the ordering (its members' edges are its edges); the loop's
+    members then take its place, in the loop's own order. Edges from non-feedthrough outputs
+    are cut inside cycles as in :func:`execution_order`.
+    """
+    position = {c.name: i for i, c in enumerate(components)}
+    by_name = {c.name: c for c in components}
+    node_of = {c.name: c.name for c in components}
+    members_of: dict[str, Sequence[str]] = {}
+    for loop in loops:
+        head = min(loop, key=position.__getitem__)
+        members_of[head] = loop
+        for member in loop:
+            node_of[member] = head
+    graph: nx.DiGraph = nx.DiGraph()
+    graph.add_nodes_from(set(node_of.values()))
+    delayed: set[tuple[str, str]] = set()
+    for connection in connections:
+        a, b = node_of[connection.src.component], node_of[connection.dst.component]
+        if a == b:
+            continue
+        graph.add_edge(a, b)
+        source = by_name[connection.src.component]
+        if not direct_inputs(source, source.port(connection.src.port)):
+            delayed.add((a, b))
+    for scc in list(nx.strongly_connected_components(graph)):
+        if len(scc) < 2:
+            continue
+        for a, b in list(graph.subgraph(scc).edges):
+            if (a, b) in delayed:
+                graph.remove_edge(a, b)
+    if nx.is_directed_acyclic_graph(graph):
+        nodes = list(
+            nx.lexicographical_topological_sort(graph, key=lambda n: f"{position[n]:08d}")
+        )
+    else:  # a component-level cycle that is no port-level loop: declaration order
+        nodes = sorted(graph.nodes, key=position.__getitem__)
+    order: list[str] = []
+    for node in nodes:
+        order.extend(members_of.get(node, (node,)))
+    return tuple(order)

@@ -17,7 +17,7 @@ import json
 import re
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 from fmionnx.compile.checkir import Check
 from fmionnx.core.diagnostics import Span
@@ -175,6 +175,43 @@ class Plot:
     file: str | None = None
 
 
+#: How an algebraic loop is iterated (``run.algebraic_loops.solver``).
+LoopMethod = Literal["fixed-point", "newton"]
+
+
+@dataclass(frozen=True, slots=True)
+class LoopSolver:
+    """The resolved ``run.algebraic_loops`` settings one loop is iterated with."""
+
+    method: LoopMethod = "fixed-point"
+    tolerance: float = 1e-10
+    max_iterations: int = 50
+    relaxation: float = 1.0
+
+
+@dataclass(frozen=True, slots=True)
+class AlgebraicLoop:
+    """A cycle through direct-feedthrough ports that the run solves by iteration.
+
+    ``members``: the components whose ports form the loop (a strongly connected part of the
+    feedthrough graph, loops sharing a component merged), in the order one iteration steps
+    them; they are consecutive in :attr:`CompiledSystem.order` and share one period.
+    ``tears``: the inputs iterated, i.e. the destinations of the loop's connections from a
+    member to one stepped before it (each reads the previous iteration's value). ``cycle``:
+    one cycle of the loop as ``component.port`` names, for messages.
+    """
+
+    members: tuple[str, ...]
+    tears: tuple[PortRef, ...]
+    cycle: tuple[str, ...]
+    solver: LoopSolver
+
+    @property
+    def label(self) -> str:
+        """``a.y -> b.u -> b.y -> a.u -> a.y``: how messages name the loop."""
+        return " -> ".join([*self.cycle, self.cycle[0]]) if self.cycle else "+".join(self.members)
+
+
 @dataclass(frozen=True, slots=True)
 class CompiledSystem:
     """The whole checked system. Immutable; make a new one with ``dataclasses.replace``."""
@@ -192,6 +229,15 @@ class CompiledSystem:
     ros2_plan: Ros2Plan | None = None
     description: str = ""
     inputs: tuple[SystemInput, ...] = ()
+    #: Algebraic loops solved by iteration (``run.algebraic_loops``); empty without loops.
+    loops: tuple[AlgebraicLoop, ...] = ()
+
+    def loop_of(self, name: str) -> AlgebraicLoop | None:
+        """The iterated algebraic loop component ``name`` belongs to, if any."""
+        for loop in self.loops:
+            if name in loop.members:
+                return loop
+        return None
 
     def component(self, name: str) -> Component:
         """The component called ``name`` (KeyError when absent)."""
@@ -234,6 +280,8 @@ class CompiledSystem:
                 [i.name, [[str(t.ref), t.factor, t.offset] for t in i.targets]]
                 for i in self.inputs
             ]
+        if self.loops:  # only then: the hashes of systems without loops stay as they were
+            payload["loops"] = [dataclasses.asdict(loop) for loop in self.loops]
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()
 

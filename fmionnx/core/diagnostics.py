@@ -298,6 +298,27 @@ CODES: dict[str, ErrorCode] = _codes(
     # --- graph
     ErrorCode("E050", "duplicate-component", _E, "graph", "Two components share a name."),
     ErrorCode("W050", "isolated-component", _W, "graph", "A component with no connections at all."),
+    ErrorCode(
+        "E051",
+        "loop-rollback",
+        _E,
+        "graph",
+        "A component of an algebraic loop to iterate cannot repeat a step from a saved state.",
+    ),
+    ErrorCode(
+        "E052",
+        "loop-period",
+        _E,
+        "graph",
+        "The components of an algebraic loop to iterate do not share one period.",
+    ),
+    ErrorCode(
+        "E053",
+        "loop-values",
+        _E,
+        "graph",
+        "An algebraic loop to iterate exchanges values that are not floating-point numbers.",
+    ),
     # --- ROS 2 (issue: ROS 2 mode)
     ErrorCode("E060", "ros2-type", _E, "ros2", "Unknown ROS 2 message type."),
     ErrorCode(

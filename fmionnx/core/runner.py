@@ -9,9 +9,9 @@ benchmarks and tests that drive a runner by hand.
 
 from __future__ import annotations
 
-from collections.abc import Callable, Mapping
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass
-from typing import Protocol
+from typing import Protocol, runtime_checkable
 
 import numpy as np
 import numpy.typing as npt
@@ -73,6 +73,44 @@ class Runner(Protocol):
     def terminate(self) -> None:
         """End the run and free native resources; safe to call twice or after a fault."""
         ...
+
+
+@runtime_checkable
+class StateSaving(Protocol):
+    """A runner that can repeat a step: iterated algebraic loops need it of every member.
+
+    ``save_state(t)`` keeps the instance's state at communication point ``t`` (one slot: a
+    later save replaces it); ``restore_state(t)`` goes back to it, output buffers included, so
+    that the next ``step(t, h)`` starts from exactly the saved point. An FMU does this with
+    FMI ``getFMUstate``/``setFMUstate``; a runner without state only restores its outputs.
+    ``t`` is for fault messages.
+    """
+
+    def save_state(self, t: float) -> None:
+        """Keep the current state (and output values) as the one to go back to."""
+        ...
+
+    def restore_state(self, t: float) -> None:
+        """Go back to the state (and output values) of the last :meth:`save_state`."""
+        ...
+
+
+class OutputCopies:
+    """Copies of a runner's output buffers, for :class:`StateSaving` runners to restore."""
+
+    def __init__(self, buffers: Sequence[Buffer]) -> None:
+        self._buffers = tuple(buffers)
+        self._copies = tuple(np.array(b, copy=True) for b in self._buffers)
+
+    def save(self) -> None:
+        """Copy the buffers' current values."""
+        for buffer, copy in zip(self._buffers, self._copies, strict=True):
+            np.copyto(copy, buffer)
+
+    def restore(self) -> None:
+        """Write the saved values back into the buffers."""
+        for buffer, copy in zip(self._buffers, self._copies, strict=True):
+            np.copyto(buffer, copy)
 
 
 #: Makes the runner of a component: the master and the ROS 2 node take one (the kind table's

@@ -120,6 +120,22 @@ class MapSource(Protocol):
         ...
 
 
+@runtime_checkable
+class Repeatable(Protocol):
+    """A kind whose components can repeat a step from a saved state.
+
+    Iterating an algebraic loop (``run.algebraic_loops``) steps each member from the same
+    communication point again and again until the exchanged values converge; that needs every
+    member to save its state before the first try and go back to it before the next. Their
+    runners then implement :class:`fmionnx.core.runner.StateSaving`. A kind that does not
+    implement this protocol cannot be part of an iterated loop (E051).
+    """
+
+    def repeat_problem(self, component: Component) -> str | None:
+        """Why ``component`` cannot repeat a step from a saved state, or None when it can."""
+        ...
+
+
 @dataclass(frozen=True, slots=True)
 class Display:
     """How ``fmionnx graph`` draws a kind: label, DOT node attributes, Mermaid brackets."""

@@ -24,8 +24,9 @@ import sys
 import time as _time
 from collections.abc import Callable
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
-from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.ir import AlgebraicLoop, CompiledSystem
 from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
 from fmionnx.core.signals import column_names, is_image
@@ -36,6 +37,9 @@ from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_reason
 from fmionnx.runtime.transfer import Transfer, make_transfer
 from fmionnx.runtime.watchdog import Watchdog
+
+if TYPE_CHECKING:
+    from fmionnx.runtime.loops import IteratedLoop
 
 #: Largest hyperperiod (in base steps) for which the schedule is tabulated.
 MAX_TABLE = 100_000
@@ -113,6 +117,8 @@ class Master:
         #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
         self.ended_by: EndedBy | None = None
         self._started = _time.perf_counter()
+        #: The iterated algebraic loops (set by ``prepare``; see :mod:`.loops`).
+        self.loops: list[IteratedLoop] = []
 
     # -- preparation ---------------------------------------------------------------------------
 
@@ -148,13 +154,31 @@ class Master:
         entries = []
         for item in plan.schedule:
             if isinstance(item, str):
-                entries.append((dues[item], self.system.component(item).period_steps))
+                loop = self.system.loop_of(item) if self.system.loops else None
+                if loop is None:
+                    entries.append((dues[item], self.system.component(item).period_steps))
+                elif item == loop.members[0]:  # the loop's members are consecutive
+                    steps = self.system.component(item).period_steps
+                    entries.append((self._loop_due(loop, dues), steps))
             else:
                 h = dues[item.names[0]].h
                 label = "+".join(item.names)
                 entries.append((_Due(label, (), item.step, h, None, None), item.period_steps))
         self._watch(entries)
         return entries
+
+    def _loop_due(self, loop: AlgebraicLoop, dues: dict[str, _Due]) -> _Due:
+        """One entry iterating an algebraic loop in place of its members (:mod:`.loops`).
+
+        The members' own transfers and steps are what the loop sweeps; it records their
+        tracks itself once it has converged.
+        """
+        from fmionnx.runtime.loops import iterated_loop
+
+        work = {name: (dues[name].transfers, dues[name].step) for name in loop.members}
+        solver = iterated_loop(self.system, loop, self.runners, work, self._tracks)
+        self.loops.append(solver)
+        return _Due(solver.label, (), solver.step, dues[loop.members[0]].h, None, None)
 
     def _watch(self, entries: list[tuple[_Due, int]]) -> None:
         """Time the steps of components in this process when a step timeout is set.

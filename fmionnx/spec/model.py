@@ -42,6 +42,42 @@ ARROW = "->"
 DOTTED_NAME = re.compile(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*")
 
 
+class AlgebraicLoopsSpec(StrictModel):
+    """Opt-in iteration of algebraic loops (cycles through direct-feedthrough ports).
+
+    Without this key such a loop is error E035; with it, each loop is solved at every
+    communication point where its members are due (``docs/execution.md``).
+    """
+
+    model_config = StrictModel.model_config | {"allow_inf_nan": False}
+
+    solver: Literal["fixed-point", "newton"] = Field(
+        default="fixed-point",
+        description="`fixed-point`: repeat the loop's step with the newest exchanged values "
+        "(relaxed); `newton`: Newton's method on the exchanged values, with a finite-difference "
+        "Jacobian.",
+    )
+    tolerance: float = Field(
+        default=1e-10,
+        gt=0,
+        description="Converged when every exchanged value changes by at most "
+        "tolerance * (1 + |value|) in one iteration.",
+    )
+    max_iterations: int = Field(
+        default=50,
+        ge=1,
+        le=10_000,
+        description="Iterations allowed per communication point; more is a fault naming the loop.",
+    )
+    relaxation: float = Field(
+        default=1.0,
+        gt=0,
+        le=2,
+        description="Step factor: x + relaxation * (update - x). Below 1 damps an oscillating "
+        "or diverging iteration.",
+    )
+
+
 class RunSpec(StrictModel):
     """When and how finely the system runs. Missing values are resolved by the compiler."""
 
@@ -57,6 +93,11 @@ class RunSpec(StrictModel):
         gt=0,
         description="Seconds between two rows of results.csv: a whole multiple of the base "
         "step (default: every base step). The last point of the run is always written.",
+    )
+    algebraic_loops: AlgebraicLoopsSpec | None = Field(
+        default=None,
+        description="Solve algebraic loops by iteration at each communication point (default: "
+        "an algebraic loop is error E035).",
     )
 
     @field_validator("step", "output_interval")

@@ -17,6 +17,7 @@ from fmionnx.core.errors import ModelTerminated
 from fmionnx.core.runner import terminated
 from fmionnx.core.types import Component, DType
 from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
+from fmionnx.kinds.fmu.rollback import FmuRollback
 from fmionnx.kinds.fmu.runner import (
     FMI_DISCARD,
     FMI_OK,
@@ -81,11 +82,14 @@ class Fmi2Runner(FmuRunner):
         self._guard("fmi2ExitInitializationMode", fmu.exitInitializationMode)
 
 
-class Fmi2CoSimulation(Fmi2Runner):
+class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
     """FMI 2 co-simulation: one raw ``fmi2DoStep`` per step.
 
-    Its prepared calls (:meth:`fmi2_cs_calls`) are what the native kernel steps instead.
+    Its prepared calls (:meth:`fmi2_cs_calls`) are what the native kernel steps instead. It
+    saves and restores its state for iterated algebraic loops (:mod:`.rollback`).
     """
+
+    state_functions = ("fmi2GetFMUstate", "fmi2SetFMUstate", "fmi2FreeFMUstate")
 
     _do_step_function: Callable[..., int]
     advance_function = "fmi2DoStep"

@@ -17,6 +17,7 @@ from typing import Any
 from fmionnx.core.runner import terminated
 from fmionnx.core.types import DType
 from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
+from fmionnx.kinds.fmu.rollback import FmuRollback
 from fmionnx.kinds.fmu.runner import FMI_WARNING, FmuRunner, Stepper
 from fmionnx.kinds.fmu.values import ValueFunctions
 
@@ -65,8 +66,13 @@ class Fmi3Runner(FmuRunner):
         self._guard("fmi3ExitInitializationMode", fmu.exitInitializationMode)
 
 
-class Fmi3CoSimulation(Fmi3Runner):
-    """FMI 3 co-simulation: one raw ``fmi3DoStep`` per step; ``terminateSimulation`` ends the run."""
+class Fmi3CoSimulation(Fmi3Runner, FmuRollback):
+    """FMI 3 co-simulation: one raw ``fmi3DoStep`` per step; ``terminateSimulation`` ends the run.
+
+    It saves and restores its state for iterated algebraic loops (:mod:`.rollback`).
+    """
+
+    state_functions = ("fmi3GetFMUState", "fmi3SetFMUState", "fmi3FreeFMUState")
 
     _do_step_function: Callable[..., int]
     _do_step_tail: tuple[object, ...]

@@ -168,6 +168,24 @@ class FmuKind:
         chosen = spec.interface or ("cs" if "cs" in offered else "me")
         return FmuConfig(interface=chosen, solver=spec.solver, tolerance=spec.tolerance)
 
+    def repeat_problem(self, component: Component) -> str | None:
+        """Co-simulation FMUs that declare ``canGetAndSetFMUstate`` repeat a step by rollback.
+
+        Model exchange is integrated by fmionnx, whose integrator state is not rolled back.
+        """
+        assert isinstance(component.config, FmuConfig)
+        if component.config.interface != "cs":
+            return (
+                "it runs as model exchange; only co-simulation FMUs repeat a step from a saved "
+                "state (fmi2GetFMUstate/fmi2SetFMUstate)"
+            )
+        if component.interface.fact("canGetAndSetFMUstate") != "true":
+            return (
+                "its model description does not declare canGetAndSetFMUstate, so its state "
+                "cannot be saved and restored"
+            )
+        return None
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """The FMU runner of the component's FMI version and interface type (loads fmpy now)."""
         from fmionnx.kinds.fmu.runner import make_fmu_runner

@@ -83,6 +83,10 @@ class OnnxKind:
         assert isinstance(spec, OnnxSpec)
         return OnnxConfig(providers=tuple(spec.providers), threads=spec.threads)
 
+    def repeat_problem(self, component: Component) -> str | None:
+        """None: an ONNX model has no state, its outputs are a function of its inputs."""
+        return None
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """An :class:`~fmionnx.kinds.onnx.runner.OnnxRunner` (loads onnxruntime only now)."""
         from fmionnx.kinds.onnx.runner import OnnxRunner

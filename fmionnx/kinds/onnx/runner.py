@@ -13,7 +13,7 @@ from typing import Any
 
 import numpy as np
 
-from fmionnx.core.runner import Buffer, fault
+from fmionnx.core.runner import Buffer, OutputCopies, fault
 from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.onnx.kind import OnnxConfig
 
@@ -40,6 +40,7 @@ class OnnxRunner:
         self._feeds: dict[str, Buffer] = {}
         self._outputs: dict[str, Buffer] = {}
         self._names: list[str] = []
+        self._saved: OutputCopies | None = None
 
     def instantiate(self) -> None:
         """Create the onnxruntime session with the spec's providers and thread count.
@@ -124,6 +125,17 @@ class OnnxRunner:
                     port=name,
                 )
             np.copyto(target, value.reshape(-1), casting="unsafe")
+
+    def save_state(self, t: float) -> None:
+        """An ONNX model has no state: keep its outputs only (iterated algebraic loops)."""
+        if self._saved is None:
+            self._saved = OutputCopies(list(self._outputs.values()))
+        self._saved.save()
+
+    def restore_state(self, t: float) -> None:
+        """Back to the outputs of :meth:`save_state`; the next step recomputes them anyway."""
+        if self._saved is not None:
+            self._saved.restore()
 
     def produce(self, port: str) -> None:
         """ONNX outputs are refreshed every step; nothing is lazy."""

@@ -96,6 +96,10 @@ class SignalKind:
             return SignalConfig(interpolation=spec.interpolation)
         return SignalConfig(outputs=tuple((n, waveform(o)) for n, o in spec.outputs.items()))
 
+    def repeat_problem(self, component: Component) -> str | None:
+        """None: a signal's values are computed from the time, never accumulated."""
+        return None
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.signal.runner.SignalRunner` (numpy loads only now)."""
         from fmionnx.kinds.signal.runner import SignalRunner

@@ -9,7 +9,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fmionnx.core.errors import ModelError, RunError
-from fmionnx.core.runner import Buffer
+from fmionnx.core.runner import Buffer, OutputCopies
 from fmionnx.core.types import Component
 from fmionnx.kinds.signal.table import read_table
 from fmionnx.kinds.signal.waveforms import SignalConfig
@@ -49,6 +49,7 @@ class SignalRunner:
         self._times: tuple[float, ...] = ()
         self._rows: npt.NDArray[np.float64] | None = None
         self._current: npt.NDArray[np.float64] = np.zeros(0)
+        self._saved: OutputCopies | None = None
 
     def instantiate(self) -> None:
         """Read the table (a RunError when it no longer reads, or no longer fits the ports)."""
@@ -103,6 +104,17 @@ class SignalRunner:
         else:
             fraction = (t - times[i]) / (times[i + 1] - times[i])
             self._current[:] = rows[i] + (rows[i + 1] - rows[i]) * fraction
+
+    def save_state(self, t: float) -> None:
+        """Values come from the time alone: keep the outputs only (a signal has no inputs,
+        so it is never part of an algebraic loop; this keeps the kind's promise anyway)."""
+        self._saved = OutputCopies(list(self._outputs.values()))
+        self._saved.save()
+
+    def restore_state(self, t: float) -> None:
+        """Back to the outputs of :meth:`save_state`."""
+        if self._saved is not None:
+            self._saved.restore()
 
     def produce(self, port: str) -> None:
         """Nothing is lazy."""

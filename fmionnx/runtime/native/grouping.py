@@ -81,6 +81,8 @@ def member_plan(
     runner = runners[name]
     if not isinstance(runner, Fmi2CoSimulation):
         return None
+    if system.loops and system.loop_of(name) is not None:
+        return None  # an iterated loop steps its members itself, repeatedly
     calls = runner.fmi2_cs_calls()
     if calls is None:
         return None
