@@ -36,11 +36,12 @@ def _feedthrough_graph(
     """Port-level graph: connections, and each used output's direct dependencies."""
     by_name = {c.name: c for c in components}
     graph: nx.DiGraph = nx.DiGraph()
-    used_outputs: set[tuple[str, str]] = set()
-    for connection in connections:
+    used_outputs: dict[tuple[str, str], int] = {}  # a dict: insertion order, not hash order
+    for rank, connection in enumerate(connections):
         src = (connection.src.component, connection.src.port)
         graph.add_edge(src, (connection.dst.component, connection.dst.port))
-        used_outputs.add(src)
+        used_outputs.setdefault(src, rank)
+    nx.set_node_attributes(graph, used_outputs, "rank")
     for component_name, port_name in used_outputs:
         component = by_name[component_name]
         output = component.port(port_name)
@@ -52,9 +53,13 @@ def _feedthrough_graph(
 def _loop_parts(graph: nx.DiGraph) -> list[tuple[set[str], list[str]]]:
     """Each strongly connected part with a cycle: its components and one cycle (``comp.port``)."""
     parts = []
+    ranks = nx.get_node_attributes(graph, "rank")
     for scc in nx.strongly_connected_components(graph):
         if len(scc) > 1:
-            cycle = nx.find_cycle(graph.subgraph(scc))
+            # from the output of the part's first declared connection, so that the cycle
+            # named does not depend on the order of a set (string hashes vary per process)
+            start = min((node for node in scc if node in ranks), key=ranks.__getitem__)
+            cycle = nx.find_cycle(graph.subgraph(scc), source=start)
             names = [f"{edge[0][0]}.{edge[0][1]}" for edge in cycle]
             parts.append(({component for component, _ in scc}, names))
     return parts

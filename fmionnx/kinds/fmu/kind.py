@@ -177,7 +177,7 @@ class FmuKind:
         if component.config.interface != "cs":
             return (
                 "it runs as model exchange; only co-simulation FMUs repeat a step from a saved "
-                "state (fmi2GetFMUstate/fmi2SetFMUstate)"
+                "state (FMI getFMUstate/setFMUstate)"
             )
         if component.interface.fact("canGetAndSetFMUstate") != "true":
             return (
