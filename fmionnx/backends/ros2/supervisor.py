@@ -324,6 +324,7 @@ class Supervisor:
         started = time.perf_counter()
         wall_start = started
         try:
+            self._refuse_loops()
             ready = participant.reader(READY_DDS, READY_TYPE, CONTROL_READER_QOS)
             done = participant.reader(DONE_DDS, DONE_TYPE, CONTROL_READER_QOS)
             clock_writer = participant.writer(CLOCK_DDS, CLOCK_TYPE, CONTROL_WRITER_QOS)
@@ -369,6 +370,16 @@ class Supervisor:
                 self.recorder.close()
             participant.close()
         return self._result(status, error, wall)
+
+    def _refuse_loops(self) -> None:
+        """Iterated algebraic loops repeat their members' steps; a node steps once per point."""
+        if self.system.loops:
+            labels = "; ".join(loop.label for loop in self.system.loops)
+            msg = (
+                f"the system has algebraic loops solved by iteration ({labels}): their members "
+                "must step in one process, which the ROS 2 backend does not do; run it in-process"
+            )
+            raise SupervisorError(msg)
 
     def _finish(self) -> None:
         """Every node must end by itself, cleanly, once the clock reached the stop time."""
