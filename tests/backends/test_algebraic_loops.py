@@ -9,6 +9,7 @@ loop ``y1 = k1*u1``, ``y2 = k2*y1`` has the solution ``y1 = k1*r / (1 + k1*k2)``
 from __future__ import annotations
 
 from pathlib import Path
+from typing import Any
 
 import numpy as np
 import onnx
@@ -16,7 +17,8 @@ import pytest
 from onnx import TensorProto, helper
 
 import fmionnx
-from fmionnx.core.runner import StateSaving, Wiring, get_output, set_input
+from fmionnx.core.runner import Runner, StateSaving, Wiring, get_output, set_input
+from fmionnx.core.types import Component
 from fmionnx.kinds.registry import make_runner
 from fmionnx.runtime.master import Master
 from fmionnx.runtime.result import RunStatus
@@ -181,3 +183,34 @@ def test_an_fmu_runner_restores_its_state_and_outputs(fixture_fmu, tmp_path: Pat
         assert get_output(runner, "y") == 6.0
     finally:
         runner.terminate()
+
+
+class _NoRollback:
+    """A runner passed through without its state saving (as an isolated runner is)."""
+
+    def __init__(self, inner: Runner) -> None:
+        self._inner = inner
+        self.component = inner.component
+        self.lazy_outputs = inner.lazy_outputs
+
+    def __getattr__(self, name: str) -> Any:
+        if name in ("save_state", "restore_state"):
+            raise AttributeError(name)
+        return getattr(self._inner, name)
+
+
+def test_a_member_whose_runner_cannot_roll_back_is_a_fault_before_the_first_step(
+    fixture_fmu, write_system: SystemWriter
+) -> None:
+    compiled = fmionnx.load(
+        write_system(_gain_loop(fixture_fmu("Gain"), 2.0, 0.25, "fixed-point"))
+    ).compiled
+
+    def factory(component: Component, wiring: Wiring) -> Runner:
+        return _NoRollback(make_runner(component, wiring))  # type: ignore[return-value]
+
+    result = Master(compiled, runner_factory=factory).run()
+    assert result.status is RunStatus.FAULT
+    assert str(result.error).startswith("component `a` is part of the algebraic loop")
+    assert "cannot save and restore its state" in str(result.error)
+    assert result.steps_done == 0
