@@ -94,8 +94,9 @@ def to_mermaid(system: CompiledSystem) -> str:
 
 
 def to_json(system: CompiledSystem) -> dict[str, Any]:
-    """A stable JSON description: nodes, edges (one per connection) and the execution order."""
-    return {
+    """A stable JSON description: nodes, edges (one per connection) and the execution order;
+    ``loops`` (only when the system iterates algebraic loops): members, tear inputs, cycle."""
+    document = {
         "version": 1,
         "name": system.name,
         "nodes": [
@@ -121,6 +122,17 @@ def to_json(system: CompiledSystem) -> dict[str, Any]:
         ],
         "order": list(system.order),
     }
+    if system.loops:
+        document["loops"] = [
+            {
+                "members": list(loop.members),
+                "tears": [str(ref) for ref in loop.tears],
+                "cycle": list(loop.cycle),
+                "solver": loop.solver.method,
+            }
+            for loop in system.loops
+        ]
+    return document
 
 
 def to_json_text(system: CompiledSystem) -> str:

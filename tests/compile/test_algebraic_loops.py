@@ -126,3 +126,17 @@ def test_without_loops_the_order_is_unchanged(tmp_path: Path) -> None:
     plain = [c for c in system.connections if str(c) != "b.y -> a.u"]
     assert loop_groups(system.components, plain) == []
     assert execution_order(system.components, plain) == ("src", "b", "a", "sink")
+
+
+def test_graph_json_shows_the_loops(tmp_path: Path) -> None:
+    from fmionnx.export.graph import to_json
+
+    document = to_json(_system(tmp_path, ", algebraic_loops: {solver: newton}"))
+    assert document["loops"] == [
+        {
+            "members": ["b", "a"],
+            "tears": ["b.u"],
+            "cycle": ["a.y", "b.u", "b.y", "a.u"],
+            "solver": "newton",
+        }
+    ]
