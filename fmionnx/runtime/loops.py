@@ -30,8 +30,11 @@ from fmionnx.runtime.transfer import Transfer, connection_views, make_transfer
 
 Vector = npt.NDArray[np.float64]
 
-#: Relative size of a Newton finite-difference perturbation (square root of the machine epsilon).
-FD_STEP = math.sqrt(float(np.finfo(np.float64).eps))
+
+def _fd_step(view: Buffer) -> float:
+    """Square root of the machine epsilon of ``view``'s float type (float32, else float64)."""
+    eps = np.finfo(np.float32).eps if view.dtype == np.float32 else np.finfo(np.float64).eps
+    return math.sqrt(float(eps))
 
 
 @dataclass(frozen=True)
@@ -66,6 +69,10 @@ class IteratedLoop:
             self._slices.append((offset, offset + view.size))
             offset += view.size
         self._size = offset
+        #: Relative finite-difference step per tear value: the square root of the precision
+        #: of the input it is written to (a float32 input would swallow a float64-sized step).
+        steps = [np.full(view.size, _fd_step(view)) for view in self._views]
+        self._fd_steps: Vector = np.concatenate(steps) if steps else np.zeros(0)
         #: Updates made at the last communication point, and the most at any point so far.
         self.iterations = 0
         self.peak_iterations = 0
@@ -80,8 +87,11 @@ class IteratedLoop:
         return x
 
     def _scatter(self, x: Vector) -> None:
+        """Write ``x`` into the tear inputs, and round ``x`` to what they hold (float32 ...),
+        so that the residual compares the values really used."""
         for view, (a, b) in zip(self._views, self._slices, strict=True):
             np.copyto(view, x[a:b], casting="unsafe")
+            x[a:b] = view
 
     def _evaluate(self, t: float, h: float, x: Vector, first: bool) -> Vector:
         """One sweep from the saved state with tear inputs ``x``; returns ``G(x)``."""
@@ -157,10 +167,10 @@ class IteratedLoop:
         """Forward differences of ``F(x) = G(x) - x``, one sweep per tear value."""
         jacobian = np.empty((x.size, x.size), dtype=np.float64)
         for j in range(x.size):
-            delta = FD_STEP * max(1.0, abs(float(x[j])))
             shifted = x.copy()
-            shifted[j] += delta
-            jacobian[:, j] = (self._evaluate(t, h, shifted, first=False) - shifted - f) / delta
+            shifted[j] += self._fd_steps[j] * max(1.0, abs(float(x[j])))
+            g = self._evaluate(t, h, shifted, first=False)  # rounds ``shifted`` to the input
+            jacobian[:, j] = (g - shifted - f) / (shifted[j] - x[j])
         if not np.isfinite(jacobian).all():
             raise self._fault(t, "its finite-difference Jacobian is not finite (newton)")
         return jacobian

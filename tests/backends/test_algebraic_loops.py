@@ -49,14 +49,14 @@ record: [a.u, a.y, b.y]
 """
 
 
-def _half(path: Path) -> Path:
-    """An ONNX model computing ``y = 0.5 * x`` in double precision."""
+def _half(path: Path, element: int = TensorProto.DOUBLE) -> Path:
+    """An ONNX model computing ``y = 0.5 * x`` (double precision unless ``element`` says)."""
     graph = helper.make_graph(
         [helper.make_node("Mul", ["x", "half"], ["y"])],
         "half",
-        [helper.make_tensor_value_info("x", TensorProto.DOUBLE, [1])],
-        [helper.make_tensor_value_info("y", TensorProto.DOUBLE, [1])],
-        [helper.make_tensor("half", TensorProto.DOUBLE, [1], [0.5])],
+        [helper.make_tensor_value_info("x", element, [1])],
+        [helper.make_tensor_value_info("y", element, [1])],
+        [helper.make_tensor("half", element, [1], [0.5])],
     )
     model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
     model.ir_version = 8
@@ -214,3 +214,26 @@ def test_a_member_whose_runner_cannot_roll_back_is_a_fault_before_the_first_step
     assert str(result.error).startswith("component `a` is part of the algebraic loop")
     assert "cannot save and restore its state" in str(result.error)
     assert result.steps_done == 0
+
+
+@pytest.mark.parametrize("solver", ["fixed-point", "newton"])
+def test_a_float32_loop_converges_to_a_tolerance_float32_can_meet(
+    fixture_fmu, write_system: SystemWriter, tmp_path: Path, solver: str
+) -> None:
+    # the iterate is rounded to the float32 input it is written to, and Newton's difference
+    # step is sized for float32, so the iteration converges as far as float32 carries
+    half = _half(tmp_path / "half32.onnx", TensorProto.FLOAT)
+    text = f"""
+fmionnx: 1
+name: float32_loop
+run: {{stop: 0.2, step: 0.1, algebraic_loops: {{solver: {solver}, tolerance: 1e-6}}}}
+components:
+  net: {{kind: onnx, path: {half}}}
+  gain: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: 1.0}}}}
+connections:
+  - gain.y -> net.x
+  - {{from: net.y, to: gain.u, factor: -1, offset: {R}}}
+"""
+    result = fmionnx.load(write_system(text)).run()
+    assert result.status is RunStatus.COMPLETED, result.error
+    np.testing.assert_allclose(result["gain.y"][1:], R / 1.5, rtol=0, atol=1e-6)
