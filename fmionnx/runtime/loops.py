@@ -241,8 +241,7 @@ def iterated_loop(
         if not isinstance(runner, StateSaving):
             msg = (
                 f"component `{name}` is part of the algebraic loop {loop.label}, but its runner "
-                "cannot save and restore its state (an isolated component cannot: run it "
-                "without `--isolate`)"
+                "cannot save and restore its state"
             )
             raise RunError(msg, component=name)
         transfers, step = work[name]

@@ -186,7 +186,7 @@ def test_an_fmu_runner_restores_its_state_and_outputs(fixture_fmu, tmp_path: Pat
 
 
 class _NoRollback:
-    """A runner passed through without its state saving (as an isolated runner is)."""
+    """A runner passed through without its state saving."""
 
     def __init__(self, inner: Runner) -> None:
         self._inner = inner
@@ -237,3 +237,19 @@ connections:
     result = fmionnx.load(write_system(text)).run()
     assert result.status is RunStatus.COMPLETED, result.error
     np.testing.assert_allclose(result["gain.y"][1:], R / 1.5, rtol=0, atol=1e-6)
+
+
+@pytest.mark.parametrize("solver", ["fixed-point", "newton"])
+def test_isolated_members_save_and_restore_through_their_process(
+    fixture_fmu, write_system: SystemWriter, solver: str
+) -> None:
+    # `fmionnx run` isolates FMUs by default: their state is saved and restored in the child
+    from fmionnx.runtime.result import RunOptions
+
+    system = fmionnx.load(write_system(_gain_loop(fixture_fmu("Gain"), 2.0, 0.25, solver)))
+    plain = system.run()
+    isolated = system.run(options=RunOptions(isolate=frozenset({"a", "b"})))
+    assert isolated.status is RunStatus.COMPLETED, isolated.error
+    assert isolated["a.y"][-1] == pytest.approx(2.0 * R / 1.5, abs=1e-9)
+    for name, values in plain.signals.items():
+        assert np.array_equal(values, isolated.signals[name]), name

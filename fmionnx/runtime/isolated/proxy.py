@@ -176,6 +176,16 @@ class IsolatedRunner:
         self._request("produce", port)
         self._await_answer()
 
+    def save_state(self, t: float) -> None:
+        """Keep the model's state in the child (an iterated algebraic loop repeats a step)."""
+        self._request("save_state", t)
+        self._await_answer()
+
+    def restore_state(self, t: float) -> None:
+        """Go back to the saved state; the child republishes the outputs it had then."""
+        self._request("restore_state", t)
+        self._await_answer()
+
     def terminate(self) -> None:
         """Terminate the model, end the child (killing it if it does not end), clean up."""
         process = self._process

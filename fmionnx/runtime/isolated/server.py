@@ -11,7 +11,7 @@ from typing import Any, cast
 import numpy as np
 
 from fmionnx.core.errors import ModelTerminated, RunError
-from fmionnx.core.runner import Buffer, Runner
+from fmionnx.core.runner import Buffer, Runner, StateSaving
 from fmionnx.core.types import Causality
 from fmionnx.runtime.isolated import channel
 from fmionnx.runtime.isolated.channel import Control, Layout, Slot
@@ -123,6 +123,22 @@ class Child:
         runner.produce(port)
         shared, own = self.produced[port]
         shared[...] = own
+
+    def do_save_state(self, t: float) -> None:
+        self._saving().save_state(t)
+
+    def do_restore_state(self, t: float) -> None:
+        """Restore the model, then publish its restored outputs in the shared block."""
+        self._saving().restore_state(t)
+        for shared, own in (*self.outputs, *self.produced.values()):
+            shared[...] = own
+
+    def _saving(self) -> StateSaving:
+        runner = self._runner()
+        if not isinstance(runner, StateSaving):
+            msg = f"the runner of `{runner.component.name}` cannot save and restore its state"
+            raise TypeError(msg)
+        return runner
 
     def do_terminate(self) -> None:
         self.control.phase.value = channel.PHASE_TERMINATE
