@@ -100,3 +100,30 @@ def test_a_sine_too_fast_to_sample_is_refused_at_compile_time(tmp_path: Path) ->
     with pytest.raises(DiagnosticError) as info:
         fmionnx.load(system)
     assert "1000000000000" in str(info.value.diagnostics[0].message)
+
+
+@pytest.mark.parametrize("isolate", ["fmus", "none"])
+def test_an_fmu_whose_library_cannot_be_unpacked_is_a_fault_naming_it(
+    tmp_path: Path, isolate: str
+) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    data = bytearray(build_fixture_fmu("Gain").read_bytes())
+    central = data.find(b"PK\x01\x02")
+    while central >= 0:  # the shared library's entry says it is encrypted
+        length = struct.unpack_from("<H", data, central + 28)[0]
+        if bytes(data[central + 46 : central + 46 + length]).endswith(b".so"):
+            flags = struct.unpack_from("<H", data, central + 8)[0]
+            struct.pack_into("<H", data, central + 8, flags | 1)
+        central = data.find(b"PK\x01\x02", central + 4)
+    fmu = tmp_path / "locked.fmu"
+    fmu.write_bytes(bytes(data))
+    result = CliRunner().invoke(
+        app, ["run", str(fmu), "--stop-time", "0.1", "--no-out", "--isolate", isolate]
+    )
+    assert result.exit_code == 1, result.output
+    assert "component `locked` at t=0 s:" in result.output
+    assert "encrypted" in result.output
+    assert "Traceback" not in result.output

@@ -28,7 +28,7 @@ from typing import Any, ClassVar
 import numpy as np
 
 from fmionnx.core.archive import safe_extract
-from fmionnx.core.errors import ModelTerminated, RunError
+from fmionnx.core.errors import ModelError, ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Causality, Component, DType
@@ -136,7 +136,10 @@ class FmuRunner(ABC):
             root = path
         else:
             self._tmp = make_scratch(self.component.name)
-            root = safe_extract(path, self._tmp)
+            try:
+                root = safe_extract(path, self._tmp)
+            except ModelError as exc:  # damaged since it was compiled (or only in its binary)
+                raise fault(self.component.name, str(exc), time=0.0) from None
         self._md = component_description(self.component, (root / MODEL_DESCRIPTION).read_bytes)
         self._fmu = self._new_fmu(self._md, root)
         self._instantiate_fmu()

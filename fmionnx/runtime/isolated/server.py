@@ -4,7 +4,6 @@ from __future__ import annotations
 
 import mmap
 import os
-import traceback
 from collections.abc import Callable
 from typing import Any, cast
 
@@ -61,7 +60,7 @@ class Child:
             except RunError as exc:
                 channel.reply(self.replies, channel.ERROR, channel.error_document(exc))
             except Exception as exc:
-                detail = "".join(traceback.format_exception_only(exc)).strip()
+                detail = f"{type(exc).__name__}: {exc}"
                 channel.reply(self.replies, channel.ERROR, [detail, None, None])
 
     def step(self) -> None:
