@@ -8,7 +8,7 @@ CMake cache, one ``NAME:TYPE=value`` per line. So before anything is built:
 * the model identifier, which names the library cmake writes into ``binaries/<platform>/``,
   must be a plain name (``../../x`` would write the library elsewhere);
 * every source file and include folder must lie inside ``sources/``, links followed (a name
-  like ``../../../home/user/secret.c`` would be compiled into the library);
+  like ``../../../elsewhere/secret.c`` would be compiled into the library);
 * no value may hold a control character: a line break inside an XML attribute (``&#10;``)
   would add lines of its own to the CMake cache.
 

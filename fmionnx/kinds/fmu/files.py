@@ -6,7 +6,7 @@ platform folders and whether C sources are shipped. Archives go through
 anything is read.
 
 The shared library an FMU runs is ``binaries/<platform>/<modelIdentifier>.so``, a path built
-from a string of the model description. A ``modelIdentifier`` such as ``../../../tmp/x`` or
+from a string of the model description. A ``modelIdentifier`` such as ``../../../elsewhere/x`` or
 ``/usr/lib/x`` would make fmpy load a library from anywhere, so the identifier is checked when
 the interface is read (:func:`check_model_identifier`) and the library's real location, links
 followed, again just before it is loaded (:func:`contained_library`).

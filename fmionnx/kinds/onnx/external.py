@@ -2,7 +2,7 @@
 
 An ONNX model may keep large tensors in separate files: ``data_location: EXTERNAL`` with a
 ``location`` relative to the model's folder. onnxruntime opens whatever that location names, so
-a downloaded model saying ``location: ../../../home/user/.ssh/id_rsa`` or ``/etc/shadow`` would
+a downloaded model saying ``location: ../../../elsewhere/id_rsa`` or ``/etc/shadow`` would
 make it read (and, as "weights", possibly leak through the outputs) a file the user never
 meant to hand over. Every external location is therefore checked, when the interface is read
 and again right before onnxruntime loads the model: it must be a relative path without ``..``
