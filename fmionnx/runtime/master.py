@@ -36,7 +36,7 @@ from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_reason
 from fmionnx.runtime.transfer import Transfer, make_transfer
-from fmionnx.runtime.watchdog import Watchdog
+from fmionnx.runtime.watchdog import Marker, Watchdog
 
 if TYPE_CHECKING:
     from fmionnx.runtime.loops import IteratedLoop
@@ -114,6 +114,8 @@ class Master:
         #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
         self.native = NativeStatus(used=False, reason="not prepared")
         self._watchdog: Watchdog | None = None
+        #: The step under way, for the watchdog (one store per step in the loop).
+        self._marker = Marker()
         #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
         self.ended_by: EndedBy | None = None
         self._started = _time.perf_counter()
@@ -189,9 +191,7 @@ class Master:
         local = [due for due, _ in entries if due.name not in self.options.isolate]
         if timeout is None or not local:
             return
-        self._watchdog = Watchdog(timeout, self._abandon)
-        for due in local:
-            due.step = self._watchdog.wrap(due.name, due.step)
+        self._watchdog = Watchdog(timeout, self._marker, local, self._abandon)
 
     def _wiring(self, component: Component) -> Wiring:
         incoming = self.system.inputs_of(component.name)
@@ -345,6 +345,7 @@ class Master:
         progress = self.options.progress
         every = max(1, self.options.progress_every)
         table, hyper = self._table, self._hyper
+        marker = self._marker
         checkpoint = self.options.checkpoint
         next_checkpoint = _time.perf_counter() + self.options.checkpoint_every
         for n in range(total):
@@ -356,11 +357,13 @@ class Master:
                 and _time.perf_counter() >= next_checkpoint
             ):
                 next_checkpoint = self._checkpoint(n)
+            marker.t = t
             for due in table[n % hyper] if hyper else self._due_at(n):
                 for transfer in due.transfers:
                     transfer(t)
                 if due.before is not None:
                     due.before.sample()
+                marker.work = due
                 try:
                     due.step(t, due.h)
                 except ModelTerminated as exc:
@@ -412,11 +415,14 @@ class Master:
         took = _time.perf_counter() - began
         return _time.perf_counter() + max(self.options.checkpoint_every, 10 * took)
 
-    def _abandon(self, label: str, t: float) -> None:
+    def _abandon(self, work: object, t: float) -> None:
         """A step in this process overran the step timeout: write what we have, then exit.
 
-        Called on the watchdog's thread while the main thread is stuck in the model.
+        Called on the watchdog's thread while the main thread is stuck in the model; ``work``
+        is the scheduled work (a :class:`_Due`) the loop marked before the step.
         """
+        assert isinstance(work, _Due)
+        label = work.name
         timeout = self.options.step_timeout
         error = fault(
             label,

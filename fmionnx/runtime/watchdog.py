@@ -6,42 +6,55 @@ in the middle of a native call, so when one of its steps overruns the timeout th
 *abandoned*: a watchdog thread hands the results recorded so far, with a fault naming the
 component and the simulated time, to whoever can write them (the CLI writes the run's folder),
 and then ends the process. That is the only way out of a model that never returns.
+
+The loop pays one store per step for this: it writes the work it is about to do into a
+:class:`Marker`; the watchdog looks at it a few times a second and fires when the same work
+has been under way for longer than the timeout. No step is wrapped or timed on the hot path.
 """
 
 from __future__ import annotations
 
 import threading
 import time
-from collections.abc import Callable
+from collections.abc import Callable, Collection
 
 #: How often the watchdog looks, at most (seconds).
 POLL = 0.25
 
-#: A step function of the master's schedule: ``step(t, h)``.
-StepFunction = Callable[[float, float], None]
+
+class Marker:
+    """What the loop is doing: ``work`` (an object naming it) and the simulated time ``t``.
+
+    Written by the loop before each step, read by the watchdog thread. Each (work, t) pair
+    occurs once in a run, so an unchanged pair means the same step is still running.
+    """
+
+    __slots__ = ("t", "work")
+
+    def __init__(self) -> None:
+        self.work: object = None
+        self.t = 0.0
 
 
 class Watchdog:
-    """Times the steps it wraps; calls ``on_expiry(label, t)`` once when one overruns."""
+    """Calls ``on_expiry(work, t)`` once when the marked work stays the same too long.
 
-    def __init__(self, timeout: float, on_expiry: Callable[[str, float], None]) -> None:
+    Only the work in ``watched`` is timed (isolated components time their own steps).
+    """
+
+    def __init__(
+        self,
+        timeout: float,
+        marker: Marker,
+        watched: Collection[object],
+        on_expiry: Callable[[object, float], None],
+    ) -> None:
         self.timeout = timeout
+        self._marker = marker
+        self._watched = {id(work) for work in watched}
         self._on_expiry = on_expiry
-        #: The step in progress: (label, simulated time, monotonic start), or None.
-        self._current: tuple[str, float, float] | None = None
         self._stopped = threading.Event()
         self._thread = threading.Thread(target=self._watch, name="fmionnx-watchdog", daemon=True)
-
-    def wrap(self, label: str, step: StepFunction) -> StepFunction:
-        """``step``, timed under ``label``."""
-        clock = time.monotonic
-
-        def timed(t: float, h: float) -> None:
-            self._current = (label, t, clock())
-            step(t, h)
-            self._current = None
-
-        return timed
 
     def start(self) -> None:
         """Start watching (a daemon thread: it never keeps the process alive)."""
@@ -53,11 +66,15 @@ class Watchdog:
 
     def _watch(self) -> None:
         interval = min(POLL, self.timeout / 4)
+        seen: tuple[int, float] | None = None
+        since = time.monotonic()
         while not self._stopped.wait(interval):
-            current = self._current
-            if current is None:
+            marker = self._marker
+            work, t = marker.work, marker.t
+            now = time.monotonic()
+            if (id(work), t) != seen:
+                seen, since = (id(work), t), now
                 continue
-            label, t, started = current
-            if time.monotonic() - started > self.timeout and self._current is current:
-                self._on_expiry(label, t)
+            if id(work) in self._watched and now - since > self.timeout:
+                self._on_expiry(work, t)
                 return
