@@ -102,30 +102,12 @@ def loop_groups(
 def execution_order(
     components: Sequence[Component], connections: Sequence[Connection]
 ) -> tuple[str, ...]:
-    """Topological order of components, cutting edges from non-feedthrough outputs in cycles."""
-    position = {c.name: i for i, c in enumerate(components)}
-    by_name = {c.name: c for c in components}
-    graph: nx.DiGraph = nx.DiGraph()
-    graph.add_nodes_from(position)
-    delayed: set[tuple[str, str]] = set()
-    for connection in connections:
-        a, b = connection.src.component, connection.dst.component
-        if a == b:
-            continue
-        graph.add_edge(a, b)
-        output = by_name[a].port(connection.src.port)
-        if not direct_inputs(by_name[a], output):
-            delayed.add((a, b))
-    for scc in list(nx.strongly_connected_components(graph)):
-        if len(scc) < 2:
-            continue
-        for a, b in list(graph.subgraph(scc).edges):
-            if (a, b) in delayed:
-                graph.remove_edge(a, b)
-    if not nx.is_directed_acyclic_graph(graph):
-        # Remaining cycles are algebraic loops, reported as errors elsewhere.
-        return tuple(c.name for c in components)
-    return tuple(nx.lexicographical_topological_sort(graph, key=lambda n: f"{position[n]:08d}"))
+    """Topological order of components, cutting edges from non-feedthrough outputs in cycles.
+
+    Cycles left after the cut are algebraic loops (errors reported elsewhere): then the
+    declaration order. The same ordering as :func:`execution_order_with_loops` without loops.
+    """
+    return execution_order_with_loops(components, connections, ())
 
 
 def dataflow_graph(system: CompiledSystem) -> nx.MultiDiGraph:
