@@ -8,14 +8,22 @@ convolutional network, so that its outputs can be checked exactly against plain 
 * ``blobX[c]`` is the mean (0-based) column of c's pixels, -1 when there are none;
 * ``blobSize[c]`` is ``sqrt(2 * count)``, 0 when there are none.
 
-Network: Cast(uint8 -> float) -> Transpose(NHWC -> NCHW) -> Conv 1x1 (one channel per
-non-trivial box bound, ``2*(x - lo + 0.5)`` or ``2*(hi + 0.5 - x)``) -> Clip[0, 1] ->
-Conv 1x1 (sum of a colour's bound indicators minus (n-1)) -> Relu -> colour masks (0/1)
--> ReduceSum over rows -> Cast to double -> MatMul with [1, column] -> count and column sum ->
-Div/Where/Sqrt -> Cast to float.
+Network: Cast(uint8 -> float) -> Reshape to [1, 1, H*W, 3] (a free view of the camera's
+channels-last frame) -> Conv 1x3 (one output channel per distinct box bound; the kernel spans
+one pixel's R, G, B, so it is the per-pixel 1x1 layer without a Transpose to NCHW) -> Clip[0, 1]
+-> Conv 1x1 (sum of a colour's bound indicators minus (n-1)) -> Relu -> colour masks (0/1)
+-> Reshape to [1, 3, H, W] -> ReduceSum over rows -> Cast to double -> MatMul with
+[1, column] -> count and column sum -> Div/Where/Sqrt -> Cast to float.
+
+Why it is fast (issue 14): the frame is read once as uint8 and once as float; the Transpose of
+the first version (a full copy of the float frame) is gone; bounds shared by two colours
+(G<=55 of red and blue, B<=50 of red and green) are one channel, so the first layer writes 7
+channels instead of 9; onnxruntime fuses each Conv with its activation (Clip, Relu). The model
+is meant for onnxruntime's ``ORT_ENABLE_EXTENDED`` level: ``ORT_ENABLE_ALL`` rewrites the
+convolutions to the blocked NCHWc layout, whose reorders cost ~4x the whole model here.
 
 Why it is exact: inputs are integers, so each bound pre-activation is an odd integer (..., -1, 1,
-...) and Clip maps it to exactly 0 or 1; the second Conv sums at most four 0/1 values, so Relu
+...) and Clip maps it to exactly 0 or 1; the second Conv sums at most three 0/1 values, so Relu
 of (sum - (n-1)) is exactly 1 when all bounds hold and 0 otherwise. Per-column counts (<= 480)
 are exact in float32; the column-weighted sum can exceed 2**24, so it is taken in float64.
 
@@ -44,30 +52,48 @@ BOXES: dict[str, tuple[tuple[int, int], tuple[int, int], tuple[int, int]]] = {
 }
 
 
-def bound_layers() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
-    """Weights and biases of both 1x1 convolutions, derived from :data:`BOXES`.
+def distinct_bounds() -> tuple[list[tuple[int, int, int]], list[list[int]]]:
+    """The bounds that can fail for an 8-bit value, each once, and which colour uses which.
 
-    Returns (w1 [K,3,1,1], b1 [K], w2 [3,K,1,1], b2 [3]) where K is the number of bounds that
-    can fail for an 8-bit value (a low bound of 0 or a high bound of 255 always holds).
+    Returns (bounds, members): ``bounds[k] = (channel, sign, threshold)`` holds where
+    ``sign * (x[channel] - threshold) >= 0`` (sign +1 a low bound, -1 a high bound; a low bound
+    of 0 or a high bound of 255 always holds and is left out); ``members[c]`` lists the bound
+    indices of colour ``c``. A bound shared by two colours is one channel.
     """
-    rows: list[tuple[int, int, float, float]] = []  # (colour, channel, weight, bias)
-    for colour, box in enumerate(BOXES.values()):
+    bounds: list[tuple[int, int, int]] = []
+    members: list[list[int]] = []
+    for box in BOXES.values():
+        mine: list[int] = []
         for channel, (low, high) in enumerate(box):
-            if low > 0:  # x >= low  <=>  2*(x - low + 0.5) >= 1
-                rows.append((colour, channel, 2.0, -2.0 * (low - 0.5)))
-            if high < 255:  # x <= high  <=>  2*(high + 0.5 - x) >= 1
-                rows.append((colour, channel, -2.0, 2.0 * (high + 0.5)))
-    count = len(rows)
-    w1 = np.zeros((count, 3, 1, 1), np.float32)
+            wanted = [(channel, 1, low)] if low > 0 else []
+            wanted += [(channel, -1, high)] if high < 255 else []
+            for bound in wanted:
+                if bound not in bounds:
+                    bounds.append(bound)
+                mine.append(bounds.index(bound))
+        members.append(mine)
+    return bounds, members
+
+
+def bound_layers() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
+    """Weights and biases of both convolutions, derived from :data:`BOXES`.
+
+    Returns (w1 [K,1,1,3], b1 [K], w2 [3,K,1,1], b2 [3]) for the K distinct bounds. Layer 1
+    gives ``2*sign*(x - threshold) + 1``: an odd integer, >= 1 where the bound holds and <= -1
+    where it fails.
+    """
+    bounds, members = distinct_bounds()
+    count = len(bounds)
+    w1 = np.zeros((count, 1, 1, 3), np.float32)
     b1 = np.zeros(count, np.float32)
+    for k, (channel, sign, threshold) in enumerate(bounds):
+        w1[k, 0, 0, channel] = 2.0 * sign
+        b1[k] = -2.0 * sign * threshold + 1.0
     w2 = np.zeros((3, count, 1, 1), np.float32)
     b2 = np.zeros(3, np.float32)
-    for k, (colour, channel, weight, bias) in enumerate(rows):
-        w1[k, channel, 0, 0] = weight
-        b1[k] = bias
-        w2[colour, k, 0, 0] = 1.0
-    for colour in range(3):
-        b2[colour] = -(w2[colour].sum() - 1.0)
+    for colour, mine in enumerate(members):
+        w2[colour, mine, 0, 0] = 1.0
+        b2[colour] = -(len(mine) - 1.0)
     return w1, b1, w2, b2
 
 
@@ -82,6 +108,8 @@ def make_model() -> onnx.ModelProto:
         numpy_helper.from_array(b2, "colour_bias"),
         numpy_helper.from_array(np.array(0.0, np.float32), "zero"),
         numpy_helper.from_array(np.array(1.0, np.float32), "one"),
+        numpy_helper.from_array(np.array([1, 1, HEIGHT * WIDTH, 3], np.int64), "pixel_rows"),
+        numpy_helper.from_array(np.array([1, 3, HEIGHT, WIDTH], np.int64), "mask_shape"),
         numpy_helper.from_array(np.array([2], np.int64), "row_axis"),
         numpy_helper.from_array(columns, "count_and_column"),
         numpy_helper.from_array(np.array([1, 1], np.int64), "split_sizes"),
@@ -102,21 +130,21 @@ def make_model() -> onnx.ModelProto:
             doc_string="8-bit RGB to float32 (exact).",
         ),
         node(
-            "Transpose",
-            ["image_f"],
-            ["nchw"],
-            perm=[0, 3, 1, 2],
-            name="to_nchw",
-            doc_string="NHWC camera layout to the NCHW layout of Conv.",
+            "Reshape",
+            ["image_f", "pixel_rows"],
+            ["pixels"],
+            name="one_pixel_per_row",
+            doc_string="[1,480,640,3] -> [1,1,307200,3]: one row per pixel, its R,G,B along "
+            "the width (the camera's memory order, no copy).",
         ),
         node(
             "Conv",
-            ["nchw", "bound_weight", "bound_bias"],
+            ["pixels", "bound_weight", "bound_bias"],
             ["bound_pre"],
-            kernel_shape=[1, 1],
+            kernel_shape=[1, 3],
             name="bounds",
-            doc_string="One channel per colour-box bound: >= 1 where it holds, "
-            "<= -1 where it fails.",
+            doc_string="1x3 kernel over a pixel's R,G,B, one channel per distinct colour-box "
+            "bound: >= 1 where it holds, <= -1 where it fails.",
         ),
         node(
             "Clip",
@@ -141,8 +169,15 @@ def make_model() -> onnx.ModelProto:
             doc_string="Colour mask: 1 where every bound of the box holds, else 0.",
         ),
         node(
+            "Reshape",
+            ["mask", "mask_shape"],
+            ["mask_image"],
+            name="mask_image",
+            doc_string="[1,3,307200,1] -> [1,3,480,640]: the masks as images (no copy).",
+        ),
+        node(
             "ReduceSum",
-            ["mask", "row_axis"],
+            ["mask_image", "row_axis"],
             ["column_count"],
             keepdims=0,
             name="count_rows",
@@ -205,8 +240,8 @@ def make_model() -> onnx.ModelProto:
         graph,
         opset_imports=[helper.make_opsetid("", OPSET)],
         producer_name="fmionnx models/onnx/build_sign_detector.py",
-        producer_version="1.0",
-        model_version=1,
+        producer_version="2.0",
+        model_version=2,
         doc_string=__doc__.split("\n\n")[0] if __doc__ else "",
     )
     model.ir_version = 8  # readable by onnxruntime releases of the last years
