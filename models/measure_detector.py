@@ -9,7 +9,8 @@ image, which gives the true pixels of each sign board. Reported:
   plain numpy implementation of the same colour-box measure, rounded to float32 like the
   model's outputs (0 means bit-identical);
 * **blobX error vs truth**: |blobX - mean column of the board's pixels| where the board shows
-  at least ``MIN_PIXELS`` pixels (edge pixels blended by anti-aliasing make it non-zero);
+  at least ``MIN_PIXELS`` pixels (0 since the course renders without anti-aliasing; edge
+  pixels blended by anti-aliasing made it non-zero);
 * **detection rate**: share of those frames in which the detector reports the board's colour;
   **false detections**: frames where the colour is reported but its board shows no pixel.
 
@@ -92,9 +93,16 @@ def sample_poses(count: int, seed: int) -> list[tuple[float, float, float]]:
     return poses
 
 
-def render_frames(poses: list[tuple[float, float, float]]) -> Iterator[Frame]:
-    """Place the robot at each pose and render the ``front`` camera (RGB + segmentation)."""
-    model = mujoco.MjModel.from_xml_path(str(SCENE))
+def render_frames(
+    poses: list[tuple[float, float, float]], scene: Path | str = SCENE
+) -> Iterator[Frame]:
+    """Place the robot at each pose and render the ``front`` camera (RGB + segmentation).
+
+    ``scene``: the scene file, or a scene's XML text (a variant of its visual settings)."""
+    if isinstance(scene, Path):
+        model = mujoco.MjModel.from_xml_path(str(scene))
+    else:
+        model = mujoco.MjModel.from_xml_string(scene)
     data = mujoco.MjData(model)
     boards = [model.geom(name).id for name in BOARDS]
     base = model.joint("base").qposadr[0]

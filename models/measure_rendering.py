@@ -247,7 +247,11 @@ def detector_accuracy(images: Sequence[np.ndarray], truth: Sequence[md.Frame]) -
     for image, frame in zip(images, truth, strict=True):
         blob_x, blob_size = session.run(None, {"image": image[np.newaxis]})
         ref_x, ref_size = (r.astype(np.float32) for r in md.numpy_blobs(image))
-        worst = max(worst, float(np.abs(blob_x[0] - ref_x).max()), float(np.abs(blob_size[0] - ref_size).max()))
+        worst = max(
+            worst,
+            float(np.abs(blob_x[0] - ref_x).max()),
+            float(np.abs(blob_size[0] - ref_size).max()),
+        )
         for colour, columns in enumerate(frame.board_columns):
             seen = bool(blob_size[0, colour] > 0)
             if columns.size >= md.MIN_PIXELS:
@@ -294,7 +298,9 @@ def measure(
     costs = []
     for name in settings:
         on = variants[name]
-        changed = np.mean([np.any(a != b, axis=2).mean() for a, b in zip(on.images, base.images, strict=True)])
+        changed = np.mean(
+            [np.any(a != b, axis=2).mean() for a, b in zip(on.images, base.images, strict=True)]
+        )
         costs.append(
             SettingCost(
                 name,
