@@ -8,19 +8,23 @@ convolutional network, so that its outputs can be checked exactly against plain 
 * ``blobX[c]`` is the mean (0-based) column of c's pixels, -1 when there are none;
 * ``blobSize[c]`` is ``sqrt(2 * count)``, 0 when there are none.
 
-Network: Cast(uint8 -> float) -> Reshape to [1, 1, H*W, 3] (a free view of the camera's
-channels-last frame) -> Conv 1x3 (one output channel per distinct box bound; the kernel spans
-one pixel's R, G, B, so it is the per-pixel 1x1 layer without a Transpose to NCHW) -> Clip[0, 1]
--> Conv 1x1 (sum of a colour's bound indicators minus (n-1)) -> Relu -> colour masks (0/1)
--> Reshape to [1, 3, H, W] -> ReduceSum over rows -> Cast to double -> MatMul with
-[1, column] -> count and column sum -> Div/Where/Sqrt -> Cast to float.
+Network: Reshape the uint8 frame into 32 tiles of 15 rows, one pixel per row (a free view of
+the camera's channels-last frame) -> Scan over the tiles of the convolutional network
+[Cast(uint8 -> float) -> Conv 1x3 (one output channel per distinct box bound; the kernel spans
+one pixel's R, G, B, so it is the per-pixel 1x1 layer without a Transpose to NCHW) ->
+Clip[0, 1] -> Conv 1x1 (sum of a colour's bound indicators minus (n-1)) -> Relu -> colour masks
+(0/1) -> ReduceSum over the tile's rows] -> ReduceSum over tiles -> Cast to double -> MatMul
+with [1, column] -> count and column sum -> Div/Where/Sqrt -> Cast to float.
 
-Why it is fast (issue 14): the frame is read once as uint8 and once as float; the Transpose of
-the first version (a full copy of the float frame) is gone; bounds shared by two colours
-(G<=55 of red and blue, B<=50 of red and green) are one channel, so the first layer writes 7
-channels instead of 9; onnxruntime fuses each Conv with its activation (Clip, Relu). The model
-is meant for onnxruntime's ``ORT_ENABLE_EXTENDED`` level: ``ORT_ENABLE_ALL`` rewrites the
-convolutions to the blocked NCHWc layout, whose reorders cost ~4x the whole model here.
+Why it is fast (issue 14): the frame is read once, as uint8; the Transpose of the first version
+(a full copy of the float frame) is gone; bounds shared by two colours (G<=55 of red and blue,
+B<=50 of red and green) are one channel, so the first layer has 7 channels instead of 9; the
+network runs tile by tile, so its float activations (7 channels, 270 KB per tile instead of
+8.6 MB per frame) stay in a core's cache instead of going through memory; onnxruntime fuses
+each Conv with its activation (Clip, Relu). A 1x1 network is per pixel, so tiling by rows
+changes no value. The model is meant for onnxruntime's ``ORT_ENABLE_EXTENDED`` level:
+``ORT_ENABLE_ALL`` rewrites the convolutions to the blocked NCHWc layout, whose reorders cost
+several times the whole model here.
 
 Why it is exact: inputs are integers, so each bound pre-activation is an odd integer (..., -1, 1,
 ...) and Clip maps it to exactly 0 or 1; the second Conv sums at most three 0/1 values, so Relu
@@ -41,6 +45,8 @@ import onnx
 from onnx import TensorProto, helper, numpy_helper
 
 HEIGHT, WIDTH = 480, 640
+#: Rows per tile: the activations of one tile (7 float channels) stay in a core's L2 cache.
+TILE_ROWS = 15
 OPSET = 17
 
 #: Colour boxes in the output order (index 0 red = stop, 1 green = right, 2 blue = left):
@@ -97,10 +103,14 @@ def bound_layers() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     return w1, b1, w2, b2
 
 
-def make_model() -> onnx.ModelProto:
-    """Build the detector graph (see the module docstring for its layers)."""
+def tile_network() -> onnx.GraphProto:
+    """The convolutional network on one tile of ``TILE_ROWS`` rows: its masks' column counts.
+
+    Input ``tile`` uint8 [1, 1, TILE_ROWS*WIDTH, 3] (one pixel per row, R,G,B along the width:
+    the camera's memory order); output ``tile_count`` float [1, 3, WIDTH], the pixels of each
+    colour per column of the tile.
+    """
     w1, b1, w2, b2 = bound_layers()
-    columns = np.stack([np.ones(WIDTH), np.arange(WIDTH, dtype=np.float64)], axis=1)
     initializers = [
         numpy_helper.from_array(w1, "bound_weight"),
         numpy_helper.from_array(b1, "bound_bias"),
@@ -108,38 +118,22 @@ def make_model() -> onnx.ModelProto:
         numpy_helper.from_array(b2, "colour_bias"),
         numpy_helper.from_array(np.array(0.0, np.float32), "zero"),
         numpy_helper.from_array(np.array(1.0, np.float32), "one"),
-        numpy_helper.from_array(np.array([1, 1, HEIGHT * WIDTH, 3], np.int64), "pixel_rows"),
-        numpy_helper.from_array(np.array([1, 3, HEIGHT, WIDTH], np.int64), "mask_shape"),
+        numpy_helper.from_array(np.array([1, 3, TILE_ROWS, WIDTH], np.int64), "mask_shape"),
         numpy_helper.from_array(np.array([2], np.int64), "row_axis"),
-        numpy_helper.from_array(columns, "count_and_column"),
-        numpy_helper.from_array(np.array([1, 1], np.int64), "split_sizes"),
-        numpy_helper.from_array(np.array([1, 3], np.int64), "out_shape"),
-        numpy_helper.from_array(np.array(0.0, np.float64), "zero_d"),
-        numpy_helper.from_array(np.array(1.0, np.float64), "one_d"),
-        numpy_helper.from_array(np.array(2.0, np.float64), "two_d"),
-        numpy_helper.from_array(np.array(-1.0, np.float64), "absent_x"),
     ]
     node = helper.make_node
     nodes = [
         node(
             "Cast",
-            ["image"],
-            ["image_f"],
+            ["tile"],
+            ["tile_f"],
             to=TensorProto.FLOAT,
             name="to_float",
             doc_string="8-bit RGB to float32 (exact).",
         ),
         node(
-            "Reshape",
-            ["image_f", "pixel_rows"],
-            ["pixels"],
-            name="one_pixel_per_row",
-            doc_string="[1,480,640,3] -> [1,1,307200,3]: one row per pixel, its R,G,B along "
-            "the width (the camera's memory order, no copy).",
-        ),
-        node(
             "Conv",
-            ["pixels", "bound_weight", "bound_bias"],
+            ["tile_f", "bound_weight", "bound_bias"],
             ["bound_pre"],
             kernel_shape=[1, 3],
             name="bounds",
@@ -173,15 +167,77 @@ def make_model() -> onnx.ModelProto:
             ["mask", "mask_shape"],
             ["mask_image"],
             name="mask_image",
-            doc_string="[1,3,307200,1] -> [1,3,480,640]: the masks as images (no copy).",
+            doc_string=f"[1,3,{TILE_ROWS * WIDTH},1] -> [1,3,{TILE_ROWS},{WIDTH}]: the masks "
+            "as images (no copy).",
         ),
         node(
             "ReduceSum",
             ["mask_image", "row_axis"],
-            ["column_count"],
+            ["tile_count"],
             keepdims=0,
             name="count_rows",
-            doc_string="Pixels per colour and column [1,3,640] (exact).",
+            doc_string="Pixels per colour and column of the tile (exact).",
+        ),
+    ]
+    tile = helper.make_tensor_value_info("tile", TensorProto.UINT8, [1, 1, TILE_ROWS * WIDTH, 3])
+    tile.doc_string = f"{TILE_ROWS} rows of the frame, one pixel per row, R,G,B along the width."
+    count = helper.make_tensor_value_info("tile_count", TensorProto.FLOAT, [1, 3, WIDTH])
+    count.doc_string = "Pixels of red, green, blue per column of the tile."
+    return helper.make_graph(
+        nodes,
+        "colour_masks_per_tile",
+        [tile],
+        [count],
+        initializer=initializers,
+        doc_string="The convolutional network on one tile: colour masks, counted per column.",
+    )
+
+
+def make_model() -> onnx.ModelProto:
+    """Build the detector graph (see the module docstring for its layers)."""
+    columns = np.stack([np.ones(WIDTH), np.arange(WIDTH, dtype=np.float64)], axis=1)
+    tiles, rest = divmod(HEIGHT, TILE_ROWS)
+    assert rest == 0, "tiles cover the frame"
+    initializers = [
+        numpy_helper.from_array(
+            np.array([tiles, 1, 1, TILE_ROWS * WIDTH, 3], np.int64), "tile_shape"
+        ),
+        numpy_helper.from_array(np.array([0], np.int64), "tile_axis"),
+        numpy_helper.from_array(columns, "count_and_column"),
+        numpy_helper.from_array(np.array([1, 1], np.int64), "split_sizes"),
+        numpy_helper.from_array(np.array([1, 3], np.int64), "out_shape"),
+        numpy_helper.from_array(np.array(0.0, np.float64), "zero_d"),
+        numpy_helper.from_array(np.array(1.0, np.float64), "one_d"),
+        numpy_helper.from_array(np.array(2.0, np.float64), "two_d"),
+        numpy_helper.from_array(np.array(-1.0, np.float64), "absent_x"),
+    ]
+    node = helper.make_node
+    nodes = [
+        node(
+            "Reshape",
+            ["image", "tile_shape"],
+            ["tiles"],
+            name="tiles",
+            doc_string=f"[1,{HEIGHT},{WIDTH},3] -> [{tiles},1,1,{TILE_ROWS * WIDTH},3]: "
+            f"{tiles} tiles of {TILE_ROWS} rows, one pixel per row (no copy).",
+        ),
+        node(
+            "Scan",
+            ["tiles"],
+            ["tile_counts"],
+            body=tile_network(),
+            num_scan_inputs=1,
+            name="per_tile",
+            doc_string="The network on each tile in turn, so that its intermediate "
+            "activations stay in the CPU cache.",
+        ),
+        node(
+            "ReduceSum",
+            ["tile_counts", "tile_axis"],
+            ["column_count"],
+            keepdims=0,
+            name="count_tiles",
+            doc_string="Pixels per colour and column of the frame [1,3,640] (exact).",
         ),
         node(
             "Cast",
@@ -240,8 +296,8 @@ def make_model() -> onnx.ModelProto:
         graph,
         opset_imports=[helper.make_opsetid("", OPSET)],
         producer_name="fmionnx models/onnx/build_sign_detector.py",
-        producer_version="2.0",
-        model_version=2,
+        producer_version="2.1",
+        model_version=3,
         doc_string=__doc__.split("\n\n")[0] if __doc__ else "",
     )
     model.ir_version = 8  # readable by onnxruntime releases of the last years

@@ -51,8 +51,8 @@ class OnnxRunner:
         Graph optimisation stops at ``ORT_ENABLE_EXTENDED`` (constant folding, Conv+activation
         and other fusions) instead of onnxruntime's default ``ORT_ENABLE_ALL``, whose extra
         layout pass rewrites convolutions to the blocked NCHWc format: on a per-frame model
-        such as the reference sign detector the reorders it inserts made a run 3.5-4.5x
-        slower (8.9 ms against 1.9 ms per 640x480 frame, docs/performance.md "Detector").
+        such as the reference sign detector the reorders it inserts made a run several times
+        slower (docs/performance.md, "Sign detector and camera rendering").
         """
         import onnxruntime as ort
 
