@@ -107,8 +107,9 @@ def floor_texture(root: ElementTree.Element) -> None:
 
 
 def shadows(root: ElementTree.Element) -> None:
-    """A 4096 shadow map and the sun casting shadows."""
+    """A 4096 shadow map and a directional light casting shadows (the headlight casts none)."""
     _quality(root, shadowsize="4096")
+    second_light(root)
     for light in root.iter("light"):
         light.set("castshadow", "true")
 
@@ -119,7 +120,8 @@ def reflections(root: ElementTree.Element) -> None:
 
 
 def fog(root: ElementTree.Element) -> None:
-    """Fog from 3 to 10 m (only drawn with the scene's fog flag, off by default)."""
+    """Fog from 3 to 10 m: drawn only where the renderer's ``mjRND_FOG`` flag is on, which
+    MuJoCo's default scene options (and so fmionnx's renderer) leave off."""
     _map(root, fogstart="3", fogend="10")
 
 

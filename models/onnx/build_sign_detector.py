@@ -8,13 +8,14 @@ convolutional network, so that its outputs can be checked exactly against plain 
 * ``blobX[c]`` is the mean (0-based) column of c's pixels, -1 when there are none;
 * ``blobSize[c]`` is ``sqrt(2 * count)``, 0 when there are none.
 
-Network: Reshape the uint8 frame into 32 tiles of 15 rows, one pixel per row (a free view of
-the camera's channels-last frame) -> Scan over the tiles of the convolutional network
-[Cast(uint8 -> float) -> Conv 1x3 (one output channel per distinct box bound; the kernel spans
-one pixel's R, G, B, so it is the per-pixel 1x1 layer without a Transpose to NCHW) ->
-Clip[0, 1] -> Conv 1x1 (sum of a colour's bound indicators minus (n-1)) -> Relu -> colour masks
-(0/1) -> ReduceSum over the tile's rows] -> ReduceSum over tiles -> Cast to double -> MatMul
-with [1, column] -> count and column sum -> Div/Where/Sqrt -> Cast to float.
+Network: Reshape the uint8 frame into 32 tiles of 15 rows, each row's R,G,B,R,G,B... values
+along the width (a free view of the camera's channels-last frame) -> Scan over the tiles of the
+convolutional network [Cast(uint8 -> float) -> Conv 1x3 with stride 3 (one output per pixel,
+over its R, G, B: the per-pixel 1x1 layer, without a Transpose to NCHW; one output channel per
+distinct box bound) -> Clip[0, 1] -> Conv 1x1 (sum of a colour's bound indicators minus (n-1))
+-> Relu -> colour masks (0/1) [1,3,15,640] -> ReduceSum over the tile's rows] -> ReduceSum over
+tiles -> Cast to double -> MatMul with [1, column] -> count and column sum -> Div/Where/Sqrt
+-> Cast to float.
 
 Why it is fast (issue 14): the frame is read once, as uint8; the Transpose of the first version
 (a full copy of the float frame) is gone; bounds shared by two colours (G<=55 of red and blue,
@@ -106,9 +107,9 @@ def bound_layers() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 def tile_network() -> onnx.GraphProto:
     """The convolutional network on one tile of ``TILE_ROWS`` rows: its masks' column counts.
 
-    Input ``tile`` uint8 [1, 1, TILE_ROWS*WIDTH, 3] (one pixel per row, R,G,B along the width:
-    the camera's memory order); output ``tile_count`` float [1, 3, WIDTH], the pixels of each
-    colour per column of the tile.
+    Input ``tile`` uint8 [1, 1, TILE_ROWS, WIDTH*3] (each row's pixels R,G,B,R,G,B... along the
+    width: the camera's memory order); output ``tile_count`` float [1, 3, WIDTH], the pixels of
+    each colour per column of the tile.
     """
     w1, b1, w2, b2 = bound_layers()
     initializers = [
@@ -118,7 +119,6 @@ def tile_network() -> onnx.GraphProto:
         numpy_helper.from_array(b2, "colour_bias"),
         numpy_helper.from_array(np.array(0.0, np.float32), "zero"),
         numpy_helper.from_array(np.array(1.0, np.float32), "one"),
-        numpy_helper.from_array(np.array([1, 3, TILE_ROWS, WIDTH], np.int64), "mask_shape"),
         numpy_helper.from_array(np.array([2], np.int64), "row_axis"),
     ]
     node = helper.make_node
@@ -136,9 +136,10 @@ def tile_network() -> onnx.GraphProto:
             ["tile_f", "bound_weight", "bound_bias"],
             ["bound_pre"],
             kernel_shape=[1, 3],
+            strides=[1, 3],
             name="bounds",
-            doc_string="1x3 kernel over a pixel's R,G,B, one channel per distinct colour-box "
-            "bound: >= 1 where it holds, <= -1 where it fails.",
+            doc_string="1x3 kernel, stride 3: one output per pixel, over its R,G,B; one channel "
+            "per distinct colour-box bound: >= 1 where it holds, <= -1 where it fails.",
         ),
         node(
             "Clip",
@@ -163,24 +164,16 @@ def tile_network() -> onnx.GraphProto:
             doc_string="Colour mask: 1 where every bound of the box holds, else 0.",
         ),
         node(
-            "Reshape",
-            ["mask", "mask_shape"],
-            ["mask_image"],
-            name="mask_image",
-            doc_string=f"[1,3,{TILE_ROWS * WIDTH},1] -> [1,3,{TILE_ROWS},{WIDTH}]: the masks "
-            "as images (no copy).",
-        ),
-        node(
             "ReduceSum",
-            ["mask_image", "row_axis"],
+            ["mask", "row_axis"],
             ["tile_count"],
             keepdims=0,
             name="count_rows",
             doc_string="Pixels per colour and column of the tile (exact).",
         ),
     ]
-    tile = helper.make_tensor_value_info("tile", TensorProto.UINT8, [1, 1, TILE_ROWS * WIDTH, 3])
-    tile.doc_string = f"{TILE_ROWS} rows of the frame, one pixel per row, R,G,B along the width."
+    tile = helper.make_tensor_value_info("tile", TensorProto.UINT8, [1, 1, TILE_ROWS, WIDTH * 3])
+    tile.doc_string = f"{TILE_ROWS} rows of the frame, R,G,B of each pixel in turn along the width."
     count = helper.make_tensor_value_info("tile_count", TensorProto.FLOAT, [1, 3, WIDTH])
     count.doc_string = "Pixels of red, green, blue per column of the tile."
     return helper.make_graph(
@@ -200,7 +193,7 @@ def make_model() -> onnx.ModelProto:
     assert rest == 0, "tiles cover the frame"
     initializers = [
         numpy_helper.from_array(
-            np.array([tiles, 1, 1, TILE_ROWS * WIDTH, 3], np.int64), "tile_shape"
+            np.array([tiles, 1, 1, TILE_ROWS, WIDTH * 3], np.int64), "tile_shape"
         ),
         numpy_helper.from_array(np.array([0], np.int64), "tile_axis"),
         numpy_helper.from_array(columns, "count_and_column"),
@@ -218,8 +211,8 @@ def make_model() -> onnx.ModelProto:
             ["image", "tile_shape"],
             ["tiles"],
             name="tiles",
-            doc_string=f"[1,{HEIGHT},{WIDTH},3] -> [{tiles},1,1,{TILE_ROWS * WIDTH},3]: "
-            f"{tiles} tiles of {TILE_ROWS} rows, one pixel per row (no copy).",
+            doc_string=f"[1,{HEIGHT},{WIDTH},3] -> [{tiles},1,1,{TILE_ROWS},{WIDTH * 3}]: "
+            f"{tiles} tiles of {TILE_ROWS} rows, a row's R,G,B values along the width (no copy).",
         ),
         node(
             "Scan",
