@@ -210,6 +210,22 @@ class Variant:
         return 1e3 * statistics.median(self.times)
 
 
+def gl_renderer(scene: Path = md.SCENE) -> str:
+    """The OpenGL renderer MuJoCo's offscreen context runs on, e.g. ``llvmpipe (LLVM 15.0.6,
+    256 bits)`` (Mesa's software rasteriser) or a GPU's name under hardware EGL."""
+    from OpenGL import GL
+
+    model = mujoco.MjModel.from_xml_path(str(scene))
+    renderer = mujoco.Renderer(model, 8, 8)
+    try:
+        renderer.update_scene(mujoco.MjData(model))
+        renderer.render()
+        name = GL.glGetString(GL.GL_RENDERER)
+    finally:
+        renderer.close()
+    return name.decode() if isinstance(name, bytes) else str(name)
+
+
 def place(model: mujoco.MjModel, data: mujoco.MjData, pose: tuple[float, float, float]) -> None:
     """Put the robot's base at (x, y, heading) on the floor and update the kinematics."""
     x, y, heading = pose
