@@ -11,8 +11,9 @@ at seeded poses (``models/measure_detector.py``):
    per-column counts, no ``nonzero``). Every contender runs on every frame in turn, for several
    rounds; the table gives the median per frame, and every contender's outputs are checked
    equal to the reference's (rounded to float32, as the model's). Ratios are paired: per frame
-   and round, a contender's time over the fastest numpy's on the same frame, right after it;
-   the table gives their median (and min / min, the uncontended case). Target: the runner's
+   and round, a contender's time over the fastest numpy's on the same frame in the same pass
+   (the contenders' order rotates from frame to frame, so that none is always the first to
+   touch a frame, which finds it colder in the cache); the table gives their median (and min / min, the uncontended case). Target: the runner's
    session / the fastest numpy <= 1.0.
 2. **Render per frame**: ``update_scene`` + ``render`` of the 640x480 camera with the scene's
    visual settings before issue 14 (anti-aliasing, skybox, floor texture, second light:
@@ -153,14 +154,17 @@ def same(a: Blobs, b: Blobs) -> bool:
 def detector_rows(frames: Sequence[np.ndarray], rounds: int) -> list[dict[str, Any]]:
     """Time every contender on every frame, interleaved; rows with medians and ratios."""
     runs = contenders()
-    times: dict[str, list[float]] = {name: [] for name in runs}
     correct = dict.fromkeys(runs, True)
     for name, run in runs.items():  # warm-up (session arenas, first-call costs), and checked
         for frame in frames:
             correct[name] &= same(run(frame), md.numpy_blobs(frame))
+    names = list(runs)
+    times: dict[str, list[float]] = {name: [] for name in runs}
     for _ in range(rounds):
-        for frame in frames:
-            for name, run in runs.items():
+        for index, frame in enumerate(frames):
+            # rotate who goes first: the first call on a frame finds it colder in the cache
+            for name in names[index % len(names) :] + names[: index % len(names)]:
+                run = runs[name]
                 started = time.perf_counter()
                 run(frame)
                 times[name].append(time.perf_counter() - started)
@@ -172,8 +176,8 @@ def detector_rows(frames: Sequence[np.ndarray], rounds: int) -> list[dict[str, A
             "contender": name,
             "median_ms": medians[name],
             "min_ms": 1e3 * min(times[name]),
-            # paired: the two calls on the same frame, one right after the other, see the same
-            # machine load; the median of those ratios is steadier than a ratio of medians
+            # paired: the calls on the same frame in the same pass see about the same machine
+            # load; the median of those ratios is steadier than a ratio of medians
             "vs_numpy": float(np.median(np.array(times[name]) / baseline)),
             "min_vs_numpy": min(times[name]) / float(baseline.min()),
             "correct": correct[name],
