@@ -8,24 +8,24 @@ convolutional network, so that its outputs can be checked exactly against plain 
 * ``blobX[c]`` is the mean (0-based) column of c's pixels, -1 when there are none;
 * ``blobSize[c]`` is ``sqrt(2 * count)``, 0 when there are none.
 
-Network: Reshape the uint8 frame into 32 tiles of 15 rows, each row's R,G,B,R,G,B... values
-along the width (a free view of the camera's channels-last frame) -> Scan over the tiles of the
-convolutional network [Cast(uint8 -> float) -> Conv 1x3 with stride 3 (one output per pixel,
-over its R, G, B: the per-pixel 1x1 layer, without a Transpose to NCHW; one output channel per
-distinct box bound) -> Clip[0, 1] -> Conv 1x1 (sum of a colour's bound indicators minus (n-1))
--> Relu -> colour masks (0/1) [1,3,15,640] -> ReduceSum over the tile's rows] -> ReduceSum over
-tiles -> Cast to double -> MatMul with [1, column] -> count and column sum -> Div/Where/Sqrt
--> Cast to float.
+Network: Reshape the uint8 frame into 16 tiles of 30 rows (a free view) -> Scan over the tiles
+of the convolutional network [Transpose the tile's bytes to NCHW -> Cast(uint8 -> float) ->
+Conv 1x1 (one output channel per distinct box bound) -> Clip[0, 1] -> Conv 1x1 (sum of a
+colour's bound indicators minus (n-1)) -> Relu -> colour masks (0/1) [1,3,30,640] -> ReduceSum
+over the tile's rows] -> ReduceSum over tiles -> Cast to double -> MatMul with [1, column] ->
+count and column sum -> Div/Where/Sqrt -> Cast to float.
 
-Why it is fast (issue 14): the frame is read once, as uint8; the Transpose of the first version
-(a full copy of the float frame) is gone; bounds shared by two colours (G<=55 of red and blue,
-B<=50 of red and green) are one channel, so the first layer has 7 channels instead of 9; the
-network runs tile by tile, so its float activations (7 channels, 270 KB per tile instead of
-8.6 MB per frame) stay in a core's cache instead of going through memory; onnxruntime fuses
-each Conv with its activation (Clip, Relu). A 1x1 network is per pixel, so tiling by rows
-changes no value. The model is meant for onnxruntime's ``ORT_ENABLE_EXTENDED`` level:
-``ORT_ENABLE_ALL`` rewrites the convolutions to the blocked NCHWc layout, whose reorders cost
-several times the whole model here.
+Why it is fast (issue 14): the network runs tile by tile, so its float activations (7 channels,
+540 KB per tile instead of 8.6 MB per frame) stay in a core's cache instead of going through
+memory; the frame is read once, as uint8, and its only transposition is of a tile's bytes in
+cache (the first version transposed the whole float frame), after which the first layer is a
+plain 1x1 convolution (a 1x3 kernel with stride 3 on the channels-last rows avoided the
+transposition but made onnxruntime build an im2col buffer, ~15 % slower); bounds shared by two
+colours (G<=55 of red and blue, B<=50 of red and green) are one channel, so the first layer has
+7 channels instead of 9; onnxruntime fuses each Conv with its activation (Clip, Relu). A 1x1
+network is per pixel, so tiling by rows changes no value. The model is meant for onnxruntime's
+``ORT_ENABLE_EXTENDED`` level: ``ORT_ENABLE_ALL`` rewrites the convolutions to the blocked
+NCHWc layout, whose reorders cost several times the whole model here.
 
 Why it is exact: inputs are integers, so each bound pre-activation is an odd integer (..., -1, 1,
 ...) and Clip maps it to exactly 0 or 1; the second Conv sums at most three 0/1 values, so Relu
@@ -46,8 +46,8 @@ import onnx
 from onnx import TensorProto, helper, numpy_helper
 
 HEIGHT, WIDTH = 480, 640
-#: Rows per tile: the activations of one tile (7 float channels) stay in a core's L2 cache.
-TILE_ROWS = 15
+#: Rows per tile: the activations of one tile (7 float channels, 540 KB) stay in a core's cache.
+TILE_ROWS = 30
 OPSET = 17
 
 #: Colour boxes in the output order (index 0 red = stop, 1 green = right, 2 blue = left):
@@ -85,16 +85,16 @@ def distinct_bounds() -> tuple[list[tuple[int, int, int]], list[list[int]]]:
 def bound_layers() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
     """Weights and biases of both convolutions, derived from :data:`BOXES`.
 
-    Returns (w1 [K,1,1,3], b1 [K], w2 [3,K,1,1], b2 [3]) for the K distinct bounds. Layer 1
+    Returns (w1 [K,3,1,1], b1 [K], w2 [3,K,1,1], b2 [3]) for the K distinct bounds. Layer 1
     gives ``2*sign*(x - threshold) + 1``: an odd integer, >= 1 where the bound holds and <= -1
     where it fails.
     """
     bounds, members = distinct_bounds()
     count = len(bounds)
-    w1 = np.zeros((count, 1, 1, 3), np.float32)
+    w1 = np.zeros((count, 3, 1, 1), np.float32)
     b1 = np.zeros(count, np.float32)
     for k, (channel, sign, threshold) in enumerate(bounds):
-        w1[k, 0, 0, channel] = 2.0 * sign
+        w1[k, channel, 0, 0] = 2.0 * sign
         b1[k] = -2.0 * sign * threshold + 1.0
     w2 = np.zeros((3, count, 1, 1), np.float32)
     b2 = np.zeros(3, np.float32)
@@ -107,9 +107,8 @@ def bound_layers() -> tuple[np.ndarray, np.ndarray, np.ndarray, np.ndarray]:
 def tile_network() -> onnx.GraphProto:
     """The convolutional network on one tile of ``TILE_ROWS`` rows: its masks' column counts.
 
-    Input ``tile`` uint8 [1, 1, TILE_ROWS, WIDTH*3] (each row's pixels R,G,B,R,G,B... along the
-    width: the camera's memory order); output ``tile_count`` float [1, 3, WIDTH], the pixels of
-    each colour per column of the tile.
+    Input ``tile`` uint8 [1, TILE_ROWS, WIDTH, 3] (rows of the camera's channels-last frame);
+    output ``tile_count`` float [1, 3, WIDTH], the pixels of each colour per column of the tile.
     """
     w1, b1, w2, b2 = bound_layers()
     initializers = [
@@ -124,8 +123,17 @@ def tile_network() -> onnx.GraphProto:
     node = helper.make_node
     nodes = [
         node(
-            "Cast",
+            "Transpose",
             ["tile"],
+            ["tile_nchw"],
+            perm=[0, 3, 1, 2],
+            name="to_nchw",
+            doc_string="The tile's channels-last bytes to NCHW (uint8, in cache): the first "
+            "layer is then a plain 1x1 convolution, one matrix product without im2col.",
+        ),
+        node(
+            "Cast",
+            ["tile_nchw"],
             ["tile_f"],
             to=TensorProto.FLOAT,
             name="to_float",
@@ -135,11 +143,10 @@ def tile_network() -> onnx.GraphProto:
             "Conv",
             ["tile_f", "bound_weight", "bound_bias"],
             ["bound_pre"],
-            kernel_shape=[1, 3],
-            strides=[1, 3],
+            kernel_shape=[1, 1],
             name="bounds",
-            doc_string="1x3 kernel, stride 3: one output per pixel, over its R,G,B; one channel "
-            "per distinct colour-box bound: >= 1 where it holds, <= -1 where it fails.",
+            doc_string="One channel per distinct colour-box bound: >= 1 where it holds, "
+            "<= -1 where it fails.",
         ),
         node(
             "Clip",
@@ -172,8 +179,8 @@ def tile_network() -> onnx.GraphProto:
             doc_string="Pixels per colour and column of the tile (exact).",
         ),
     ]
-    tile = helper.make_tensor_value_info("tile", TensorProto.UINT8, [1, 1, TILE_ROWS, WIDTH * 3])
-    tile.doc_string = f"{TILE_ROWS} rows of the frame, R,G,B of each pixel in turn along the width."
+    tile = helper.make_tensor_value_info("tile", TensorProto.UINT8, [1, TILE_ROWS, WIDTH, 3])
+    tile.doc_string = f"{TILE_ROWS} rows of the frame, RGB, channels last."
     count = helper.make_tensor_value_info("tile_count", TensorProto.FLOAT, [1, 3, WIDTH])
     count.doc_string = "Pixels of red, green, blue per column of the tile."
     return helper.make_graph(
@@ -192,9 +199,7 @@ def make_model() -> onnx.ModelProto:
     tiles, rest = divmod(HEIGHT, TILE_ROWS)
     assert rest == 0, "tiles cover the frame"
     initializers = [
-        numpy_helper.from_array(
-            np.array([tiles, 1, 1, TILE_ROWS, WIDTH * 3], np.int64), "tile_shape"
-        ),
+        numpy_helper.from_array(np.array([tiles, 1, TILE_ROWS, WIDTH, 3], np.int64), "tile_shape"),
         numpy_helper.from_array(np.array([0], np.int64), "tile_axis"),
         numpy_helper.from_array(columns, "count_and_column"),
         numpy_helper.from_array(np.array([1, 1], np.int64), "split_sizes"),
@@ -211,8 +216,8 @@ def make_model() -> onnx.ModelProto:
             ["image", "tile_shape"],
             ["tiles"],
             name="tiles",
-            doc_string=f"[1,{HEIGHT},{WIDTH},3] -> [{tiles},1,1,{TILE_ROWS},{WIDTH * 3}]: "
-            f"{tiles} tiles of {TILE_ROWS} rows, a row's R,G,B values along the width (no copy).",
+            doc_string=f"[1,{HEIGHT},{WIDTH},3] -> [{tiles},1,{TILE_ROWS},{WIDTH},3]: "
+            f"{tiles} tiles of {TILE_ROWS} rows (no copy).",
         ),
         node(
             "Scan",
@@ -289,8 +294,8 @@ def make_model() -> onnx.ModelProto:
         graph,
         opset_imports=[helper.make_opsetid("", OPSET)],
         producer_name="fmionnx models/onnx/build_sign_detector.py",
-        producer_version="2.1",
-        model_version=3,
+        producer_version="2.2",
+        model_version=4,
         doc_string=__doc__.split("\n\n")[0] if __doc__ else "",
     )
     model.ir_version = 8  # readable by onnxruntime releases of the last years

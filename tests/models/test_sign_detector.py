@@ -35,11 +35,15 @@ def test_model_passes_the_full_checker_and_strict_shape_inference():
     ops = [n.op_type for n in tile.node]
     assert {"Conv", "Relu", "ReduceSum"} <= set(ops)
     assert "MatMul" in {n.op_type for n in model.graph.node}
-    # issue 14: the network runs tile by tile on the uint8 frame, no NHWC -> NCHW copy
-    assert "Transpose" not in ops + [n.op_type for n in model.graph.node]
-    assert ops[:5] == ["Cast", "Conv", "Clip", "Conv", "Relu"]
+    # issue 14: the network runs tile by tile on the uint8 frame; the only transposition is of
+    # a tile's bytes, none of the whole frame, none of floats
+    assert [n.op_type for n in model.graph.node][:2] == ["Reshape", "Scan"]
+    assert "Transpose" not in [n.op_type for n in model.graph.node]
+    assert ops[:6] == ["Transpose", "Cast", "Conv", "Clip", "Conv", "Relu"]
+    (tile_input,) = tile.input
+    assert tile_input.type.tensor_type.elem_type == onnx.TensorProto.UINT8
     weights = {i.name: onnx.numpy_helper.to_array(i) for i in tile.initializer}
-    assert weights["bound_weight"].shape == (7, 1, 1, 3)  # 7 distinct bounds, kernel over R,G,B
+    assert weights["bound_weight"].shape == (7, 3, 1, 1)  # 7 distinct bounds, 1x1 over R,G,B
     assert all(v.doc_string for v in [*model.graph.input, *model.graph.output])
     props = {p.key: p.value for p in model.metadata_props}
     assert props["classes"] == "red,green,blue"
