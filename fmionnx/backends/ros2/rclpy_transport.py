@@ -79,8 +79,14 @@ class RclpyWriter:
     topic: str
     msgtype: str
 
-    def write(self, data: bytes) -> None:
-        """Publish one sample (CDR with encapsulation header) as it is."""
+    def write(self, data: bytes, stamp_ns: int | None = None) -> None:
+        """Publish one sample (CDR with encapsulation header) as it is.
+
+        rclpy's ``publish`` has no source timestamp argument (the middleware stamps the sample
+        with its own clock), so ``stamp_ns`` is dropped: only a message header carries the
+        simulated time through rclpy.
+        """
+        del stamp_ns
         self.publisher.publish(bytes(data))
 
     def matched(self) -> int:
@@ -117,6 +123,11 @@ class RclpyReader:
             self.queue.append(bytes(taken[0]))
         return [self.queue.popleft() for _ in range(min(limit, len(self.queue)))]
 
+    def take_stamped(self, limit: int = 64) -> list[tuple[bytes, int | None]]:
+        """Like :meth:`take`; no timestamps: an rclpy writer cannot choose its source timestamp,
+        so the one received would be a wall clock, not simulated time."""
+        return [(data, None) for data in self.take(limit)]
+
     def wait(self, timeout: float) -> bool:
         """Block until a sample is available or ``timeout`` seconds passed; True when data."""
         if not self.queue:
@@ -143,9 +154,7 @@ class RclpyParticipant:
                 args=_RCL_ARGS, context=self.context, domain_id=env.domain_id,
                 signal_handler_options=options,
             )  # fmt: skip
-            self.node = rclpy.create_node(
-                name, namespace=namespace or "/", context=self.context
-            )
+            self.node = rclpy.create_node(name, namespace=namespace or "/", context=self.context)
         except Exception as exc:  # rclpy raises its own RCLError types for a refused init
             self.context.try_shutdown()
             msg = f"rclpy cannot start node {namespace.rstrip('/')}/{name}: {exc}"
@@ -156,9 +165,7 @@ class RclpyParticipant:
 
     def writer(self, dds_name: str, msgtype: str, qos: QosProfile) -> RclpyWriter:
         """A publisher on DDS topic ``dds_name`` (``rt/...``) taking serialised samples."""
-        publisher = self.node.create_publisher(
-            _message_class(msgtype), _topic(dds_name), _qos(qos)
-        )
+        publisher = self.node.create_publisher(_message_class(msgtype), _topic(dds_name), _qos(qos))
         return RclpyWriter(publisher, dds_name, msgtype)
 
     def reader(self, dds_name: str, msgtype: str, qos: QosProfile) -> RclpyReader:

@@ -72,7 +72,9 @@ def node_recording(
             continue
         is_output = port.causality is Causality.OUTPUT
         try:
-            buffer = runner.output_buffer(port.name) if is_output else runner.input_buffer(port.name)
+            buffer = (
+                runner.output_buffer(port.name) if is_output else runner.input_buffer(port.name)
+            )
         except KeyError:
             continue
         seen.update(names)
@@ -104,8 +106,10 @@ def save_node(
     status: str,
     steps: int,
     error: RunError | None = None,
+    inputs: dict[str, dict[str, str | int]] | None = None,
 ) -> None:
-    """Write ``<component>.npz`` (rows) and ``<component>.json`` (how the node ended)."""
+    """Write ``<component>.npz`` (rows) and ``<component>.json`` (how the node ended and,
+    in a free run, what happened to each input: ``inputs``, see :mod:`.inputsync`)."""
     folder.mkdir(parents=True, exist_ok=True)
     arrays: dict[str, Any] = {}
     for i, track in enumerate(recording.tracks if recording else ()):
@@ -128,6 +132,8 @@ def save_node(
             "time": error.time,
         },
     }
+    if inputs is not None:
+        info["inputs"] = inputs
     write_text_atomic(folder / f"{component}.json", json.dumps(info, indent=2))
 
 
