@@ -172,6 +172,21 @@ def test_a_stale_step_uses_the_newest_older_sample_and_a_late_one_is_used_when_s
     assert (counts.matched, counts.stale, counts.late, counts.dropped) == (1, 1, 1, 0)
 
 
+def test_after_a_stale_step_a_silent_topic_is_not_waited_for_until_a_sample_arrives() -> None:
+    sync = _stamped()
+    _offer(sync, 0)
+    sync.use(0)
+    assert not sync.ready(5)
+    sync.use(5)  # stale: the producer stopped
+    assert sync.ready(10)  # no wait per step for a producer that does not publish
+    assert sync.use(10) is None
+    _offer(sync, 5)  # it lives again: the next step waits for its sample
+    assert not sync.ready(15)
+    assert sync.use(15) == b"s5"
+    counts = sync.finish()
+    assert (counts.matched, counts.stale, counts.late, counts.dropped) == (1, 3, 1, 2)
+
+
 def test_samples_from_the_future_wait_for_their_step() -> None:
     sync = _stamped()
     _offer(sync, 20, 15)

@@ -16,8 +16,9 @@ its *stamp* and a step takes the sample of its own time:
   publishes its outputs stamped ``m + period``, the values after set-up are stamped 0.
 * **Future samples** (stamped later than expected) are kept until a step expects them.
 * **Stale step**: the expected sample did not come within the wait (the node decides how long);
-  the step uses the newest older sample it has. A step expecting a sample that an earlier
-  step already waited for in vain does not wait again.
+  the step uses the newest older sample it has. After a stale step the topic is *silent*: no
+  step waits for it again until a new sample of it arrives, so a producer that stopped or
+  never started costs one wait, not one per step.
 * **Late sample**: a sample used after a step that expected it had gone stale.
 * **Dropped sample**: a sample that some step expected and no step used.
 
@@ -144,6 +145,8 @@ class StampedInput:
     missed: set[int] = field(default_factory=set)
     #: Arrival mode: the newest sample not yet used.
     newest: bytes | None = None
+    #: A step went stale and no sample arrived since: do not wait for this topic.
+    silent: bool = False
     counts: InputCounts = field(init=False)
 
     def __post_init__(self) -> None:
@@ -162,6 +165,7 @@ class StampedInput:
     def offer(self, data: bytes, source_ns: int | None) -> None:
         """One arrived sample with the middleware's source timestamp (ns, or None)."""
         self.counts.received += 1
+        self.silent = False
         stamp = self.stamp_of(data, source_ns)
         if stamp is None:
             if self.match is Match.SOURCE:  # the middleware cannot carry one (rclpy)
@@ -180,10 +184,10 @@ class StampedInput:
         """Whether a step expecting the sample stamped ``expected`` need not wait any longer.
 
         True when that sample is here or in use, when nothing is expected, when a step already
-        waited for it in vain, and when a newer sample arrived (one writer's samples arrive in
-        order, so the expected one is lost).
+        waited for it in vain, when the topic has been silent since a stale step, and when a
+        newer sample arrived (one writer's samples arrive in order, so the expected one is lost).
         """
-        if self.match is Match.ARRIVAL or expected is None:
+        if self.match is Match.ARRIVAL or expected is None or self.silent:
             return True
         if expected == self.current or expected in self.pending or expected in self.missed:
             return True
@@ -206,6 +210,7 @@ class StampedInput:
         else:
             self.counts.stale += 1
             self.missed.add(expected)
+            self.silent = True
             older = [stamp for stamp in self.pending if stamp < expected]
             if not older:
                 return None
