@@ -85,6 +85,10 @@ class StepScale:
         """The base step nearest to ``stamp_ns`` (stamps of the run lie on the grid)."""
         return round((stamp_ns * 1e-9 - self.start) / self.step)
 
+    def seconds(self, index: int) -> float:
+        """The simulated time of base step ``index`` (for messages)."""
+        return self.start + index * self.step
+
 
 def expected_stamp(schedule: TopicSchedule, n: int, position: int) -> int | None:
     """The stamp (base-step index) of the sample a reader at ``(n, position)`` should use.

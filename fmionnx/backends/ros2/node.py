@@ -240,17 +240,21 @@ class Inbox:
             self.reader.wait(min(remaining, 0.05))
             self.collect()
 
-    def load(self, expected: int | None, step_time: float) -> None:
+    def load(self, expected: int | None, step_time: float, level: int = logging.WARNING) -> None:
         """Free run: load the sample :meth:`StampedInput.use` chooses, logging a stale step."""
         assert self.stamped is not None
         stale = self.stamped.counts.stale
         data = self.stamped.use(expected)
         if self.stamped.counts.stale > stale and self.stale_logged < STALE_LOGGED:
             self.stale_logged += 1
-            log.warning(
-                "t=%g s: %s: the sample of this step (stamp step %s) did not arrive in time; "
-                "stepped on the one of step %s%s", step_time, self.topic.name, expected,
-                self.stamped.current,
+            scale, current = self.stamped.scale, self.stamped.current
+            used = (
+                "the values held" if current is None
+                else f"the one stamped {scale.seconds(current):g} s"
+            )  # fmt: skip
+            log.log(
+                level, "t=%g s: %s: the sample stamped %g s did not come in time; stepped on %s%s",
+                step_time, self.topic.name, scale.seconds(expected or 0), used,
                 " (further stale steps are only counted)" if self.stale_logged == STALE_LOGGED
                 else "",
             )  # fmt: skip
@@ -465,12 +469,13 @@ class Node:
         often).
         """
         wait = 0.0 if self.is_clock_source else self.options.input_wait
+        level = logging.INFO if self.is_clock_source else logging.WARNING  # stale is normal there
         deadline = time.monotonic() + wait
         expected = [inbox.expected(n, self.position) for inbox in self.inboxes]
         for inbox, stamp in zip(self.inboxes, expected, strict=True):
             inbox.settle(stamp, deadline)
         for inbox, stamp in zip(self.inboxes, expected, strict=True):
-            inbox.load(stamp, t)
+            inbox.load(stamp, t, level)
 
     # -- time ----------------------------------------------------------------------------------
 
