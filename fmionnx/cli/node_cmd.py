@@ -77,9 +77,9 @@ def node(
         float,
         typer.Option(
             "--input-wait",
-            help="Free run: seconds a step waits for an input sample of its time (default 0.5).",
+            help="Free run: seconds a step waits for an input sample of its time (default 0.1).",
         ),
-    ] = 0.5,
+    ] = 0.1,
     remap: Annotated[
         list[str] | None,
         typer.Option(

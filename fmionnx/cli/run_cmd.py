@@ -173,7 +173,7 @@ def run(
         typer.Option(
             "--input-wait",
             help="With --backend ros2 --sync free: seconds a node's step waits for an input "
-            "sample of its time before stepping on an older one (default 0.5).",
+            "sample of its time before stepping on an older one (default 0.1).",
         ),
     ] = None,
     step_timeout: Annotated[

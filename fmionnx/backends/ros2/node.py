@@ -80,7 +80,7 @@ log = logging.getLogger("fmionnx.node")
 #: Seconds a writer waits for the readers of the run before publishing its first sample.
 MATCH_TIMEOUT = 60.0
 #: Free run: default seconds a step waits for an input sample of its time (``--input-wait``).
-INPUT_WAIT = 0.5
+INPUT_WAIT = 0.1
 #: Free run: stale steps logged per input (the rest are only counted).
 STALE_LOGGED = 5
 
