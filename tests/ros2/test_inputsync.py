@@ -218,6 +218,16 @@ def test_headerless_samples_without_a_source_timestamp_are_taken_by_arrival() ->
     assert sync.finish().as_json()["match"] == "arrival"
 
 
+def test_a_source_timestamp_outside_the_run_is_no_simulated_time_and_means_arrival() -> None:
+    sync = StampedInput(Match.SOURCE, StepScale(0.0, 0.002, steps=1000))
+    _offer(sync, 0, 5)
+    assert sync.match is Match.SOURCE
+    sync.offer(b"wall", 1_763_900_000 * 1_000_000_000)  # a wall clock: rclpy, or a negative start
+    assert sync.match is Match.ARRIVAL
+    assert sync.use(10) == b"wall"
+    assert sync.finish().as_json()["match"] == "arrival"
+
+
 def test_header_samples_are_placed_by_their_header_not_the_source_timestamp() -> None:
     codec = TopicCodec(
         "sensor_msgs/msg/Image", (PortField("front", (WHOLE,), (2, 2, 3), "uint8"),),

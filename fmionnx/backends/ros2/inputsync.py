@@ -23,8 +23,8 @@ its *stamp* and a step takes the sample of its own time:
 * **Dropped sample**: a sample that some step expected and no step used.
 
 Topics that no node of the run publishes (a real camera) and samples without a usable stamp
-(rclpy cannot set a source timestamp, so headerless messages through rclpy) are taken by arrival:
-the newest one.
+(rclpy cannot set a source timestamp, so headerless messages through rclpy; a source timestamp
+outside the run's time) are taken by arrival: the newest one.
 """
 
 from __future__ import annotations
@@ -76,10 +76,17 @@ def header_stamp_ns(data: bytes) -> int | None:
 
 @dataclass(frozen=True)
 class StepScale:
-    """Seconds (ns) of simulated time <-> base-step indices of one run."""
+    """Seconds (ns) of simulated time <-> base-step indices of one run of ``steps`` steps."""
 
     start: float
     step: float
+    #: Base steps of the run (0: any stamp is plausible).
+    steps: int = 0
+
+    def plausible(self, index: int) -> bool:
+        """Whether a source timestamp can be one a node of this run set (a writer that did
+        not set it, e.g. rclpy, or a negative start time, leaves a wall clock there)."""
+        return self.steps <= 0 or 0 <= index <= 2 * self.steps + 1
 
     def index(self, stamp_ns: int) -> int:
         """The base step nearest to ``stamp_ns`` (stamps of the run lie on the grid)."""
@@ -160,11 +167,11 @@ class StampedInput:
         """The base-step stamp of a sample (None: it has none this topic can use)."""
         if self.match is Match.HEADER:
             ns = header_stamp_ns(data)
-        elif self.match is Match.SOURCE:
-            ns = source_ns
-        else:
+            return None if ns is None else self.scale.index(ns)
+        if self.match is Match.ARRIVAL or source_ns is None:
             return None
-        return None if ns is None else self.scale.index(ns)
+        index = self.scale.index(source_ns)
+        return index if self.scale.plausible(index) else None  # None: no simulated time
 
     def offer(self, data: bytes, source_ns: int | None) -> None:
         """One arrived sample with the middleware's source timestamp (ns, or None)."""

@@ -359,7 +359,7 @@ class Node:
         system, plan, name = self.system, self.plan, self.component.name
         distro = plan.distro
         schedules = topic_schedules(system, plan)
-        scale = StepScale(system.run.start, system.run.step)
+        scale = StepScale(system.run.start, system.run.step, system.run.steps)
         proxies: dict[str, ProxyRunner] = {}
         transfers = []
         for connection in system.inputs_of(name):
