@@ -18,6 +18,24 @@ def _fail(message: str, code: int) -> typer.Exit:
     return typer.Exit(code)
 
 
+def _remaps(items: list[str]) -> tuple[tuple[str, str], ...]:
+    """``--remap /from:=/to`` pairs, both valid absolute ROS topic names (usage error else)."""
+    from fmionnx.compile.ros2.names import topic_problem
+
+    pairs = []
+    for item in items:
+        source, sep, target = item.partition(":=")
+        if not sep:
+            raise _fail(f"--remap `{item}` must look like `/from:=/to`", ExitCode.USAGE)
+        for name in (source, target):
+            problem = topic_problem(name)
+            if problem is not None:
+                raise _fail(f"--remap `{item}`: `{name}` is no topic name: {problem}",
+                            ExitCode.USAGE)  # fmt: skip
+        pairs.append((source, target))
+    return tuple(pairs)
+
+
 @app.command(
     epilog="Examples:\n\n"
     "  fmionnx node systems/sign_follower.yaml tracker --sync free\n\n"
@@ -55,6 +73,19 @@ def node(
     middleware: Annotated[
         str, typer.Option("--middleware", help="`dds` (Cyclone DDS) or `rclpy` (a ROS 2 node).")
     ] = "dds",
+    input_wait: Annotated[
+        float,
+        typer.Option(
+            "--input-wait",
+            help="Free run: seconds a step waits for an input sample of its time (default 0.1).",
+        ),
+    ] = 0.1,
+    remap: Annotated[
+        list[str] | None,
+        typer.Option(
+            "--remap", "-r", help="`/from:=/to`: publish or subscribe topic /from as /to."
+        ),
+    ] = None,
     models: Annotated[
         Path | None,
         typer.Option(
@@ -92,6 +123,9 @@ def node(
         raise _fail("--rtf must be >= 0 (0: as fast as possible)", ExitCode.USAGE)
     if max_steps < 1:
         raise _fail("--max-steps must be at least 1", ExitCode.USAGE)
+    if not 0 <= input_wait < float("inf"):  # also NaN
+        raise _fail("--input-wait must be >= 0 seconds", ExitCode.USAGE)
+    remaps = _remaps(remap or [])
     problem = distro_problem(distro) if transport is Middleware.RCLPY else None
     if problem is not None:
         raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
@@ -117,7 +151,9 @@ def node(
                 ExitCode.USAGE,
             )
         plan = plan_for(compiled, distro)
-        options = NodeOptions(mode, distro, record_dir, supervised, rtf, transport)
+        options = NodeOptions(
+            mode, distro, record_dir, supervised, rtf, transport, input_wait, remaps
+        )
         the_node = Node(compiled, plan, component, options)
         logging.getLogger("fmionnx.node").info(
             "system %s, content hash %s", compiled.name, compiled.content_hash[:16]

@@ -3,6 +3,7 @@ and write its results."""
 
 from __future__ import annotations
 
+import dataclasses
 import sys
 import time
 from pathlib import Path
@@ -167,6 +168,14 @@ def run(
             "--rtf", help="With --backend ros2 --sync free: simulator pace (x real time; 0: fast)."
         ),
     ] = 1.0,
+    input_wait: Annotated[
+        float | None,
+        typer.Option(
+            "--input-wait",
+            help="With --backend ros2 --sync free: seconds a node's step waits for an input "
+            "sample of its time before stepping on an older one (default 0.1).",
+        ),
+    ] = None,
     step_timeout: Annotated[
         float,
         typer.Option(
@@ -258,6 +267,8 @@ def run(
     if max_steps < 1:
         raise fail("--max-steps must be at least 1")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
+    if input_wait is not None:
+        ros2 = _with_input_wait(ros2, input_wait)
     if ros2 is not None and (isolate or sandbox):
         raise fail("--isolate and --sandbox apply in-process; ROS 2 nodes are processes already")
     if not step_timeout > 0:
@@ -369,6 +380,15 @@ def _ros2_options(
         sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf, record=record,
         step_timeout=step_timeout, middleware=middleware,
     )  # fmt: skip
+
+
+def _with_input_wait(ros2: Any, seconds: float) -> Any:
+    """``--input-wait``: checked, and only with ``--backend ros2 --sync free``."""
+    if ros2 is None or ros2.sync.value != "free":
+        raise fail("--input-wait applies to --backend ros2 --sync free only")
+    if not 0 <= seconds < float("inf"):  # also NaN
+        raise fail("--input-wait must be >= 0 seconds")
+    return dataclasses.replace(ros2, input_wait=seconds)
 
 
 def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:

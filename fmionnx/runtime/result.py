@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import abc
 import enum
-from collections.abc import Callable
+from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
@@ -23,6 +23,9 @@ from fmionnx.core.types import PortRef
 
 if TYPE_CHECKING:
     from fmionnx.runtime.recorder import FrameSink
+
+#: A value of ``RunResult.details`` (JSON: scalars, or objects of them such as per-node counts).
+Detail = str | int | float | bool | None | dict[str, "Detail"]
 
 
 class RunStatus(enum.StrEnum):
@@ -105,7 +108,7 @@ class RunResult:
     error: RunError | None = None
     #: Backend-specific facts about how the run executed (e.g. the in-process ``native``
     #: kernel), written to run.json as ``execution``.
-    details: dict[str, str | int | bool | None] = field(default_factory=dict)
+    details: dict[str, Detail] = field(default_factory=dict)
     #: For an interrupted run: the signal that stopped it (``SIGINT``, ``SIGTERM``, ``SIGHUP``).
     interrupted_by: str | None = None
     #: For a completed run that a model ended before the stop time: which, when and why.
@@ -121,7 +124,7 @@ class RunResult:
         wall_time: float,
         signals: dict[str, npt.NDArray[np.float64]],
         error: RunError | None = None,
-        details: dict[str, str | int | bool | None] | None = None,
+        details: Mapping[str, Detail] | None = None,
         interrupted_by: str | None = None,
         ended_by: EndedBy | None = None,
     ) -> RunResult:
@@ -151,7 +154,7 @@ class RunResult:
             time=time,
             signals=signals,
             error=error,
-            details=details or {},
+            details=dict(details or {}),
             interrupted_by=interrupted_by,
             ended_by=ended_by,
         )

@@ -27,8 +27,10 @@ class Middleware(enum.StrEnum):
 class SampleWriter(Protocol):
     """Publishes serialised samples (:class:`~.transport.RawWriter`, ``RclpyWriter``)."""
 
-    def write(self, data: bytes) -> None:
-        """Publish one sample."""
+    def write(self, data: bytes, stamp_ns: int | None = None) -> None:
+        """Publish one sample; ``stamp_ns``: the simulated time (ns) of the step whose outputs it
+        carries, sent as the sample's source timestamp where the middleware can (free-run
+        readers match headerless messages by it); None: the middleware's own clock."""
 
     def matched(self) -> int:
         """Readers matched right now."""
@@ -42,6 +44,10 @@ class SampleReader(Protocol):
 
     def take(self, limit: int = 64) -> list[bytes]:
         """Waiting samples, oldest first, never blocking."""
+
+    def take_stamped(self, limit: int = 64) -> list[tuple[bytes, int | None]]:
+        """Waiting samples with their source timestamps (ns; None where the middleware cannot
+        carry one the writer chose), oldest first, never blocking."""
 
     def wait(self, timeout: float) -> bool:
         """Block until a sample is available; True when one is."""

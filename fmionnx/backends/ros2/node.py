@@ -13,8 +13,9 @@ for ``/fmionnx/done`` from every node due at ``n``; a due node reads, per subscr
 sample number :meth:`TopicSchedule.count_before` names (the producer's step-``n`` value when it
 runs earlier in the order, else the held one), steps, publishes, reports done. ``free``: the
 simulator node steps at its own pace (``rtf`` times real time) and publishes ``/clock``; every
-other node steps at its grid points once the clock has passed them, with the newest value of
-each input, after every input delivered a first sample.
+other node steps at its grid points once the clock has passed them, after every input delivered
+a first sample, on the input samples *of its time* (matched by stamp, :mod:`.inputsync`),
+waiting for a late one at most ``input_wait`` seconds.
 """
 
 from __future__ import annotations
@@ -44,6 +45,13 @@ from fmionnx.backends.ros2.control import (
 )
 from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
 from fmionnx.backends.ros2.env import from_environment
+from fmionnx.backends.ros2.inputsync import (
+    Match,
+    StampedInput,
+    StepScale,
+    expected_stamp,
+    starts_with_header,
+)
 from fmionnx.backends.ros2.middleware import (
     Middleware,
     NodeTransport,
@@ -71,6 +79,10 @@ log = logging.getLogger("fmionnx.node")
 
 #: Seconds a writer waits for the readers of the run before publishing its first sample.
 MATCH_TIMEOUT = 60.0
+#: Free run: default seconds a step waits for an input sample of its time (``--input-wait``).
+INPUT_WAIT = 0.1
+#: Free run: stale steps logged per input (the rest are only counted).
+STALE_LOGGED = 5
 
 
 class SyncMode(enum.StrEnum):
@@ -94,6 +106,10 @@ class NodeOptions:
     supervised: bool = False
     rtf: float = 1.0
     middleware: Middleware = Middleware.DDS
+    #: Free run: seconds a step waits for an input sample of its time before going stale.
+    input_wait: float = INPUT_WAIT
+    #: ROS topic remappings ``(from, to)`` of this node's publishers and subscriptions.
+    remap: tuple[tuple[str, str], ...] = ()
 
 
 def clock_source(system: CompiledSystem, plan: Ros2Plan) -> str | None:
@@ -160,6 +176,9 @@ class Inbox:
     queue: deque[tuple[int, bytes]] = field(default_factory=deque)
     received: int = 0
     used: int = 0
+    #: Free run: the samples by stamp (None in lockstep).
+    stamped: StampedInput | None = None
+    stale_logged: int = 0
 
     def drain(self) -> None:
         """Move every waiting sample into the queue, numbered from 1."""
@@ -193,8 +212,59 @@ class Inbox:
                 return
             self.reader.wait(0.5)
 
+    def collect(self) -> None:
+        """Free run: hand every waiting sample, with its source timestamp, to :attr:`stamped`."""
+        assert self.stamped is not None
+        while True:
+            samples = self.reader.take_stamped(256)
+            for data, source_ns in samples:
+                self.received += 1
+                self.stamped.offer(data, source_ns)
+            if len(samples) < 256:
+                return
+
+    def expected(self, n: int, position: int) -> int | None:
+        """Free run: the stamp a step at ``(n, position)`` expects (None: any, by arrival)."""
+        if self.schedule is None:
+            return None
+        return expected_stamp(self.schedule, n, position)
+
+    def settle(self, expected: int | None, deadline: float) -> None:
+        """Free run: collect samples until the expected one is here or ``deadline`` passed."""
+        assert self.stamped is not None
+        self.collect()
+        while not self.stamped.ready(expected):
+            remaining = deadline - time.monotonic()
+            if remaining <= 0:
+                return
+            self.reader.wait(min(remaining, 0.05))
+            self.collect()
+
+    def load(self, expected: int | None, step_time: float, level: int = logging.WARNING) -> None:
+        """Free run: load the sample :meth:`StampedInput.use` chooses, logging a stale step."""
+        assert self.stamped is not None
+        stale = self.stamped.counts.stale
+        data = self.stamped.use(expected)
+        if self.stamped.counts.stale > stale and self.stale_logged < STALE_LOGGED:
+            self.stale_logged += 1
+            scale, current = self.stamped.scale, self.stamped.current
+            used = (
+                "the values held" if current is None
+                else f"the one stamped {scale.seconds(current):g} s"
+            )  # fmt: skip
+            log.log(
+                level, "t=%g s: %s: the sample stamped %g s did not come in time; stepped on %s%s",
+                step_time, self.topic.name, scale.seconds(expected or 0), used,
+                " (further stale steps are only counted)" if self.stale_logged == STALE_LOGGED
+                else "",
+            )  # fmt: skip
+        if data is not None:
+            values, _ = self.codec.decode(data)
+            for port, buffer in self.sinks:
+                np.copyto(buffer, values[port].reshape(buffer.shape), casting="unsafe")
+
     def newest(self) -> None:
-        """Free run (and topics from outside the run): load the newest sample, if any."""
+        """Lockstep, topics from outside the run: load the newest sample, if any."""
         self.drain()
         if self.queue:
             index, data = self.queue[-1]
@@ -261,6 +331,7 @@ class Node:
         self.transfers: tuple[Transfer, ...] = ()
         self.recording: NodeRecording | None = None
         self.runner: Runner | None = None
+        self.remap = dict(options.remap)
 
     # -- set-up --------------------------------------------------------------------------------
 
@@ -271,12 +342,15 @@ class Node:
         after the writer's first sample (matching order across processes is not defined, and a
         foreign reader can satisfy a writer's wait) still gets it. ROS 2 subscribers asking for
         VOLATILE still match. Lockstep also makes them RELIABLE and lets readers keep every
-        sample: a lockstep reader counts samples and must never miss one.
+        sample: a lockstep reader counts samples and must never miss one. A free-run reader
+        keeps 64 (a node descheduled for a moment must not lose the sample of its next step
+        from the middleware's cache: 10 samples are 20 ms of a 500 Hz ``/odom``).
         """
         if not in_run:
             return profile
         if self.options.sync is not SyncMode.LOCKSTEP:
-            return QosProfile(profile.reliability, Durability.TRANSIENT_LOCAL, profile.depth)
+            depth = max(profile.depth, 64) if reader else profile.depth
+            return QosProfile(profile.reliability, Durability.TRANSIENT_LOCAL, depth)
         return QosProfile(
             Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, max(profile.depth, 64), reader
         )
@@ -285,6 +359,7 @@ class Node:
         system, plan, name = self.system, self.plan, self.component.name
         distro = plan.distro
         schedules = topic_schedules(system, plan)
+        scale = StepScale(system.run.start, system.run.step, system.run.steps)
         proxies: dict[str, ProxyRunner] = {}
         transfers = []
         for connection in system.inputs_of(name):
@@ -306,15 +381,19 @@ class Node:
                     buffer = proxies[source].output_buffer(sub.src_port)
                     sinks[(source, sub.src_port)] = (sub.src_port, buffer)
             qos = self._qos(topic.qos, reader=True, in_run=topic.publisher is not None)
-            reader = participant.reader(dds_topic(topic_name), topic.msgtype, qos)
+            reader = participant.reader(self._dds_name(topic_name), topic.msgtype, qos)
             codec = TopicCodec(topic.msgtype, topic.fields, distro, frame_id=topic.frame_id)
             schedule = schedules.get(topic_name) if topic.publisher is not None else None
-            self.inboxes.append(Inbox(topic, reader, codec, schedule, list(sinks.values())))
+            inbox = Inbox(topic, reader, codec, schedule, list(sinks.values()))
+            if self.options.sync is SyncMode.FREE:
+                inbox.stamped = StampedInput(self._match(topic), scale)
+            self.inboxes.append(inbox)
         for topic_name in self.node_plan.publishes:
             topic = plan.topic(topic_name)
             writer = participant.writer(
-                dds_topic(topic_name), topic.msgtype, self._qos(topic.qos, reader=False, in_run=True)
-            )
+                self._dds_name(topic_name), topic.msgtype,
+                self._qos(topic.qos, reader=False, in_run=True),
+            )  # fmt: skip
             codec = TopicCodec(topic.msgtype, topic.fields, distro, frame_id=topic.frame_id)
             values = {f.port: runner.output_buffer(f.port) for f in topic.fields}
             lazy = tuple(f.port for f in topic.fields if f.port in runner.lazy_outputs)
@@ -322,6 +401,26 @@ class Node:
             self.outboxes.append(
                 Outbox(topic, writer, codec, schedules[topic_name], values, lazy, readers)
             )
+
+    def _dds_name(self, topic_name: str) -> str:
+        """The DDS name of a plan topic after ``--remap``."""
+        return dds_topic(self.remap.get(topic_name, topic_name))
+
+    def _match(self, topic: TopicPlan) -> Match:
+        """How a free-run inbox stamps its samples: header, source timestamp, or arrival."""
+        if topic.publisher is None:
+            return Match.ARRIVAL
+        if starts_with_header(topic.msgtype, self.plan.distro):
+            return Match.HEADER
+        return Match.SOURCE
+
+    def input_counts(self) -> dict[str, dict[str, str | int]]:
+        """Free run: per subscribed topic, what :class:`StampedInput` counted."""
+        return {
+            box.topic.name: box.stamped.finish().as_json()
+            for box in self.inboxes
+            if box.stamped is not None
+        }
 
     def _readers_matched(self) -> None:
         for box in self.outboxes:
@@ -338,15 +437,18 @@ class Node:
                 continue
             for port in box.lazy:
                 runner.produce(port)
-            box.writer.write(box.codec.encode(box.values, stamp))
+            box.writer.write(box.codec.encode(box.values, stamp), round(stamp * 1e9))
 
     def _step(self, runner: Runner, n: int, *, exact: bool) -> None:
         t = self.system.run.time_at(n)
-        for inbox in self.inboxes:
-            if exact and inbox.schedule is not None:
-                inbox.exact(inbox.schedule.count_before(n, self.position))
-            else:
-                inbox.newest()
+        if not exact:
+            self._gather(n, t)
+        else:
+            for inbox in self.inboxes:
+                if inbox.schedule is not None:
+                    inbox.exact(inbox.schedule.count_before(n, self.position))
+                else:
+                    inbox.newest()
         for transfer in self.transfers:
             transfer(t)
         recording = self.recording
@@ -358,6 +460,22 @@ class Node:
             recording.after.sample()
         self.steps_done = n + self.component.period_steps
         self._publish(runner, n, t + h)
+
+    def _gather(self, n: int, t: float) -> None:
+        """Free run: load each input's sample of step ``n``, waiting at most ``input_wait``.
+
+        The clock source (the simulator) never waits: it is the physical world, and its inputs
+        are as late as the loop through the other nodes makes them (its stale count says how
+        often).
+        """
+        wait = 0.0 if self.is_clock_source else self.options.input_wait
+        level = logging.INFO if self.is_clock_source else logging.WARNING  # stale is normal there
+        deadline = time.monotonic() + wait
+        expected = [inbox.expected(n, self.position) for inbox in self.inboxes]
+        for inbox, stamp in zip(self.inboxes, expected, strict=True):
+            inbox.settle(stamp, deadline)
+        for inbox, stamp in zip(self.inboxes, expected, strict=True):
+            inbox.load(stamp, t, level)
 
     # -- time ----------------------------------------------------------------------------------
 
@@ -397,7 +515,7 @@ class Node:
                 now = max(now, tick)
             if not started:
                 for inbox in self.inboxes:
-                    inbox.drain()
+                    inbox.collect()
                 started = all(inbox.received > 0 for inbox in self.inboxes)
                 if not started:
                     if now >= total:
@@ -488,8 +606,9 @@ class Node:
             log.info("stopped at step %d", self.steps_done)
         finally:
             if opts.record_dir is not None:
+                inputs = self.input_counts() if opts.sync is SyncMode.FREE else None
                 save_node(opts.record_dir, self.recording, self.component.name,
-                          status=status, steps=self.steps_done, error=error)
+                          status=status, steps=self.steps_done, error=error, inputs=inputs)
             runner.terminate()
             if announcer is not None:
                 announcer.withdraw()
@@ -503,4 +622,3 @@ def describe_node(plan: Ros2Plan, component: str) -> str:
         return f"{plan.node(component).fqn} (component `{component}`)"
     except KeyError:
         return f"component `{component}`"
-

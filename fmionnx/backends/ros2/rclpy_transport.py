@@ -79,8 +79,14 @@ class RclpyWriter:
     topic: str
     msgtype: str
 
-    def write(self, data: bytes) -> None:
-        """Publish one sample (CDR with encapsulation header) as it is."""
+    def write(self, data: bytes, stamp_ns: int | None = None) -> None:
+        """Publish one sample (CDR with encapsulation header) as it is.
+
+        rclpy's ``publish`` has no source timestamp argument (the middleware stamps the sample
+        with its own clock), so ``stamp_ns`` is dropped: only a message header carries the
+        simulated time through rclpy.
+        """
+        del stamp_ns
         self.publisher.publish(bytes(data))
 
     def matched(self) -> int:
@@ -116,6 +122,11 @@ class RclpyReader:
                 break
             self.queue.append(bytes(taken[0]))
         return [self.queue.popleft() for _ in range(min(limit, len(self.queue)))]
+
+    def take_stamped(self, limit: int = 64) -> list[tuple[bytes, int | None]]:
+        """Like :meth:`take`; no timestamps: an rclpy writer cannot choose its source timestamp,
+        so the one received would be a wall clock, not simulated time."""
+        return [(data, None) for data in self.take(limit)]
 
     def wait(self, timeout: float) -> bool:
         """Block until a sample is available or ``timeout`` seconds passed; True when data."""

@@ -104,8 +104,10 @@ def save_node(
     status: str,
     steps: int,
     error: RunError | None = None,
+    inputs: dict[str, dict[str, str | int]] | None = None,
 ) -> None:
-    """Write ``<component>.npz`` (rows) and ``<component>.json`` (how the node ended)."""
+    """Write ``<component>.npz`` (rows) and ``<component>.json`` (how the node ended and,
+    in a free run, what happened to each input: ``inputs``, see :mod:`.inputsync`)."""
     folder.mkdir(parents=True, exist_ok=True)
     arrays: dict[str, Any] = {}
     for i, track in enumerate(recording.tracks if recording else ()):
@@ -128,6 +130,8 @@ def save_node(
             "time": error.time,
         },
     }
+    if inputs is not None:
+        info["inputs"] = inputs
     write_text_atomic(folder / f"{component}.json", json.dumps(info, indent=2))
 
 

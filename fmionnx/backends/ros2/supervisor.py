@@ -45,7 +45,7 @@ from fmionnx.backends.ros2.control import (
 from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
 from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.loading import plan_for
-from fmionnx.backends.ros2.node import SyncMode, clock_source, describe_node
+from fmionnx.backends.ros2.node import INPUT_WAIT, SyncMode, clock_source, describe_node
 from fmionnx.backends.ros2.recording import error_of, load_status, merge, record_refs
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
@@ -57,7 +57,7 @@ from fmionnx.compile.systemfile import write_compiled
 from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.core.safewrite import open_growing
 from fmionnx.core.scratch import scratch
-from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+from fmionnx.runtime.result import Detail, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_on_signals, stop_reason
 
 BACKEND_NAME = "ros2"
@@ -96,6 +96,8 @@ class Ros2Options:
     record: Path | None = None
     #: ``rclpy``: every node runs through rclpy (the supervisor stays on Cyclone DDS).
     middleware: str = "dds"
+    #: Free run: seconds a node's step waits for an input sample of its time (``--input-wait``).
+    input_wait: float = INPUT_WAIT
     run: RunOptions = field(default_factory=RunOptions)
 
 
@@ -229,6 +231,8 @@ class Supervisor:
         ]  # fmt: skip
         if opts.middleware != "dds":
             argv += ["--middleware", opts.middleware]
+        if opts.input_wait != INPUT_WAIT:
+            argv += ["--input-wait", repr(opts.input_wait)]
         return argv
 
     # -- phases --------------------------------------------------------------------------------
@@ -411,9 +415,19 @@ class Supervisor:
             self.interrupted_by,
         )  # fmt: skip
 
-    def _details(self) -> dict[str, str | int | bool | None]:
+    def _inputs(self) -> dict[str, Detail]:
+        """Free run: each node's input counts (from its status file), by component and topic."""
+        found: dict[str, Detail] = {}
+        for component in self.components:
+            inputs = (load_status(self.records, component) or {}).get("inputs")
+            if isinstance(inputs, dict):
+                found[component] = inputs
+        return found
+
+    def _details(self) -> dict[str, Detail]:
         """How the run executed, for run.json's ``execution``."""
         opts = self.options
+        free = opts.sync is SyncMode.FREE
         return {
             "sync": opts.sync.value,
             "ros_distro": opts.distro.value,
@@ -423,6 +437,8 @@ class Supervisor:
             "logs": str(self.logs) if opts.out is not None else None,
             "record": str(opts.record) if opts.record is not None else None,
             "recorded_messages": self.recorder.messages if self.recorder is not None else None,
+            "input_wait": opts.input_wait if free else None,
+            "inputs": self._inputs() if free else None,
         }
 
 

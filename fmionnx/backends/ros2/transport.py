@@ -15,7 +15,7 @@ from collections.abc import Callable
 from dataclasses import dataclass, field
 from typing import Any
 
-from cyclonedds._clayer import ddspy_take, ddspy_write
+from cyclonedds._clayer import ddspy_take, ddspy_write, ddspy_write_ts
 from cyclonedds.core import DDSException, InstanceState, ReadCondition, SampleState, ViewState
 from cyclonedds.core import WaitSet as _WaitSet
 from cyclonedds.domain import Domain, DomainParticipant
@@ -113,12 +113,19 @@ class RawWriter:
         """The writer's GUID."""
         return gid_of(self.writer)
 
-    def write(self, data: bytes) -> None:
-        """Publish one sample (CDR with encapsulation header), padded to 4 bytes as DDS wants."""
+    def write(self, data: bytes, stamp_ns: int | None = None) -> None:
+        """Publish one sample (CDR with encapsulation header), padded to 4 bytes as DDS wants.
+
+        ``stamp_ns`` becomes the sample's DDS source timestamp (``dds_write_ts``); DDS times
+        cannot be negative, so a negative stamp leaves the timestamp to Cyclone's clock.
+        """
         padding = -len(data) % 4
         if padding:
             data += b"\0" * padding
-        ret = ddspy_write(self.writer._ref, data)
+        if stamp_ns is not None and stamp_ns >= 0:
+            ret = ddspy_write_ts(self.writer._ref, data, stamp_ns)
+        else:
+            ret = ddspy_write(self.writer._ref, data)
         if ret < 0:
             msg = f"writing to {self.topic} failed (DDS return code {ret})"
             raise TransportError(msg)
@@ -154,6 +161,16 @@ class RawReader:
             msg = f"reading {self.topic} failed (DDS return code {result})"
             raise TransportError(msg)
         return [bytes(data) for data, info in result if info.valid_data]
+
+    def take_stamped(self, limit: int = 64) -> list[tuple[bytes, int | None]]:
+        """Like :meth:`take`, with each sample's DDS source timestamp in ns."""
+        result = ddspy_take(self.reader._ref, _ANY_STATE, limit)
+        if isinstance(result, int):
+            msg = f"reading {self.topic} failed (DDS return code {result})"
+            raise TransportError(msg)
+        return [
+            (bytes(data), int(info.source_timestamp)) for data, info in result if info.valid_data
+        ]
 
     def wait(self, timeout: float) -> bool:
         """Block until a sample is available or ``timeout`` seconds passed; True when data."""
