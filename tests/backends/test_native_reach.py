@@ -101,12 +101,13 @@ connections:
   - a.y_u32 -> b.u_u32
   - a.y_i64 -> b.u_i64
   - a.y_u64 -> b.u_u64
-  - a.y_bool -> b.u_bool
+  - a.y_bool -> n.b
+  - n.nb -> b.u_bool
   - {{from: a.y_f64, to: c.u_f64, factor: 2.5, offset: -1}}
   - a.y_i64 -> c.u_i16
   - a.y_u64 -> c.u_f32
   - a.y_bool -> c.u_u8
-  - b.y_i8 -> c.u_bool
+  - a.y_i8 -> c.u_bool
   - a.y_u32 -> c.u_i64
   - v.count -> c.u_u64
   - a.y_i8 -> c.u_i8
@@ -118,7 +119,7 @@ connections:
   - {{from: b.y_u8, to: 'd.u_f64[1]', factor: 0.3, offset: 0.1}}
 record: [v.y, v.count, a.y_f64, a.y_f32, a.y_i8, a.y_u8, a.y_i16, a.y_u16, a.y_i32, a.y_u32,
   a.y_i64, a.y_u64, a.y_bool, b.u_f32, b.y_f32, c.u_f64, c.u_i16, c.u_f32, c.u_u8, c.u_bool,
-  c.u_i64, c.u_u64, c.u_i8, c.u_u16, c.y_u64, n.u, n.n, n.y, n.m, d.u_i32, d.u_f64, d.u_i8,
+  c.u_i64, c.u_u64, c.u_i8, c.u_u16, c.y_u64, n.u, n.n, n.y, n.m, n.b, n.nb, b.u_bool, d.u_i32, d.u_f64, d.u_i8,
   d.y_i32]
 """
     )
@@ -146,6 +147,7 @@ def test_fmi3_and_integer_ports_are_stepped_natively_and_bit_identically(
     assert len(set(native["a.y_i8"].tolist())) > 100  # int8 wrapped around
     assert len(set(native["n.m"].tolist())) > 100
     assert {0.0, 1.0} <= set(native["c.u_bool"].tolist())
+    assert {0.0, 1.0} == set(native["n.nb"].tolist())  # FMI 2 Boolean in and out
     assert len(set(native["c.u_f32"].tolist())) > 100
     assert len(set(native["b.u_f32"].tolist())) > 100
 
