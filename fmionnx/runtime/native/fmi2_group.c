@@ -228,9 +228,8 @@ static void transfer_copy(const fx_transfer *tr) {
     return ((int (*)(void *, const unsigned int *, size_t, T *))c->function)(                 \
         instance, c->vrs, c->n_vrs, (T *)c->values);
 
-static int call_values(const fx_call *c, void *instance, int fmi3) {
+static int call_other_values(const fx_call *c, void *instance, int fmi3) {
     switch (c->type) {
-    case FX_F64: FX_VALUES_CALL(double)
     case FX_F32: FX_VALUES_CALL(float)
     case FX_I8: FX_VALUES_CALL(int8_t)
     case FX_U8: FX_VALUES_CALL(uint8_t)
@@ -245,6 +244,16 @@ static int call_values(const fx_call *c, void *instance, int fmi3) {
     }
 }
 
+/* float64, the common case, is called right here (small enough to be inlined into the step
+ * loop, which keeps a group of real-valued FMUs as fast as a kernel for reals only); the
+ * other types go through call_other_values. */
+static inline int call_values(const fx_call *c, void *instance, int fmi3) {
+    if (c->type == FX_F64) {
+        FX_VALUES_CALL(double)
+    }
+    return call_other_values(c, instance, fmi3);
+}
+
 static int do_step(const fx_member *member, double t, double h) {
     if (member->fmi3) {
         return ((fx_fmi3_do_step)member->do_step)(
@@ -255,7 +264,7 @@ static int do_step(const fx_member *member, double t, double h) {
 }
 
 /* Runs calls [first, first + n) of the group; on a fault records which and returns it. */
-static int call_all(fx_group *group, const fx_member *member, size_t first, size_t n) {
+static inline int call_all(fx_group *group, const fx_member *member, size_t first, size_t n) {
     for (size_t k = 0; k < n; ++k) {
         int status = call_values(&group->calls[first + k], member->instance, member->fmi3);
         if (FX_FAULT(status)) {
