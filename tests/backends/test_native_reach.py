@@ -17,7 +17,7 @@ import pytest
 
 import fmionnx
 from fmionnx.kinds.fmu.build import build_fmu
-from fmionnx.runtime.result import RunResult, RunStatus
+from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from tests.conftest import FIXTURES, REPO, built_model
 
 
@@ -256,3 +256,34 @@ def test_the_reference_tracker_with_float32_inputs_runs_natively_bit_identically
     )
     _assert_bit_identical(native, python)
     assert len(set(native["detector.blobSize[0]"].tolist())) > 5  # the sign is seen
+
+
+def test_model_exchange_and_isolated_fmus_keep_the_python_path_with_their_reasons(
+    fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    gain = fixture_fmu("Gain")
+    path = write_system(
+        f"""
+fmionnx: 1
+name: mixed
+run: {{stop: 0.05, step: 0.01}}
+components:
+  g0: {{kind: fmu, path: {gain}, parameters: {{u: 1.5}}}}
+  g1: {{kind: fmu, path: {gain}, interface: me}}
+  g2: {{kind: fmu, path: {gain}}}
+  g3: {{kind: fmu, path: {gain}}}
+connections:
+  - g0.y -> g1.u
+  - g1.y -> g2.u
+  - g2.y -> g3.u
+record: [g3.y]
+"""
+    )
+    result = fmionnx.load(path).run(options=RunOptions(isolate=frozenset({"g2"})))
+    assert result.status is RunStatus.COMPLETED
+    assert (result.details["native_groups"], result.details["native_components"]) == (2, 2)
+    assert result.details["native_python.g1"] == (
+        "a model-exchange FMU (integrated in Python between communication points)"
+    )
+    assert result.details["native_python.g2"] == "runs in a child process (--isolate)"
+    assert result["g3.y"][-1] == 1.5 * 2**4
