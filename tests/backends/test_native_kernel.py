@@ -88,8 +88,8 @@ def test_installed_library_is_found_and_fits_the_ctypes_mirrors() -> None:
     assert manifest["built_by"] == "setup.py build_ext"
     assert manifest["source_sha256"] == sha256_of(kernel.SOURCE)
     assert kernel.abi_problem(ctypes.CDLL(str(loaded.path))) is None
-    # one entry per struct and per field of the three mirrors
-    assert len(kernel.expected_layout()) == 3 + 6 + 12 + 6
+    # one entry per struct and per field of the four mirrors, then the element types' sizes
+    assert len(kernel.expected_layout()) == 4 + 8 + 13 + 8 + 7 + 11
 
 
 def test_tampered_library_is_refused(tmp_path: Path) -> None:
@@ -124,8 +124,8 @@ def test_library_built_from_another_source_is_refused(tmp_path: Path) -> None:
     ("change", "reason"),
     [
         (
-            ("#define FX_ABI_VERSION 1u", "#define FX_ABI_VERSION 2u"),
-            r"its ABI version is 2, this fmionnx expects 1",
+            ("#define FX_ABI_VERSION 2u", "#define FX_ABI_VERSION 3u"),
+            r"its ABI version is 3, this fmionnx expects 2",
         ),
         (
             (

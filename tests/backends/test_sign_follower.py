@@ -78,3 +78,16 @@ def test_the_reference_system_states_its_own_checks_and_they_hold(run_result) ->
     path = np.array(read_expected_path(REPO / "models" / "world" / "sign_course.path.csv"))
     points = np.column_stack([run_result["odometry.posX"], run_result["odometry.posY"]])
     assert measured["stays on the path"] == pytest.approx(distance_to_polyline(points, path).max())
+
+
+def test_the_reference_run_steps_both_fmus_natively(run_result) -> None:
+    """The tracker's blobX/blobSize come from the detector's float32 outputs (issue 14): it is
+    stepped by the native kernel with odometry, and results.csv keeps its hash (above)."""
+    details = run_result.details
+    assert (details["native"], details["native_components"]) == (True, 2)
+    assert "native_python.tracker" not in details
+    assert "native_python.odometry" not in details
+    assert sorted(k for k in details if k.startswith("native_python.")) == [
+        "native_python.detector",
+        "native_python.world",
+    ]

@@ -103,13 +103,15 @@ def test_quick_run_prints_the_tables_and_writes_results_json(tmp_path: Path) -> 
 
 
 def test_other_benchmark_scripts_are_found_by_name(tmp_path: Path) -> None:
-    for name in ("validate_large.py", "ros2_wire.py", "ros2_nodes.py", "isolation.py", "chain.py"):
+    names = ("validate_large.py", "ros2_wire.py", "ros2_nodes.py", "isolation.py", "chain.py")
+    for name in (*names, "native_reach.py"):
         (tmp_path / name).write_text("", encoding="utf-8")
     assert [p.name for p in run.external_scripts(tmp_path)] == [
         "validate_large.py",
         "ros2_nodes.py",
         "ros2_wire.py",
         "isolation.py",
+        "native_reach.py",
     ]
 
 

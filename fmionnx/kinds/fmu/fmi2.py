@@ -22,7 +22,7 @@ from fmionnx.kinds.fmu.runner import (
     FMI_DISCARD,
     FMI_OK,
     FMI_WARNING,
-    Fmi2CsCalls,
+    CsCalls,
     FmuRunner,
     Stepper,
 )
@@ -85,7 +85,7 @@ class Fmi2Runner(FmuRunner):
 class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
     """FMI 2 co-simulation: one raw ``fmi2DoStep`` per step.
 
-    Its prepared calls (:meth:`fmi2_cs_calls`) are what the native kernel steps instead. It
+    Its prepared calls (:meth:`cs_calls`) are what the native kernel steps instead. It
     saves and restores its state for iterated algebraic loops (:mod:`.rollback`).
     """
 
@@ -96,7 +96,7 @@ class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
 
     def __init__(self, component: Component, driven: frozenset[str]) -> None:
         super().__init__(component, driven)
-        self._calls: Fmi2CsCalls | None = None
+        self._calls: CsCalls | None = None
 
     def _new_fmu(self, md: Any, root: Path) -> Any:
         from fmpy.fmi2 import FMU2Slave
@@ -106,7 +106,7 @@ class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
     def _stepper(self, start: float, stop: float) -> Stepper:
         assert self._instance is not None
         self._do_step_function = self._fmu.dll.fmi2DoStep
-        self._calls = Fmi2CsCalls(
+        self._calls = CsCalls(
             self._instance,
             tuple(self._set_calls),
             self._do_step_function,
@@ -139,7 +139,7 @@ class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
             return None
         return terminated(self.component.name, "the FMU requested termination", time=t + h)
 
-    def fmi2_cs_calls(self) -> Fmi2CsCalls | None:
+    def cs_calls(self) -> CsCalls | None:
         """The prepared per-step calls (after ``setup``; None before)."""
         return self._calls
 

@@ -14,11 +14,12 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core.errors import ModelTerminated
 from fmionnx.core.runner import terminated
 from fmionnx.core.types import DType
 from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
 from fmionnx.kinds.fmu.rollback import FmuRollback
-from fmionnx.kinds.fmu.runner import FMI_WARNING, FmuRunner, Stepper
+from fmionnx.kinds.fmu.runner import FMI_WARNING, CsCalls, FmuRunner, Stepper
 from fmionnx.kinds.fmu.values import ValueFunctions
 
 #: FMI 3 get/set functions: type name and C element type per dtype.
@@ -69,7 +70,8 @@ class Fmi3Runner(FmuRunner):
 class Fmi3CoSimulation(Fmi3Runner, FmuRollback):
     """FMI 3 co-simulation: one raw ``fmi3DoStep`` per step; ``terminateSimulation`` ends the run.
 
-    It saves and restores its state for iterated algebraic loops (:mod:`.rollback`).
+    Its prepared calls (:meth:`cs_calls`) are what the native kernel steps instead. It saves
+    and restores its state for iterated algebraic loops (:mod:`.rollback`).
     """
 
     state_functions = ("fmi3GetFMUState", "fmi3SetFMUState", "fmi3FreeFMUState")
@@ -77,6 +79,7 @@ class Fmi3CoSimulation(Fmi3Runner, FmuRollback):
     _do_step_function: Callable[..., int]
     _do_step_tail: tuple[object, ...]
     advance_function = "fmi3DoStep"
+    _calls: CsCalls | None = None
 
     def _new_fmu(self, md: Any, root: Path) -> Any:
         from fmpy.fmi3 import FMU3Slave
@@ -97,14 +100,36 @@ class Fmi3CoSimulation(Fmi3Runner, FmuRollback):
             ctypes.byref(self._early_return),
             ctypes.byref(self._last_time),
         )
+        assert self._instance is not None
+        self._calls = CsCalls(
+            self._instance,
+            tuple(self._set_calls),
+            self._do_step_function,
+            tuple(self._get_calls),
+            (self._event_needed, self._terminate_requested, self._early_return, self._last_time),
+        )
         return self._do_step
 
     def _do_step(self, t: float, h: float) -> None:
         status = self._do_step_function(self._instance, t, h, *self._do_step_tail)
         if status > FMI_WARNING:
             self._check("fmi3DoStep", status, t)
-        if self._terminate_requested.value:
-            raise terminated(self.component.name, "the FMU requested termination", time=t + h)
+        ending = self.termination_requested(t, h)
+        if ending is not None:
+            raise ending
+
+    def termination_requested(self, t: float, h: float) -> ModelTerminated | None:
+        """After ``fmi3DoStep`` from ``t``: did the FMU set ``terminateSimulation``?
+
+        The native kernel stops its group there and asks through this too.
+        """
+        if not self._terminate_requested.value:
+            return None
+        return terminated(self.component.name, "the FMU requested termination", time=t + h)
+
+    def cs_calls(self) -> CsCalls | None:
+        """The prepared per-step calls (after ``setup``; None before)."""
+        return self._calls
 
 
 class Fmi3ModelExchange(Fmi3Runner):

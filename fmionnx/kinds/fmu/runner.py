@@ -65,16 +65,21 @@ Stepper = Callable[[float, float], None]
 
 
 @dataclass(frozen=True)
-class Fmi2CsCalls:
-    """What an FMI 2 co-simulation runner calls per step: set, doStep, get.
+class CsCalls:
+    """What a co-simulation runner calls per step: set, doStep, get.
 
     The native kernel (:mod:`fmionnx.runtime.native`) makes the same calls with the same arrays.
+    ``step_flags`` (FMI 3 only) are the output arguments ``fmi3DoStep`` writes
+    (``eventHandlingNeeded``, ``terminateSimulation``, ``earlyReturn``,
+    ``lastSuccessfulTime``): the kernel passes these very objects, so the runner reads what
+    the FMU wrote whichever path stepped it.
     """
 
     instance: ctypes.c_void_p
     set_calls: tuple[RawCall, ...]
     do_step: Callable[..., int]
     get_calls: tuple[RawCall, ...]
+    step_flags: tuple[ctypes.c_bool, ctypes.c_bool, ctypes.c_bool, ctypes.c_double] | None = None
 
 
 def status_label(status: int) -> str:
@@ -164,7 +169,9 @@ class FmuRunner(ABC):
         try:
             in_ports, self._stand_in = settable_inputs(in_ports, given)
         except RunError as exc:
-            raise RunError(f"component `{component.name}`: {exc}", component=component.name) from None
+            raise RunError(
+                f"component `{component.name}`: {exc}", component=component.name
+            ) from None
         self._inputs = build_groups(dll, inst, in_ports, self.values, setter=True)
         self._outputs = build_groups(dll, inst, out_ports, self.values, setter=False)
         self._set_calls = [g.call for g in self._inputs]

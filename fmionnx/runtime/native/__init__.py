@@ -1,4 +1,4 @@
-"""Native fast path: runs of FMI 2 co-simulation FMUs stepped by one small C function.
+"""Native fast path: runs of FMI 2 and FMI 3 co-simulation FMUs stepped by one small C function.
 
 ``fmi2_group.c`` is built into a library when fmionnx is installed (``setup.py``), or on
 request at run time (:mod:`.runbuild`); :mod:`.kernel` loads it after checking its build

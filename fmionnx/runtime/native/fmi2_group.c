@@ -1,53 +1,87 @@
 /*
- * One macro step of a group of FMI 2.0 co-simulation FMUs, in execution order.
+ * One macro step of a group of FMI 2.0 and FMI 3.0 co-simulation FMUs, in execution order.
+ * (The file keeps the name of its first version, which stepped FMI 2 only.)
  *
  * The in-process master (fmionnx/runtime/native/) calls fx_group_step once per
- * communication point instead of making three ctypes calls per FMU from Python. For each
- * member it does exactly what the Python path does (transfer.py, runners/fmu.py):
+ * communication point instead of making several ctypes calls per FMU from Python. For each
+ * member it does exactly what the Python path does (transfer.py, kinds/fmu/runner.py):
  *   1. every incoming connection, in the master's order: stop if any source value is NaN,
- *      else copy it, or compute factor * x, then + offset (two roundings, as numpy does);
- *   2. fmi2SetReal of the member's whole real input buffer (skipped when it has none);
- *   3. fmi2DoStep(t, h, fmi2True);
- *   4. fmi2GetReal of its whole real output buffer (skipped when it has none).
- * A status above fmi2Warning stops the step; the group records where, and Python builds the
- * same RunError the Python path raises. Compiled with -ffp-contract=off so that no compiler
- * fuses the multiply and add of a connection into one FMA (which would round differently).
+ *      else convert it as numpy's unsafe cast does, or compute factor * x, then + offset
+ *      (two roundings, as numpy does: in float32 for a float32 source, whose multiply numpy
+ *      does in float32, else in float64), then convert;
+ *   2. the member's set calls, one per value type (fmi2SetReal/Integer/Boolean, or
+ *      fmi3SetFloat64/Float32/Int8.../Boolean with the number of values), in the runner's order;
+ *   3. fmi2DoStep(t, h, fmi2True), or fmi3DoStep(t, h, true, &eventHandlingNeeded,
+ *      &terminateSimulation, &earlyReturn, &lastSuccessfulTime) into the runner's own flags;
+ *   4. the member's get calls, in the runner's order.
+ * A status above Warning stops the step; the group records where, and Python builds the
+ * same RunError the Python path raises. An FMI 3 member whose fmi3DoStep sets
+ * terminateSimulation stops the step too (FX_TERMINATE): Python then gets its outputs and ends
+ * the run as the Python path does. Compiled with -ffp-contract=off so that no compiler fuses
+ * the multiply and add of a connection into one FMA (which would round differently).
  * The FMI functions come from the libraries fmpy already loaded, as plain pointers.
+ *
+ * A float source never feeds an integer destination here (grouping.py keeps such members in
+ * Python: numpy's result for a float outside the integer's range depends on the platform).
  *
  * Python mirrors the structs below in ctypes (kernel.py) and checks, before it uses the
  * library, that fx_abi_version() and fx_abi_layout() agree with its mirrors. Bump
- * FX_ABI_VERSION on any change of a struct, of fx_group_step's signature or of its return
- * codes, together with ABI_VERSION in kernel.py.
+ * FX_ABI_VERSION on any change of a struct, of fx_group_step's signature, of its return
+ * codes or of the element type codes, together with ABI_VERSION in kernel.py.
  */
 #include <math.h>
+#include <stdbool.h>
 #include <stddef.h>
+#include <stdint.h>
 
-#define FX_ABI_VERSION 1u
+#define FX_ABI_VERSION 2u
 
-typedef int (*fx_set_real)(void *, const unsigned int *, size_t, const double *);
-typedef int (*fx_get_real)(void *, const unsigned int *, size_t, double *);
-typedef int (*fx_do_step)(void *, double, double, int);
+/* Element types of value buffers (kernel.py ELEMENT_TYPES, in this order). */
+enum {
+    FX_F64, FX_F32, FX_I8, FX_U8, FX_I16, FX_U16, FX_I32, FX_U32, FX_I64, FX_U64, FX_BOOL
+};
+
+/* Any function; cast back to its real type before it is called. */
+typedef void (*fx_function)(void);
+
+typedef int (*fx_fmi2_do_step)(void *, double, double, int);
+typedef int (*fx_fmi3_do_step)(void *, double, double, bool, bool *, bool *, bool *, double *);
+
+/* One get or set call: one value type of one member, as the Python runner prepared it. */
+typedef struct {
+    fx_function function;
+    const unsigned int *vrs;
+    size_t n_vrs;
+    void *values;
+    size_t n_values; /* FMI 3 only: the number of values (arrays have one vr for many) */
+    int type;        /* FX_* of values */
+    int setter;
+} fx_call;
 
 typedef struct {
-    const double *src;
-    double *dst;
+    const void *src;
+    void *dst;
     size_t count;
     double factor;
     double offset;
     int identity;
+    int src_type;
+    int dst_type;
 } fx_transfer;
 
 typedef struct {
     void *instance;
-    fx_set_real set_real;
-    fx_do_step do_step;
-    fx_get_real get_real;
-    const unsigned int *in_vrs;
-    size_t n_in;
-    const double *in_values;
-    const unsigned int *out_vrs;
-    size_t n_out;
-    double *out_values;
+    fx_function do_step;
+    int fmi3;
+    /* fmi3DoStep's output arguments: the runner's own flags (FMI 3 only). */
+    bool *event_handling_needed;
+    bool *terminate_simulation;
+    bool *early_return;
+    double *last_successful_time;
+    size_t first_set;
+    size_t n_set;
+    size_t first_get;
+    size_t n_get;
     size_t first_transfer;
     size_t n_transfers;
 } fx_member;
@@ -56,37 +90,190 @@ typedef struct {
     size_t n_members;
     const fx_member *members;
     const fx_transfer *transfers;
+    const fx_call *calls;
     /* Where the last step stopped (valid when fx_group_step returned non-zero). */
     size_t failed_member;
     size_t failed_transfer;
+    size_t failed_call;
     int failed_status;
 } fx_group;
 
-enum { FX_OK = 0, FX_NAN = 1, FX_SET = 2, FX_DO_STEP = 3, FX_GET = 4 };
+enum { FX_OK = 0, FX_NAN = 1, FX_SET = 2, FX_DO_STEP = 3, FX_GET = 4, FX_TERMINATE = 5 };
 
-/* fmi2OK and fmi2Warning let the run go on, as in the Python path. */
+/* OK and Warning let the run go on, as in the Python path (FMI 2 and 3 number them alike). */
 #define FX_FAULT(status) ((status) > 1)
 
+/* ---- connections ------------------------------------------------------------------------- */
+
 static int transfer_has_nan(const fx_transfer *tr) {
-    for (size_t i = 0; i < tr->count; ++i) {
-        if (isnan(tr->src[i])) {
-            return 1;
+    if (tr->src_type == FX_F64) {
+        const double *src = tr->src;
+        for (size_t i = 0; i < tr->count; ++i) {
+            if (isnan(src[i])) return 1;
+        }
+    } else if (tr->src_type == FX_F32) {
+        const float *src = tr->src;
+        for (size_t i = 0; i < tr->count; ++i) {
+            if (isnan(src[i])) return 1;
         }
     }
     return 0;
 }
 
+/* Writes element i of dst from a value held exactly in V (double, int64_t or uint64_t): a C
+ * conversion straight to the destination type, as numpy's cast loops do. An integer source
+ * is widened first, which changes no value, so every conversion still rounds once. */
+#define FX_STORE(dst, type, i, v)                                       \
+    switch (type) {                                                     \
+    case FX_F64: ((double *)(dst))[i] = (double)(v); break;             \
+    case FX_F32: ((float *)(dst))[i] = (float)(v); break;               \
+    case FX_I8: ((int8_t *)(dst))[i] = (int8_t)(v); break;              \
+    case FX_U8: ((uint8_t *)(dst))[i] = (uint8_t)(v); break;            \
+    case FX_I16: ((int16_t *)(dst))[i] = (int16_t)(v); break;           \
+    case FX_U16: ((uint16_t *)(dst))[i] = (uint16_t)(v); break;         \
+    case FX_I32: ((int32_t *)(dst))[i] = (int32_t)(v); break;           \
+    case FX_U32: ((uint32_t *)(dst))[i] = (uint32_t)(v); break;         \
+    case FX_I64: ((int64_t *)(dst))[i] = (int64_t)(v); break;           \
+    case FX_U64: ((uint64_t *)(dst))[i] = (uint64_t)(v); break;         \
+    case FX_BOOL: ((bool *)(dst))[i] = (v) != 0; break;                 \
+    default: break;                                                     \
+    }
+
+static void store_double(void *dst, int type, size_t i, double v) { FX_STORE(dst, type, i, v) }
+static void store_signed(void *dst, int type, size_t i, int64_t v) { FX_STORE(dst, type, i, v) }
+static void store_unsigned(void *dst, int type, size_t i, uint64_t v) { FX_STORE(dst, type, i, v) }
+
+/* Reads element i of src into *d (floats), *s (signed integers, bool) or *u (unsigned);
+ * returns which: 0, 1 or 2. */
+static int load(const void *src, int type, size_t i, double *d, int64_t *s, uint64_t *u) {
+    switch (type) {
+    case FX_F64: *d = ((const double *)src)[i]; return 0;
+    case FX_F32: *d = ((const float *)src)[i]; return 0;
+    case FX_I8: *s = ((const int8_t *)src)[i]; return 1;
+    case FX_I16: *s = ((const int16_t *)src)[i]; return 1;
+    case FX_I32: *s = ((const int32_t *)src)[i]; return 1;
+    case FX_I64: *s = ((const int64_t *)src)[i]; return 1;
+    case FX_BOOL: *s = ((const bool *)src)[i] ? 1 : 0; return 1;
+    case FX_U8: *u = ((const uint8_t *)src)[i]; return 2;
+    case FX_U16: *u = ((const uint16_t *)src)[i]; return 2;
+    case FX_U32: *u = ((const uint32_t *)src)[i]; return 2;
+    default: *u = ((const uint64_t *)src)[i]; return 2;
+    }
+}
+
+/* factor * x + offset in float64 as numpy computes it: x converted to float64, except that a
+ * float32 source is multiplied in float32 (numpy's loop for float32 times a Python float). */
+static double scaled(const fx_transfer *tr, size_t i) {
+    double x;
+    int64_t s;
+    uint64_t u;
+    if (tr->src_type == FX_F32) {
+        float product = (float)tr->factor * ((const float *)tr->src)[i];
+        x = (double)product;
+    } else {
+        int kind = load(tr->src, tr->src_type, i, &x, &s, &u);
+        if (kind == 1) x = (double)s;
+        if (kind == 2) x = (double)u;
+        x = tr->factor * x;
+    }
+    return x + tr->offset;
+}
+
 static void transfer_copy(const fx_transfer *tr) {
-    if (tr->identity) {
-        for (size_t i = 0; i < tr->count; ++i) {
-            tr->dst[i] = tr->src[i];
+    if (tr->src_type == FX_F64 && tr->dst_type == FX_F64) { /* the common case */
+        const double *src = tr->src;
+        double *dst = tr->dst;
+        if (tr->identity) {
+            for (size_t i = 0; i < tr->count; ++i) dst[i] = src[i];
+        } else {
+            for (size_t i = 0; i < tr->count; ++i) {
+                double product = tr->factor * src[i];
+                dst[i] = product + tr->offset;
+            }
         }
         return;
     }
     for (size_t i = 0; i < tr->count; ++i) {
-        double scaled = tr->factor * tr->src[i];
-        tr->dst[i] = scaled + tr->offset;
+        if (!tr->identity) {
+            store_double(tr->dst, tr->dst_type, i, scaled(tr, i));
+            continue;
+        }
+        double d;
+        int64_t s;
+        uint64_t u;
+        switch (load(tr->src, tr->src_type, i, &d, &s, &u)) {
+        case 0: store_double(tr->dst, tr->dst_type, i, d); break;
+        case 1: store_signed(tr->dst, tr->dst_type, i, s); break;
+        default: store_unsigned(tr->dst, tr->dst_type, i, u); break;
+        }
     }
+}
+
+/* ---- FMI calls --------------------------------------------------------------------------- */
+
+/* One get/set call through the function's real type: FMI 2 (instance, vr[], nvr, values[])
+ * or FMI 3 (..., values[], nValues); setters take const values. */
+#define FX_VALUES_CALL(T)                                                                      \
+    if (fmi3) {                                                                                \
+        if (c->setter)                                                                         \
+            return ((int (*)(void *, const unsigned int *, size_t, const T *, size_t))        \
+                        c->function)(instance, c->vrs, c->n_vrs, (const T *)c->values,         \
+                                     c->n_values);                                             \
+        return ((int (*)(void *, const unsigned int *, size_t, T *, size_t))c->function)(     \
+            instance, c->vrs, c->n_vrs, (T *)c->values, c->n_values);                          \
+    }                                                                                          \
+    if (c->setter)                                                                             \
+        return ((int (*)(void *, const unsigned int *, size_t, const T *))c->function)(       \
+            instance, c->vrs, c->n_vrs, (const T *)c->values);                                 \
+    return ((int (*)(void *, const unsigned int *, size_t, T *))c->function)(                 \
+        instance, c->vrs, c->n_vrs, (T *)c->values);
+
+static int call_other_values(const fx_call *c, void *instance, int fmi3) {
+    switch (c->type) {
+    case FX_F32: FX_VALUES_CALL(float)
+    case FX_I8: FX_VALUES_CALL(int8_t)
+    case FX_U8: FX_VALUES_CALL(uint8_t)
+    case FX_I16: FX_VALUES_CALL(int16_t)
+    case FX_U16: FX_VALUES_CALL(uint16_t)
+    case FX_I32: FX_VALUES_CALL(int32_t)
+    case FX_U32: FX_VALUES_CALL(uint32_t)
+    case FX_I64: FX_VALUES_CALL(int64_t)
+    case FX_U64: FX_VALUES_CALL(uint64_t)
+    case FX_BOOL: FX_VALUES_CALL(bool)
+    default: return 4; /* never prepared by grouping.py: treated as Fatal */
+    }
+}
+
+/* float64, the common case, is called right here (small enough to be inlined into the step
+ * loop, which keeps a group of real-valued FMUs as fast as a kernel for reals only); the
+ * other types go through call_other_values. */
+static inline int call_values(const fx_call *c, void *instance, int fmi3) {
+    if (c->type == FX_F64) {
+        FX_VALUES_CALL(double)
+    }
+    return call_other_values(c, instance, fmi3);
+}
+
+static int do_step(const fx_member *member, double t, double h) {
+    if (member->fmi3) {
+        return ((fx_fmi3_do_step)member->do_step)(
+            member->instance, t, h, true, member->event_handling_needed,
+            member->terminate_simulation, member->early_return, member->last_successful_time);
+    }
+    return ((fx_fmi2_do_step)member->do_step)(member->instance, t, h, 1);
+}
+
+/* Runs calls [first, first + n) of the group; on a fault records which and returns it. */
+static inline int call_all(fx_group *group, const fx_member *member, size_t first, size_t n) {
+    for (size_t k = 0; k < n; ++k) {
+        int status = call_values(&group->calls[first + k], member->instance, member->fmi3);
+        if (FX_FAULT(status)) {
+            group->failed_call = k;
+            group->failed_status = status;
+            return 1;
+        }
+    }
+    return 0;
 }
 
 int fx_group_step(fx_group *group, double t, double h) {
@@ -101,53 +288,42 @@ int fx_group_step(fx_group *group, double t, double h) {
             }
             transfer_copy(tr);
         }
-        int status;
-        if (member->n_in > 0) {
-            status = member->set_real(member->instance, member->in_vrs, member->n_in,
-                                      member->in_values);
-            if (FX_FAULT(status)) {
-                group->failed_status = status;
-                return FX_SET;
-            }
-        }
-        status = member->do_step(member->instance, t, h, 1);
+        if (call_all(group, member, member->first_set, member->n_set)) return FX_SET;
+        int status = do_step(member, t, h);
         if (FX_FAULT(status)) {
             group->failed_status = status;
             return FX_DO_STEP;
         }
-        if (member->n_out > 0) {
-            status = member->get_real(member->instance, member->out_vrs, member->n_out,
-                                      member->out_values);
-            if (FX_FAULT(status)) {
-                group->failed_status = status;
-                return FX_GET;
-            }
-        }
+        if (member->fmi3 && *member->terminate_simulation) return FX_TERMINATE;
+        if (call_all(group, member, member->first_get, member->n_get)) return FX_GET;
     }
     return FX_OK;
 }
 
-/* The struct layouts Python must mirror: for fx_group, fx_member and fx_transfer in turn,
- * sizeof the struct, then offsetof each field in declaration order. */
+/* The struct layouts Python must mirror: for fx_group, fx_member, fx_transfer and fx_call in
+ * turn, sizeof the struct, then offsetof each field in declaration order. */
 static const size_t fx_layout[] = {
     sizeof(fx_group),
     offsetof(fx_group, n_members),
     offsetof(fx_group, members),
     offsetof(fx_group, transfers),
+    offsetof(fx_group, calls),
     offsetof(fx_group, failed_member),
     offsetof(fx_group, failed_transfer),
+    offsetof(fx_group, failed_call),
     offsetof(fx_group, failed_status),
     sizeof(fx_member),
     offsetof(fx_member, instance),
-    offsetof(fx_member, set_real),
     offsetof(fx_member, do_step),
-    offsetof(fx_member, get_real),
-    offsetof(fx_member, in_vrs),
-    offsetof(fx_member, n_in),
-    offsetof(fx_member, in_values),
-    offsetof(fx_member, out_vrs),
-    offsetof(fx_member, n_out),
-    offsetof(fx_member, out_values),
+    offsetof(fx_member, fmi3),
+    offsetof(fx_member, event_handling_needed),
+    offsetof(fx_member, terminate_simulation),
+    offsetof(fx_member, early_return),
+    offsetof(fx_member, last_successful_time),
+    offsetof(fx_member, first_set),
+    offsetof(fx_member, n_set),
+    offsetof(fx_member, first_get),
+    offsetof(fx_member, n_get),
     offsetof(fx_member, first_transfer),
     offsetof(fx_member, n_transfers),
     sizeof(fx_transfer),
@@ -157,6 +333,21 @@ static const size_t fx_layout[] = {
     offsetof(fx_transfer, factor),
     offsetof(fx_transfer, offset),
     offsetof(fx_transfer, identity),
+    offsetof(fx_transfer, src_type),
+    offsetof(fx_transfer, dst_type),
+    sizeof(fx_call),
+    offsetof(fx_call, function),
+    offsetof(fx_call, vrs),
+    offsetof(fx_call, n_vrs),
+    offsetof(fx_call, values),
+    offsetof(fx_call, n_values),
+    offsetof(fx_call, type),
+    offsetof(fx_call, setter),
+    /* the element types' sizes, in FX_* order: a platform whose C types differ from the
+     * ctypes ones Python uses for the buffers is refused */
+    sizeof(double), sizeof(float), sizeof(int8_t), sizeof(uint8_t), sizeof(int16_t),
+    sizeof(uint16_t), sizeof(int32_t), sizeof(uint32_t), sizeof(int64_t), sizeof(uint64_t),
+    sizeof(bool),
 };
 
 unsigned int fx_abi_version(void) { return FX_ABI_VERSION; }

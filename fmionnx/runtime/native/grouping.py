@@ -1,12 +1,16 @@
 """Which components of a schedule the native kernel steps, and whether it is available.
 
 A *group* is a maximal run of components that are consecutive in the compiled order, share
-one period and are each eligible: an FMI 2 co-simulation FMU whose per-step values are all
-real (one ``fmi2SetReal`` and one ``fmi2GetReal`` call, or none), whose incoming connections
-copy float64 elements from non-lazy outputs. Inputs may come from anywhere: a component
-outside the group runs either before the group (its newest value is read) or after it (its
-held value is read), and nothing outside the group changes while the group steps, so the C
-loop reads exactly the values the Python loop would. Everything else keeps the Python path.
+one period and are each eligible: an FMI 2 or FMI 3 co-simulation FMU (in this process, not
+in an iterated algebraic loop, an FMI 3 one without clocks) whose per-step values are
+numbers (the runner's one get/set call per FMI type: Real/Integer/Boolean, or
+Float64/Float32/Int8...UInt64/Boolean, arrays included), and whose incoming connections read
+non-lazy outputs of a numeric element type, without turning a float into an integer. Inputs
+may come from anywhere: a component outside the group runs either before the group (its
+newest value is read) or after it (its held value is read), and nothing outside the group
+changes while the group steps, so the C loop reads exactly the values the Python loop would.
+Everything else keeps the Python path; :func:`member_plan` says why, per component
+(``run.json`` ``execution.native_python.<component>``).
 
 ``FMIONNX_NATIVE`` chooses the kernel: unset or ``1`` the library installed with fmionnx,
 ``build`` one compiled at run time (opt-in), ``0`` none. When the chosen library is missing or
@@ -21,12 +25,13 @@ import os
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
-import numpy as np
-
-from fmionnx.compile.ir import CompiledSystem
-from fmionnx.core.runner import Runner
+from fmionnx.compile.ir import CompiledSystem, Connection
+from fmionnx.core.runner import Buffer, Runner
+from fmionnx.kinds.fmu.clocks import UNSUPPORTED_PREFIX
 from fmionnx.kinds.fmu.fmi2 import Fmi2CoSimulation
-from fmionnx.runtime.native.group import MemberPlan, NativeGroup
+from fmionnx.kinds.fmu.fmi3 import Fmi3CoSimulation
+from fmionnx.kinds.fmu.kind import FmuConfig
+from fmionnx.runtime.native.group import CsRunner, MemberPlan, NativeGroup, call_type, type_code
 from fmionnx.runtime.native.kernel import load_kernel
 from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.transfer import connection_views
@@ -41,6 +46,9 @@ SETTINGS = ("", "1", "0", "build")
 
 Tracks = Mapping[str, tuple[Track | None, Track | None]]
 
+#: run.json ``execution`` key prefix: ``native_python.<component>`` is why it keeps Python.
+PYTHON_PREFIX = "native_python."
+
 
 @dataclass(frozen=True)
 class NativeStatus:
@@ -53,10 +61,13 @@ class NativeStatus:
     #: ``installed`` or ``build`` (:attr:`.kernel.Kernel.origin`) when used.
     library: str | None = None
     sha256: str | None = None
+    #: (component, why it keeps the Python path) for each component the kernel does not step,
+    #: in the compiled order (empty when the kernel is off: ``reason`` says why).
+    python: tuple[tuple[str, str], ...] = ()
 
     def details(self) -> dict[str, str | int | bool | None]:
-        """The run.json fields."""
-        return {
+        """The run.json fields: ``native_python.<component>`` for each entry of ``python``."""
+        fields: dict[str, str | int | bool | None] = {
             "native": self.used,
             "native_reason": self.reason,
             "native_groups": self.groups,
@@ -64,6 +75,9 @@ class NativeStatus:
             "native_library": self.library,
             "native_sha256": self.sha256,
         }
+        for name, why in self.python:
+            fields[f"{PYTHON_PREFIX}{name}"] = why
+        return fields
 
 
 @dataclass(frozen=True)
@@ -74,33 +88,90 @@ class NativePlan:
     schedule: tuple[str | NativeGroup, ...]
 
 
+#: Why a float is never converted into an integer natively.
+_PLATFORM_CAST = "numpy's result for a float outside the integer's range depends on the platform"
+
+#: Why a component's step stays in Python, by its kind (FMUs are judged one by one).
+_OTHER_KINDS = "only FMI co-simulation FMUs run natively"
+
+
+def _clock_names(runner: CsRunner) -> list[str]:
+    """The FMI 3 clocks an FMU declares (facts ``unsupported.<name>`` of the clock kind)."""
+    return [
+        key[len(UNSUPPORTED_PREFIX) :]
+        for key, value in runner.component.interface.facts
+        if key.startswith(UNSUPPORTED_PREFIX) and value.startswith("FMI 3 clock")
+    ]
+
+
+def _runner_reason(system: CompiledSystem, name: str, runner: Runner) -> str | None:
+    """Why ``name``'s runner cannot be a member, judged before its connections."""
+    component = system.component(name)
+    if not isinstance(component.config, FmuConfig):
+        article = "an" if component.kind[:1] in "aeiou" else "a"
+        return f"{article} {component.kind} component ({_OTHER_KINDS})"
+    if not isinstance(runner, Fmi2CoSimulation | Fmi3CoSimulation):
+        if component.config.interface == "me":
+            return "a model-exchange FMU (integrated in Python between communication points)"
+        return "runs in a child process (--isolate)"
+    if system.loops and system.loop_of(name) is not None:
+        return "a member of an iterated algebraic loop (the loop steps its members repeatedly)"
+    clocks = _clock_names(runner) if isinstance(runner, Fmi3CoSimulation) else []
+    if clocks:
+        listed = ", ".join(f"`{c}`" for c in clocks)
+        return (
+            f"declares the FMI 3 clock(s) {listed}, which need Event Mode: the Python path "
+            "runs it (without Event Mode, its output clocks ignored)"
+        )
+    return None
+
+
+def _connection_reason(connection: Connection, src: Buffer, dst: Buffer) -> str | None:
+    """Why the kernel cannot copy ``connection`` exactly as :mod:`..transfer` does."""
+    if type_code(src.dtype) is None or type_code(dst.dtype) is None:
+        return f"the connection `{connection}` carries {src.dtype} to {dst.dtype} values"
+    if dst.dtype.kind in "iu":
+        if src.dtype.kind == "f":
+            made = f"turns {src.dtype} into {dst.dtype}"
+        elif not (connection.factor == 1.0 and connection.offset == 0.0):
+            made = f"computes factor*x + offset in float64 and turns it into {dst.dtype}"
+        else:
+            made = ""
+        if made:
+            return f"the connection `{connection}` {made} ({_PLATFORM_CAST})"
+    if not (src.flags.c_contiguous and dst.flags.c_contiguous):
+        return f"the connection `{connection}` reads or writes non-contiguous elements"
+    return None
+
+
 def member_plan(
     system: CompiledSystem, runners: Mapping[str, Runner], name: str, tracks: Tracks
-) -> MemberPlan | None:
-    """``name``'s part in a group, or None when it must stay in the Python path."""
+) -> MemberPlan | str:
+    """``name``'s part in a group, or why it must stay in the Python path."""
     runner = runners[name]
-    if not isinstance(runner, Fmi2CoSimulation):
-        return None
-    if system.loops and system.loop_of(name) is not None:
-        return None  # an iterated loop steps its members itself, repeatedly
-    calls = runner.fmi2_cs_calls()
+    problem = _runner_reason(system, name, runner)
+    if problem is not None:
+        return problem
+    assert isinstance(runner, Fmi2CoSimulation | Fmi3CoSimulation)
+    calls = runner.cs_calls()
     if calls is None:
-        return None
-    if any(c[2] != "fmi2SetReal" for c in calls.set_calls) or len(calls.set_calls) > 1:
-        return None
-    if any(c[2] != "fmi2GetReal" for c in calls.get_calls) or len(calls.get_calls) > 1:
-        return None
+        return "not set up"
+    for call in (*calls.set_calls, *calls.get_calls):
+        if call_type(call) is None:
+            return f"its {call[2]} values have no native element type"
     connections = system.inputs_of(name)
     views = []
     for connection in connections:
         source = runners[connection.src.component]
         if connection.src.port in source.lazy_outputs:
-            return None
+            return (
+                f"its input `{connection.dst.port}` comes from `{connection.src}`, "
+                "which is produced on demand"
+            )
         src, dst = connection_views(connection, source, runner)
-        if src.dtype != np.float64 or dst.dtype != np.float64:
-            return None
-        if not (src.flags.c_contiguous and dst.flags.c_contiguous):
-            return None
+        problem = _connection_reason(connection, src, dst)
+        if problem is not None:
+            return problem
         views.append((src, dst))
     return MemberPlan(
         name, runner, calls, connections, tuple(views), tracks.get(name, (None, None))
@@ -109,32 +180,38 @@ def member_plan(
 
 def _runs(
     system: CompiledSystem, runners: Mapping[str, Runner], tracks: Tracks
-) -> list[str | list[MemberPlan]]:
-    """The order with maximal runs of eligible same-period components collected."""
+) -> tuple[list[str | list[MemberPlan]], dict[str, str]]:
+    """The order with maximal runs of eligible same-period components collected, and why
+    each other component keeps the Python path."""
     schedule: list[str | list[MemberPlan]] = []
+    reasons: dict[str, str] = {}
     current: list[MemberPlan] = []
     period = 0
     for name in system.order:
         plan = member_plan(system, runners, name, tracks)
         steps = system.component(name).period_steps
-        if plan is not None and current and steps == period:
+        if not isinstance(plan, str) and current and steps == period:
             current.append(plan)
             continue
         if current:
             schedule.append(current)
             current = []
-        if plan is None:
+        if isinstance(plan, str):
+            reasons[name] = plan
             schedule.append(name)
         else:
             current, period = [plan], steps
     if current:
         schedule.append(current)
-    return schedule
+    return schedule, reasons
 
 
-def _python_only(system: CompiledSystem, reason: str) -> NativePlan:
-    LOG.debug("native FMI 2 kernel not used: %s", reason)
-    return NativePlan(NativeStatus(used=False, reason=reason), tuple(system.order))
+def _python_only(
+    system: CompiledSystem, reason: str, python: Mapping[str, str] | None = None
+) -> NativePlan:
+    LOG.debug("native kernel not used: %s", reason)
+    status = NativeStatus(used=False, reason=reason, python=tuple((python or {}).items()))
+    return NativePlan(status, tuple(system.order))
 
 
 def plan_native(
@@ -146,12 +223,14 @@ def plan_native(
         return _python_only(system, f"disabled by {SWITCH_ENV}=0")
     if setting not in SETTINGS:
         return _python_only(system, f"{SWITCH_ENV}={setting!r} is none of 0, 1, build")
-    runs = _runs(system, runners, tracks)
+    runs, reasons = _runs(system, runners, tracks)
+    for name, why in reasons.items():
+        LOG.debug("native kernel: component %s keeps the Python path: %s", name, why)
     if all(isinstance(item, str) for item in runs):
-        return _python_only(system, "no FMI 2 co-simulation FMU with only real per-step values")
+        return _python_only(system, "no component can run natively", reasons)
     kernel = load_kernel(build=setting == "build")
     if isinstance(kernel, str):
-        return _python_only(system, kernel)
+        return _python_only(system, kernel, reasons)
     schedule: list[str | NativeGroup] = []
     for item in runs:
         if isinstance(item, str):
@@ -162,7 +241,7 @@ def plan_native(
     groups: Sequence[NativeGroup] = [g for g in schedule if isinstance(g, NativeGroup)]
     members = sum(len(g.names) for g in groups)
     LOG.debug(
-        "native FMI 2 kernel (%s library %s, sha256 %s) steps %d components in %d groups",
+        "native kernel (%s library %s, sha256 %s) steps %d components in %d groups",
         kernel.origin,
         kernel.path,
         kernel.sha256,
@@ -175,5 +254,6 @@ def plan_native(
         components=members,
         library=kernel.origin,
         sha256=kernel.sha256,
+        python=tuple(reasons.items()),
     )
     return NativePlan(status, tuple(schedule))

@@ -20,13 +20,13 @@ import ctypes
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Literal
+from typing import Any, Literal
 
 from fmionnx.runtime.native.manifest import LIBRARY_NAME, SOURCE_NAME, check_built
 from fmionnx.runtime.native.runbuild import build_in_cache
 
 #: ``FX_ABI_VERSION`` of the ``fmi2_group.c`` these mirrors follow (bump both together).
-ABI_VERSION = 1
+ABI_VERSION = 2
 
 #: Where the installed library is: beside this module and its source.
 INSTALLED = Path(__file__).parent
@@ -46,8 +46,10 @@ class Group(ctypes.Structure):
         ("n_members", ctypes.c_size_t),
         ("members", ctypes.c_void_p),
         ("transfers", ctypes.c_void_p),
+        ("calls", ctypes.c_void_p),
         ("failed_member", ctypes.c_size_t),
         ("failed_transfer", ctypes.c_size_t),
+        ("failed_call", ctypes.c_size_t),
         ("failed_status", ctypes.c_int),
     )
 
@@ -57,15 +59,16 @@ class Member(ctypes.Structure):
 
     _fields_ = (
         ("instance", ctypes.c_void_p),
-        ("set_real", ctypes.c_void_p),
         ("do_step", ctypes.c_void_p),
-        ("get_real", ctypes.c_void_p),
-        ("in_vrs", ctypes.c_void_p),
-        ("n_in", ctypes.c_size_t),
-        ("in_values", ctypes.c_void_p),
-        ("out_vrs", ctypes.c_void_p),
-        ("n_out", ctypes.c_size_t),
-        ("out_values", ctypes.c_void_p),
+        ("fmi3", ctypes.c_int),
+        ("event_handling_needed", ctypes.c_void_p),
+        ("terminate_simulation", ctypes.c_void_p),
+        ("early_return", ctypes.c_void_p),
+        ("last_successful_time", ctypes.c_void_p),
+        ("first_set", ctypes.c_size_t),
+        ("n_set", ctypes.c_size_t),
+        ("first_get", ctypes.c_size_t),
+        ("n_get", ctypes.c_size_t),
         ("first_transfer", ctypes.c_size_t),
         ("n_transfers", ctypes.c_size_t),
     )
@@ -81,6 +84,22 @@ class TransferSpec(ctypes.Structure):
         ("factor", ctypes.c_double),
         ("offset", ctypes.c_double),
         ("identity", ctypes.c_int),
+        ("src_type", ctypes.c_int),
+        ("dst_type", ctypes.c_int),
+    )
+
+
+class CallSpec(ctypes.Structure):
+    """``fx_call`` of ``fmi2_group.c``: one get or set call of one value type."""
+
+    _fields_ = (
+        ("function", ctypes.c_void_p),
+        ("vrs", ctypes.c_void_p),
+        ("n_vrs", ctypes.c_size_t),
+        ("values", ctypes.c_void_p),
+        ("n_values", ctypes.c_size_t),
+        ("type", ctypes.c_int),
+        ("setter", ctypes.c_int),
     )
 
 
@@ -89,10 +108,31 @@ MIRRORS: tuple[tuple[str, type[ctypes.Structure]], ...] = (
     ("fx_group", Group),
     ("fx_member", Member),
     ("fx_transfer", TransferSpec),
+    ("fx_call", CallSpec),
 )
 
+#: The element types the kernel converts and passes to FMI calls, by their ``FX_*`` code
+#: (the index): the numpy dtypes of the runners' value buffers. ``fx_abi_layout`` ends with
+#: their C sizes, which must be the ctypes sizes the buffers were made with.
+ELEMENT_TYPES: tuple[tuple[str, type[ctypes._SimpleCData[Any]]], ...] = (
+    ("float64", ctypes.c_double),
+    ("float32", ctypes.c_float),
+    ("int8", ctypes.c_int8),
+    ("uint8", ctypes.c_uint8),
+    ("int16", ctypes.c_int16),
+    ("uint16", ctypes.c_uint16),
+    ("int32", ctypes.c_int32),
+    ("uint32", ctypes.c_uint32),
+    ("int64", ctypes.c_int64),
+    ("uint64", ctypes.c_uint64),
+    ("bool", ctypes.c_bool),
+)
+
+#: ``FX_*`` code of a numpy dtype name.
+TYPE_CODES = {name: code for code, (name, _) in enumerate(ELEMENT_TYPES)}
+
 #: Return codes of ``fx_group_step``.
-OK, NAN, SET, DO_STEP, GET = 0, 1, 2, 3, 4
+OK, NAN, SET, DO_STEP, GET, TERMINATE = 0, 1, 2, 3, 4, 5
 
 
 @dataclass(frozen=True)
@@ -113,6 +153,8 @@ def expected_layout() -> list[tuple[str, int]]:
         for field in mirror._fields_:
             name = field[0]
             entries.append((f"offsetof({c_name}, {name})", getattr(mirror, name).offset))
+    for name, ctype in ELEMENT_TYPES:
+        entries.append((f"sizeof({name})", ctypes.sizeof(ctype)))
     return entries
 
 
