@@ -62,7 +62,7 @@ def graph(
         int | None, typer.Option("--domain", help="DDS domain (default: ROS_DOMAIN_ID or 0).")
     ] = None,
     timeout: Annotated[float, typer.Option("--timeout", help="Seconds to listen.")] = 2.0,
-    ros_distro: DistroOption = "humble",
+    ros_distro: DistroOption = "jazzy",
     output_format: Annotated[str, typer.Option("--format", "-f", help="text or json.")] = "text",
 ) -> None:
     """Read DDS discovery and compare the live graph with the system; exit 1 if links are missing."""
@@ -97,7 +97,7 @@ def graph(
 def launch_file(
     system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="The .launch.py to write.")],
-    ros_distro: DistroOption = "humble",
+    ros_distro: DistroOption = "jazzy",
 ) -> None:
     """Write a ROS 2 Python launch file with one `fmionnx node` process per component."""
     from fmionnx.backends.ros2.launchfile import launch_file_text

@@ -153,14 +153,24 @@ def run(
         typer.Option(
             "--ros-distro", help="With --backend ros2: humble, iron, jazzy or kilted (wire types)."
         ),
-    ] = "humble",
+    ] = "jazzy",
     middleware: Annotated[
         str,
         typer.Option(
             "--middleware",
-            help="With --backend ros2: `dds` (Cyclone DDS) or `rclpy` (ROS 2's own).",
+            help="With --backend ros2: `dds` (Cyclone DDS), `rclpy` (ROS 2's own) or `zenoh` "
+            "(the rmw_zenoh wire).",
         ),
     ] = "dds",
+    zenoh_router: Annotated[
+        str,
+        typer.Option(
+            "--zenoh-router",
+            help="With --middleware zenoh: `auto` (the configured router, tcp/localhost:7447 "
+            "by default, when it answers; else one started for the run) or an endpoint such as "
+            "`tcp/10.0.0.2:7447`.",
+        ),
+    ] = "auto",
     rtf: Annotated[
         float,
         typer.Option(
@@ -258,6 +268,10 @@ def run(
     if max_steps < 1:
         raise fail("--max-steps must be at least 1")
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
+    if ros2 is not None:
+        ros2 = _with_zenoh_router(ros2, zenoh_router)
+    elif zenoh_router != "auto":
+        raise fail("--zenoh-router applies to --backend ros2 --middleware zenoh")
     if ros2 is not None and (isolate or sandbox):
         raise fail("--isolate and --sandbox apply in-process; ROS 2 nodes are processes already")
     if not step_timeout > 0:
@@ -351,8 +365,8 @@ def _ros2_options(
         raise fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
     if distro not in {d.value for d in RosDistro}:
         raise fail(f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}")
-    if middleware not in ("dds", "rclpy"):
-        raise fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
+    if middleware not in ("dds", "rclpy", "zenoh"):
+        raise fail(f"--middleware must be `dds`, `rclpy` or `zenoh`, not `{middleware}`")
     if suffix in (".fmu", ".onnx"):
         raise fail("--backend ros2 runs system files, not a single model")
     if not rtf >= 0:  # also NaN
@@ -369,6 +383,22 @@ def _ros2_options(
         sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf, record=record,
         step_timeout=step_timeout, middleware=middleware,
     )  # fmt: skip
+
+
+def _with_zenoh_router(ros2: Any, spec: str) -> Any:
+    """``--zenoh-router`` checked and added to the ROS 2 options (usage errors exit 2)."""
+    import dataclasses
+
+    if ros2.middleware != "zenoh":
+        if spec != "auto":
+            raise fail("--zenoh-router applies to --middleware zenoh")
+        return ros2
+    from fmionnx.backends.ros2.zenoh.router import router_problem
+
+    problem = router_problem(spec)
+    if problem is not None:
+        raise fail(problem)
+    return dataclasses.replace(ros2, zenoh_router=spec)
 
 
 def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
@@ -567,6 +597,9 @@ def _summary(console: Any, result: Any, files: list[Path]) -> None:
     table.add_row("wall time", f"{result.wall_time:.3f} s")
     table.add_row("real-time factor", f"{result.real_time_factor:.2f}x")
     table.add_row("signals", str(len(result.signals)))
+    router = result.details.get("zenoh_router")
+    if router:
+        table.add_row("zenoh router", str(router))
     for file in files:
         table.add_row("wrote", str(file))
     console.print(table)
