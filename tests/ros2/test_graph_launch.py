@@ -111,4 +111,5 @@ def test_launch_file_is_python_defining_one_node_process_per_component(tmp_path:
     first = processes[0]["cmd"]
     assert first[:2] == ["fmionnx", "node"]
     assert Path(first[2]).resolve() == (REPO / "systems" / "sign_follower.yaml").resolve()
-    assert first[3:] == ["world", "--sync", "free", "--ros-distro", "humble"]
+    assert first[3:] == ["world", "--sync", "free", "--ros-distro", "jazzy", "--middleware", "dds"]
+    assert processes[0]["additional_env"] == {}

@@ -258,6 +258,15 @@ class Supervisor:
                 waiting.discard(decode_ready(data, self.options.distro))
             ready.wait(0.2)
 
+    def _wait_for_clock_readers(self, writer: SampleWriter, timeout: float = 30.0) -> None:
+        """Every node's clock reader, plus the supervisor's own, matched; a node that ends
+        meanwhile stops the wait at once (its reader would never come)."""
+        deadline = time.monotonic() + timeout
+        while not writer.wait_for_readers(len(self.components) + 1, 0.2):
+            self.children.check()
+            if time.monotonic() > deadline:
+                return
+
     def _progress(self, n: int) -> None:
         progress = self.options.run.progress
         if progress is not None and n % max(1, self.options.run.progress_every) == 0:
@@ -351,8 +360,7 @@ class Supervisor:
             for component in self.components:
                 self.children.start(component, self.argv(component))
             self._wait_ready(ready)
-            # every node's clock reader, plus the supervisor's own
-            clock_writer.wait_for_readers(len(self.components) + 1, 30.0)
+            self._wait_for_clock_readers(clock_writer)
             wall_start = time.perf_counter()
             if self.options.sync is SyncMode.LOCKSTEP:
                 self._lockstep(clock_writer, done)

@@ -19,6 +19,7 @@ import json
 import os
 from collections.abc import Mapping
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from fmionnx.backends.ros2.env import Ros2EnvError, from_environment
@@ -135,7 +136,7 @@ def zenoh_environment(
     env = os.environ if environ is None else environ
     domain_id = from_environment(distro, env).domain_id
     uri = env.get(CONFIG_URI_ENV, "").strip()
-    if uri and not os.path.isfile(uri):
+    if uri and not Path(uri).is_file():
         msg = f"{CONFIG_URI_ENV}={uri}: no such file (expected a Zenoh JSON5 configuration)"
         raise ZenohConfigError(msg)
     overrides = parse_overrides(env.get(CONFIG_OVERRIDE_ENV, ""))

@@ -59,9 +59,7 @@ class GraphCache:
         deadline = time.monotonic() + timeout
         with self._changed:
             while True:
-                alive = sum(
-                    1 for t in self.tokens.values() if t.kind is kind and t.topic == topic
-                )
+                alive = sum(1 for t in self.tokens.values() if t.kind is kind and t.topic == topic)
                 left = deadline - time.monotonic()
                 if alive >= count:
                     return True

@@ -119,6 +119,14 @@ def router_problem(spec: str) -> str | None:
     """Why ``spec`` is not a ``--zenoh-router`` value, or None."""
     if spec == "auto":
         return None
-    if "/" not in spec or spec.split("/", 1)[0] not in ("tcp", "udp", "tls", "quic", "unixsock-stream"):
-        return f"--zenoh-router must be `auto` or an endpoint like `tcp/localhost:7447`, not `{spec}`"
+    if "/" not in spec or spec.split("/", 1)[0] not in (
+        "tcp",
+        "udp",
+        "tls",
+        "quic",
+        "unixsock-stream",
+    ):
+        return (
+            f"--zenoh-router must be `auto` or an endpoint like `tcp/localhost:7447`, not `{spec}`"
+        )
     return None

@@ -195,9 +195,7 @@ class ZenohTransport:
         self._ids += 1
         return value
 
-    def declare_entity(
-        self, kind: EntityKind, topic: str, msgtype: str, qos: QosProfile
-    ) -> str:
+    def declare_entity(self, kind: EntityKind, topic: str, msgtype: str, qos: QosProfile) -> str:
         """Declare the liveliness token of a new entity of this node; its key expression."""
         key = self.node.entity(self._next_id(), kind, topic, msgtype, qos, self.distro)
         self._tokens.append(self.session.liveliness().declare_token(key))
