@@ -13,7 +13,10 @@ with history), which is rmw_zenoh's mapping too. Reliable writers block when the
 queue is full, best-effort writers drop.
 
 Samples are handed over without per-element work: the payload is the codec's ``bytes`` (one
-copy into Zenoh), the reader keeps Zenoh's payload as ``bytes``. A reader delivers each
+copy into Zenoh), the reader keeps Zenoh's payload as ``bytes``. Between peers on one host,
+zenoh-python (1.6 and later) moves payloads above 3 KB through shared memory by itself
+(``transport/shared_memory``, on by default; the reader counts such samples), so a camera frame
+does not cross a socket. A reader delivers each
 publisher's samples at most once, in the order of their sequence numbers: a sample whose
 sequence number it has already passed (the history reply of a sample that also arrived live)
 is dropped.
@@ -109,6 +112,8 @@ class ZenohReader:
         self._arrived = threading.Condition()
         self._last: dict[bytes, int] = {}
         self.dropped_duplicates = 0
+        #: Samples whose payload arrived in Zenoh shared memory (same host, large payloads).
+        self.shared_memory_samples = 0
         session = transport.session
         self.subscriber: Any
         if qos.durability is Durability.TRANSIENT_LOCAL:
@@ -124,7 +129,9 @@ class ZenohReader:
         self.gid = gid_of(self.token)
 
     def _on_sample(self, sample: Any) -> None:
-        data = sample.payload.to_bytes()
+        payload = sample.payload
+        data = payload.to_bytes()
+        in_shm = payload.as_shm() is not None
         extra = sample.attachment
         stamp: int | None = None
         with self._arrived:
@@ -135,10 +142,12 @@ class ZenohReader:
                     info = None
                 if info is not None:
                     stamp = info.timestamp_ns
-                    if info.sequence <= self._last.get(info.gid, 0):
+                    last = self._last.get(info.gid)
+                    if last is not None and info.sequence <= last:
                         self.dropped_duplicates += 1
                         return
                     self._last[info.gid] = info.sequence
+            self.shared_memory_samples += in_shm
             self._queue.append((data, stamp))
             self._arrived.notify_all()
 
@@ -188,7 +197,7 @@ class ZenohTransport:
         self.node = NodeToken(self.domain_id, self.zid, self._next_id(), namespace, name, enclave)
         self.node_key = self.node.node()
         self._tokens.append(self.session.liveliness().declare_token(self.node_key))
-        self._entities: list[ZenohWriter | ZenohReader] = []
+        self.entities: list[ZenohWriter | ZenohReader] = []
 
     def _next_id(self) -> int:
         value = self._ids
@@ -204,20 +213,20 @@ class ZenohTransport:
     def writer(self, dds_name: str, msgtype: str, qos: QosProfile) -> ZenohWriter:
         """A writer on the ROS topic of DDS name ``dds_name`` (``rt/...``)."""
         writer = ZenohWriter(self, _ros_name(dds_name), msgtype, qos)
-        self._entities.append(writer)
+        self.entities.append(writer)
         return writer
 
     def reader(self, dds_name: str, msgtype: str, qos: QosProfile) -> ZenohReader:
         """A reader on the ROS topic of DDS name ``dds_name``."""
         reader = ZenohReader(self, _ros_name(dds_name), msgtype, qos)
-        self._entities.append(reader)
+        self.entities.append(reader)
         return reader
 
     def close(self) -> None:
         """Undeclare everything and close the session (its tokens vanish from the graph)."""
         if self.session.is_closed():
             return
-        for entity in self._entities:
+        for entity in self.entities:
             handle = entity.publisher if isinstance(entity, ZenohWriter) else entity.subscriber
             handle.undeclare()
         for token in self._tokens:
