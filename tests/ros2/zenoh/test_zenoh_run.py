@@ -50,21 +50,23 @@ def _unused_router(monkeypatch: pytest.MonkeyPatch) -> str:
     return endpoint
 
 
+@pytest.mark.parametrize("distro", ["humble", "kilted"])  # jazzy: the reference test below
 def test_lockstep_over_zenoh_equals_inprocess_with_its_own_router_and_records_the_wire(
-    tmp_path: Path, zenoh_domain: int, monkeypatch: pytest.MonkeyPatch
+    tmp_path: Path, zenoh_domain: int, monkeypatch: pytest.MonkeyPatch, distro: str
 ) -> None:
     _unused_router(monkeypatch)
     system = loop_system(tmp_path, 1.0)
     inprocess, zenoh_out, bag = tmp_path / "inprocess", tmp_path / "zenoh", tmp_path / "wire.mcap"
     subprocess.run(fmionnx("run", system, "-q", "--out", inprocess), check=True, timeout=60)
     done = subprocess.run(
-        _zenoh_run(system, zenoh_out, "--record", bag), capture_output=True, text=True,
+        _zenoh_run(system, zenoh_out, "--record", bag, "--ros-distro", distro), capture_output=True, text=True,
         timeout=120, check=False,
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert (zenoh_out / "results.csv").read_bytes() == (inprocess / "results.csv").read_bytes()
     execution = json.loads((zenoh_out / "run.json").read_text())["execution"]
     assert execution["middleware"] == "zenoh"
+    assert execution["ros_distro"] == distro
     assert execution["zenoh_router"].startswith("started in-process on tcp/127.0.0.1:")
     assert "zenoh router" in done.stderr  # the summary table
     assert "started in-process on tcp/127.0.0.1:" in done.stderr
@@ -320,3 +322,39 @@ def test_a_killed_zenoh_node_stops_the_run_naming_it_and_leaves_nothing_behind(
     )
     assert processes_with(str(tmp_path)) == []
     assert not reachable(endpoint)
+
+
+@pytest.mark.parametrize(
+    ("args", "message"),
+    [
+        (["--middleware", "zenoh", "--zenoh-router", "localhost:7447"],
+         "--zenoh-router must be `auto` or an endpoint like `tcp/localhost:7447`"),
+        (["--zenoh-router", "tcp/localhost:7447"], "--zenoh-router applies to --middleware zenoh"),
+    ],
+)  # fmt: skip
+def test_zenoh_options_are_checked_before_anything_starts(
+    tmp_path: Path, args: list[str], message: str
+) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    result = CliRunner().invoke(
+        app, ["run", str(loop_system(tmp_path, 1.0)), "--backend", "ros2", *args]
+    )
+    assert result.exit_code == 2
+    assert message in " ".join(result.output.split())
+
+
+def test_a_bad_zenoh_override_ends_the_run_with_one_clear_line(
+    tmp_path: Path, zenoh_domain: int, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv("ZENOH_CONFIG_OVERRIDE", "no/such/key=1")
+    done = subprocess.run(
+        _zenoh_run(loop_system(tmp_path, 1.0), tmp_path / "out", "-q"),
+        capture_output=True, text=True, timeout=60, check=False,
+    )  # fmt: skip
+    assert done.returncode == 1
+    assert "ZENOH_CONFIG_OVERRIDE: `no/such/key=1`: unknown key" in done.stderr
+    assert "Traceback" not in done.stderr
+    assert processes_with(str(tmp_path)) == []
