@@ -14,7 +14,7 @@ import pytest
 
 from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.transport import Participant
-from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.messages import DEFAULT_DISTRO
 from fmionnx.compile.ros2.qos import PROFILES
 from tests.conftest import REPO
 from tests.ros2.test_run import fmionnx, loop_system, processes_with
@@ -50,7 +50,7 @@ def test_graph_shows_running_nodes_and_flags_a_foreign_reader_as_extra(
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
-    participant = Participant(from_environment(RosDistro.HUMBLE))
+    participant = Participant(from_environment(DEFAULT_DISTRO))
     try:
         foreign = participant.reader("rt/gain/y", "std_msgs/msg/Float64", PROFILES["default"])
         deadline = time.monotonic() + 60

@@ -14,7 +14,7 @@ import pytest
 from fmionnx.backends.ros2.codec import WHOLE, PortField, TopicCodec
 from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.transport import Participant
-from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
 from fmionnx.compile.ros2.qos import PROFILES
 from tests.conftest import REPO, built_model
 from tests.ros2.test_run import fmionnx, processes_with
@@ -103,7 +103,7 @@ def test_outside_images_on_camera_image_raw_drive_the_detector_when_the_world_is
     text = text.replace("    kind: mujoco\n", "    kind: mujoco\n    external: true\n", 1)
     system = tmp_path / "external.yaml"
     system.write_text(text, encoding="utf-8")
-    participant = Participant(from_environment(RosDistro.HUMBLE))
+    participant = Participant(from_environment(DEFAULT_DISTRO))
     image_type, blob_type = "sensor_msgs/msg/Image", "std_msgs/msg/Float64MultiArray"
     camera = participant.writer("rt/camera/image_raw", image_type, PROFILES["default"])
     blobs = participant.reader("rt/onnx_blobSize", blob_type, PROFILES["default"])

@@ -7,6 +7,7 @@ import struct
 import pytest
 import xxhash
 
+from fmionnx.backends.ros2.env import Ros2EnvError
 from fmionnx.backends.ros2.zenoh import attachment
 from fmionnx.backends.ros2.zenoh.config import (
     ZenohConfigError,
@@ -142,7 +143,7 @@ def test_environment_reads_domain_config_file_and_overrides(tmp_path) -> None:
     ],
 )
 def test_bad_environment_is_a_clear_error(environ: dict[str, str], message: str) -> None:
-    with pytest.raises(Exception, match=message):
+    with pytest.raises(Ros2EnvError, match=message):
         zenoh_environment(RosDistro.JAZZY, environ)
 
 

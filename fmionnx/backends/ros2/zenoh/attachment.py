@@ -29,10 +29,6 @@ class Attachment:
     timestamp_ns: int
     gid: bytes
 
-    def encode(self) -> bytes:
-        """The 33 bytes on the wire."""
-        return _HEAD.pack(self.sequence, self.timestamp_ns, len(self.gid)) + self.gid
-
 
 def encode(sequence: int, timestamp_ns: int, gid: bytes) -> bytes:
     """The attachment bytes of one sample (``gid``: 16 bytes)."""
