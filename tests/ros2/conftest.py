@@ -10,7 +10,7 @@ import pytest
 
 from fmionnx.backends.ros2.env import DdsEnvironment, from_environment
 from fmionnx.compile.ir import CompiledSystem, Connection, RunSettings
-from fmionnx.compile.ros2.messages import DEFAULT_DISTRO
+from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port, PortRef
 from fmionnx.kinds.fmu.kind import FmuConfig
@@ -153,4 +153,4 @@ def loopback_env(monkeypatch: pytest.MonkeyPatch) -> DdsEnvironment:
     monkeypatch.setenv("ROS_LOCALHOST_ONLY", "1")
     monkeypatch.delenv("CYCLONEDDS_URI", raising=False)
     monkeypatch.delenv("ROS_AUTOMATIC_DISCOVERY_RANGE", raising=False)
-    return from_environment(DEFAULT_DISTRO)  # what `fmionnx run` and `node` use by default
+    return from_environment(RosDistro.HUMBLE)

@@ -20,7 +20,7 @@ from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ir import RunSettings
 from fmionnx.compile.ros2.fields import PortField
-from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
+from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.plan import CLOCK_TYPE
 from fmionnx.compile.ros2.qos import PROFILES
 from fmionnx.compile.systemfile import read_compiled
@@ -43,7 +43,7 @@ FLOAT64 = "std_msgs/msg/Float64"
 
 def _published(command: list[str], cwd: Path, run: RunSettings) -> list[float]:
     """Drive the node's ``/clock`` through the whole run; the values it published on /ramp_x."""
-    participant = Participant(from_environment(DEFAULT_DISTRO))
+    participant = Participant(from_environment(RosDistro.HUMBLE))
     reader = participant.reader("rt/ramp_x", FLOAT64, PROFILES["default"])
     clock = participant.writer(CLOCK_DDS, CLOCK_TYPE, CONTROL_WRITER_QOS)
     codec = TopicCodec(FLOAT64, (PortField("x", ("data",)),), RosDistro.HUMBLE)
@@ -90,10 +90,13 @@ def test_a_node_from_the_compiled_system_in_an_empty_folder_publishes_what_a_nod
     assert sorted(p.name for p in bundle.iterdir()) == ["models", "ramp.fmionnx.json"]
     run = read_compiled(bundle / "ramp.fmionnx.json").run
 
-    from_file = _published(fmionnx("node", system, "integ", "--sync", "free"), source, run)
+    from_file = _published(
+        fmionnx("node", system, "integ", "--sync", "free", "--ros-distro", "humble"), source, run
+    )
     shutil.rmtree(source)  # the system file and its model are gone: only the bundle is left
     from_compiled = _published(
-        fmionnx("node", "ramp.fmionnx.json", "integ", "--sync", "free", "--models", "models"),
+        fmionnx("node", "ramp.fmionnx.json", "integ", "--sync", "free", "--models", "models",
+                "--ros-distro", "humble"),
         bundle,
         run,
     )

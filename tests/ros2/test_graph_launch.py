@@ -14,7 +14,7 @@ import pytest
 
 from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.transport import Participant
-from fmionnx.compile.ros2.messages import DEFAULT_DISTRO
+from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.qos import PROFILES
 from tests.conftest import REPO
 from tests.ros2.test_run import fmionnx, loop_system, processes_with
@@ -24,7 +24,8 @@ pytestmark = pytest.mark.ros2
 
 def _graph(system: Path, timeout: float) -> tuple[int, dict[str, object]]:
     done = subprocess.run(
-        fmionnx("ros2", "graph", system, "--format", "json", "--timeout", timeout),
+        fmionnx("ros2", "graph", system, "--format", "json", "--timeout", timeout,
+                "--ros-distro", "humble"),
         capture_output=True,
         text=True,
         timeout=60,
@@ -46,11 +47,12 @@ def test_graph_shows_running_nodes_and_flags_a_foreign_reader_as_extra(
     system = loop_system(tmp_path, 10000.0)
     out = tmp_path / "out"
     run = subprocess.Popen(
-        fmionnx("run", system, "-q", "--backend", "ros2", "--sync", "free", "--out", out),
+        fmionnx("run", system, "-q", "--backend", "ros2", "--sync", "free", "--out", out,
+                "--ros-distro", "humble"),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
-    participant = Participant(from_environment(DEFAULT_DISTRO))
+    participant = Participant(from_environment(RosDistro.HUMBLE))
     try:
         foreign = participant.reader("rt/gain/y", "std_msgs/msg/Float64", PROFILES["default"])
         deadline = time.monotonic() + 60

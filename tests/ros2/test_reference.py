@@ -14,7 +14,7 @@ import pytest
 from fmionnx.backends.ros2.codec import WHOLE, PortField, TopicCodec
 from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.transport import Participant
-from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
+from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.qos import PROFILES
 from tests.conftest import REPO, built_model
 from tests.ros2.test_run import fmionnx, processes_with
@@ -53,7 +53,8 @@ def test_lockstep_reference_run_equals_inprocess_and_feeds_an_independent_cmd_ve
         assert json.loads(subscriber.stdout.readline()) == {"ready": True}
         out = tmp_path / "ros2"
         done = subprocess.run(
-            fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--sync", "lockstep", "--out", out),
+            fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--sync", "lockstep", "--out", out,
+                    "--ros-distro", "humble"),  # the peer's Cyclone settings are Humble's
             capture_output=True,
             text=True,
             timeout=240,
@@ -80,7 +81,7 @@ def test_free_run_of_the_reference_system_reaches_b_within_half_a_metre(
     out = tmp_path / "free"
     done = subprocess.run(
         fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--sync", "free", "--rtf", "1.5",
-                "--out", out),
+                "--out", out, "--ros-distro", "humble"),
         capture_output=True,
         text=True,
         timeout=240,
@@ -103,7 +104,7 @@ def test_outside_images_on_camera_image_raw_drive_the_detector_when_the_world_is
     text = text.replace("    kind: mujoco\n", "    kind: mujoco\n    external: true\n", 1)
     system = tmp_path / "external.yaml"
     system.write_text(text, encoding="utf-8")
-    participant = Participant(from_environment(DEFAULT_DISTRO))
+    participant = Participant(from_environment(RosDistro.HUMBLE))
     image_type, blob_type = "sensor_msgs/msg/Image", "std_msgs/msg/Float64MultiArray"
     camera = participant.writer("rt/camera/image_raw", image_type, PROFILES["default"])
     blobs = participant.reader("rt/onnx_blobSize", blob_type, PROFILES["default"])
@@ -114,7 +115,7 @@ def test_outside_images_on_camera_image_raw_drive_the_detector_when_the_world_is
     frame[100:300, 200:400] = (220, 20, 20)  # a red board
     run = subprocess.Popen(
         fmionnx("run", system, "--no-checks", "-q", "--backend", "ros2", "--sync", "free", "--out",
-                tmp_path / "out"),
+                tmp_path / "out", "--ros-distro", "humble"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

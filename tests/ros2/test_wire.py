@@ -81,7 +81,7 @@ def test_discovery_info_lists_every_node_with_its_readers_and_writers(
 ):
     # Humble and Jazzy derive different Cyclone settings from ROS_LOCALHOST_ONLY, and one
     # process holds one configuration per domain: each distribution gets its own domain.
-    if distro != loopback_env.distro.value:
+    if distro == "jazzy":
         monkeypatch.setenv("ROS_DOMAIN_ID", str(loopback_env.domain_id + 1))
     env = from_environment(RosDistro(distro))
     child = _spawn("announce", distro)
