@@ -163,3 +163,37 @@ def test_router_values() -> None:
     assert router_problem("localhost:7447") is not None
     assert tcp_address("tcp/[::1]:7447") == ("::1", 7447)
     assert tcp_address("udp/h:1") is None
+
+
+def test_liveliness_tokens_make_the_live_graph_that_is_compared_with_the_plan() -> None:
+    from fmionnx.backends.ros2.graph import compare, render_text
+    from fmionnx.backends.ros2.loading import plan_for
+    from fmionnx.backends.ros2.zenoh.graph import graph_of
+    from tests.ros2.conftest import make_system
+
+    plan = plan_for(make_system(), RosDistro.JAZZY)
+    tokens = []
+    for index, node in enumerate(plan.nodes):
+        owner = NodeToken(0, f"{index:032x}", 0, node.namespace, node.name)
+        tokens.append(owner.node())
+        for kind, topics in ((EntityKind.PUBLISHER, node.publishes),
+                             (EntityKind.SUBSCRIPTION, node.subscribes)):  # fmt: skip
+            for number, topic in enumerate(topics, 1):
+                msgtype = plan.topic(topic).msgtype
+                tokens.append(
+                    owner.entity(number, kind, topic, msgtype, QosProfile(), RosDistro.JAZZY)
+                )
+    foreign = NodeToken(0, "f" * 32, 0, "/", "teleop_listener")
+    tokens += [foreign.node(), foreign.entity(
+        1, EntityKind.SUBSCRIPTION, "/cmd_vel", "geometry_msgs/msg/Twist", QosProfile(),
+        RosDistro.JAZZY,
+    )]  # fmt: skip
+    parsed = [parse_token(t) for t in tokens]
+    graph = graph_of([p for p in parsed if p is not None])
+    result = compare(plan, graph)
+    assert result.missing == ()
+    assert result.extra == (("/teleop_listener", "sub", "/cmd_vel"),)
+    assert graph.topics["/cmd_vel"] == {"geometry_msgs/msg/Twist"}
+    text = render_text(plan, graph, result)
+    assert "/teleop_listener" in text
+    assert "not in the system" in text
