@@ -17,7 +17,9 @@ ros2_app = typer.Typer(
 )
 app.add_typer(ros2_app, name="ros2")
 
-DistroOption = Annotated[str, typer.Option("--ros-distro", help="humble, iron, jazzy or kilted.")]
+DistroOption = Annotated[
+    str, typer.Option("--ros-distro", help="humble, iron, jazzy or kilted.")
+]
 
 
 def _fail(message: str, code: int) -> typer.Exit:

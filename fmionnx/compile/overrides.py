@@ -32,6 +32,7 @@ class OverrideError(FmionnxError):
     """A command-line override (``--param``, ``--stop-time``) that does not fit the system."""
 
 
+
 def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
     """The system with another stop time (a whole number of base steps after the start)."""
     run = system.run
@@ -46,9 +47,7 @@ def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
         msg = f"--stop-time {stop}: {problem}"
         raise OverrideError(msg)
     if is_whole_multiple(stop - run.start, run.step, rel=1e-6) is None:
-        msg = (
-            f"--stop-time {stop} is not a whole number of base steps ({run.step} s) after the start"
-        )
+        msg = f"--stop-time {stop} is not a whole number of base steps ({run.step} s) after the start"
         raise OverrideError(msg)
     origins = (*((k, o) for k, o in run.origins if k != "stop"), ("stop", Origin.COMMAND_LINE))
     return dataclasses.replace(system, run=dataclasses.replace(run, stop=stop, origins=origins))

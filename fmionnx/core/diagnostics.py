@@ -358,7 +358,9 @@ CODES: dict[str, ErrorCode] = _codes(
         "System connectors that cannot be flattened (driven twice, or in a cycle).",
     ),
     ErrorCode("W070", "ssp-ignored", _W, "ssp", "An SSP element that fmionnx reads but ignores."),
-    ErrorCode("I070", "ssp-layout", _I, "ssp", "The SSP diagram layout (geometry) is not used."),
+    ErrorCode(
+        "I070", "ssp-layout", _I, "ssp", "The SSP diagram layout (geometry) is not used."
+    ),
     # --- interface lock (issue: CI)
     ErrorCode(
         "E080",

@@ -21,6 +21,7 @@ from fmionnx.core.types import ComponentInterface
 MAX_ENTRIES = 256
 
 
+
 K = TypeVar("K", bound=Hashable)
 V = TypeVar("V")
 

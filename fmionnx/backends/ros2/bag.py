@@ -1,10 +1,10 @@
 """``fmionnx run --backend ros2 --record FILE.mcap``: a rosbag2-style recording of the wire.
 
 The supervisor subscribes to every topic of the plan (the nodes' topics, topics expected from
-outside, and ``/clock``) and writes each sample exactly as it crossed the wire (DDS or Zenoh): the CDR bytes with
-their encapsulation header, ``cdr`` message encoding, one ``ros2msg`` schema per type (the
-definition text from the distribution's rosbags type store, dependencies included, as rosbag2
-writes it). That is what ``ros2 bag record`` produces, so ``ros2 bag info/play`` and Foxglove
+outside, and ``/clock``) and writes each sample exactly as it crossed the wire (DDS or Zenoh):
+the CDR bytes with their encapsulation header, ``cdr`` message encoding, one ``ros2msg`` schema
+per type (the definition text from the distribution's rosbags type store, dependencies included,
+as rosbag2 writes it). That is what ``ros2 bag record`` produces, so ``ros2 bag info/play`` and Foxglove
 open the file; nothing is re-encoded, so the bag also proves what the nodes really sent.
 
 ``log_time`` is the receive time on the system clock (rosbag2's default), ``publish_time`` the

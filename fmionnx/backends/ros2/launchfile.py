@@ -2,8 +2,8 @@
 
 One ``ExecuteProcess`` per non-external component, each ``fmionnx node SYSTEM COMPONENT --sync
 free`` (``--middleware zenoh``: on the rmw_zenoh wire, with ``RMW_IMPLEMENTATION=rmw_zenoh_cpp``
-for the workspace's own nodes): without a supervisor the simulator node is the clock (it starts once the readers of its
-topics matched) and every other node follows ``/clock``. The system file is referenced
+for the workspace's own nodes): without a supervisor the simulator node is the clock (it
+starts once the readers of its topics matched) and every other node follows ``/clock``. The system file is referenced
 relative to the launch file when it can be, so the pair can move together.
 """
 

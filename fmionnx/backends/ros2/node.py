@@ -315,9 +315,7 @@ class Node:
         for topic_name in self.node_plan.publishes:
             topic = plan.topic(topic_name)
             writer = participant.writer(
-                dds_topic(topic_name),
-                topic.msgtype,
-                self._qos(topic.qos, reader=False, in_run=True),
+                dds_topic(topic_name), topic.msgtype, self._qos(topic.qos, reader=False, in_run=True)
             )
             codec = TopicCodec(topic.msgtype, topic.fields, distro, frame_id=topic.frame_id)
             values = {f.port: runner.output_buffer(f.port) for f in topic.fields}
@@ -330,12 +328,8 @@ class Node:
     def _readers_matched(self) -> None:
         for box in self.outboxes:
             if not box.writer.wait_for_readers(box.readers, MATCH_TIMEOUT):
-                log.warning(
-                    "topic %s: only %d of %d readers matched",
-                    box.topic.name,
-                    box.writer.matched(),
-                    box.readers,
-                )
+                log.warning("topic %s: only %d of %d readers matched", box.topic.name,
+                            box.writer.matched(), box.readers)
 
     # -- stepping ------------------------------------------------------------------------------
 
@@ -411,9 +405,7 @@ class Node:
                     if now >= total:
                         return
                     continue
-                log.info(
-                    "every input arrived; stepping from t=%g s", self.system.run.time_at(next_n)
-                )
+                log.info("every input arrived; stepping from t=%g s", self.system.run.time_at(next_n))
             while next_n < min(now, total):
                 self._step(runner, next_n, exact=False)
                 next_n += period
@@ -478,12 +470,8 @@ class Node:
                 ready.wait_for_readers(1, MATCH_TIMEOUT)
                 done.wait_for_readers(1, MATCH_TIMEOUT)
                 ready.write(encode_ready(self.component.name, self.plan.distro))
-            log.info(
-                "node %s (%s) ready, sync %s",
-                self.node_plan.fqn,
-                self.component.name,
-                opts.sync.value,
-            )
+            log.info("node %s (%s) ready, sync %s", self.node_plan.fqn, self.component.name,
+                     opts.sync.value)
             if opts.sync is SyncMode.LOCKSTEP:
                 self._lockstep(runner, clock_in, done)
             elif clock_out is not None:
@@ -502,14 +490,8 @@ class Node:
             log.info("stopped at step %d", self.steps_done)
         finally:
             if opts.record_dir is not None:
-                save_node(
-                    opts.record_dir,
-                    self.recording,
-                    self.component.name,
-                    status=status,
-                    steps=self.steps_done,
-                    error=error,
-                )
+                save_node(opts.record_dir, self.recording, self.component.name,
+                          status=status, steps=self.steps_done, error=error)
             runner.terminate()
             if announcer is not None:
                 announcer.withdraw()
@@ -523,3 +505,4 @@ def describe_node(plan: Ros2Plan, component: str) -> str:
         return f"{plan.node(component).fqn} (component `{component}`)"
     except KeyError:
         return f"component `{component}`"
+

@@ -112,3 +112,5 @@ class Ros2Plan:
             if node.component == component:
                 return node
         raise KeyError(component)
+
+

@@ -164,9 +164,7 @@ class FmuRunner(ABC):
         try:
             in_ports, self._stand_in = settable_inputs(in_ports, given)
         except RunError as exc:
-            raise RunError(
-                f"component `{component.name}`: {exc}", component=component.name
-            ) from None
+            raise RunError(f"component `{component.name}`: {exc}", component=component.name) from None
         self._inputs = build_groups(dll, inst, in_ports, self.values, setter=True)
         self._outputs = build_groups(dll, inst, out_ports, self.values, setter=False)
         self._set_calls = [g.call for g in self._inputs]

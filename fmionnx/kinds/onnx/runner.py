@@ -68,9 +68,7 @@ class OnnxRunner:
                 str(self.component.path), sess_options=options, providers=providers
             )
         except Exception as exc:
-            raise fault(
-                self.component.name, f"cannot create the session: {exc}", time=0.0
-            ) from None
+            raise fault(self.component.name, f"cannot create the session: {exc}", time=0.0) from None
 
     def setup(self, start: float, stop: float) -> None:
         """Allocate input buffers from start values, run once so outputs hold initial values."""

@@ -10,8 +10,8 @@ from the distribution's definitions; Humble predates type hashes and writes
 An entity's GID is the XXH3-128 hash of its liveliness key expression, its low 64 bits first
 (both halves little endian, as rmw_zenoh copies the hash struct).
 
-Nothing here opens a session: these are pure functions, shared by the transport, the graph
-reader and the tests' own checker.
+Nothing here opens a session: these are pure functions for the transport and the graph
+reader (the tests' checker derives the same names on its own, from the wire facts).
 """
 
 from __future__ import annotations
