@@ -97,7 +97,7 @@ def main(argv: list[str] | None = None, console: Console | None = None) -> dict[
     finally:
         for child in children:
             child.kill()
-            child.wait()
+            child.communicate()  # reaps it and closes its pipe
         router.close()
     _print(console, results, camera_seconds)
     return results
