@@ -364,7 +364,8 @@ def measure(setup: Setup, folder: Path) -> Outcome:
         simulator = Simulator(participant, plan, system.run)
         for name in NODES:
             nodes[name] = subprocess.Popen(
-                [sys.executable, "-m", "fmionnx", "node", str(path), name, "--sync", "free"],
+                [sys.executable, "-m", "fmionnx", "node", str(path), name, "--sync", "free",
+                 "--ros-distro", DISTRO.value],
                 stdout=logs[name], stderr=subprocess.STDOUT,
             )  # fmt: skip
         running = list(nodes.values())

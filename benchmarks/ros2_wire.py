@@ -13,6 +13,7 @@ import statistics
 import subprocess
 import sys
 import time
+from typing import Any
 
 import numpy as np
 
@@ -36,21 +37,26 @@ def _codecs() -> dict[str, TopicCodec]:
 
 def echo() -> None:
     """Child: decode every ping and publish it back re-encoded (a node's full path)."""
-    codecs = _codecs()
     with Participant(from_environment(DISTRO)) as participant:
-        pairs = []
-        for msgtype, name in ((TWIST, "twist"), (IMAGE, "image")):
-            reader = participant.reader(f"rt/ping_{name}", msgtype, PROFILES["default"])
-            writer = participant.writer(f"rt/pong_{name}", msgtype, PROFILES["default"])
-            pairs.append((reader, writer, codecs[msgtype]))
-        print("ready", flush=True)
-        deadline = time.monotonic() + 120
-        while time.monotonic() < deadline:
-            for reader, writer, codec in pairs:
-                for data in reader.take():
-                    values, stamp = codec.decode(data)
-                    writer.write(codec.encode(values, stamp or 0.0))
-            time.sleep(0.0002)
+        echo_on(participant)
+
+
+def echo_on(participant: Any, seconds: float = 120.0) -> None:
+    """Echo pings on any node transport (Cyclone here, Zenoh in ``ros2_zenoh.py``)."""
+    codecs = _codecs()
+    pairs = []
+    for msgtype, name in ((TWIST, "twist"), (IMAGE, "image")):
+        reader = participant.reader(f"rt/ping_{name}", msgtype, PROFILES["default"])
+        writer = participant.writer(f"rt/pong_{name}", msgtype, PROFILES["default"])
+        pairs.append((reader, writer, codecs[msgtype]))
+    print("ready", flush=True)
+    deadline = time.monotonic() + seconds
+    while time.monotonic() < deadline:
+        for reader, writer, codec in pairs:
+            for data in reader.take():
+                values, stamp = codec.decode(data)
+                writer.write(codec.encode(values, stamp or 0.0))
+        time.sleep(0.0002)
 
 
 def _percentiles(samples: list[float]) -> tuple[float, float]:
@@ -59,7 +65,7 @@ def _percentiles(samples: list[float]) -> tuple[float, float]:
 
 
 def _hops(
-    participant: Participant, name: str, msgtype: str, values: dict[str, np.ndarray], count: int
+    participant: Any, name: str, msgtype: str, values: dict[str, np.ndarray], count: int
 ) -> list[float]:
     codec = _codecs()[msgtype]
     writer = participant.writer(f"rt/ping_{name}", msgtype, PROFILES["default"])
@@ -81,7 +87,7 @@ def _hops(
 
 
 def _throughput(
-    participant: Participant, rate: float, seconds: float, frame: np.ndarray
+    participant: Any, rate: float, seconds: float, frame: np.ndarray
 ) -> tuple[int, int]:
     codec = _codecs()[IMAGE]
     writer = participant.writer("rt/ping_image", IMAGE, PROFILES["default"])

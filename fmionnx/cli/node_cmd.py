@@ -40,7 +40,8 @@ def _remaps(items: list[str]) -> tuple[tuple[str, str], ...]:
     epilog="Examples:\n\n"
     "  fmionnx node systems/sign_follower.yaml tracker --sync free\n\n"
     "  ROS_DOMAIN_ID=7 fmionnx node systems/sign_follower.yaml detector --ros-distro jazzy\n\n"
-    "  fmionnx node robot.fmionnx.json tracker --models models/   # compiled elsewhere",
+    "  fmionnx node robot.fmionnx.json tracker --models models/   # compiled elsewhere\n\n"
+    "  fmionnx node systems/sign_follower.yaml tracker --middleware zenoh",
 )
 def node(
     system: Annotated[
@@ -54,7 +55,7 @@ def node(
     sync: Annotated[str, typer.Option("--sync", help="`lockstep` or `free`.")] = "free",
     ros_distro: Annotated[
         str, typer.Option("--ros-distro", help="humble, iron, jazzy or kilted.")
-    ] = "humble",
+    ] = "jazzy",
     stop_time: Annotated[
         float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
     ] = None,
@@ -71,7 +72,11 @@ def node(
         bool, typer.Option("--supervised", help="Started by `fmionnx run --backend ros2`.")
     ] = False,
     middleware: Annotated[
-        str, typer.Option("--middleware", help="`dds` (Cyclone DDS) or `rclpy` (a ROS 2 node).")
+        str,
+        typer.Option(
+            "--middleware",
+            help="`dds` (Cyclone DDS), `rclpy` (a ROS 2 node) or `zenoh` (the rmw_zenoh wire).",
+        ),
     ] = "dds",
     input_wait: Annotated[
         float,
@@ -86,6 +91,15 @@ def node(
             "--remap", "-r", help="`/from:=/to`: publish or subscribe topic /from as /to."
         ),
     ] = None,
+    zenoh_router: Annotated[
+        str,
+        typer.Option(
+            "--zenoh-router",
+            help="With --middleware zenoh: the router endpoint (default: the Zenoh "
+            "configuration's, tcp/localhost:7447 unless ZENOH_SESSION_CONFIG_URI or "
+            "ZENOH_CONFIG_OVERRIDE say otherwise).",
+        ),
+    ] = "",
     models: Annotated[
         Path | None,
         typer.Option(
@@ -101,7 +115,7 @@ def node(
         ),
     ] = MAX_RUN_STEPS,
 ) -> None:
-    """Run one component as a ROS 2 node (Cyclone DDS or rclpy); exit 0 at the stop time, 1 on a fault."""
+    """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time, 1 on a fault."""
     from fmionnx import api
     from fmionnx.backends.ros2.env import Ros2EnvError
     from fmionnx.backends.ros2.loading import plan_for
@@ -126,6 +140,15 @@ def node(
     if not 0 <= input_wait < float("inf"):  # also NaN
         raise _fail("--input-wait must be >= 0 seconds", ExitCode.USAGE)
     remaps = _remaps(remap or [])
+    if zenoh_router and transport is not Middleware.ZENOH:
+        raise _fail("--zenoh-router applies to --middleware zenoh", ExitCode.USAGE)
+    if zenoh_router:
+        from fmionnx.backends.ros2.zenoh.router import router_problem
+
+        wrong = router_problem(zenoh_router)
+        if wrong is not None or zenoh_router == "auto":
+            raise _fail(wrong or "--zenoh-router of a node is an endpoint, not `auto`",
+                        ExitCode.USAGE)  # fmt: skip
     problem = distro_problem(distro) if transport is Middleware.RCLPY else None
     if problem is not None:
         raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
@@ -152,7 +175,15 @@ def node(
             )
         plan = plan_for(compiled, distro)
         options = NodeOptions(
-            mode, distro, record_dir, supervised, rtf, transport, input_wait, remaps
+            mode,
+            distro,
+            record_dir,
+            supervised,
+            rtf,
+            transport,
+            input_wait=input_wait,
+            remap=remaps,
+            zenoh_router=zenoh_router,
         )
         the_node = Node(compiled, plan, component, options)
         logging.getLogger("fmionnx.node").info(

@@ -54,18 +54,36 @@ def _plan(system: Path, distro: str) -> tuple[object, object]:
 @ros2_app.command(
     epilog="Examples:\n\n"
     "  fmionnx ros2 graph systems/sign_follower.yaml --timeout 3\n\n"
-    "  fmionnx ros2 graph systems/sign_follower.yaml --domain 42 --format json",
+    "  fmionnx ros2 graph systems/sign_follower.yaml --domain 42 --format json\n\n"
+    "  fmionnx ros2 graph systems/sign_follower.yaml --middleware zenoh",
 )
 def graph(
     system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
     domain: Annotated[
-        int | None, typer.Option("--domain", help="DDS domain (default: ROS_DOMAIN_ID or 0).")
+        int | None,
+        typer.Option("--domain", help="ROS domain (default: ROS_DOMAIN_ID or 0)."),
     ] = None,
     timeout: Annotated[float, typer.Option("--timeout", help="Seconds to listen.")] = 2.0,
-    ros_distro: DistroOption = "humble",
+    ros_distro: DistroOption = "jazzy",
     output_format: Annotated[str, typer.Option("--format", "-f", help="text or json.")] = "text",
+    middleware: Annotated[
+        str,
+        typer.Option(
+            "--middleware",
+            help="`dds`: read DDS discovery; `zenoh`: read rmw_zenoh's liveliness tokens.",
+        ),
+    ] = "dds",
+    zenoh_router: Annotated[
+        str,
+        typer.Option(
+            "--zenoh-router",
+            help="With --middleware zenoh: the router endpoint (default: the Zenoh "
+            "configuration's, tcp/localhost:7447).",
+        ),
+    ] = "",
 ) -> None:
-    """Read DDS discovery and compare the live graph with the system; exit 1 if links are missing."""
+    """Read the live graph (DDS discovery or Zenoh liveliness) and compare it with the system;
+    exit 1 if links are missing."""
     from fmionnx.backends.ros2.env import Ros2EnvError, from_environment
     from fmionnx.backends.ros2.graph import compare, read_live_graph, render_json, render_text
     from fmionnx.backends.ros2.transport import Participant, TransportError
@@ -73,15 +91,32 @@ def graph(
 
     if output_format not in ("text", "json"):
         raise _fail(f"--format must be `text` or `json`, not `{output_format}`", ExitCode.USAGE)
+    if middleware not in ("dds", "zenoh"):
+        raise _fail(f"--middleware must be `dds` or `zenoh`, not `{middleware}`", ExitCode.USAGE)
+    if zenoh_router and middleware != "zenoh":
+        raise _fail("--zenoh-router applies to --middleware zenoh", ExitCode.USAGE)
+    if zenoh_router:
+        from fmionnx.backends.ros2.zenoh.router import router_problem
+
+        problem = router_problem(zenoh_router)
+        if problem is not None or zenoh_router == "auto":
+            raise _fail(problem or "--zenoh-router is an endpoint here", ExitCode.USAGE)
     _, plan = _plan(system, ros_distro)
     assert isinstance(plan, Ros2Plan)
     environ = dict(os.environ)
     if domain is not None:
         environ["ROS_DOMAIN_ID"] = str(domain)
     try:
-        env = from_environment(plan.distro, environ)
-        with Participant(env) as participant:
-            live = read_live_graph(participant, max(timeout, 0.1))
+        if middleware == "zenoh":
+            from fmionnx.backends.ros2.zenoh.config import zenoh_environment
+            from fmionnx.backends.ros2.zenoh.graph import read_zenoh_graph
+
+            zenv = zenoh_environment(plan.distro, environ, router=zenoh_router)
+            live = read_zenoh_graph(zenv, max(timeout, 0.1))
+        else:
+            env = from_environment(plan.distro, environ)
+            with Participant(env) as participant:
+                live = read_live_graph(participant, max(timeout, 0.1))
     except (Ros2EnvError, TransportError) as exc:
         raise _fail(str(exc), ExitCode.PROBLEMS) from None
     result = compare(plan, live)
@@ -92,22 +127,33 @@ def graph(
 
 @ros2_app.command(
     "launch-file",
-    epilog="Example:\n\n  fmionnx ros2 launch-file systems/sign_follower.yaml -o robot.launch.py",
+    epilog="Examples:\n\n  fmionnx ros2 launch-file systems/sign_follower.yaml -o robot.launch.py\n\n"
+    "  fmionnx ros2 launch-file systems/sign_follower.yaml -o robot.launch.py --middleware zenoh",
 )
 def launch_file(
     system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="The .launch.py to write.")],
-    ros_distro: DistroOption = "humble",
+    ros_distro: DistroOption = "jazzy",
+    middleware: Annotated[
+        str,
+        typer.Option(
+            "--middleware",
+            help="`dds`, or `zenoh`: nodes on the rmw_zenoh wire and "
+            "RMW_IMPLEMENTATION=rmw_zenoh_cpp for every process.",
+        ),
+    ] = "dds",
 ) -> None:
     """Write a ROS 2 Python launch file with one `fmionnx node` process per component."""
     from fmionnx.backends.ros2.launchfile import launch_file_text
     from fmionnx.compile.ir import CompiledSystem
     from fmionnx.compile.ros2.types import Ros2Plan
 
+    if middleware not in ("dds", "zenoh"):
+        raise _fail(f"--middleware must be `dds` or `zenoh`, not `{middleware}`", ExitCode.USAGE)
     compiled, plan = _plan(system, ros_distro)
     assert isinstance(plan, Ros2Plan)
     assert isinstance(compiled, CompiledSystem)
-    text = launch_file_text(plan, compiled.name, system, output)
+    text = launch_file_text(plan, compiled.name, system, output, middleware)
     try:
         output.parent.mkdir(parents=True, exist_ok=True)
         output.write_text(text, encoding="utf-8")

@@ -154,14 +154,24 @@ def run(
         typer.Option(
             "--ros-distro", help="With --backend ros2: humble, iron, jazzy or kilted (wire types)."
         ),
-    ] = "humble",
+    ] = "jazzy",
     middleware: Annotated[
         str,
         typer.Option(
             "--middleware",
-            help="With --backend ros2: `dds` (Cyclone DDS) or `rclpy` (ROS 2's own).",
+            help="With --backend ros2: `dds` (Cyclone DDS), `rclpy` (ROS 2's own) or `zenoh` "
+            "(the rmw_zenoh wire).",
         ),
     ] = "dds",
+    zenoh_router: Annotated[
+        str,
+        typer.Option(
+            "--zenoh-router",
+            help="With --middleware zenoh: `auto` (the configured router, tcp/localhost:7447 "
+            "by default, when it answers; else one started for the run) or an endpoint such as "
+            "`tcp/10.0.0.2:7447`.",
+        ),
+    ] = "auto",
     rtf: Annotated[
         float,
         typer.Option(
@@ -269,6 +279,10 @@ def run(
     ros2 = _ros2_options(backend, sync, ros_distro, middleware, rtf, suffix, record, step_timeout)
     if input_wait is not None:
         ros2 = _with_input_wait(ros2, input_wait)
+    if ros2 is not None:
+        ros2 = _with_zenoh_router(ros2, zenoh_router)
+    elif zenoh_router != "auto":
+        raise fail("--zenoh-router applies to --backend ros2 --middleware zenoh")
     if ros2 is not None and (isolate or sandbox):
         raise fail("--isolate and --sandbox apply in-process; ROS 2 nodes are processes already")
     if not step_timeout > 0:
@@ -362,8 +376,8 @@ def _ros2_options(
         raise fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
     if distro not in {d.value for d in RosDistro}:
         raise fail(f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}")
-    if middleware not in ("dds", "rclpy"):
-        raise fail(f"--middleware must be `dds` or `rclpy`, not `{middleware}`")
+    if middleware not in ("dds", "rclpy", "zenoh"):
+        raise fail(f"--middleware must be `dds`, `rclpy` or `zenoh`, not `{middleware}`")
     if suffix in (".fmu", ".onnx"):
         raise fail("--backend ros2 runs system files, not a single model")
     if not rtf >= 0:  # also NaN
@@ -389,6 +403,20 @@ def _with_input_wait(ros2: Any, seconds: float) -> Any:
     if not 0 <= seconds < float("inf"):  # also NaN
         raise fail("--input-wait must be >= 0 seconds")
     return dataclasses.replace(ros2, input_wait=seconds)
+
+
+def _with_zenoh_router(ros2: Any, spec: str) -> Any:
+    """``--zenoh-router`` checked and added to the ROS 2 options (usage errors exit 2)."""
+    if ros2.middleware != "zenoh":
+        if spec != "auto":
+            raise fail("--zenoh-router applies to --middleware zenoh")
+        return ros2
+    from fmionnx.backends.ros2.zenoh.router import router_problem
+
+    problem = router_problem(spec)
+    if problem is not None:
+        raise fail(problem)
+    return dataclasses.replace(ros2, zenoh_router=spec)
 
 
 def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
@@ -587,6 +615,9 @@ def _summary(console: Any, result: Any, files: list[Path]) -> None:
     table.add_row("wall time", f"{result.wall_time:.3f} s")
     table.add_row("real-time factor", f"{result.real_time_factor:.2f}x")
     table.add_row("signals", str(len(result.signals)))
+    router = result.details.get("zenoh_router")
+    if router:
+        table.add_row("zenoh router", str(router))
     for file in files:
         table.add_row("wrote", str(file))
     console.print(table)

@@ -233,7 +233,7 @@ class Ros2Spec(StrictModel):
 
     namespace: str = Field(default="", description="Namespace of every node, e.g. `/robot1`.")
     distro: Literal["humble", "iron", "jazzy", "kilted"] = Field(
-        default="humble",
+        default="jazzy",
         description="ROS 2 distribution whose message definitions and discovery format to use "
         "(`--ros-distro` overrides it).",
     )

@@ -90,10 +90,13 @@ def test_a_node_from_the_compiled_system_in_an_empty_folder_publishes_what_a_nod
     assert sorted(p.name for p in bundle.iterdir()) == ["models", "ramp.fmionnx.json"]
     run = read_compiled(bundle / "ramp.fmionnx.json").run
 
-    from_file = _published(fmionnx("node", system, "integ", "--sync", "free"), source, run)
+    from_file = _published(
+        fmionnx("node", system, "integ", "--sync", "free", "--ros-distro", "humble"), source, run
+    )
     shutil.rmtree(source)  # the system file and its model are gone: only the bundle is left
     from_compiled = _published(
-        fmionnx("node", "ramp.fmionnx.json", "integ", "--sync", "free", "--models", "models"),
+        fmionnx("node", "ramp.fmionnx.json", "integ", "--sync", "free", "--models", "models",
+                "--ros-distro", "humble"),
         bundle,
         run,
     )

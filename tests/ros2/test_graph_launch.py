@@ -24,7 +24,8 @@ pytestmark = pytest.mark.ros2
 
 def _graph(system: Path, timeout: float) -> tuple[int, dict[str, object]]:
     done = subprocess.run(
-        fmionnx("ros2", "graph", system, "--format", "json", "--timeout", timeout),
+        fmionnx("ros2", "graph", system, "--format", "json", "--timeout", timeout,
+                "--ros-distro", "humble"),
         capture_output=True,
         text=True,
         timeout=60,
@@ -46,7 +47,8 @@ def test_graph_shows_running_nodes_and_flags_a_foreign_reader_as_extra(
     system = loop_system(tmp_path, 10000.0)
     out = tmp_path / "out"
     run = subprocess.Popen(
-        fmionnx("run", system, "-q", "--backend", "ros2", "--sync", "free", "--out", out),
+        fmionnx("run", system, "-q", "--backend", "ros2", "--sync", "free", "--out", out,
+                "--ros-distro", "humble"),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )
@@ -111,4 +113,5 @@ def test_launch_file_is_python_defining_one_node_process_per_component(tmp_path:
     first = processes[0]["cmd"]
     assert first[:2] == ["fmionnx", "node"]
     assert Path(first[2]).resolve() == (REPO / "systems" / "sign_follower.yaml").resolve()
-    assert first[3:] == ["world", "--sync", "free", "--ros-distro", "humble"]
+    assert first[3:] == ["world", "--sync", "free", "--ros-distro", "jazzy", "--middleware", "dds"]
+    assert processes[0]["additional_env"] == {}

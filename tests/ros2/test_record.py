@@ -93,7 +93,9 @@ def test_run_json_says_how_the_ros2_run_executed(recorded: Path) -> None:
     info = json.loads((recorded / "run.json").read_text(encoding="utf-8"))
     execution = info["execution"]
     assert execution["sync"] == "lockstep"
-    assert execution["ros_distro"] == "humble"
+    assert execution["ros_distro"] == "jazzy"  # the default
+    assert execution["middleware"] == "dds"
+    assert execution["zenoh_router"] is None
     assert "/fmu_sign_tracking_node" in execution["nodes"]
     assert execution["record"].endswith("wire.mcap")
     assert execution["recorded_messages"] == len(_messages(recorded / "wire.mcap"))

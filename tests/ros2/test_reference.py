@@ -53,7 +53,8 @@ def test_lockstep_reference_run_equals_inprocess_and_feeds_an_independent_cmd_ve
         assert json.loads(subscriber.stdout.readline()) == {"ready": True}
         out = tmp_path / "ros2"
         done = subprocess.run(
-            fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--sync", "lockstep", "--out", out),
+            fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--sync", "lockstep", "--out", out,
+                    "--ros-distro", "humble"),  # the peer's Cyclone settings are Humble's
             capture_output=True,
             text=True,
             timeout=240,
@@ -80,7 +81,7 @@ def test_free_run_of_the_reference_system_reaches_b_within_half_a_metre(
     out = tmp_path / "free"
     done = subprocess.run(
         fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--sync", "free", "--rtf", "1.5",
-                "--out", out),
+                "--out", out, "--ros-distro", "humble"),
         capture_output=True,
         text=True,
         timeout=240,
@@ -114,7 +115,7 @@ def test_outside_images_on_camera_image_raw_drive_the_detector_when_the_world_is
     frame[100:300, 200:400] = (220, 20, 20)  # a red board
     run = subprocess.Popen(
         fmionnx("run", system, "--no-checks", "-q", "--backend", "ros2", "--sync", "free", "--out",
-                tmp_path / "out"),
+                tmp_path / "out", "--ros-distro", "humble"),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

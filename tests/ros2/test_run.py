@@ -240,7 +240,7 @@ connections:
 @pytest.mark.parametrize(
     ("args", "message"),
     [
-        (["--middleware", "zenoh"], "--middleware must be `dds` or `rclpy`, not `zenoh`"),
+        (["--middleware", "mqtt"], "--middleware must be `dds`, `rclpy` or `zenoh`, not `mqtt`"),
         (["--sync", "loose"], "--sync must be `lockstep` or `free`"),
         (["--ros-distro", "rolling"], "--ros-distro must be one of"),
         (["--step-timeout", "0"], "--step-timeout must be > 0 seconds"),

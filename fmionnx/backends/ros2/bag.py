@@ -1,10 +1,10 @@
 """``fmionnx run --backend ros2 --record FILE.mcap``: a rosbag2-style recording of the wire.
 
 The supervisor subscribes to every topic of the plan (the nodes' topics, topics expected from
-outside, and ``/clock``) and writes each sample exactly as it crossed DDS: the CDR bytes with
-their encapsulation header, ``cdr`` message encoding, one ``ros2msg`` schema per type (the
-definition text from the distribution's rosbags type store, dependencies included, as rosbag2
-writes it). That is what ``ros2 bag record`` produces, so ``ros2 bag info/play`` and Foxglove
+outside, and ``/clock``) and writes each sample exactly as it crossed the wire (DDS or Zenoh):
+the CDR bytes with their encapsulation header, ``cdr`` message encoding, one ``ros2msg`` schema
+per type (the definition text from the distribution's rosbags type store, dependencies included,
+as rosbag2 writes it). That is what ``ros2 bag record`` produces, so ``ros2 bag info/play`` and Foxglove
 open the file; nothing is re-encoded, so the bag also proves what the nodes really sent.
 
 ``log_time`` is the receive time on the system clock (rosbag2's default), ``publish_time`` the
@@ -19,7 +19,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import IO, Any
 
-from fmionnx.backends.ros2.transport import Participant, RawReader
+from fmionnx.backends.ros2.middleware import NodeTransport, SampleReader
 from fmionnx.compile.ros2.messages import typestore
 from fmionnx.compile.ros2.names import dds_topic
 from fmionnx.compile.ros2.plan import CLOCK_TOPIC, CLOCK_TYPE
@@ -38,7 +38,7 @@ class RecordedTopic:
     """One topic in the bag: its reader and MCAP channel."""
 
     name: str
-    reader: RawReader
+    reader: SampleReader
     channel: int
 
 
@@ -49,7 +49,7 @@ class TopicRecorder:
     thread drains them. ``close`` drains one last time and finishes the file.
     """
 
-    def __init__(self, path: Path, plan: Ros2Plan, participant: Participant) -> None:
+    def __init__(self, path: Path, plan: Ros2Plan, participant: NodeTransport) -> None:
         from mcap.writer import Writer
 
         path.parent.mkdir(parents=True, exist_ok=True)
@@ -79,7 +79,7 @@ class TopicRecorder:
         return self._schemas[msgtype]
 
     def _subscribe(
-        self, participant: Participant, name: str, msgtype: str, qos: QosProfile
+        self, participant: NodeTransport, name: str, msgtype: str, qos: QosProfile
     ) -> RecordedTopic:
         # Same reliability and durability as the writers (so it matches them), deeper queue.
         profile = QosProfile(qos.reliability, qos.durability, max(qos.depth, DEPTH), qos.keep_all)

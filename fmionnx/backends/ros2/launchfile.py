@@ -1,8 +1,9 @@
 """A ROS 2 Python launch file running every node of a system (``fmionnx ros2 launch-file``).
 
 One ``ExecuteProcess`` per non-external component, each ``fmionnx node SYSTEM COMPONENT --sync
-free``: without a supervisor the simulator node is the clock (it starts once the readers of its
-topics matched) and every other node follows ``/clock``. The system file is referenced
+free`` (``--middleware zenoh``: on the rmw_zenoh wire, with ``RMW_IMPLEMENTATION=rmw_zenoh_cpp``
+for the workspace's own nodes): without a supervisor the simulator node is the clock (it
+starts once the readers of its topics matched) and every other node follows ``/clock``. The system file is referenced
 relative to the launch file when it can be, so the pair can move together.
 """
 
@@ -16,8 +17,7 @@ from fmionnx.compile.ros2.types import Ros2Plan
 _TEMPLATE = '''"""ROS 2 launch file for the fmionnx system `{name}` (written by `fmionnx ros2 launch-file`).
 
 Run: ros2 launch {launch_name}
-Every component is a `fmionnx node` process speaking ROS 2 on Cyclone DDS; use the same
-ROS_DOMAIN_ID / ROS_LOCALHOST_ONLY as the ROS 2 nodes it talks to.
+{wire_doc}
 """
 
 import os
@@ -28,6 +28,9 @@ from launch.actions import ExecuteProcess
 HERE = os.path.dirname(os.path.abspath(__file__))
 SYSTEM = {system_expr}
 DISTRO = {distro!r}
+MIDDLEWARE = {middleware!r}
+#: Added to the environment of every process (ROS 2 tools and nodes started with them follow it).
+ENV = {env!r}
 
 NODES = [
 {node_rows}
@@ -40,8 +43,9 @@ def generate_launch_description():
         [
             ExecuteProcess(
                 cmd=["fmionnx", "node", SYSTEM, component, "--sync", "free",
-                     "--ros-distro", DISTRO],
+                     "--ros-distro", DISTRO, "--middleware", MIDDLEWARE],
                 name=node_name,
+                additional_env=ENV,
                 output="screen",
             )
             for component, node_name in NODES
@@ -50,8 +54,25 @@ def generate_launch_description():
 '''
 
 
-def launch_file_text(plan: Ros2Plan, system_name: str, source: Path, target: Path) -> str:
-    """The text of the launch file ``target`` for the system compiled from ``source``."""
+_WIRE_DOC = {
+    "dds": "Every component is a `fmionnx node` process speaking ROS 2 on Cyclone DDS; use the "
+    "same\nROS_DOMAIN_ID / ROS_LOCALHOST_ONLY as the ROS 2 nodes it talks to.",
+    "zenoh": "Every component is a `fmionnx node` process speaking ROS 2 over Zenoh as rmw_zenoh "
+    "does\n(RMW_IMPLEMENTATION=rmw_zenoh_cpp is set for every process); start the router first:\n"
+    "ros2 run rmw_zenoh_cpp rmw_zenohd",
+}
+#: Environment of every process per wire.
+_ENV = {"dds": {}, "zenoh": {"RMW_IMPLEMENTATION": "rmw_zenoh_cpp"}}
+
+
+def launch_file_text(
+    plan: Ros2Plan, system_name: str, source: Path, target: Path, middleware: str = "dds"
+) -> str:
+    """The text of the launch file ``target`` for the system compiled from ``source``.
+
+    ``middleware``: ``dds`` or ``zenoh`` (every node on the rmw_zenoh wire, and
+    ``RMW_IMPLEMENTATION=rmw_zenoh_cpp`` for every process the file starts).
+    """
     try:
         relative = os.path.relpath(source.resolve(), target.resolve().parent)
         system_expr = f"os.path.join(HERE, {relative!r})"
@@ -64,4 +85,7 @@ def launch_file_text(plan: Ros2Plan, system_name: str, source: Path, target: Pat
         system_expr=system_expr,
         distro=plan.distro.value,
         node_rows=rows,
+        middleware=middleware,
+        env=_ENV[middleware],
+        wire_doc=_WIRE_DOC[middleware],
     )

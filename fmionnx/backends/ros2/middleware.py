@@ -1,4 +1,5 @@
-"""Which library carries a node's samples: Cyclone DDS directly (``dds``) or rclpy (``rclpy``).
+"""Which library carries a node's samples: Cyclone DDS directly (``dds``), rclpy (``rclpy``) or
+the rmw_zenoh wire (``zenoh``, :mod:`.zenoh`).
 
 Both hand the node the same thing: writers that publish serialised CDR and readers that return
 it, so the codec and the lockstep protocol do not know which one runs. ``dds`` is the default
@@ -22,6 +23,7 @@ class Middleware(enum.StrEnum):
 
     DDS = "dds"
     RCLPY = "rclpy"
+    ZENOH = "zenoh"
 
 
 class SampleWriter(Protocol):
@@ -72,9 +74,20 @@ class NodeTransport(Protocol):
 
 
 def open_transport(
-    middleware: Middleware, env: DdsEnvironment, namespace: str, name: str
+    middleware: Middleware,
+    env: DdsEnvironment,
+    namespace: str,
+    name: str,
+    *,
+    zenoh_router: str = "",
 ) -> NodeTransport:
-    """The transport of node ``namespace/name`` (rclpy is imported only when asked for)."""
+    """The transport of node ``namespace/name`` (rclpy and zenoh are imported only when asked
+    for; ``zenoh_router``: the endpoint a Zenoh node connects to, "" for its configuration's)."""
+    if middleware is Middleware.ZENOH:
+        from fmionnx.backends.ros2.zenoh.config import zenoh_environment
+        from fmionnx.backends.ros2.zenoh.transport import ZenohTransport
+
+        return ZenohTransport(zenoh_environment(env.distro, router=zenoh_router), namespace, name)
     if middleware is Middleware.RCLPY:
         from fmionnx.backends.ros2.rclpy_transport import RclpyParticipant
 

@@ -63,7 +63,7 @@ from fmionnx.backends.ros2.recording import NodeRecording, node_recording, recor
 from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
 from fmionnx.compile.ros2.names import dds_topic
 from fmionnx.compile.ros2.plan import CLOCK_TYPE
 from fmionnx.compile.ros2.qos import Durability, QosProfile, Reliability
@@ -101,7 +101,7 @@ class NodeOptions:
     """How one node runs; the supervisor passes the same to all of them."""
 
     sync: SyncMode = SyncMode.LOCKSTEP
-    distro: RosDistro = RosDistro.HUMBLE
+    distro: RosDistro = DEFAULT_DISTRO
     record_dir: Path | None = None
     supervised: bool = False
     rtf: float = 1.0
@@ -110,6 +110,8 @@ class NodeOptions:
     input_wait: float = INPUT_WAIT
     #: ROS topic remappings ``(from, to)`` of this node's publishers and subscriptions.
     remap: tuple[tuple[str, str], ...] = ()
+    #: ``zenoh``: the router endpoint to connect to ("" : the Zenoh configuration's).
+    zenoh_router: str = ""
 
 
 def clock_source(system: CompiledSystem, plan: Ros2Plan) -> str | None:
@@ -553,7 +555,7 @@ class Node:
         status, error, code = "completed", None, 0
         participant = open_transport(
             opts.middleware, from_environment(self.plan.distro), self.node_plan.namespace,
-            self.node_plan.name,
+            self.node_plan.name, zenoh_router=opts.zenoh_router,
         )  # fmt: skip
         announcer: GraphAnnouncer | None = None
         runner = make_runner(self.component, _wiring(self.system, self.component))

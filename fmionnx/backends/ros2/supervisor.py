@@ -29,6 +29,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fmionnx.backends.ros2.bag import TopicRecorder
 from fmionnx.backends.ros2.control import (
@@ -43,13 +44,14 @@ from fmionnx.backends.ros2.control import (
     decode_ready,
 )
 from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
-from fmionnx.backends.ros2.env import from_environment
+from fmionnx.backends.ros2.env import DdsEnvironment, from_environment
 from fmionnx.backends.ros2.loading import plan_for
+from fmionnx.backends.ros2.middleware import NodeTransport, SampleReader, SampleWriter
 from fmionnx.backends.ros2.node import INPUT_WAIT, SyncMode, clock_source, describe_node
 from fmionnx.backends.ros2.recording import error_of, load_status, merge, record_refs
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
 from fmionnx.compile.ros2.plan import CLOCK_TYPE
 from fmionnx.compile.ros2.types import Ros2Plan
 from fmionnx.compile.systemfile import SUFFIX as COMPILED_SUFFIX
@@ -59,6 +61,9 @@ from fmionnx.core.safewrite import open_growing
 from fmionnx.core.scratch import scratch
 from fmionnx.runtime.result import Detail, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_on_signals, stop_reason
+
+if TYPE_CHECKING:
+    from fmionnx.backends.ros2.zenoh.router import RouterChoice
 
 BACKEND_NAME = "ros2"
 #: Name under which the supervisor itself shows in ``ros2 node list``.
@@ -86,7 +91,7 @@ class Ros2Options:
     """
 
     sync: SyncMode = SyncMode.LOCKSTEP
-    distro: RosDistro = RosDistro.HUMBLE
+    distro: RosDistro = DEFAULT_DISTRO
     out: Path | None = None
     rtf: float = 1.0
     ready_timeout: float = 180.0
@@ -94,10 +99,13 @@ class Ros2Options:
     step_timeout: float = 60.0
     #: Also record every topic into this MCAP file (``--record``).
     record: Path | None = None
-    #: ``rclpy``: every node runs through rclpy (the supervisor stays on Cyclone DDS).
+    #: ``rclpy``: every node runs through rclpy (the supervisor stays on Cyclone DDS);
+    #: ``zenoh``: every node and the supervisor speak the rmw_zenoh wire.
     middleware: str = "dds"
     #: Free run: seconds a node's step waits for an input sample of its time (``--input-wait``).
     input_wait: float = INPUT_WAIT
+    #: ``zenoh``: ``auto`` (a reachable router, else one started in-process) or an endpoint.
+    zenoh_router: str = "auto"
     run: RunOptions = field(default_factory=RunOptions)
 
 
@@ -220,6 +228,8 @@ class Supervisor:
         self.steps_done = 0
         self.recorder: TopicRecorder | None = None
         self.domain_id = 0
+        #: ``--middleware zenoh``: the router the run uses (chosen when it starts).
+        self.router: RouterChoice | None = None
 
     def argv(self, component: str) -> list[str]:
         """The command line of one node."""
@@ -233,11 +243,13 @@ class Supervisor:
             argv += ["--middleware", opts.middleware]
         if opts.input_wait != INPUT_WAIT:
             argv += ["--input-wait", repr(opts.input_wait)]
+        if self.router is not None:
+            argv += ["--zenoh-router", self.router.endpoint]
         return argv
 
     # -- phases --------------------------------------------------------------------------------
 
-    def _wait_ready(self, ready: RawReader) -> None:
+    def _wait_ready(self, ready: SampleReader) -> None:
         waiting = set(self.components)
         deadline = time.monotonic() + self.options.ready_timeout
         while waiting:
@@ -250,13 +262,22 @@ class Supervisor:
                 waiting.discard(decode_ready(data, self.options.distro))
             ready.wait(0.2)
 
+    def _wait_for_clock_readers(self, writer: SampleWriter, timeout: float = 30.0) -> None:
+        """Every node's clock reader, plus the supervisor's own, matched; a node that ends
+        meanwhile stops the wait at once (its reader would never come)."""
+        deadline = time.monotonic() + timeout
+        while not writer.wait_for_readers(len(self.components) + 1, 0.2):
+            self.children.check()
+            if time.monotonic() > deadline:
+                return
+
     def _progress(self, n: int) -> None:
         progress = self.options.run.progress
         if progress is not None and n % max(1, self.options.run.progress_every) == 0:
             run = self.system.run
             progress(n, run.steps, run.time_at(n))
 
-    def _lockstep(self, writer: RawWriter, done: RawReader) -> None:
+    def _lockstep(self, writer: SampleWriter, done: SampleReader) -> None:
         system = self.system
         periods = {c: system.component(c).period_steps for c in self.components}
         total = system.run.steps
@@ -290,7 +311,7 @@ class Supervisor:
                 message += f"\nlast log lines of {component}:\n{lines}"
         return message + "\n(raise the limit with --step-timeout if a step is legitimately slow)"
 
-    def _free(self, clock_writer: RawWriter, clock: RawReader) -> None:
+    def _free(self, clock_writer: SampleWriter, clock: SampleReader) -> None:
         clock_writer.write(self.clock.encode(0))
         total = self.system.run.steps
         step = self.system.run.step
@@ -324,7 +345,7 @@ class Supervisor:
         write_compiled(dataclasses.replace(self.system, ros2_plan=self.plan), self.compiled_file)
         env = from_environment(self.options.distro)
         self.domain_id = env.domain_id
-        participant = Participant(env)
+        participant = self._open_transport(env)
         started = time.perf_counter()
         wall_start = started
         try:
@@ -333,28 +354,17 @@ class Supervisor:
             done = participant.reader(DONE_DDS, DONE_TYPE, CONTROL_READER_QOS)
             clock_writer = participant.writer(CLOCK_DDS, CLOCK_TYPE, CONTROL_WRITER_QOS)
             clock_reader = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
-            announcer = GraphAnnouncer(participant)  # kept alive: its writer is the sample
-            announcer.add_node(
-                NodeEntities(
-                    "/", SUPERVISOR_NODE,
-                    [ready.gid, done.gid, clock_reader.gid], [clock_writer.gid],
-                )
-            )  # fmt: skip
             if self.options.record is not None:
                 self.recorder = TopicRecorder(self.options.record, self.plan, participant)
-                announcer.add_node(
-                    NodeEntities(
-                        "/", RECORDER_NODE, [t.reader.gid for t in self.recorder.topics], []
-                    )
-                )
+            if isinstance(participant, Participant):  # the Zenoh graph comes from its tokens
+                self._announce(participant, [ready, done, clock_reader], clock_writer)
             self.records.mkdir(parents=True, exist_ok=True)
             for stale in [*self.records.glob("*.npz"), *self.records.glob("*.json")]:
                 stale.unlink()
             for component in self.components:
                 self.children.start(component, self.argv(component))
             self._wait_ready(ready)
-            # every node's clock reader, plus the supervisor's own
-            clock_writer.wait_for_readers(len(self.components) + 1, 30.0)
+            self._wait_for_clock_readers(clock_writer)
             wall_start = time.perf_counter()
             if self.options.sync is SyncMode.LOCKSTEP:
                 self._lockstep(clock_writer, done)
@@ -373,7 +383,38 @@ class Supervisor:
             if self.recorder is not None:
                 self.recorder.close()
             participant.close()
+            if self.router is not None:
+                self.router.close()
         return self._result(status, error, wall)
+
+    def _open_transport(self, env: DdsEnvironment) -> NodeTransport:
+        """The supervisor's own endpoints: a Cyclone participant, or a Zenoh session (after
+        choosing the router, started here when ``auto`` finds none)."""
+        if self.options.middleware != "zenoh":
+            return Participant(env)
+        from fmionnx.backends.ros2.zenoh.config import zenoh_environment
+        from fmionnx.backends.ros2.zenoh.router import choose_router
+        from fmionnx.backends.ros2.zenoh.transport import ZenohTransport
+
+        zenv = zenoh_environment(env.distro)
+        self.router = choose_router(self.options.zenoh_router, zenv)
+        try:
+            return ZenohTransport(zenv.with_router(self.router.endpoint), "/", SUPERVISOR_NODE)
+        except BaseException:
+            self.router.close()
+            raise
+
+    def _announce(
+        self, participant: Participant, readers: list[SampleReader], writer: SampleWriter
+    ) -> None:
+        """DDS: name the supervisor's (and the recorder's) endpoints on ros_discovery_info."""
+        self.announcer = GraphAnnouncer(participant)  # kept alive: its writer is the sample
+        reader_gids = [r.gid for r in readers if isinstance(r, RawReader)]
+        writer_gids = [writer.gid] if isinstance(writer, RawWriter) else []
+        self.announcer.add_node(NodeEntities("/", SUPERVISOR_NODE, reader_gids, writer_gids))
+        if self.recorder is not None:
+            gids = [t.reader.gid for t in self.recorder.topics if isinstance(t.reader, RawReader)]
+            self.announcer.add_node(NodeEntities("/", RECORDER_NODE, gids, []))
 
     def _refuse_loops(self) -> None:
         """Iterated algebraic loops repeat their members' steps; a node steps once per point."""
@@ -439,6 +480,8 @@ class Supervisor:
             "recorded_messages": self.recorder.messages if self.recorder is not None else None,
             "input_wait": opts.input_wait if free else None,
             "inputs": self._inputs() if free else None,
+            "middleware": opts.middleware,
+            "zenoh_router": self.router.describe() if self.router is not None else None,
         }
 
 

@@ -30,8 +30,8 @@ class RosDistro(enum.StrEnum):
     KILTED = "kilted"
 
 
-#: The default distribution (the paper used Humble).
-DEFAULT_DISTRO = RosDistro.HUMBLE
+#: The default distribution: the current LTS (the paper used Humble; `--ros-distro humble`).
+DEFAULT_DISTRO = RosDistro.JAZZY
 
 _STORES = {
     RosDistro.HUMBLE: Stores.ROS2_HUMBLE,

@@ -10,7 +10,7 @@ from __future__ import annotations
 from dataclasses import dataclass
 
 from fmionnx.compile.ros2.fields import PortField
-from fmionnx.compile.ros2.messages import RosDistro
+from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
 from fmionnx.compile.ros2.qos import QosProfile
 
 
@@ -30,7 +30,7 @@ class Ros2Settings:
     """The ``ros2:`` section of a system, resolved: only what differs from the defaults."""
 
     namespace: str = ""
-    distro: RosDistro = RosDistro.HUMBLE
+    distro: RosDistro = DEFAULT_DISTRO
     nodes: tuple[tuple[str, str], ...] = ()
     topics: tuple[tuple[str, TopicSetting], ...] = ()
     qos: tuple[tuple[str, str | QosProfile], ...] = ()
