@@ -181,7 +181,8 @@ def run(
             "--isolate",
             help="In-process: components whose models run in a process of their own, so a "
             "crash or hang cannot take the run down: `fmus` (default: every FMU), `all`, "
-            "`none`, or component names (repeat the option or separate by commas).",
+            "`none`, or component names (repeat the option or separate by commas); "
+            "`guardian`: the whole run in one guarded process instead (docs/security.md).",
         ),
     ] = None,
     sandbox: Annotated[
@@ -455,6 +456,8 @@ def _run_system(
     if ros2 is None and safety is not None:
         options = safety.options(options, system, out, console)
     run_fn = system.run
+    if ros2 is None and safety is not None:  # --isolate guardian: the run in a guarded child
+        run_fn = safety.guard(system, run_fn, record=record is not None)
     if ros2 is not None:
         from fmionnx.backends.ros2.supervisor import run_ros2
 
