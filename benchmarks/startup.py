@@ -10,7 +10,9 @@ all alike; the tables report medians and ratios to FMPy.
    C in ``tests/fixtures/fmus``) co-simulated with ``u = 1`` for 200 000 steps of 0.01 s, its
    output ``x`` written to CSV at every step: ``fmpy simulate`` against ``fmionnx run
    MODEL.fmu`` with the default ``--isolate fmus`` (the FMU in a child process, one pipe round
-   trip per step) and with ``--isolate none`` (the FMU in fmionnx's own process). Wall time of
+   trip per step), with ``--isolate guardian`` (the whole run in one forked child that
+   records into shared memory: :mod:`fmionnx.runtime.guardian`) and with ``--isolate none``
+   (the FMU in fmionnx's own process). Wall time of
    the whole command: interpreter start, imports, compile, simulation, CSV. The CSV files
    must agree (checked every round): the same times, and ``x`` within 1e-9 (FMPy hands the
    FMU step sizes computed from its time grid, fmionnx the constant step, so the sums
@@ -60,6 +62,7 @@ FMIONNX = "fmionnx"
 FMPY_SIMULATE = "fmpy simulate"
 RUN_DEFAULT = "fmionnx run (default: --isolate fmus)"
 RUN_NONE = "fmionnx run --isolate none"
+RUN_GUARDIAN = "fmionnx run --isolate guardian"
 
 COLUMNS = (
     ("contender", "command"),
@@ -159,6 +162,7 @@ def end_to_end_contenders(fmu: Path, work: Path, steps: int) -> list[Contender]:
     return [
         Contender(FMPY_SIMULATE, fmpy_argv, fmpy_csv),
         Contender(RUN_DEFAULT, [*run, "--out", str(work / "default")], work / "default" / "results.csv"),
+        Contender(RUN_GUARDIAN, [*run, "--out", str(work / "guardian"), "--isolate", "guardian"], work / "guardian" / "results.csv"),
         Contender(RUN_NONE, [*run, "--out", str(work / "none"), "--isolate", "none"], work / "none" / "results.csv"),
     ]  # fmt: skip
 
@@ -233,6 +237,11 @@ def main(argv: Sequence[str] | None = None, console: Console | None = None) -> d
         _target(
             "fmionnx run (default) / fmpy simulate",
             by_name[RUN_DEFAULT]["vs_fmpy"],
+            END_TO_END_TARGET,
+        ),
+        _target(
+            "fmionnx run --isolate guardian / fmpy simulate",
+            by_name[RUN_GUARDIAN]["vs_fmpy"],
             END_TO_END_TARGET,
         ),
         _target(

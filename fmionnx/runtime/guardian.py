@@ -60,6 +60,9 @@ _SLOT = (CONTROL - _CELLS * 8) // 2
 # float64 cells of the control block
 _T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY, _STARTED = range(9)
 _PR_SET_PDEATHSIG = 1
+#: Seconds a stopped child gets to send its result (while nothing arrives) before it is
+#: killed: a model that does not return from its step cannot see the stop request.
+STOP_GRACE = 5.0
 
 RunFunction = Callable[..., RunResult]
 
@@ -375,6 +378,7 @@ def _wait(
     reason: str | None = None
     seen = 0.0
     cells = shared.cells
+    deadline = float("inf")
     while True:
         try:
             ready, _, _ = select.select([pipe], [], [], 0.1)
@@ -383,12 +387,18 @@ def _wait(
                 if not chunk:
                     break
                 chunks.append(chunk)
+                deadline = time.monotonic() + STOP_GRACE if reason is not None else deadline
+            elif time.monotonic() > deadline:  # stopped, and silent: stuck in a model
+                deadline = float("inf")
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
             if options.progress is not None and cells[_PROGRESS] != seen:
                 seen = float(cells[_PROGRESS])
                 options.progress(int(cells[_DONE]), int(cells[_TOTAL]), float(cells[_SIM]))
         except KeyboardInterrupt as exc:  # SIGINT/SIGTERM/SIGHUP here: the child stops too
             if reason is None:
                 reason = stop_reason(exc)
+                deadline = time.monotonic() + STOP_GRACE
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.Signals[reason])
             else:  # asked twice: a model that does not return is not waited for

@@ -145,3 +145,26 @@ def test_guardian_does_not_combine_with_record(fixture_fmu, write_system, tmp_pa
     assert code == 2, output
     assert "--isolate guardian does not combine with --record" in output
     assert not (tmp_path / "r.mcap").exists()
+
+
+def test_ctrl_c_stops_a_guarded_run_stuck_in_a_model(
+    fixture_fmu, write_system, tmp_path: Path
+) -> None:
+    system = _system(fixture_fmu, write_system, HANG)
+    out, tmp = tmp_path / "out", tmp_path / "tmp"
+    args = ["run", str(system), "--out", str(out), "--isolate", "guardian"]
+    process = _cli([*args, "--checkpoint-every", "0"], tmp)
+    deadline = time.monotonic() + 60
+    while not (out / "results.csv").exists() and time.monotonic() < deadline:
+        time.sleep(0.2)  # the first checkpoint: the run is under way
+        if process.poll() is not None:
+            break
+    time.sleep(1.0)  # by now the model hangs in its step at t = 0.3 s
+    process.send_signal(signal.SIGINT)
+    code, output = _finish(process)
+    assert code == 130, output  # the stuck process was killed after the grace period
+    info = json.loads((out / "run.json").read_text())
+    assert info["status"] == "interrupted"
+    assert info["interrupted_by"] == "SIGINT"
+    assert len(read_csv(out / "results.csv")["time"]) == 31  # 0 .. 0.3: every completed step
+    assert list(tmp.iterdir()) == []
