@@ -31,6 +31,7 @@ from __future__ import annotations
 
 import argparse
 import os
+import resource
 import shutil
 import statistics
 import subprocess
@@ -69,6 +70,8 @@ COLUMNS = (
     ("median_s", "wall s (median)"),
     ("min_s", "wall s (min)"),
     ("vs_fmpy", "x FMPy"),
+    ("cpu_s", "CPU s (median)"),
+    ("cpu_vs_fmpy", "x FMPy (CPU)"),
     ("runs", "runs"),
     ("same_values", "CSV agrees"),
 )
@@ -82,6 +85,8 @@ class Contender:
     argv: list[str]
     csv: Path | None = None
     seconds: list[float] = field(default_factory=list)
+    #: User + system CPU seconds of the command and every process it waited for.
+    cpu: list[float] = field(default_factory=list)
     same_values: bool | None = None
 
     def median(self) -> float:
@@ -93,20 +98,31 @@ def console_script(name: str) -> list[str]:
     script = Path(sys.executable).parent / name
     if script.exists():
         return [str(script)]
-    module = {"fmionnx": "fmionnx", "fmpy": "fmpy.command_line"}[name]
+    module = {"fmionnx": "fmionnx", "fmpy": "fmpy.cli"}[name]
     return [sys.executable, "-m", module]
 
 
-def timed_run(argv: Sequence[str], cwd: Path) -> float:
-    """Wall seconds of one command, which must succeed (its output is discarded)."""
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def timed_run(argv: Sequence[str], cwd: Path) -> tuple[float, float]:
+    """Wall and CPU seconds of one command, which must succeed (its output is discarded).
+
+    CPU time (of the command and every process it waited for) is what load on a shared
+    machine disturbs least; wall time is what the user waits.
+    """
     env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    cpu = _children_cpu()
     started = time.perf_counter()
     done = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, check=False)
     seconds = time.perf_counter() - started
+    cpu = _children_cpu() - cpu
     if done.returncode != 0:
         msg = f"`{' '.join(argv)}` exited {done.returncode}: {done.stderr.strip()[-800:]}"
         raise RuntimeError(msg)
-    return seconds
+    return seconds, cpu
 
 
 def interleaved(contenders: Sequence[Contender], rounds: int, cwd: Path) -> None:
@@ -117,7 +133,9 @@ def interleaved(contenders: Sequence[Contender], rounds: int, cwd: Path) -> None
     for r in range(rounds):
         shift = r % len(contenders)
         for contender in [*contenders[shift:], *contenders[:shift]]:
-            contender.seconds.append(timed_run(contender.argv, cwd))
+            seconds, cpu = timed_run(contender.argv, cwd)
+            contender.seconds.append(seconds)
+            contender.cpu.append(cpu)
             if contender.csv is not None:
                 contender.same_values = _same_as_fmpy(contenders, contender)
 
@@ -168,13 +186,17 @@ def end_to_end_contenders(fmu: Path, work: Path, steps: int) -> list[Contender]:
 
 
 def rows(contenders: Sequence[Contender], reference: str) -> list[dict[str, Any]]:
-    base = next(c for c in contenders if c.name == reference).median()
+    reference_contender = next(c for c in contenders if c.name == reference)
+    base = reference_contender.median()
+    base_cpu = statistics.median(reference_contender.cpu)
     return [
         {
             "contender": c.name,
             "median_s": c.median(),
             "min_s": min(c.seconds),
             "vs_fmpy": c.median() / base if base else None,
+            "cpu_s": statistics.median(c.cpu),
+            "cpu_vs_fmpy": statistics.median(c.cpu) / base_cpu if base_cpu else None,
             "runs": len(c.seconds),
             "same_values": c.same_values,
         }
@@ -215,7 +237,7 @@ def main(argv: Sequence[str] | None = None, console: Console | None = None) -> d
         report.print_table(
             console,
             f"`--help`, median of {args.help_repeat} interleaved runs",
-            COLUMNS[:5],
+            [c for c in COLUMNS if c[0] != "same_values"],
             results["help"],
         )
         fmu = build_integrator(work)
