@@ -377,20 +377,24 @@ def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
     from fmionnx import api
     from fmionnx.core.diagnostics import Severity
     from fmionnx.core.errors import DiagnosticError
-    from fmionnx.reporters import FileResult
-    from fmionnx.reporters.text import TextReporter
 
     try:
         system = api.load(target, **kwargs)
     except api.OverrideError as exc:  # --step on a compiled system
         raise fail(str(exc)) from None
     except DiagnosticError as exc:
+        from fmionnx.reporters import FileResult
+        from fmionnx.reporters.text import TextReporter
+
         TextReporter().render(
             [FileResult(target, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
         )
         raise typer.Exit(ExitCode.PROBLEMS) from None
     warnings = tuple(d for d in system.diagnostics if d.severity is not Severity.ERROR)
-    if warnings and not quiet:
+    if warnings and not quiet:  # the reporters are imported only to show something
+        from fmionnx.reporters import FileResult
+        from fmionnx.reporters.text import TextReporter
+
         TextReporter().render([FileResult(target, warnings)], sys.stderr, color=sys.stderr.isatty())
     return system
 
