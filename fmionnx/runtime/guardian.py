@@ -316,6 +316,10 @@ def _child(
     result = run_fn(options=options)
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # the result goes out whole
         signal.signal(signum, signal.SIG_IGN)
+    error = result.error
+    if error is not None and type(error) is not RunError:  # a subclass may not unpickle
+        plain = RunError(str(error), component=error.component, port=error.port, time=error.time)
+        result = dataclasses.replace(result, error=plain)
     data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
     view = memoryview(len(data).to_bytes(8, "little") + data)
     while view:

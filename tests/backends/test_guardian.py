@@ -168,3 +168,19 @@ def test_ctrl_c_stops_a_guarded_run_stuck_in_a_model(
     assert info["interrupted_by"] == "SIGINT"
     assert len(read_csv(out / "results.csv")["time"]) == 31  # 0 .. 0.3: every completed step
     assert list(tmp.iterdir()) == []
+
+
+def test_rows_recorded_after_the_shared_tracks_grew_are_kept(
+    fixture_fmu, write_system, tmp_path: Path
+) -> None:
+    # 80 000 steps: beyond the 65 536 rows a track reserves first, so the rows moved once
+    system = _system(fixture_fmu, write_system, SEGFAULT, stop=1000.0, fail_at=800.0)
+    out, tmp = tmp_path / "out", tmp_path / "tmp"
+    args = ["run", str(system), "-q", "--out", str(out), "--isolate", "guardian"]
+    code, output = _finish(_cli(args, tmp))
+    assert code == 1, output
+    assert "at t=800 s: the model crashed with SIGSEGV" in output
+    table = read_csv(out / "results.csv")
+    assert len(table["time"]) == 80_001
+    assert table["time"][-1] == 800.0
+    assert list(tmp.iterdir()) == []
