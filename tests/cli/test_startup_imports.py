@@ -110,3 +110,19 @@ def test_plots_load_matplotlib_only_when_asked(folder: Path) -> None:
     modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", "out-plot", "--plot")
     assert "matplotlib" in modules
     assert modules & (RUNTIME_EXTRAS - {"matplotlib"}) == set()
+
+
+def test_validating_the_reference_scenario_loads_no_runtime_it_does_not_use(
+    folder: Path,
+) -> None:
+    """Compiling reads the models (MuJoCo compiles the scene, onnx reads the graph) but runs
+    none: onnxruntime, DDS, plotting and the sweep and Zenoh libraries stay out."""
+    from tests.conftest import REPO, built_model
+
+    for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
+        built_model(name)
+    system = REPO / "systems" / "sign_follower.yaml"
+    modules = loaded(folder, "validate", str(system))
+    assert {"mujoco", "onnx"} <= modules  # the probe sees what reading the models loads
+    assert modules & (RUNTIME_EXTRAS - {"mujoco", "onnx", "rosbags"}) == set()
+    assert "onnxruntime" not in modules
