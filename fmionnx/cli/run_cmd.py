@@ -182,7 +182,7 @@ def run(
             help="In-process: components whose models run in a process of their own, so a "
             "crash or hang cannot take the run down: `fmus` (default: every FMU), `all`, "
             "`none`, or component names (repeat the option or separate by commas); "
-            "`guardian`: the whole run in one guarded process instead (docs/security.md).",
+            "`guardian`: the whole run in one guarded process instead (docs/running.md).",
         ),
     ] = None,
     sandbox: Annotated[
