@@ -8,17 +8,22 @@ one fast FMU. The guardian buys back most of the crash safety for one ``fork``:
   forked child, unchanged; a completed, faulted or interrupted run's result comes back
   through a pipe and is written by this process as usual;
 - the child records into shared memory (a memfd this process keeps open) and marks the
-  work under way there (the watchdog's :class:`~fmionnx.runtime.watchdog.Marker`, one
-  store per step as before), so when a model crashes, aborts or exits the process, this
-  process still has every completed step and knows which component was stepping at which
-  time. It writes them, with a fault naming the component, like an isolated model's crash.
+  work under way there: in the child (a fork that ends with the run) the master module's
+  ``Recorder`` and ``Marker`` are rebound to :class:`SharedRecorder` and
+  :class:`SharedMarker`, whose rows, row counts, time and work index live in the memfd (the
+  loop's stores to the watchdog's marker land there). So when a model crashes, aborts or
+  exits the process, this process still has every completed step and knows which component
+  (or native group) was stepping at which time. It writes them, with a fault naming the
+  component, like an isolated model's crash.
 
 What it cannot say is the FMI function under way (the child's phases are not tracked, to
 keep the loop's cost): per-component ``--isolate NAMES`` does, and confines with
 ``--sandbox``; a hang is caught by the watchdog in the child, as in-process.
 
-Everything shared is written by the child and read by this process only after the child
-has ended: no locking. Linux only (``fork``, ``memfd_create``).
+Everything shared is written by the child and read by this process after the child has
+ended (the progress cells excepted, which are only shown): no locking. The directory of
+tracks is written to one of two slots and then switched to, so a crash while writing it
+leaves the previous one. Linux only (``fork``, ``memfd_create``).
 """
 
 from __future__ import annotations
@@ -54,11 +59,11 @@ GUARDIAN = "guardian"
 BACKEND_NAME = "inprocess"
 
 #: Bytes of the control block at the start of the shared file: cells, then two directory slots.
-CONTROL = 1 << 16
+CONTROL = 1 << 20  # sparse: pages cost only once written
 _CELLS = 16
 _SLOT = (CONTROL - _CELLS * 8) // 2
 # float64 cells of the control block
-_T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY, _STARTED = range(9)
+_T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY = range(8)
 _PR_SET_PDEATHSIG = 1
 #: Seconds a stopped child gets to send its result (while nothing arrives) before it is
 #: killed: a model that does not return from its step cannot see the stop request.
@@ -99,8 +104,8 @@ class _Shared:
     def publish(self, directory: dict[str, Any]) -> None:
         """Write the directory into the slot not in use, then switch to it (crash-safe)."""
         data = json.dumps(directory).encode()
-        if len(data) + 8 > _SLOT:
-            return  # a system too large to describe keeps its previous directory
+        if len(data) + 8 > _SLOT:  # half a MiB of column names: beyond any real system
+            return
         slot = 1 if int(self.cells[_DIRECTORY]) == 1 else 0  # the other one
         start = _CELLS * 8 + slot * _SLOT
         self.control[start : start + 8] = len(data).to_bytes(8, "little")
@@ -312,7 +317,6 @@ def _child(
         progress=progress if options.progress is not None else None,
         abandon=abandoned,
     )
-    cells[_STARTED] = 1.0
     result = run_fn(options=options)
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # the result goes out whole
         signal.signal(signum, signal.SIG_IGN)
