@@ -6,12 +6,9 @@ from pathlib import Path
 from typing import Annotated
 
 import typer
-from rich.console import Console
 
 from fmionnx.cli.app import ExitCode, app
 from fmionnx.cli.outputs import check_output_file
-from fmionnx.core.errors import BuildError, ModelError
-from fmionnx.kinds.fmu.build import build_fmu
 
 
 @app.command(
@@ -25,6 +22,11 @@ def build_fmu_command(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="FMU to write.")] = None,
 ) -> None:
     """Compile a source FMU (C sources inside) into a binary FMU for this platform."""
+    from rich.console import Console
+
+    from fmionnx.core.errors import BuildError, ModelError
+    from fmionnx.kinds.fmu.build import build_fmu
+
     err = Console(stderr=True, highlight=False)
     if output is not None:
         check_output_file(output, "--output")

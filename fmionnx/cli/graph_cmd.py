@@ -10,13 +10,11 @@ from typing import Annotated
 
 import typer
 
-from fmionnx import api
 from fmionnx.cli.app import ExitCode, app
 from fmionnx.cli.outputs import check_output_file
-from fmionnx.export.graph import to_dot, to_json_text, to_mermaid
-from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
-TEXT_FORMATS = {"dot": to_dot, "mermaid": to_mermaid, "json": to_json_text}
+#: Text formats and the writer in fmionnx.export.graph (imported when the command runs).
+TEXT_FORMATS = {"dot": "to_dot", "mermaid": "to_mermaid", "json": "to_json_text"}
 IMAGE_FORMATS = ("svg", "png")
 
 
@@ -45,6 +43,10 @@ def graph(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="File to write.")] = None,
 ) -> None:
     """Compile a system and print or write its dataflow graph."""
+    from fmionnx import api
+    from fmionnx.export import graph as writers
+    from fmionnx.reporters import REPORTER_BY_NAME, FileResult
+
     if output is not None:
         check_output_file(output, "--output")
     result = api.compile_system(system)
@@ -54,7 +56,7 @@ def graph(
         )
         raise typer.Exit(ExitCode.PROBLEMS)
     if output_format in TEXT_FORMATS:
-        text = TEXT_FORMATS[output_format](result.system)
+        text = getattr(writers, TEXT_FORMATS[output_format])(result.system)
         if output is None:
             typer.echo(text, nl=False)
         else:
@@ -73,7 +75,7 @@ def graph(
         raise typer.Exit(ExitCode.USAGE)
     rendered = subprocess.run(
         [dot, f"-T{output_format}", "-o", str(output)],
-        input=to_dot(result.system).encode(),
+        input=writers.to_dot(result.system).encode(),
         capture_output=True,
         check=False,
     )

@@ -6,7 +6,7 @@ import enum
 import json
 import sys
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 from rich import box
@@ -16,11 +16,9 @@ from rich.table import Table
 from rich.text import Text
 
 from fmionnx.cli.app import ExitCode, app
-from fmionnx.core.errors import ModelError
-from fmionnx.core.types import ComponentInterface, Port
-from fmionnx.kinds.describe import interface_to_dict
-from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
-from fmionnx.kinds.registry import COMPONENT_KINDS, kind_for_path
+
+if TYPE_CHECKING:
+    from fmionnx.core.types import ComponentInterface, Port
 
 #: Columns of the port table, in order.
 COLUMNS = ("name", "causality", "type", "shape", "unit", "start", "description")
@@ -121,6 +119,11 @@ def inspect(
     ] = InspectFormat.TEXT,
 ) -> None:
     """Show a model's ports (name, causality, type, shape, unit, start) and facts."""
+    from fmionnx.core.errors import ModelError
+    from fmionnx.kinds.describe import interface_to_dict
+    from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
+    from fmionnx.kinds.registry import COMPONENT_KINDS, kind_for_path
+
     if path.name == MODEL_DESCRIPTION:  # an unpacked FMU's description, not a MuJoCo scene
         path = path.parent
     kind = kind_for_path(path)

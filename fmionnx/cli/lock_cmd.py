@@ -9,10 +9,6 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, app, fail
-from fmionnx.core.diagnostics import Severity
-from fmionnx.core.safewrite import OverwriteRefusedError
-from fmionnx.lock.check import check_lock_target, lock_system
-from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 
 @app.command(
@@ -32,6 +28,11 @@ def lock(
     A system with errors is not locked. A file at the lock's name that `fmionnx lock` did not
     write is replaced only with `--force`.
     """
+    from fmionnx.core.diagnostics import Severity
+    from fmionnx.core.safewrite import OverwriteRefusedError
+    from fmionnx.lock.check import check_lock_target, lock_system
+    from fmionnx.reporters import REPORTER_BY_NAME, FileResult
+
     for system in systems:  # all checked first: a refusal leaves every lock as it was
         try:
             check_lock_target(system, force=force)

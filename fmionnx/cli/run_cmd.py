@@ -200,7 +200,8 @@ def run(
             "--isolate",
             help="In-process: components whose models run in a process of their own, so a "
             "crash or hang cannot take the run down: `fmus` (default: every FMU), `all`, "
-            "`none`, or component names (repeat the option or separate by commas).",
+            "`none`, or component names (repeat the option or separate by commas); "
+            "`guardian`: the whole run in one guarded process instead (docs/running.md).",
         ),
     ] = None,
     sandbox: Annotated[
@@ -424,20 +425,24 @@ def load_target(target: Path, *, quiet: bool, **kwargs: Any) -> Any:
     from fmionnx import api
     from fmionnx.core.diagnostics import Severity
     from fmionnx.core.errors import DiagnosticError
-    from fmionnx.reporters import FileResult
-    from fmionnx.reporters.text import TextReporter
 
     try:
         system = api.load(target, **kwargs)
     except api.OverrideError as exc:  # --step on a compiled system
         raise fail(str(exc)) from None
     except DiagnosticError as exc:
+        from fmionnx.reporters import FileResult
+        from fmionnx.reporters.text import TextReporter
+
         TextReporter().render(
             [FileResult(target, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
         )
         raise typer.Exit(ExitCode.PROBLEMS) from None
     warnings = tuple(d for d in system.diagnostics if d.severity is not Severity.ERROR)
-    if warnings and not quiet:
+    if warnings and not quiet:  # the reporters are imported only to show something
+        from fmionnx.reporters import FileResult
+        from fmionnx.reporters.text import TextReporter
+
         TextReporter().render([FileResult(target, warnings)], sys.stderr, color=sys.stderr.isatty())
     return system
 
@@ -503,6 +508,8 @@ def _run_system(
     if ros2 is None and safety is not None:
         options = safety.options(options, system, out, console)
     run_fn = system.run
+    if ros2 is None and safety is not None:  # --isolate guardian: the run in a guarded child
+        run_fn = safety.guard(system, run_fn, record=record is not None)
     if ros2 is not None:
         from fmionnx.backends.ros2.supervisor import run_ros2
 

@@ -34,16 +34,39 @@ class RunSafety:
     checkpoint_every: float = CHECKPOINT_EVERY
     plot_signals: bool = False
 
+    @property
+    def guardian(self) -> bool:
+        """``--isolate guardian``: the whole run in one guarded child process."""
+        from fmionnx.runtime.guardian import GUARDIAN
+
+        return GUARDIAN in self.isolate
+
+    def guard(self, system: Any, run_fn: Any, *, record: bool) -> Any:
+        """``run_fn`` under the guardian when ``--isolate guardian`` asks for it."""
+        if not self.guardian:
+            return run_fn
+        from fmionnx.runtime.guardian import available, guard
+
+        problem = available()
+        if problem is not None:
+            raise fail(f"--isolate guardian: {problem}")
+        if record:
+            raise fail("--isolate guardian does not combine with --record (the frames would "
+                       "be recorded in the guarded process); isolate components by name instead")  # fmt: skip
+        return guard(system.compiled, run_fn)
+
     def options(self, options: Any, system: Any, out: Path | None, console: Any) -> Any:
         """``options`` with isolation, the step timeout and the checkpoint/abandon writers."""
+        from fmionnx.runtime.guardian import GUARDIAN
         from fmionnx.runtime.isolated.factory import isolation_targets
 
-        chosen, unknown = isolation_targets(system.compiled, self.isolate)
+        words = [w for w in self.isolate if w != GUARDIAN]
+        chosen, unknown = isolation_targets(system.compiled, words)
         if unknown:
             names = ", ".join(f"`{c.name}`" for c in system.compiled.components)
             raise fail(
                 f"--isolate: no component named {', '.join(f'`{u}`' for u in unknown)}; "
-                f"use `fmus`, `all`, `none` or one of {names}"
+                f"use `fmus`, `all`, `none`, `guardian` or one of {names}"
             )
         if self.sandbox and not chosen:
             raise fail("--sandbox confines isolated models, and --isolate selects none")

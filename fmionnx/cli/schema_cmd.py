@@ -10,11 +10,12 @@ import typer
 
 from fmionnx.cli.app import app
 from fmionnx.cli.outputs import check_output_file
-from fmionnx.spec.model import json_schema
 
 
 def schema_text() -> str:
     """The schema as written to ``schemas/system.schema.json``."""
+    from fmionnx.spec.model import json_schema
+
     return json.dumps(json_schema(), indent=2, sort_keys=True) + "\n"
 
 

@@ -5,17 +5,15 @@ from __future__ import annotations
 import sys
 from collections.abc import Callable
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.cli.outputs import check_output_file
-from fmionnx.core.diagnostics import DiagnosticBag, Severity
-from fmionnx.core.errors import FmionnxError
-from fmionnx.core.safewrite import OverwriteRefusedError
-from fmionnx.reporters import REPORTER_BY_NAME, FileResult
-from fmionnx.spec.frontends import load_system
+
+if TYPE_CHECKING:
+    from fmionnx.core.diagnostics import DiagnosticBag
 
 OutputOption = Annotated[Path, typer.Option("--output", "-o", help="File to write.")]
 ForceOption = Annotated[
@@ -25,6 +23,8 @@ ForceOption = Annotated[
 
 def _refuse_unless_ours(check: Callable[[], None]) -> None:
     """Run an overwrite check before any work; a refusal is a usage error (exit 2)."""
+    from fmionnx.core.safewrite import OverwriteRefusedError
+
     try:
         check()
     except OverwriteRefusedError as exc:
@@ -32,6 +32,9 @@ def _refuse_unless_ours(check: Callable[[], None]) -> None:
 
 
 def _report(path: Path, bag: DiagnosticBag, *, errors_only: bool = False) -> None:
+    from fmionnx.core.diagnostics import Severity
+    from fmionnx.reporters import REPORTER_BY_NAME, FileResult
+
     shown = tuple(d for d in bag.sorted() if not errors_only or d.severity is Severity.ERROR)
     if shown:
         REPORTER_BY_NAME["text"].render(
@@ -55,7 +58,11 @@ def export(
     is replaced only when fmionnx wrote it (else `--force`). See docs/ssp.md.
     """
     from fmionnx.compile.compiler import compile_spec
+    from fmionnx.core.diagnostics import DiagnosticBag
+    from fmionnx.core.errors import FmionnxError
+    from fmionnx.core.safewrite import OverwriteRefusedError
     from fmionnx.export.ssp_writer import check_export_target, export_ssp
+    from fmionnx.spec.frontends import load_system
 
     if output.suffix.lower() != ".ssp":
         typer.echo(f"error: the output must end in .ssp (got `{output.name}`)", err=True)
@@ -94,11 +101,15 @@ def convert(
     Models inside an .ssp archive are copied to `<output stem>_files/` beside the YAML file.
     A YAML file or `_files/` folder that convert did not write is replaced only with `--force`.
     """
+    from fmionnx.core.diagnostics import DiagnosticBag
+    from fmionnx.core.errors import FmionnxError
+    from fmionnx.core.safewrite import OverwriteRefusedError
     from fmionnx.export.yaml_writer import (
         check_convert_targets,
         convert_header,
         write_yaml_system,
     )
+    from fmionnx.spec.frontends import load_system
 
     if output.suffix.lower() not in {".yaml", ".yml"}:
         typer.echo(f"error: the output must end in .yaml (got `{output.name}`)", err=True)

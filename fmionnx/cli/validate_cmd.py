@@ -8,14 +8,12 @@ from typing import Annotated
 
 import typer
 
-from fmionnx import api
 from fmionnx.cli.app import ExitCode, app
-from fmionnx.core.diagnostics import Diagnostic, Severity
-from fmionnx.lock.check import check_lock
-from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
 
 def _check_format(value: str) -> str:
+    from fmionnx.reporters import REPORTER_BY_NAME
+
     if value not in REPORTER_BY_NAME:
         names = ", ".join(sorted(REPORTER_BY_NAME))
         msg = f"unknown format `{value}`; expected one of {names}"
@@ -63,6 +61,11 @@ def validate(
     A single model is compiled as `fmionnx run` would, then checked deeper: FMPy's validation
     and the binary of an FMU, the ONNX checker and shape inference, MuJoCo's scene compiler.
     """
+    from fmionnx import api
+    from fmionnx.core.diagnostics import Diagnostic, Severity
+    from fmionnx.lock.check import check_lock
+    from fmionnx.reporters import REPORTER_BY_NAME, FileResult
+
     results = []
     for path in systems:
         model = api.is_model_file(path)

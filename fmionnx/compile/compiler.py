@@ -21,7 +21,6 @@ from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.compile.loops import compile_loops
 from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
-from fmionnx.compile.ros2.settings import ros2_settings
 from fmionnx.compile.sysinputs import compile_inputs
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
 from fmionnx.compile.unitcheck import check_units
@@ -104,7 +103,11 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     checks = compile_checks(spec.checks, by_name, sources, bag)
     if run is None or bag.has_errors:
         return None
-    ros2 = ros2_settings(spec.ros2) if spec.ros2 is not None else None
+    ros2 = None
+    if spec.ros2 is not None:  # imported only then: the ROS 2 types are not small
+        from fmionnx.compile.ros2.settings import ros2_settings
+
+        ros2 = ros2_settings(spec.ros2)
     system = CompiledSystem(
         name=spec.name,
         source=loaded.path,

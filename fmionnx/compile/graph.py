@@ -11,16 +11,22 @@ before) and publishes its outputs at the end of its step.
   direct dependency (a state, e.g. a MuJoCo sensor or an integrator) is cut: its consumer
   reads the value published at the end of the producer's previous step, which is the value at
   the current time. Ties are broken by declaration order, so the order is deterministic.
+
+networkx is imported by the functions that need a graph: a system without connections (a
+single model run as ``fmionnx run model.fmu``) has no loop and is ordered as declared, and
+its compile does not pay the library's import.
 """
 
 from __future__ import annotations
 
 from collections.abc import Iterable, Sequence
-
-import networkx as nx
+from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.core.types import Causality, Component, Port
+
+if TYPE_CHECKING:
+    import networkx as nx
 
 
 def direct_inputs(component: Component, output: Port) -> tuple[str, ...]:
@@ -34,6 +40,8 @@ def _feedthrough_graph(
     components: Sequence[Component], connections: Iterable[Connection]
 ) -> nx.DiGraph:
     """Port-level graph: connections, and each used output's direct dependencies."""
+    import networkx as nx
+
     by_name = {c.name: c for c in components}
     graph: nx.DiGraph = nx.DiGraph()
     used_outputs: dict[tuple[str, str], int] = {}  # a dict: insertion order, not hash order
@@ -52,6 +60,8 @@ def _feedthrough_graph(
 
 def _loop_parts(graph: nx.DiGraph) -> list[tuple[set[str], list[str]]]:
     """Each strongly connected part with a cycle: its components and one cycle (``comp.port``)."""
+    import networkx as nx
+
     parts = []
     ranks = nx.get_node_attributes(graph, "rank")
     for scc in nx.strongly_connected_components(graph):
@@ -69,6 +79,9 @@ def find_algebraic_loops(
     components: Sequence[Component], connections: Iterable[Connection]
 ) -> list[list[str]]:
     """Cycles through direct-feedthrough ports, each as a list of ``comp.port`` names."""
+    connections = list(connections)
+    if not connections:  # no edge, no cycle
+        return []
     graph = _feedthrough_graph(components, connections)
     return sorted(cycle for _, cycle in _loop_parts(graph))
 
@@ -81,6 +94,9 @@ def loop_groups(
     Loops that share a component are one group: stepping that component once per iteration
     serves both, so they are solved together. Groups are sorted by their first member.
     """
+    connections = list(connections)
+    if not connections:  # no edge, no cycle
+        return []
     position = {c.name: i for i, c in enumerate(components)}
     merged: list[tuple[set[str], list[str]]] = []
     for part, cycle in sorted(
@@ -112,6 +128,8 @@ def execution_order(
 
 def dataflow_graph(system: CompiledSystem) -> nx.MultiDiGraph:
     """Component-level multigraph: nodes carry kind/period/path, edges carry the ports."""
+    import networkx as nx
+
     graph: nx.MultiDiGraph = nx.MultiDiGraph(name=system.name)
     for component in system.components:
         graph.add_node(
@@ -146,6 +164,10 @@ def execution_order_with_loops(
     members then take its place, in the loop's own order. Edges from non-feedthrough outputs
     are cut inside cycles as in :func:`execution_order`.
     """
+    if not connections and not loops:  # nothing to sort: the declaration order
+        return tuple(c.name for c in components)
+    import networkx as nx
+
     position = {c.name: i for i, c in enumerate(components)}
     by_name = {c.name: c for c in components}
     node_of = {c.name: c.name for c in components}

@@ -38,20 +38,46 @@ def write_csv(result: RunResult, path: Path, *, aliases: dict[str, str] | None =
 def write_rows(stream: IO[str], table: npt.NDArray[np.float64]) -> None:
     """Write ``table`` as CSV lines, every number as its shortest round-tripping decimal.
 
-    Formatting a float that way (``repr``) costs more than ``%.17g``, but held outputs repeat
-    the same value for many base steps: each distinct bit pattern of a block is formatted
-    once and the cells are looked up, which makes the whole faster than ``numpy.savetxt``.
-    Bit patterns, not values, are compared, so ``-0.0`` stays ``-0``.
+    The time goes into formatting floats, so no cell is formatted in a Python-level loop:
+    each column of a block is formatted by :func:`column_texts` (C-level ``repr`` of a list),
+    and the rows are assembled with ``zip`` and ``str.join``, also in C. That is about a
+    third faster than formatting each distinct value with :func:`shortest_decimal` and
+    several times faster than ``numpy.savetxt``; the bytes are the same (a test compares
+    them over random, special and subnormal values).
     """
-    bits = np.ascontiguousarray(table, dtype=np.float64).view(np.uint64)
-    for first in range(0, len(bits), BLOCK_ROWS):
-        block = bits[first : first + BLOCK_ROWS]
-        distinct, where = np.unique(block, return_inverse=True)
-        texts = np.array(
-            [shortest_decimal(v) for v in distinct.view(np.float64).tolist()], dtype=object
-        )
-        cells = texts[where.reshape(block.shape)].tolist()
-        stream.write("".join([",".join(row) + "\n" for row in cells]))
+    floats = np.asarray(table, dtype=np.float64)
+    for first in range(0, len(floats), BLOCK_ROWS):
+        block = floats[first : first + BLOCK_ROWS]
+        if block.shape[1] == 0:  # no column: empty lines, as many as rows
+            stream.write("\n" * len(block))
+            continue
+        columns = [column_texts(block[:, j]) for j in range(block.shape[1])]
+        stream.write("\n".join(map(",".join, zip(*columns, strict=True))) + "\n")
+
+
+def column_texts(column: npt.NDArray[np.float64]) -> list[str]:
+    """:func:`shortest_decimal` of every value of ``column``, computed in C.
+
+    Held outputs repeat a value for many base steps, so only the first value of each run of
+    equal bit patterns is formatted (bit patterns, not values: ``-0.0`` after ``0.0`` is a
+    new run, and so is every NaN). ``repr`` of a list formats its floats exactly as ``repr``
+    of each; the list's ``", "`` separators then split it, and a whole number's ``.0`` goes
+    where it is followed by a separator (``", "`` never occurs inside a number's text).
+    """
+    bits = np.ascontiguousarray(column).view(np.uint64)
+    if len(bits) == 0:
+        return []
+    starts = np.empty(len(bits), dtype=bool)
+    starts[0] = True
+    np.not_equal(bits[1:], bits[:-1], out=starts[1:])
+    values = column.tolist() if starts.all() else column[starts].tolist()
+    text = (repr(values)[1:-1] + ", ").replace(".0, ", ", ")
+    texts = text[:-2].split(", ")
+    if len(texts) == len(bits):
+        return texts
+    runs = np.cumsum(starts) - 1
+    held: list[str] = np.array(texts, dtype=object)[runs].tolist()
+    return held
 
 
 def shortest_decimal(value: float) -> str:

@@ -13,7 +13,7 @@ from pathlib import Path
 import pytest
 from rich.console import Console
 
-from benchmarks import chain, isolation, report, run, scenario
+from benchmarks import chain, isolation, report, run, scenario, startup
 from tests.conftest import built_model
 
 TINY_STEPS = 20
@@ -106,12 +106,14 @@ def test_other_benchmark_scripts_are_found_by_name(tmp_path: Path) -> None:
     names = ("validate_large.py", "ros2_wire.py", "ros2_nodes.py", "isolation.py", "chain.py")
     for name in (*names, "native_reach.py"):
         (tmp_path / name).write_text("", encoding="utf-8")
+    (tmp_path / "startup.py").write_text("", encoding="utf-8")
     assert [p.name for p in run.external_scripts(tmp_path)] == [
         "validate_large.py",
         "ros2_nodes.py",
         "ros2_wire.py",
         "isolation.py",
         "native_reach.py",
+        "startup.py",
     ]
 
 
@@ -169,3 +171,20 @@ def test_reference_scenario_measures_both_loops_and_every_category() -> None:
     assert prof.seconds.get(scenario.PHYSICS, 0.0) > 0.0
     assert prof.seconds.get(scenario.FMUS, 0.0) > 0.0
     assert prof.top
+
+
+def test_startup_benchmark_times_both_commands_and_every_run_mode_side_by_side() -> None:
+    text = io.StringIO()
+    results = startup.main(["--quick"], Console(file=text, width=200))
+    assert [r["contender"] for r in results["help"]] == [startup.FMPY, startup.FMIONNX]
+    runs = {r["contender"]: r for r in results["end_to_end"]}
+    assert list(runs) == [
+        startup.FMPY_SIMULATE, startup.RUN_DEFAULT, startup.RUN_GUARDIAN, startup.RUN_NONE
+    ]  # fmt: skip
+    assert all(r["same_values"] for r in runs.values())  # the CSV files agree
+    assert runs[startup.FMPY_SIMULATE]["vs_fmpy"] == 1
+    assert all(r["vs_fmpy"] > 0 for r in [*results["help"], *runs.values()])
+    assert [t["limit"] for t in results["targets"]] == ["<= 1", "<= 0.6", "<= 0.6", "<= 0.6"]
+    printed = text.getvalue()
+    assert "One FMU end to end" in printed
+    assert "Targets" in printed

@@ -1,0 +1,290 @@
+"""Start-up and end to end: ``fmionnx`` against FMPy's own command line, as a user times them.
+
+Two questions, each answered by running the two programs side by side in one run, the
+contenders interleaved (round *r* rotates their order) so that drifting machine load hits
+all alike; the tables report medians and ratios to FMPy.
+
+1. **Start-up**: ``fmionnx --help`` against ``fmpy --help`` (both console scripts of this
+   interpreter's environment). Target: no slower (ratio <= 1).
+2. **One external FMU end to end**: the fixture ``Integrator`` FMU (``der(x) = u``, built from
+   C in ``tests/fixtures/fmus``) co-simulated with ``u = 1`` for 200 000 steps of 0.01 s, its
+   output ``x`` written to CSV at every step: ``fmpy simulate`` against ``fmionnx run
+   MODEL.fmu`` with the default ``--isolate fmus`` (the FMU in a child process, one pipe round
+   trip per step), with ``--isolate guardian`` (the whole run in one forked child that
+   records into shared memory: :mod:`fmionnx.runtime.guardian`) and with ``--isolate none``
+   (the FMU in fmionnx's own process). Wall time of
+   the whole command: interpreter start, imports, compile, simulation, CSV. The CSV files
+   must agree (checked every round): the same times, and ``x`` within 1e-9 (FMPy hands the
+   FMU step sizes computed from its time grid, fmionnx the constant step, so the sums
+   differ in the last bits). Target: <= 0.6x ``fmpy simulate``.
+
+Both programs run as installed: with their bytecode cached (an environment that sets
+``PYTHONDONTWRITEBYTECODE`` would have fmionnx, installed editable from source, recompile every
+module at every start while FMPy's wheel came with its bytecode). One untimed round runs
+first to write the caches.
+
+Targets are reported, not asserted. Run ``python benchmarks/startup.py`` (a few minutes on 2
+cores: the isolated runs are the slow ones), ``--quick`` for a smoke run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import os
+import resource
+import shutil
+import statistics
+import subprocess
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parent.parent
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))  # run as a script: make `benchmarks` importable
+
+import numpy as np  # noqa: E402
+from rich.console import Console  # noqa: E402
+
+from benchmarks import machine, report  # noqa: E402
+
+INTEGRATOR_SOURCE = REPO / "tests" / "fixtures" / "fmus" / "Integrator"
+STEP = 0.01
+STEPS = 200_000
+HELP_TARGET = 1.0
+END_TO_END_TARGET = 0.6
+
+FMPY = "fmpy"
+FMIONNX = "fmionnx"
+FMPY_SIMULATE = "fmpy simulate"
+RUN_DEFAULT = "fmionnx run (default: --isolate fmus)"
+RUN_NONE = "fmionnx run --isolate none"
+RUN_GUARDIAN = "fmionnx run --isolate guardian"
+
+COLUMNS = (
+    ("contender", "command"),
+    ("median_s", "wall s (median)"),
+    ("min_s", "wall s (min)"),
+    ("vs_fmpy", "x FMPy"),
+    ("cpu_s", "CPU s (median)"),
+    ("cpu_vs_fmpy", "x FMPy (CPU)"),
+    ("runs", "runs"),
+    ("same_values", "CSV agrees"),
+)
+
+
+@dataclass
+class Contender:
+    """A command line and its wall times (and, for simulations, its CSV file)."""
+
+    name: str
+    argv: list[str]
+    csv: Path | None = None
+    seconds: list[float] = field(default_factory=list)
+    #: User + system CPU seconds of the command and every process it waited for.
+    cpu: list[float] = field(default_factory=list)
+    same_values: bool | None = None
+
+    def median(self) -> float:
+        return statistics.median(self.seconds)
+
+
+def console_script(name: str) -> list[str]:
+    """``name``'s console script beside this interpreter, else ``python -m`` its module."""
+    script = Path(sys.executable).parent / name
+    if script.exists():
+        return [str(script)]
+    module = {"fmionnx": "fmionnx", "fmpy": "fmpy.cli"}[name]
+    return [sys.executable, "-m", module]
+
+
+def _children_cpu() -> float:
+    usage = resource.getrusage(resource.RUSAGE_CHILDREN)
+    return usage.ru_utime + usage.ru_stime
+
+
+def timed_run(argv: Sequence[str], cwd: Path) -> tuple[float, float]:
+    """Wall and CPU seconds of one command, which must succeed (its output is discarded).
+
+    CPU time (of the command and every process it waited for) is what load on a shared
+    machine disturbs least; wall time is what the user waits.
+    """
+    env = {k: v for k, v in os.environ.items() if k != "PYTHONDONTWRITEBYTECODE"}
+    cpu = _children_cpu()
+    started = time.perf_counter()
+    done = subprocess.run(argv, cwd=cwd, env=env, capture_output=True, text=True, check=False)
+    seconds = time.perf_counter() - started
+    cpu = _children_cpu() - cpu
+    if done.returncode != 0:
+        msg = f"`{' '.join(argv)}` exited {done.returncode}: {done.stderr.strip()[-800:]}"
+        raise RuntimeError(msg)
+    return seconds, cpu
+
+
+def interleaved(contenders: Sequence[Contender], rounds: int, cwd: Path) -> None:
+    """Each round runs every contender once, starting one further along each time; an
+    untimed round first (bytecode caches, the page cache)."""
+    for contender in contenders:
+        timed_run(contender.argv, cwd)
+    for r in range(rounds):
+        shift = r % len(contenders)
+        for contender in [*contenders[shift:], *contenders[:shift]]:
+            seconds, cpu = timed_run(contender.argv, cwd)
+            contender.seconds.append(seconds)
+            contender.cpu.append(cpu)
+            if contender.csv is not None:
+                contender.same_values = _same_as_fmpy(contenders, contender)
+
+
+def _columns(path: Path) -> np.ndarray:
+    """(time, x) from either program's CSV (FMPy quotes its header)."""
+    return np.loadtxt(path, delimiter=",", skiprows=1, ndmin=2)
+
+
+def _same_as_fmpy(contenders: Sequence[Contender], contender: Contender) -> bool | None:
+    reference = next((c for c in contenders if c.name == FMPY_SIMULATE), None)
+    if reference is None or reference.csv is None or not reference.csv.exists():
+        return None
+    if contender is reference:
+        return True
+    assert contender.csv is not None
+    ours, theirs = _columns(contender.csv), _columns(reference.csv)
+    if ours.shape != theirs.shape or ours[:, 0].tobytes() != theirs[:, 0].tobytes():
+        return False
+    return bool(np.allclose(ours[:, 1], theirs[:, 1], rtol=1e-9, atol=1e-9))
+
+
+def build_integrator(folder: Path) -> Path:
+    """The fixture FMU compiled for this platform into ``folder``."""
+    from fmionnx.kinds.fmu.build import build_fmu
+
+    fmu = folder / "Integrator.fmu"
+    build_fmu(INTEGRATOR_SOURCE, fmu)
+    return fmu
+
+
+def end_to_end_contenders(fmu: Path, work: Path, steps: int) -> list[Contender]:
+    stop = f"{steps * STEP:g}"
+    fmpy_csv = work / "fmpy.csv"
+    fmpy_argv = [
+        *console_script("fmpy"), "simulate", str(fmu), "--stop-time", stop,
+        "--step-size", str(STEP), "--output-interval", str(STEP), "--start-values", "u", "1",
+        "--output-variables", "x", "--output-file", str(fmpy_csv),
+    ]  # fmt: skip
+    run = [*console_script("fmionnx"), "run", str(fmu), "-q", "--stop-time", stop]
+    run += ["--step", str(STEP), "-p", "u=1"]
+    return [
+        Contender(FMPY_SIMULATE, fmpy_argv, fmpy_csv),
+        Contender(RUN_DEFAULT, [*run, "--out", str(work / "default")], work / "default" / "results.csv"),
+        Contender(RUN_GUARDIAN, [*run, "--out", str(work / "guardian"), "--isolate", "guardian"], work / "guardian" / "results.csv"),
+        Contender(RUN_NONE, [*run, "--out", str(work / "none"), "--isolate", "none"], work / "none" / "results.csv"),
+    ]  # fmt: skip
+
+
+def rows(contenders: Sequence[Contender], reference: str) -> list[dict[str, Any]]:
+    reference_contender = next(c for c in contenders if c.name == reference)
+    base = reference_contender.median()
+    base_cpu = statistics.median(reference_contender.cpu)
+    return [
+        {
+            "contender": c.name,
+            "median_s": c.median(),
+            "min_s": min(c.seconds),
+            "vs_fmpy": c.median() / base if base else None,
+            "cpu_s": statistics.median(c.cpu),
+            "cpu_vs_fmpy": statistics.median(c.cpu) / base_cpu if base_cpu else None,
+            "runs": len(c.seconds),
+            "same_values": c.same_values,
+        }
+        for c in contenders
+    ]
+
+
+def parse(argv: Sequence[str] | None) -> argparse.Namespace:
+    parser = argparse.ArgumentParser(description=__doc__.splitlines()[0])
+    parser.add_argument("--quick", action="store_true", help="tiny sizes (a smoke run)")
+    parser.add_argument("--steps", type=int, default=None, help=f"FMU steps (default {STEPS})")
+    parser.add_argument("--repeat", type=int, default=None, help="rounds (default 5)")
+    args = parser.parse_args(argv)
+    args.steps = args.steps or (200 if args.quick else STEPS)
+    args.repeat = args.repeat or (1 if args.quick else 5)
+    args.help_repeat = 2 if args.quick else 15
+    return args
+
+
+def main(argv: Sequence[str] | None = None, console: Console | None = None) -> dict[str, Any]:
+    """Measure, print the tables; returns the rows and targets (what the tables show)."""
+    args = parse(argv)
+    console = console or Console(width=None if sys.stdout.isatty() else 150)
+    info = machine.describe()
+    console.print(
+        f"[bold]fmionnx start-up and end to end[/bold]  {info['cpu']}, {info['cores']} cores, "
+        f"{info['python']}, {info['os']}"
+    )
+    results: dict[str, Any] = {"machine": info}
+    work = Path(tempfile.mkdtemp(prefix="fmionnx-startup-"))
+    try:
+        helps = [
+            Contender(FMPY, [*console_script("fmpy"), "--help"]),
+            Contender(FMIONNX, [*console_script("fmionnx"), "--help"]),
+        ]
+        interleaved(helps, args.help_repeat, work)
+        results["help"] = rows(helps, FMPY)
+        report.print_table(
+            console,
+            f"`--help`, median of {args.help_repeat} interleaved runs",
+            [c for c in COLUMNS if c[0] != "same_values"],
+            results["help"],
+        )
+        fmu = build_integrator(work)
+        runs = end_to_end_contenders(fmu, work, args.steps)
+        interleaved(runs, args.repeat, work)
+        results["end_to_end"] = rows(runs, FMPY_SIMULATE)
+        report.print_table(
+            console,
+            f"One FMU end to end: Integrator, {args.steps} steps of {STEP:g} s to CSV, "
+            f"median of {args.repeat} interleaved runs",
+            COLUMNS,
+            results["end_to_end"],
+        )
+    finally:
+        shutil.rmtree(work, ignore_errors=True)
+    by_name = {r["contender"]: r for r in [*results["help"], *results["end_to_end"]]}
+    targets = [
+        _target("fmionnx --help / fmpy --help", by_name[FMIONNX]["vs_fmpy"], HELP_TARGET),
+        _target(
+            "fmionnx run (default) / fmpy simulate",
+            by_name[RUN_DEFAULT]["vs_fmpy"],
+            END_TO_END_TARGET,
+        ),
+        _target(
+            "fmionnx run --isolate guardian / fmpy simulate",
+            by_name[RUN_GUARDIAN]["vs_fmpy"],
+            END_TO_END_TARGET,
+        ),
+        _target(
+            "fmionnx run --isolate none / fmpy simulate",
+            by_name[RUN_NONE]["vs_fmpy"],
+            END_TO_END_TARGET,
+        ),
+    ]
+    results["targets"] = targets
+    report.print_table(console, "Targets (reported, not asserted)", report.TARGET_COLUMNS, targets)
+    return results
+
+
+def _target(name: str, value: float | None, limit: float) -> dict[str, Any]:
+    return {
+        "target": name,
+        "value": value,
+        "limit": f"<= {limit:g}",
+        "met": None if value is None else value <= limit,
+    }
+
+
+if __name__ == "__main__":
+    main()

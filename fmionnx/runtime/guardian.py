@@ -1,0 +1,511 @@
+"""``--isolate guardian``: the whole run in one child process, guarded by this one.
+
+Per-component isolation (:mod:`fmionnx.runtime.isolated`) costs a pipe round trip per step
+of every isolated model: tens of microseconds on a busy machine, which dominates a run of
+one fast FMU. The guardian buys back most of the crash safety for one ``fork``:
+
+- the run (the master, every runner, checkpoints, the step-timeout watchdog) goes on in a
+  forked child, unchanged; a completed, faulted or interrupted run's result comes back
+  through a pipe and is written by this process as usual;
+- the child records into shared memory (a memfd this process keeps open) and marks the
+  work under way there: in the child (a fork that ends with the run) the master module's
+  ``Recorder`` and ``Marker`` are rebound to :class:`SharedRecorder` and
+  :class:`SharedMarker`, whose rows, row counts, time and work index live in the memfd (the
+  loop's stores to the watchdog's marker land there). So when a model crashes, aborts or
+  exits the process, this process still has every completed step and knows which component
+  (or native group) was stepping at which time. It writes them, with a fault naming the
+  component, like an isolated model's crash.
+
+What it cannot say is the FMI function under way (the child's phases are not tracked, to
+keep the loop's cost): per-component ``--isolate NAMES`` does, and confines with
+``--sandbox``; a hang is caught by the watchdog in the child, as in-process.
+
+Everything shared is written by the child and read by this process after the child has
+ended (the progress cells excepted, which are only shown): no locking. The directory of
+tracks is written to one of two slots and then switched to, so a crash while writing it
+leaves the previous one. Linux only (``fork``, ``memfd_create``).
+"""
+
+from __future__ import annotations
+
+import contextlib
+import ctypes
+import dataclasses
+import json
+import mmap
+import os
+import pickle
+import select
+import signal
+import sys
+import tempfile
+import time
+import traceback
+from collections.abc import Callable
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import numpy.typing as npt
+
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core.errors import RunError
+from fmionnx.core.runner import fault
+from fmionnx.runtime import recorder as recording
+from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+
+#: The ``--isolate`` word that selects the guardian.
+GUARDIAN = "guardian"
+BACKEND_NAME = "inprocess"
+
+#: Bytes of the control block at the start of the shared file: cells, then two directory slots.
+CONTROL = 1 << 20  # sparse: pages cost only once written
+_CELLS = 16
+_SLOT = (CONTROL - _CELLS * 8) // 2
+# float64 cells of the control block
+_T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY = range(8)
+_PR_SET_PDEATHSIG = 1
+#: Seconds a stopped child gets to send its result (while nothing arrives) before it is
+#: killed: a model that does not return from its step cannot see the stop request.
+STOP_GRACE = 5.0
+
+RunFunction = Callable[..., RunResult]
+
+
+def available() -> str | None:
+    """Why the guardian cannot run here, or None."""
+    if not hasattr(os, "fork") or not hasattr(os, "memfd_create"):
+        return "the guardian needs Linux (fork and memfd_create)"
+    return None
+
+
+class _Shared:
+    """The memfd both processes map: control cells, the directory, then the tracks' rows."""
+
+    def __init__(self) -> None:
+        self.fd = os.memfd_create("fmionnx-guardian")
+        os.ftruncate(self.fd, CONTROL)
+        self.size = CONTROL
+        self.control = mmap.mmap(self.fd, CONTROL)
+        self.cells = np.frombuffer(self.control, dtype=np.float64, count=_CELLS)
+        self.cells[:] = 0.0
+        self.cells[_WORK] = -1.0
+
+    # -- the child's side ----------------------------------------------------------------------
+
+    def allocate(self, nbytes: int) -> tuple[mmap.mmap, int]:
+        """A new region of ``nbytes`` at the end of the file (child only): (map, offset)."""
+        offset = self.size
+        pages = -(-max(nbytes, 8) // mmap.PAGESIZE) * mmap.PAGESIZE
+        os.ftruncate(self.fd, offset + pages)
+        self.size = offset + pages
+        return mmap.mmap(self.fd, pages, offset=offset), offset
+
+    def publish(self, directory: dict[str, Any]) -> None:
+        """Write the directory into the slot not in use, then switch to it (crash-safe)."""
+        data = json.dumps(directory).encode()
+        if len(data) + 8 > _SLOT:  # half a MiB of column names: beyond any real system
+            return
+        slot = 1 if int(self.cells[_DIRECTORY]) == 1 else 0  # the other one
+        start = _CELLS * 8 + slot * _SLOT
+        self.control[start : start + 8] = len(data).to_bytes(8, "little")
+        self.control[start + 8 : start + 8 + len(data)] = data
+        self.cells[_DIRECTORY] = slot + 1  # 0: none yet; 1 or 2: that slot
+
+    # -- the guardian's side -------------------------------------------------------------------
+
+    def directory(self) -> dict[str, Any] | None:
+        chosen = int(self.cells[_DIRECTORY])
+        if chosen not in (1, 2):
+            return None
+        start = _CELLS * 8 + (chosen - 1) * _SLOT
+        length = int.from_bytes(self.control[start : start + 8], "little")
+        try:
+            parsed: dict[str, Any] = json.loads(self.control[start + 8 : start + 8 + length])
+        except ValueError:
+            return None
+        return parsed
+
+    def rows(self, offset: int, capacity: int, columns: int) -> tuple[int, np.ndarray]:
+        """(count, rows) of a track region written by the child, copied out of the file."""
+        size = os.fstat(self.fd).st_size
+        nbytes = 8 + capacity * columns * 8
+        if offset + nbytes > size:
+            return 0, np.zeros((0, columns))
+        with mmap.mmap(self.fd, size, prot=mmap.PROT_READ) as view:
+            count = int.from_bytes(view[offset : offset + 8], "little", signed=True)
+            count = max(0, min(count, capacity))
+            rows = np.frombuffer(view, np.float64, count * columns, offset + 8).copy()
+        return count, rows.reshape(count, columns)
+
+    def close(self) -> None:
+        with contextlib.suppress(BufferError):
+            self.control.close()
+        with contextlib.suppress(OSError):
+            os.close(self.fd)
+
+
+# -- the child: recording and marking into shared memory ---------------------------------------
+
+
+class _SharedTracks:
+    """The child's registry of tracks; republishes the directory when one is (re)allocated."""
+
+    def __init__(self, shared: _Shared) -> None:
+        self.shared = shared
+        self.tracks: list[SharedTrack] = []
+        self.recorders: list[SharedRecorder] = []
+        self.works: list[str] = []
+
+    def publish(self) -> None:
+        tracks = [
+            {
+                "offset": t.offset,
+                "capacity": len(t.rows),
+                "columns": t.columns,
+                "period": t.period_steps,
+            }
+            for t in self.tracks
+        ]
+        order = [name for r in self.recorders for name in r.order]
+        self.shared.publish({"tracks": tracks, "order": order, "works": self.works})
+
+
+#: The child's registry (set once in the forked child; empty in the guardian).
+_REGISTRY: list[_SharedTracks] = []
+
+
+class SharedTrack(recording.Track):
+    """A track whose rows and count live in the guardian's shared file (child only)."""
+
+    offset: int = -1
+    _count: Any = None
+    _block: mmap.mmap | None = None
+
+    def allocate(self) -> None:
+        """Reserve rows in shared memory (as :meth:`Track.allocate` does in private)."""
+        self._place(min(self.capacity, recording.CHUNK_ROWS))
+
+    def _grow(self) -> None:
+        extra = min(max(len(self.rows), recording.CHUNK_ROWS), self.capacity - len(self.rows))
+        self._place(len(self.rows) + max(extra, 1))
+
+    def _place(self, rows: int) -> None:
+        registry = _REGISTRY[0]
+        columns = len(self.columns)
+        block, offset = registry.shared.allocate(8 + rows * columns * 8)
+        count = memoryview(block)[:8].cast("q")  # a memoryview store: the cheapest there is
+        new = np.frombuffer(block, np.float64, rows * columns, 8).reshape(rows, columns)
+        kept = min(self.count, len(self.rows))
+        if kept:
+            new[:kept] = self.rows[:kept]
+        count[0] = self.count
+        self.rows, self._count, self._block, self.offset = new, count, block, offset
+        if not any(track is self for track in registry.tracks):
+            registry.tracks.append(self)
+        registry.publish()
+
+    def sample(self) -> None:
+        """Append the current values as the next row; the count is published after it."""
+        if self.count == len(self.rows):
+            self._grow()
+        row = self.rows[self.count]
+        for view, a, b in self.views:
+            if b - a == 1:
+                row[a] = view[0]
+            else:
+                row[a:b] = view
+        self.count += 1
+        self._count[0] = self.count
+
+
+class SharedRecorder(recording.Recorder):
+    """A recorder whose tracks are :class:`SharedTrack` (child only)."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        _REGISTRY[0].recorders.append(self)
+
+    def track(self, period_steps: int, total_steps: int) -> recording.Track:
+        track = SharedTrack(period_steps, total_steps // period_steps + 2)
+        self.tracks.append(track)
+        return track
+
+
+class SharedMarker:
+    """The watchdog's marker, mirrored into the shared cells (child only).
+
+    The loop stores the time and the work under way before each step, as for the watchdog;
+    the stores also land in shared memory, where the guardian reads them after a crash.
+    """
+
+    __slots__ = ("_cells", "_index", "_work")
+
+    def __init__(self, control: mmap.mmap) -> None:
+        self._cells = memoryview(control)[: _CELLS * 8].cast("d")  # cheaper stores than numpy's
+        self._work: object = None
+        self._index: dict[int, int] = {}
+
+    @property
+    def t(self) -> float:
+        return float(self._cells[_T])
+
+    @t.setter
+    def t(self, value: float) -> None:
+        self._cells[_T] = value
+
+    @property
+    def work(self) -> object:
+        return self._work
+
+    @work.setter
+    def work(self, value: object) -> None:
+        if value is self._work:  # one component stepping: the same work every step
+            return
+        self._work = value
+        index = self._index.get(id(value))
+        if index is None:
+            index = self._register(value)
+        self._cells[_WORK] = index
+
+    def _register(self, value: object) -> int:
+        registry = _REGISTRY[0]
+        index = len(registry.works)
+        self._index[id(value)] = index
+        registry.works.append(str(getattr(value, "name", "")))
+        registry.publish()
+        return index
+
+
+def _die_with_parent() -> None:
+    """Linux kills this child when the guardian dies (SIGKILL of the run leaves no orphan)."""
+    with contextlib.suppress(OSError, AttributeError):
+        libc = ctypes.CDLL(None, use_errno=True)
+        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+
+
+def _child(
+    run_fn: RunFunction, options: RunOptions, shared: _Shared, result_pipe: int, scratch: Path
+) -> int:
+    """Run in the forked child; returns its exit status (the result went down the pipe)."""
+    _die_with_parent()
+    os.environ["TMPDIR"] = str(scratch)
+    tempfile.tempdir = str(scratch)
+    _REGISTRY[:] = [_SharedTracks(shared)]
+    from fmionnx.runtime import master
+
+    # The master builds its recorder and marker when it is made: in this process (a fork,
+    # which ends with the run) they are the shared kinds.
+    names = vars(master)  # the master module's globals, rebound in this process only
+    names["Recorder"] = SharedRecorder
+    names["Marker"] = lambda: SharedMarker(shared.control)
+    cells = shared.cells
+
+    def progress(done: int, total: int, sim: float) -> None:
+        cells[_DONE], cells[_TOTAL], cells[_SIM] = done, total, sim
+        cells[_PROGRESS] += 1
+
+    abandon = options.abandon
+
+    def abandoned(result: RunResult) -> None:
+        cells[_ABANDONED] = 1.0
+        if abandon is not None:
+            abandon(result)
+
+    options = dataclasses.replace(
+        options,
+        progress=progress if options.progress is not None else None,
+        abandon=abandoned,
+    )
+    result = run_fn(options=options)
+    for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # the result goes out whole
+        signal.signal(signum, signal.SIG_IGN)
+    error = result.error
+    if error is not None and type(error) is not RunError:  # a subclass may not unpickle
+        plain = RunError(str(error), component=error.component, port=error.port, time=error.time)
+        result = dataclasses.replace(result, error=plain)
+    # The result goes into the shared file and only its place down the pipe: megabytes through
+    # a pipe would cost a wake-up of each process per 64 KiB, slow on a loaded machine.
+    data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
+    block, offset = shared.allocate(len(data))
+    block[: len(data)] = data
+    block.flush()
+    os.write(result_pipe, offset.to_bytes(8, "little") + len(data).to_bytes(8, "little"))
+    return 0
+
+
+def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions) -> RunResult:
+    """``run_fn(options=options)`` in a forked child; a crash of the child is a fault here."""
+    from fmionnx.core.scratch import make_scratch, remove_scratch
+    from fmionnx.runtime.stopping import stop_reason
+
+    shared = _Shared()
+    scratch = make_scratch("guardian")
+    read_end, write_end = os.pipe()
+    sys.stdout.flush()
+    sys.stderr.flush()
+    started = time.perf_counter()
+    pid = os.fork()
+    if pid == 0:  # the child: never returns into the caller
+        code = 70
+        try:
+            os.close(read_end)
+            code = _child(run_fn, options, shared, write_end, scratch)
+        except BaseException:
+            with contextlib.suppress(Exception):
+                traceback.print_exc()
+        finally:
+            with contextlib.suppress(Exception):
+                sys.stdout.flush()
+                sys.stderr.flush()
+            os._exit(code)
+    os.close(write_end)
+    try:
+        data, reason = _wait(pid, read_end, shared, options, stop_reason)
+        status = _reap(pid)
+        if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results and said so
+            remove_scratch(scratch)
+            sys.stdout.flush()
+            os._exit(1)
+        result = _unpickle(data, shared)
+        if result is None:
+            result = _salvage(system, shared, status, reason, time.perf_counter() - started)
+        return result
+    finally:
+        os.close(read_end)
+        shared.close()
+        remove_scratch(scratch)
+
+
+def _wait(
+    pid: int,
+    pipe: int,
+    shared: _Shared,
+    options: RunOptions,
+    stop_reason: Callable[[BaseException], str],
+) -> tuple[bytes, str | None]:
+    """Read the child's result until the pipe closes; pass progress and stop signals on."""
+    chunks: list[bytes] = []
+    reason: str | None = None
+    seen = 0.0
+    cells = shared.cells
+    deadline = float("inf")
+    while True:
+        try:
+            ready, _, _ = select.select([pipe], [], [], 0.1)
+            if ready:
+                chunk = os.read(pipe, 1 << 20)
+                if not chunk:
+                    break
+                chunks.append(chunk)
+                deadline = time.monotonic() + STOP_GRACE if reason is not None else deadline
+            elif time.monotonic() > deadline:  # stopped, and silent: stuck in a model
+                deadline = float("inf")
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+            if options.progress is not None and cells[_PROGRESS] != seen:
+                seen = float(cells[_PROGRESS])
+                options.progress(int(cells[_DONE]), int(cells[_TOTAL]), float(cells[_SIM]))
+        except KeyboardInterrupt as exc:  # SIGINT/SIGTERM/SIGHUP here: the child stops too
+            if reason is None:
+                reason = stop_reason(exc)
+                deadline = time.monotonic() + STOP_GRACE
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.Signals[reason])
+            else:  # asked twice: a model that does not return is not waited for
+                with contextlib.suppress(ProcessLookupError):
+                    os.kill(pid, signal.SIGKILL)
+    return b"".join(chunks), reason
+
+
+def _reap(pid: int) -> int:
+    """The child's wait status (retried through signals)."""
+    while True:
+        try:
+            return os.waitpid(pid, 0)[1]
+        except ChildProcessError:
+            return 0
+        except KeyboardInterrupt:
+            continue
+
+
+def _unpickle(data: bytes, shared: _Shared) -> RunResult | None:
+    """The child's result, when it wrote one whole (it is our own forked process)."""
+    if len(data) != 16:
+        return None
+    offset = int.from_bytes(data[:8], "little")
+    length = int.from_bytes(data[8:], "little")
+    size = os.fstat(shared.fd).st_size
+    if offset < CONTROL or offset + length > size:
+        return None
+    with mmap.mmap(shared.fd, size, prot=mmap.PROT_READ) as view:
+        result = pickle.loads(view[offset : offset + length])
+    return result if isinstance(result, RunResult) else None
+
+
+def _how(status: int) -> str:
+    if os.WIFSIGNALED(status):
+        number = os.WTERMSIG(status)
+        try:
+            return f"crashed with {signal.Signals(number).name}"
+        except ValueError:
+            return f"was killed by signal {number}"
+    return f"ended the run's process with exit status {os.waitstatus_to_exitcode(status)}"
+
+
+def _salvage(
+    system: CompiledSystem, shared: _Shared, status: int, reason: str | None, wall: float
+) -> RunResult:
+    """The result of a child that died: every completed step, a fault naming who was stepping."""
+    cells = shared.cells
+    directory = shared.directory() or {"tracks": [], "order": [], "works": []}
+    run = system.run
+    index = int(cells[_WORK])
+    works: list[str] = directory.get("works", [])
+    t = float(cells[_T]) if index >= 0 else run.start
+    steps_done = max(0, min(run.steps, round((t - run.start) / run.step))) if index >= 0 else 0
+    signals = _table(shared, directory, steps_done)
+    if reason is not None:  # stopped, then killed when it did not stop: interrupted
+        return RunResult.after(
+            system, BACKEND_NAME, RunStatus.INTERRUPTED, steps_done, wall, signals,
+            interrupted_by=reason,
+        )  # fmt: skip
+    how = _how(status)
+    if 0 <= index < len(works) and works[index]:
+        label = works[index]
+        error = fault(
+            label,
+            f"the model {how} during its step (the run was guarded in a process of its own; "
+            "`--isolate` with the component's name tells the FMI function)",
+            time=t,
+        )
+    else:
+        error = RunError(f"the run's process {how} while preparing the run", time=run.start)
+    return RunResult.after(system, BACKEND_NAME, RunStatus.FAULT, steps_done, wall, signals, error)
+
+
+def _table(
+    shared: _Shared, directory: dict[str, Any], steps_done: int
+) -> dict[str, npt.NDArray[np.float64]]:
+    """The recorder's base-step columns, rebuilt from the shared tracks."""
+    rebuilt = recording.Recorder()
+    rebuilt.order.extend(directory.get("order", []))
+    for entry in directory.get("tracks", []):
+        columns = list(entry["columns"])
+        count, rows = shared.rows(int(entry["offset"]), int(entry["capacity"]), len(columns))
+        track = recording.Track(int(entry["period"]), int(entry["capacity"]), columns)
+        track.rows, track.count = rows, count
+        rebuilt.tracks.append(track)
+    return rebuilt.table(steps_done)
+
+
+def guard(system: CompiledSystem, run_fn: RunFunction) -> RunFunction:
+    """``run_fn`` (``system.run``), run under the guardian."""
+
+    def guarded(*, options: RunOptions) -> RunResult:
+        return run_guarded(system, run_fn, options)
+
+    return guarded
+
+
+__all__ = ["GUARDIAN", "available", "guard", "run_guarded"]

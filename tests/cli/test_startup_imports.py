@@ -1,0 +1,128 @@
+"""Each command imports only the libraries it uses (issue #14: a CLI that starts fast).
+
+A command is run in a fresh interpreter, then the test lists which of the heavy libraries
+ended up in ``sys.modules``. Nothing is timed (that is ``benchmarks/startup.py``'s job): the
+test pins the import graph, which is what the start-up time follows. A system of FMUs only
+must not pay for MuJoCo, onnxruntime, DDS, plotting, Dask or Zenoh; ``--help`` pays for none
+of the simulation or compile libraries at all.
+"""
+
+from __future__ import annotations
+
+import json
+import shutil
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import build_fixture_fmu
+
+#: Libraries no FMU-only command needs (the brief's list, and the ones other backends bring).
+RUNTIME_EXTRAS = frozenset(
+    {"mujoco", "onnxruntime", "onnx", "cyclonedds", "matplotlib", "dask", "distributed"}
+    | {"zenoh", "pandas", "pyarrow", "rclpy", "rosbags", "mcap"}
+)
+#: What compiling or simulating needs, but printing help does not.
+COMPILE_LIBRARIES = frozenset({"numpy", "fmpy", "lxml", "networkx", "ruamel", "pyssp_standard"})
+
+PROBE = """\
+import json, sys
+from fmionnx.cli import main
+sys.argv = ["fmionnx", *sys.argv[1:]]
+try:
+    main()
+except SystemExit as exc:
+    code = exc.code
+else:
+    code = 0
+print(json.dumps({"code": code, "modules": sorted({m.split(".")[0] for m in sys.modules})}),
+      file=sys.stderr)
+"""
+
+SYSTEM = """\
+fmionnx: 1
+name: fmus_only
+run: {stop: 0.1, step: 0.01}
+components:
+  gain: {kind: fmu, path: Gain.fmu}
+  integrator: {kind: fmu, path: Integrator.fmu}
+connections:
+  - gain.y -> integrator.u
+"""
+
+
+@pytest.fixture(scope="module")
+def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
+    here = tmp_path_factory.mktemp("startup")
+    for name in ("Gain", "Integrator"):
+        shutil.copy(build_fixture_fmu(name), here / f"{name}.fmu")
+    (here / "system.yaml").write_text(SYSTEM, encoding="utf-8")
+    (here / "probe.py").write_text(PROBE, encoding="utf-8")
+    return here
+
+
+def loaded(folder: Path, *args: str) -> set[str]:
+    """Top-level packages in ``sys.modules`` after ``fmionnx ARGS`` (which must succeed)."""
+    done = subprocess.run(
+        [sys.executable, "probe.py", *args],
+        cwd=folder,
+        capture_output=True,
+        text=True,
+        check=False,
+        timeout=120,
+    )
+    report = json.loads(done.stderr.strip().splitlines()[-1])
+    assert report["code"] == 0, done.stderr
+    return set(report["modules"])
+
+
+def test_help_loads_no_compile_or_simulation_library(folder: Path) -> None:
+    modules = loaded(folder, "--help")
+    assert modules & (RUNTIME_EXTRAS | COMPILE_LIBRARIES | {"pydantic"}) == set()
+
+
+def test_a_command_s_help_loads_none_either(folder: Path) -> None:
+    modules = loaded(folder, "run", "--help")
+    assert modules & (RUNTIME_EXTRAS | COMPILE_LIBRARIES) == set()
+
+
+def test_validating_a_system_of_fmus_loads_no_other_runtime(folder: Path) -> None:
+    assert loaded(folder, "validate", "system.yaml") & RUNTIME_EXTRAS == set()
+
+
+@pytest.mark.parametrize("isolate", ["fmus", "none"])
+def test_running_a_system_of_fmus_loads_no_other_runtime(folder: Path, isolate: str) -> None:
+    modules = loaded(folder, "run", "system.yaml", "-q", "--out", f"out-{isolate}", "--isolate", isolate)  # fmt: skip
+    assert (folder / f"out-{isolate}" / "results.csv").exists()
+    assert modules & RUNTIME_EXTRAS == set()
+    assert "fmpy" in modules  # the probe sees what a run does load
+
+
+def test_running_one_fmu_needs_no_graph_library(folder: Path) -> None:
+    """A lone model has no connection to order: networkx stays out too."""
+    modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", "out-single")
+    assert modules & (RUNTIME_EXTRAS | {"networkx"}) == set()
+
+
+def test_plots_load_matplotlib_only_when_asked(folder: Path) -> None:
+    modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", "out-plot", "--plot")
+    assert "matplotlib" in modules
+    assert modules & (RUNTIME_EXTRAS - {"matplotlib"}) == set()
+
+
+def test_validating_the_reference_scenario_loads_no_runtime_it_does_not_use(
+    folder: Path,
+) -> None:
+    """Compiling reads the models (MuJoCo compiles the scene, onnx reads the graph) but runs
+    none: onnxruntime, DDS, plotting and the sweep and Zenoh libraries stay out."""
+    from tests.conftest import REPO, built_model
+
+    for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
+        built_model(name)
+    system = REPO / "systems" / "sign_follower.yaml"
+    modules = loaded(folder, "validate", str(system))
+    assert {"mujoco", "onnx"} <= modules  # the probe sees what reading the models loads
+    assert modules & (RUNTIME_EXTRAS - {"mujoco", "onnx", "rosbags"}) == set()
+    assert "onnxruntime" not in modules
