@@ -25,6 +25,7 @@ from fmionnx import api
 from fmionnx.backends.ros2.node import SyncMode
 from fmionnx.backends.ros2.supervisor import Ros2Options, Supervisor
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.results.runinfo import write_run_json
 from fmionnx.runtime.result import RunStatus
 from tests.conftest import REPO, built_model
@@ -73,7 +74,10 @@ def _free_run(folder: Path, input_wait: float) -> tuple[CompiledSystem, dict[str
     built_model("sign_detector.onnx")
     built_model("ReadOdometry.fmu")
     system = api.load(SYSTEM).with_overrides(stop_time=STOP).compiled
-    options = Ros2Options(sync=SyncMode.FREE, out=folder, input_wait=input_wait)
+    # Humble, as the relay and this session's other in-process participants of the domain
+    options = Ros2Options(
+        sync=SyncMode.FREE, out=folder, input_wait=input_wait, distro=RosDistro.HUMBLE
+    )
     result = RelayedCamera(system, options, folder).run()
     assert result.status is RunStatus.COMPLETED, result.error
     run_json = write_run_json(result, system, folder / "run.json")
