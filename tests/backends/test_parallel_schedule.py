@@ -9,6 +9,9 @@ from __future__ import annotations
 
 import hashlib
 import itertools
+import json
+import subprocess
+import sys
 import threading
 import time
 from dataclasses import dataclass, field
@@ -25,7 +28,7 @@ from fmionnx.results.csvfile import write_csv
 from fmionnx.runtime.master import Master
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from tests.backends.test_sign_follower import REFERENCE_RESULTS_SHA256, SYSTEM
-from tests.conftest import built_model
+from tests.conftest import REPO, built_model
 
 SEQUENTIAL = RunOptions(schedule="sequential")
 
@@ -99,6 +102,7 @@ class Probe:
 
     meet: float = 0.0
     fail_at: dict[str, float] = field(default_factory=dict)
+    hang_at: dict[str, float] = field(default_factory=dict)
     steps: list[tuple[str, float, int, float, float]] = field(default_factory=list)
     started: dict[tuple[str, float], threading.Event] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
@@ -136,6 +140,9 @@ class ProbedRunner:
             probe.event(name, t).set()
             partner = "b" if name == "a" else "a"
             probe.event(partner, t).wait(probe.meet)
+        hang_at = probe.hang_at.get(name)
+        if hang_at is not None and t >= hang_at - 1e-12:
+            time.sleep(3600)  # never returns within a test: the watchdog must act
         fail_at = probe.fail_at.get(name)
         if fail_at is not None and t >= fail_at - 1e-12:
             raise fault(name, "the probe fails here", time=t)
@@ -164,10 +171,12 @@ connections:
     )
 
 
-def _run(path: Path, probe: Probe, probed: set[str], schedule: str = "parallel") -> RunResult:
+def _run(
+    path: Path, probe: Probe, probed: set[str], schedule: str = "parallel", **options: Any
+) -> RunResult:
     compiled = fmionnx.load(path).compiled
-    options = RunOptions(schedule=schedule)  # type: ignore[arg-type]
-    return Master(compiled, options, probe.factory(probed)).run()
+    chosen = RunOptions(schedule=schedule, **options)  # type: ignore[arg-type]
+    return Master(compiled, chosen, probe.factory(probed)).run()
 
 
 def test_parallel_schedule_really_overlaps_independent_steps(fixture_fmu, write_system) -> None:
@@ -259,3 +268,39 @@ def test_isolated_fmu_failing_or_ending_the_run_concurrently(
         assert sequential.ended_by is not None
         assert parallel.ended_by.as_dict() == sequential.ended_by.as_dict()
     _assert_identical(parallel, sequential)
+
+
+HANG_SCRIPT = """
+import json, sys
+from pathlib import Path
+from tests.backends.test_parallel_schedule import Probe, _run
+
+def abandon(result):
+    Path(sys.argv[2]).write_text(json.dumps({
+        "status": result.status.value, "component": result.error.component,
+        "time": result.error.time, "message": str(result.error), "steps": result.steps_done,
+        "signals": {k: v.tolist() for k, v in result.signals.items()},
+    }))
+
+_run(Path(sys.argv[1]), Probe(hang_at={"a": 0.03}), {"a", "b"}, step_timeout=1.0, abandon=abandon)
+"""
+
+
+def test_hung_concurrent_step_is_abandoned_naming_it_with_every_completed_step(
+    fixture_fmu, write_system, tmp_path
+) -> None:
+    """The watchdog names the concurrent step the loop waits for, at that step's own time."""
+    path = _two_branches(fixture_fmu, write_system, stop=0.1)
+    written = tmp_path / "abandoned.json"
+    process = subprocess.run(
+        [sys.executable, "-c", HANG_SCRIPT, str(path), str(written)],
+        check=False, capture_output=True, text=True, timeout=120, cwd=REPO,
+    )  # fmt: skip
+    assert process.returncode == 1, process.stderr
+    abandoned = json.loads(written.read_text())
+    assert (abandoned["status"], abandoned["component"]) == ("fault", "a")
+    assert abandoned["time"] == pytest.approx(0.03)
+    assert "did not return within 1 s" in abandoned["message"]
+    sequential = _run(path, Probe(fail_at={"a": 0.03}), {"a", "b"}, schedule="sequential")
+    assert abandoned["steps"] == sequential.steps_done
+    assert abandoned["signals"] == {k: v.tolist() for k, v in sequential.signals.items()}
