@@ -508,46 +508,71 @@ def schedule_targets(outcome: Schedules) -> list[dict[str, Any]]:
 # -- does a library release the GIL? ---------------------------------------------------------
 
 
-def _spinner(stop: Any, counter: list[int]) -> None:
+def _stamper(stop: Any, stamps: list[float]) -> None:
+    """Note the time every 0.1 ms or so, in Python: only while this thread holds the GIL."""
+    clock = time.perf_counter
+    last = clock()
     while not stop.is_set():
-        counter[0] += 1
+        now = clock()
+        if now - last >= 1e-4:
+            stamps.append(now)
+            last = now
 
 
-def _other_thread_progress(call: Callable[[], Any], repeats: int) -> tuple[float, float]:
-    """(seconds per call, pure-Python progress of another thread during the calls per second).
+#: Each call's interval is cut into this many bins; the share with a stamp is its coverage.
+BINS = 10
 
-    The switch interval is made short so that a call holding the GIL shows as (almost) no
-    progress of the other thread, not as one switch interval of it.
+
+def _coverage(call: Callable[[], Any], repeats: int) -> tuple[float, float]:
+    """(seconds per call, share of each call's duration in which another thread ran Python).
+
+    The call runs on this thread (a GL context is current here only); another thread notes
+    the time in a Python loop. A call that holds the GIL leaves a gap in the notes over its
+    whole duration (coverage near 0, the first or last bin at most); a call that releases it
+    leaves none, except where the operating system gave the other thread no core (on a loaded
+    machine the coverage is then below 1, but a gap over every call is the GIL's signature).
+    The switch interval is made short so that the other thread gets the GIL back quickly.
     """
     import sys
     import threading
 
-    stop, counter = threading.Event(), [0]
-    thread = threading.Thread(target=_spinner, args=(stop, counter), daemon=True)
+    stop, stamps = threading.Event(), []
+    thread = threading.Thread(target=_stamper, args=(stop, stamps), daemon=True)
     interval = sys.getswitchinterval()
+    windows = []
     thread.start()
     try:
-        time.sleep(0.02)
         sys.setswitchinterval(1e-4)
-        before, began = counter[0], time.perf_counter()
+        time.sleep(0.01)
         for _ in range(repeats):
+            began = time.perf_counter()
             call()
-        took, after = time.perf_counter() - began, counter[0]
+            windows.append((began, time.perf_counter()))
+            time.sleep(0.002)  # let the other thread note the time between calls
     finally:
         sys.setswitchinterval(interval)
         stop.set()
         thread.join()
-    return took / repeats, (after - before) / took
+    import bisect
+
+    covered = 0
+    for began, ended in windows:
+        width = (ended - began) / BINS
+        for b in range(BINS):
+            low = began + b * width
+            i = bisect.bisect_left(stamps, low)
+            covered += i < len(stamps) and stamps[i] < low + width
+    seconds = sum(e - b for b, e in windows) / len(windows)
+    return seconds, covered / (BINS * len(windows))
 
 
 def gil_probe(quick: bool = False) -> list[dict[str, Any]]:
     """Whether the scenario's heavy calls let another Python thread run while they work.
 
-    Each call runs repeatedly while a thread counts in pure Python; the counting rate during
-    the calls, relative to the rate while this thread sleeps (which releases the GIL), is
-    about 0 for a call that holds the GIL (``sum(range(...))``, a control) and well above it
-    for one that releases it (on a loaded 2-core machine the libraries' own threads compete
-    with the counter, so not 1).
+    Coverage (:func:`_coverage`): the share of each call's duration in which another thread
+    ran Python code. ``time.sleep`` (releases the GIL) and ``sum(range(...))`` (holds it) are
+    the references; a call counts as releasing the GIL when its coverage is above the
+    midpoint between the two.
     """
     import mujoco
     import numpy as np
@@ -579,24 +604,21 @@ def gil_probe(quick: bool = False) -> list[dict[str, Any]]:
     ]
     try:
         rows = []
-        reference = None
         for name, call, repeats in calls:
-            seconds, rate = _other_thread_progress(call, repeats)
-            reference = reference or rate
-            rows.append(
-                {"call": name, "ms_per_call": seconds * 1e3, "other_thread": rate / reference}
-            )
+            seconds, coverage = _coverage(call, repeats)
+            rows.append({"call": name, "ms_per_call": seconds * 1e3, "other_thread": coverage})
     finally:
         renderer.close()
+    midpoint = (rows[0]["other_thread"] + rows[1]["other_thread"]) / 2
     for row in rows[2:]:
-        row["releases_gil"] = row["other_thread"] > 0.25
+        row["releases_gil"] = row["other_thread"] > midpoint
     return rows
 
 
 GIL_COLUMNS = (
     ("call", "call"),
     ("ms_per_call", "ms per call"),
-    ("other_thread", "other thread's progress"),
+    ("other_thread", "other thread ran (share of the call)"),
     ("releases_gil", "releases the GIL"),
 )
 

@@ -32,7 +32,7 @@ from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
 from fmionnx.core.signals import column_names, is_image
 from fmionnx.core.types import Causality, Component, PortRef, flat_index
 from fmionnx.runtime.native import NativeStatus, plan_native
-from fmionnx.runtime.parallel import CONCURRENT_KINDS, Footprint, Issue, Job, Lane, footprint, plan
+from fmionnx.runtime.parallel import Footprint, Issue, Job, Lane, footprint, plan
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_reason
@@ -180,8 +180,6 @@ class Master:
         """Whether a step of ``name`` is worth a worker thread (a cost choice, see .parallel)."""
         if name in self.options.isolate:
             return True  # a pipe round trip to the model's own process
-        if self.system.component(name).kind in CONCURRENT_KINDS:
-            return True
         return getattr(self.runners[name], "releases_gil", False) is True
 
     def _plan_parallel(self, entries: list[tuple[_Due, int]]) -> None:

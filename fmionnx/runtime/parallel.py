@@ -22,8 +22,8 @@ join, in the component's own track, so the recorded rows are the sequential ones
 
 Which steps go to a worker is a cost choice, not a semantic one (the values do not depend on
 it): a step whose library releases the GIL for long enough to pay for the hand-over (an ONNX
-session's run, a round trip to an isolated component's process, or a runner that says so with
-``releases_gil = True``), at an occurrence where the next work issued does not have to join
+session's run — the ONNX runner says so with ``releases_gil = True`` — or a round trip to an
+isolated component's process), at an occurrence where the next work issued does not have to join
 it (otherwise nothing could overlap). Native groups and iterated loops always run on the loop's
 thread.
 """
@@ -34,10 +34,6 @@ import queue
 import threading
 from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
-
-#: Component kinds whose step runs in a library that releases the GIL (measured:
-#: ``benchmarks/scenario.py``'s GIL probe) and costs milliseconds, not microseconds.
-CONCURRENT_KINDS = frozenset({"onnx"})
 
 
 @dataclass(frozen=True, slots=True)

@@ -47,6 +47,6 @@ def test_gil_probe_measures_each_heavy_call() -> None:
         "time.sleep(2", "sum(range(300000))", "mujoco.mj_step", "mujoco.mjr_render",
         "mujoco.mjr_readPixels", "Renderer.render", "onnxruntime",
     ]  # fmt: skip
-    assert rows[0]["other_thread"] == 1.0  # the reference
+    assert all(0.0 <= row["other_thread"] <= 1.0 for row in rows)
     assert all(row["ms_per_call"] > 0 for row in rows)
     assert all(isinstance(row["releases_gil"], bool) for row in rows[2:])
