@@ -304,3 +304,43 @@ def test_hung_concurrent_step_is_abandoned_naming_it_with_every_completed_step(
     sequential = _run(path, Probe(fail_at={"a": 0.03}), {"a", "b"}, schedule="sequential")
     assert abandoned["steps"] == sequential.steps_done
     assert abandoned["signals"] == {k: v.tolist() for k, v in sequential.signals.items()}
+
+
+# -- the command line --------------------------------------------------------------------------
+
+
+@pytest.mark.parametrize("schedule", ["parallel", "sequential"])
+def test_schedule_option_is_recorded_in_run_json_with_identical_results(
+    fixture_fmu, write_system, tmp_path, schedule: str
+) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    system = _isolated_faulty(fixture_fmu, write_system, mode=0).read_text()
+    path = write_system(system.replace("failAt: 0.3", "failAt: 99"))
+    out = tmp_path / schedule
+    args = ["run", str(path), "--out", str(out), "--isolate", "all", "--schedule", schedule]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 0, result.output
+    execution = json.loads((out / "run.json").read_text())["execution"]
+    assert execution["schedule"] == schedule
+    assert (execution["concurrent"], execution["concurrent_steps"] > 0) == (
+        ("bad, sink", True) if schedule == "parallel" else (None, False)
+    )
+    other = tmp_path / ("sequential" if schedule == "parallel" else "parallel")
+    flipped = [*args[:-1], other.name]
+    flipped[flipped.index("--out") + 1] = str(other)
+    assert CliRunner().invoke(app, flipped).exit_code == 0
+    assert (out / "results.csv").read_bytes() == (other / "results.csv").read_bytes()
+
+
+def test_schedule_option_rejects_an_unknown_value(fixture_fmu, write_system) -> None:
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    path = _isolated_faulty(fixture_fmu, write_system, mode=0)
+    result = CliRunner().invoke(app, ["run", str(path), "--no-out", "--schedule", "fast"])
+    assert result.exit_code == 2
+    assert "--schedule must be `parallel` or `sequential`, not `fast`" in result.output
