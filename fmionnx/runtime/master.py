@@ -13,6 +13,12 @@ Everything (runners, buffers, transfers, the schedule over one hyperperiod, reco
 prepared before the loop; the loop only calls prepared closures. Consecutive FMI 2
 co-simulation FMUs of one period are stepped by one call into a small C kernel
 (:mod:`.native`), with bit-identical results; ``FMIONNX_NATIVE=0`` keeps them in Python.
+
+With the parallel schedule (the default, :mod:`.parallel`), the loop issues the same work in
+the same order but hands the steps that may overlap the following work to worker threads
+(lanes), joining each before any work that reads or steps its component: the values are
+those of the sequential loop, bit for bit. A failure in a concurrent step is settled as the
+sequential run would have met it (:meth:`Master._settle`).
 """
 
 from __future__ import annotations
