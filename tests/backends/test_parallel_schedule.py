@@ -103,6 +103,7 @@ class Probe:
     meet: float = 0.0
     fail_at: dict[str, float] = field(default_factory=dict)
     hang_at: dict[str, float] = field(default_factory=dict)
+    delay: float = 0.0
     steps: list[tuple[str, float, int, float, float]] = field(default_factory=list)
     started: dict[tuple[str, float], threading.Event] = field(default_factory=dict)
     lock: threading.Lock = field(default_factory=threading.Lock)
@@ -140,6 +141,8 @@ class ProbedRunner:
             probe.event(name, t).set()
             partner = "b" if name == "a" else "a"
             probe.event(partner, t).wait(probe.meet)
+        if probe.delay:
+            time.sleep(probe.delay)
         hang_at = probe.hang_at.get(name)
         if hang_at is not None and t >= hang_at - 1e-12:
             time.sleep(3600)  # never returns within a test: the watchdog must act
@@ -151,22 +154,28 @@ class ProbedRunner:
             probe.steps.append((name, t, threading.get_ident(), begin, time.monotonic()))
 
 
-def _two_branches(fixture_fmu, write_system, stop: float = 0.05) -> Path:
-    """``a -> sink_a`` and ``b -> sink_b``: no path between a and b."""
-    gain = fixture_fmu("Gain")
+def _two_branches(
+    fixture_fmu, write_system, stop: float = 0.05, sinks: float = 0.01, source: str = "Gain"
+) -> Path:
+    """``a -> sink_a`` and ``b -> sink_b``: no path between a and b; sinks every ``sinks`` s.
+
+    ``source``: the model of a and b (``Gain``: constant outputs, ``Integrator``: ramps).
+    """
+    gain, model = fixture_fmu("Gain"), fixture_fmu(source)
+    out = "y" if source == "Gain" else "x"
     return write_system(
         f"""
 fmionnx: 1
 name: branches
 run: {{stop: {stop}, step: 0.01}}
 components:
-  a: {{kind: fmu, path: {gain}, parameters: {{u: 0.5}}}}
-  b: {{kind: fmu, path: {gain}, parameters: {{u: 0.25, k: 3}}}}
-  sink_a: {{kind: fmu, path: {gain}}}
-  sink_b: {{kind: fmu, path: {gain}}}
+  a: {{kind: fmu, path: {model}, parameters: {{u: 0.5}}}}
+  b: {{kind: fmu, path: {model}, parameters: {{u: 0.25}}}}
+  sink_a: {{kind: fmu, path: {gain}, period: {sinks}}}
+  sink_b: {{kind: fmu, path: {gain}, period: {sinks}}}
 connections:
-  - a.y -> sink_a.u
-  - b.y -> sink_b.u
+  - a.{out} -> sink_a.u
+  - b.{out} -> sink_b.u
 """
     )
 
@@ -344,3 +353,28 @@ def test_schedule_option_rejects_an_unknown_value(fixture_fmu, write_system) -> 
     result = CliRunner().invoke(app, ["run", str(path), "--no-out", "--schedule", "fast"])
     assert result.exit_code == 2
     assert "--schedule must be `parallel` or `sequential`, not `fast`" in result.output
+
+
+def test_checkpoints_during_a_parallel_run_hold_the_sequential_values(
+    fixture_fmu, write_system
+) -> None:
+    """A checkpoint waits for the pending steps: each one is a prefix of the final results.
+
+    With the sinks at a fifth of the rate, a's and b's steps are still pending when the next
+    communication point (and its checkpoint) begins.
+    """
+    path = _two_branches(fixture_fmu, write_system, stop=0.3, sinks=0.05, source="Integrator")
+    partials: list[RunResult] = []
+    result = _run(
+        path, Probe(delay=0.01), {"a", "b"}, checkpoint=partials.append, checkpoint_every=0.0,
+        progress_every=1,
+    )  # fmt: skip
+    assert result.status is RunStatus.COMPLETED
+    assert int(result.details["concurrent_steps"] or 0) > 0
+    _assert_identical(result, _run(path, Probe(), {"a", "b"}, schedule="sequential"))
+    assert len(partials) >= 2
+    for partial in partials:
+        assert partial.status is RunStatus.RUNNING
+        rows = partial.steps_done + 1
+        for name, values in partial.signals.items():
+            assert values.tobytes() == result.signals[name][:rows].tobytes(), name
