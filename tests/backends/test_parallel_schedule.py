@@ -241,7 +241,8 @@ def test_fault_in_a_concurrent_step_is_reported_as_in_the_sequential_run(
 
 
 def _isolated_faulty(fixture_fmu, write_system, mode: int) -> Path:
-    gain, faulty = fixture_fmu("Gain"), fixture_fmu("Faulty")
+    """bad (concurrent: other does not read it) and other (a ramp) both feed sink."""
+    gain, faulty, integrator = fixture_fmu("Gain"), fixture_fmu("Faulty"), fixture_fmu("Integrator")
     return write_system(
         f"""
 fmionnx: 1
@@ -249,11 +250,11 @@ name: faulty_parallel
 run: {{stop: 1.0, step: 0.01}}
 components:
   bad: {{kind: fmu, path: {faulty}, parameters: {{u: 0.5, mode: {mode}, failAt: 0.3}}}}
-  other: {{kind: fmu, path: {gain}, parameters: {{u: 0.25}}}}
+  other: {{kind: fmu, path: {integrator}, parameters: {{u: 0.25}}}}
   sink: {{kind: fmu, path: {gain}}}
 connections:
   - bad.y -> sink.u
-  - other.y -> sink.v[1]
+  - other.x -> sink.v[1]
 """
     )
 
