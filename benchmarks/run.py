@@ -155,6 +155,16 @@ def run_scenario(
         (("function", "function"), ("self_s", "self s")),
         results["scenario"]["profile_top"],
     )
+    compared = scenario.schedules(args.scenario_stop, args.scenario_repeat)
+    results["scenario"]["schedules"] = scenario.schedule_rows(compared)
+    results["scenario"]["floor"] = scenario.floor_rows(compared)
+    results["scenario"]["schedules_identical"] = compared.identical
+    targets.extend(scenario.schedule_targets(compared))
+    scenario.print_schedules(console, compared, args.scenario_repeat, report)
+    results["scenario"]["gil"] = scenario.gil_probe(quick=args.quick)
+    report.print_table(
+        console, "Does the call release the GIL?", scenario.GIL_COLUMNS, results["scenario"]["gil"]
+    )
 
 
 def main(argv: list[str] | None = None, console: Console | None = None) -> dict[str, Any]:

@@ -212,6 +212,15 @@ def run(
             "own folder; Linux Landlock and namespaces).",
         ),
     ] = False,
+    schedule: Annotated[
+        str | None,
+        typer.Option(
+            "--schedule",
+            help="In-process: `parallel` (default) runs steps that may overlap others (ONNX "
+            "models, isolated components) on a second core, bit-identical to `sequential`, "
+            "which runs every step on one thread.",
+        ),
+    ] = None,
     checkpoint_every: Annotated[
         float,
         typer.Option(
@@ -286,6 +295,10 @@ def run(
         raise fail("--zenoh-router applies to --backend ros2 --middleware zenoh")
     if ros2 is not None and (isolate or sandbox):
         raise fail("--isolate and --sandbox apply in-process; ROS 2 nodes are processes already")
+    if schedule is not None and schedule not in ("parallel", "sequential"):
+        raise fail(f"--schedule must be `parallel` or `sequential`, not `{schedule}`")
+    if ros2 is not None and schedule is not None:
+        raise fail("--schedule applies in-process; ROS 2 nodes are processes already")
     if not step_timeout > 0:
         raise fail("--step-timeout must be > 0 seconds")
     if not checkpoint_every >= 0:
@@ -296,6 +309,7 @@ def run(
         step_timeout=step_timeout,
         checkpoint_every=checkpoint_every,
         plot_signals=plot,
+        schedule=schedule or "parallel",
     )
     from fmionnx.runtime.stopping import exit_code, stop_on_signals, stop_reason
 

@@ -33,6 +33,8 @@ class RunSafety:
     step_timeout: float | None = 60.0
     checkpoint_every: float = CHECKPOINT_EVERY
     plot_signals: bool = False
+    #: ``parallel`` or ``sequential`` (``--schedule``; docs/execution.md, "Parallel schedule").
+    schedule: str = "parallel"
 
     @property
     def guardian(self) -> bool:
@@ -98,4 +100,5 @@ class RunSafety:
             checkpoint=checkpoint if out is not None else None,
             checkpoint_every=self.checkpoint_every,
             abandon=abandon,
+            schedule=self.schedule,
         )

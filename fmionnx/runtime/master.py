@@ -13,6 +13,12 @@ Everything (runners, buffers, transfers, the schedule over one hyperperiod, reco
 prepared before the loop; the loop only calls prepared closures. Consecutive FMI 2
 co-simulation FMUs of one period are stepped by one call into a small C kernel
 (:mod:`.native`), with bit-identical results; ``FMIONNX_NATIVE=0`` keeps them in Python.
+
+With the parallel schedule (the default, :mod:`.parallel`), the loop issues the same work in
+the same order but hands the steps that may overlap the following work to worker threads
+(lanes), joining each before any work that reads or steps its component: the values are
+those of the sequential loop, bit for bit. A failure in a concurrent step is settled as the
+sequential run would have met it (:meth:`Master._settle`).
 """
 
 from __future__ import annotations
@@ -32,6 +38,7 @@ from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
 from fmionnx.core.signals import column_names, is_image
 from fmionnx.core.types import Causality, Component, PortRef, flat_index
 from fmionnx.runtime.native import NativeStatus, plan_native
+from fmionnx.runtime.parallel import Footprint, Issue, Job, Lane, footprint, plan
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_reason
@@ -68,6 +75,15 @@ def required_refs(system: CompiledSystem) -> tuple[PortRef, ...]:
     return (*plot_refs(system), *(ref for check in system.checks for ref in check.refs))
 
 
+class _StepFailedError(Exception):
+    """A concurrent step raised: carries the step (its work, time and place) and the error."""
+
+    def __init__(self, job: Job, error: BaseException) -> None:
+        super().__init__(str(error))
+        self.job = job
+        self.error = error
+
+
 @dataclass
 class _Due:
     """One component's work at a communication point where it is due."""
@@ -78,6 +94,10 @@ class _Due:
     h: float
     before: Track | None
     after: Track | None
+    #: The components this work steps: one, a native group's members or a loop's members.
+    members: tuple[str, ...] = ()
+    #: ``component``, ``group`` (native kernel) or ``loop`` (iterated algebraic loop).
+    what: str = "component"
 
 
 class Master:
@@ -121,6 +141,15 @@ class Master:
         self._started = _time.perf_counter()
         #: The iterated algebraic loops (set by ``prepare``; see :mod:`.loops`).
         self.loops: list[IteratedLoop] = []
+        #: The parallel schedule (:mod:`.parallel`): the table of issues, empty when every
+        #: step runs on the loop's thread, and the lanes (worker threads) it hands steps to.
+        self._issues: list[tuple[Issue, ...]] = []
+        self._lanes: list[Lane] = []
+        #: (work, period) in execution order and each work's place in it.
+        self._entry_list: list[tuple[_Due, int]] = []
+        self._entry_index: dict[int, int] = {}
+        #: The concurrent step the loop is waiting for (for the watchdog's report).
+        self._joining: Job | None = None
 
     # -- preparation ---------------------------------------------------------------------------
 
@@ -148,6 +177,55 @@ class Master:
         else:
             self._hyper = 0
             self._fallback = entries
+        self._entry_list = entries
+        self._entry_index = {id(due): i for i, (due, _) in enumerate(entries)}
+        if self.options.schedule == "parallel" and self._hyper:
+            self._plan_parallel(entries)
+
+    def _may_overlap(self, name: str) -> bool:
+        """Whether a step of ``name`` is worth a worker thread (a cost choice, see .parallel)."""
+        if name in self.options.isolate:
+            return True  # a pipe round trip to the model's own process
+        return getattr(self.runners[name], "releases_gil", False) is True
+
+    def _plan_parallel(self, entries: list[tuple[_Due, int]]) -> None:
+        """Decide, before the loop, which steps run on a lane and where the loop joins them."""
+        system = self.system
+        footprints: dict[int, Footprint] = {}
+        lanes: dict[int, Lane] = {}
+        lazy: set[int] = set()
+        for due, _ in entries:
+            members = due.members or (due.name,)
+            incoming = [c for m in members for c in system.inputs_of(m)]
+            footprints[id(due)] = footprint(members, (c.src.component for c in incoming))
+            if any(c.src.port in self.runners[c.src.component].lazy_outputs for c in incoming):
+                lazy.add(id(due))
+            if due.what == "component" and self._may_overlap(due.name):
+                lanes[id(due)] = Lane(due.name)
+        if not lanes:
+            return
+        if self.options.frames is not None:
+            # Frames go to the sink as they are rendered: a frame rendered while an earlier
+            # step is pending could be one the sequential run never renders (if that step
+            # faults), so rendering for a sink waits for every pending step first.
+            every = frozenset(due.name for due, _ in entries if id(due) in lanes)
+            for key in lazy:
+                old = footprints[key]
+                footprints[key] = Footprint(old.members, old.reads | every)
+        issues = plan(self._table, footprints, set(lanes), lanes)
+        if any(issue.lane is not None for slot in issues for issue in slot):
+            self._issues = issues
+            self._lanes = list(lanes.values())
+
+    @property
+    def schedule_details(self) -> dict[str, str | int | bool | None]:
+        """The run.json fields saying how the steps were scheduled."""
+        used = [lane for lane in self._lanes if lane.steps]
+        return {
+            "schedule": self.options.schedule,
+            "concurrent": ", ".join(lane.name for lane in used) or None,
+            "concurrent_steps": sum(lane.steps for lane in used),
+        }
 
     def _entries(self, dues: dict[str, _Due]) -> list[tuple[_Due, int]]:
         """(work, period) in execution order; native groups replace their members."""
@@ -165,7 +243,8 @@ class Master:
             else:
                 h = dues[item.names[0]].h
                 label = "+".join(item.names)
-                entries.append((_Due(label, (), item.step, h, None, None), item.period_steps))
+                work = _Due(label, (), item.step, h, None, None, tuple(item.names), "group")
+                entries.append((work, item.period_steps))
         self._watch(entries)
         return entries
 
@@ -180,7 +259,8 @@ class Master:
         work = {name: (dues[name].transfers, dues[name].step) for name in loop.members}
         solver = iterated_loop(self.system, loop, self.runners, work, self._tracks)
         self.loops.append(solver)
-        return _Due(solver.label, (), solver.step, dues[loop.members[0]].h, None, None)
+        h = dues[loop.members[0]].h
+        return _Due(solver.label, (), solver.step, h, None, None, tuple(loop.members), "loop")
 
     def _watch(self, entries: list[tuple[_Due, int]]) -> None:
         """Time the steps of components in this process when a step timeout is set.
@@ -251,7 +331,7 @@ class Master:
             step_fn = step_and_stamp
         before, after = self._tracks.get(component.name, (None, None))
         h = component.period_steps * system.run.step
-        return _Due(component.name, tuple(transfers), step_fn, h, before, after)
+        return _Due(component.name, tuple(transfers), step_fn, h, before, after, (component.name,))
 
     # -- recording -----------------------------------------------------------------------------
 
@@ -331,14 +411,22 @@ class Master:
             wall = _time.perf_counter() - started
             if self._watchdog is not None:
                 self._watchdog.stop()
+            self._close_lanes()
             self._terminate()
         n = self._clock[0]
         return RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
-            self.native.details(), reason, self.ended_by,
+            self.details(), reason, self.ended_by,
         )  # fmt: skip
 
+    def details(self) -> dict[str, str | int | bool | None]:
+        """run.json's ``execution``: the native kernel's use and the schedule."""
+        return {**self.native.details(), **self.schedule_details}
+
     def _loop(self) -> None:
+        if self._issues:
+            self._loop_parallel()
+            return
         run = self.system.run
         start, step, total = run.start, run.step, run.steps
         clock = self._clock
@@ -379,6 +467,175 @@ class Master:
         if progress is not None:
             progress(total, total, run.stop)
 
+    # -- the parallel loop (see :mod:`.parallel` and docs/execution.md, "Parallel schedule") --
+
+    def _loop_parallel(self) -> None:
+        """The sequential loop's work in the same order, some steps handed to lanes.
+
+        A failure (a fault, a model ending the run) is settled as the sequential run would
+        have met it: the earliest one in the sequential order wins, and what was done after
+        it is taken back from the recording (:meth:`_settle`).
+        """
+        run = self.system.run
+        start, step, total = run.start, run.step, run.steps
+        clock = self._clock
+        progress = self.options.progress
+        every = max(1, self.options.progress_every)
+        issues, hyper = self._issues, self._hyper
+        index = self._entry_index
+        marker = self._marker
+        checkpoint = self.options.checkpoint
+        next_checkpoint = _time.perf_counter() + self.options.checkpoint_every
+        n = 0
+        due: _Due | None = None
+        try:
+            for n in range(total):
+                clock[0] = n
+                t = start + n * step
+                if (
+                    checkpoint is not None
+                    and n % every == 0
+                    and _time.perf_counter() >= next_checkpoint
+                ):
+                    self._drain()
+                    next_checkpoint = self._checkpoint(n)
+                marker.t = t
+                for issue in issues[n % hyper]:
+                    due = None
+                    for lane in issue.joins:
+                        if lane.job is not None:
+                            self._join(lane)
+                    work = issue.work
+                    assert isinstance(work, _Due)
+                    due = work
+                    for transfer in due.transfers:
+                        transfer(t)
+                    if due.before is not None:
+                        due.before.sample()
+                    worker = issue.lane
+                    if worker is None:
+                        marker.work = due
+                        due.step(t, due.h)
+                        if due.after is not None:
+                            due.after.sample()
+                    else:
+                        worker.submit(Job(due, due.step, t, due.h, n, index[id(due)]))
+                due = None
+                if progress is not None and n % every == 0:
+                    progress(n + 1, total, start + (n + 1) * step)
+            self._drain()
+        except _StepFailedError as failed:
+            self._settle(failed.job, failed.error)
+            return
+        except KeyboardInterrupt:
+            self._drain_quietly()
+            raise
+        except BaseException as exc:
+            if due is None:  # not from a step or a transfer: the loop itself
+                self._drain_quietly()
+                raise
+            self._settle(Job(due, due.step, start + n * step, due.h, n, index[id(due)]), exc)
+            return
+        clock[0] = total
+        if progress is not None:
+            progress(total, total, run.stop)
+
+    def _join(self, lane: Lane) -> None:
+        """Wait for ``lane``'s pending step and record its outputs (raises :class:`_StepFailedError`).
+
+        While waiting, the watchdog's marker names that step, so a concurrent step that
+        hangs is reported as itself.
+        """
+        marker = self._marker
+        job = lane.job
+        assert job is not None
+        self._joining = job
+        work, t = marker.work, marker.t
+        marker.work, marker.t = job.work, job.t
+        job, outcome = lane.wait()
+        marker.work, marker.t = work, t
+        self._joining = None
+        if outcome is not None:
+            raise _StepFailedError(job, outcome)
+        after = job.work.after  # type: ignore[attr-defined]
+        if after is not None:
+            after.sample()
+
+    def _drain(self) -> None:
+        """Join every pending step (before a checkpoint and at the end of the run)."""
+        for lane in self._lanes:
+            if lane.job is not None:
+                self._join(lane)
+
+    def _drain_quietly(self) -> None:
+        """Wait for every pending step, recording those that completed (Ctrl-C, a bug)."""
+        for lane in self._lanes:
+            if lane.job is not None:
+                job, outcome = lane.wait()
+                after = job.work.after  # type: ignore[attr-defined]
+                if outcome is None and after is not None:
+                    after.sample()
+
+    def _settle(self, job: Job, error: BaseException) -> None:
+        """End the run at the earliest failure in the sequential order, as that run would.
+
+        ``job`` is the failed step (its work, time and place). Every other pending step is
+        waited for; a failure earlier in the sequential order replaces this one. The
+        recording then keeps exactly the steps the sequential run completed before it.
+        """
+        failures = [(job.n, job.index, job, error)]
+        for lane in self._lanes:
+            if lane.job is not None:
+                other, outcome = lane.wait()
+                if outcome is None:
+                    after = other.work.after  # type: ignore[attr-defined]
+                    if after is not None:
+                        after.sample()
+                else:
+                    failures.append((other.n, other.index, other, outcome))
+        n, place, job, error = min(failures, key=lambda failure: (failure[0], failure[1]))
+        work = job.work
+        assert isinstance(work, _Due)
+        after = work.after
+        completed = isinstance(error, ModelTerminated)
+        if completed and after is not None and after.count <= self._allowed(work, n, place) + 1:
+            after.sample()  # the step completed: its outputs are the last row
+        self._truncate(n, place, work)
+        self._clock[0] = n
+        if isinstance(error, ModelTerminated):
+            self._end_by(error, n)
+            return
+        raise error
+
+    def _allowed(self, work: _Due, n: int, place: int) -> int:
+        """How many steps of ``work`` the sequential order issues before place ``place`` at n."""
+        period = next(p for due, p in self._entry_list if due is work)
+        before = -(-n // period)
+        if n % period == 0 and self._entry_index[id(work)] < place:
+            before += 1
+        return before
+
+    def _truncate(self, n: int, place: int, failed: _Due) -> None:
+        """Take back every recorded row of work issued after (n, place) in the order."""
+        for due, _ in self._entry_list:
+            if due is failed:
+                continue
+            issued = self._allowed(due, n, place)
+            for name in due.members or (due.name,):
+                before, after = self._tracks.get(name, (None, None))
+                if before is not None:
+                    before.count = min(before.count, issued)
+                if after is not None:
+                    after.count = min(after.count, issued + 1)
+
+    def _close_lanes(self) -> None:
+        """No step may still run when the runners are freed; then let the workers end."""
+        for lane in self._lanes:
+            if lane.job is not None:
+                with contextlib.suppress(BaseException):
+                    lane.wait()
+            lane.close()
+
     def _end_by(self, request: ModelTerminated, n: int) -> None:
         """A model asked to end the run during its step from ``t_n``: end it normally there.
 
@@ -399,7 +656,7 @@ class Master:
         wall = _time.perf_counter() - self._started
         return RunResult.after(
             self.system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
-            self.native.details(),
+            self.details(),
         )  # fmt: skip
 
     def _checkpoint(self, n: int) -> float:
@@ -431,6 +688,7 @@ class Master:
             "process of its own, which can be stopped)",
             time=t,
         )
+        busy = self._abandon_concurrent(work) if self._issues else set()
         try:
             result = self._partial(RunStatus.FAULT, error)
             if self.options.abandon is not None:
@@ -438,13 +696,43 @@ class Master:
             else:
                 print(f"fault: {error}", file=sys.stderr)
             for runner in self.runners.values():
-                if runner.component.name not in label.split("+"):
+                name = runner.component.name
+                if name not in label.split("+") and name not in busy:
                     with contextlib.suppress(Exception):
                         runner.terminate()
         finally:
             sys.stdout.flush()
             sys.stderr.flush()
             os._exit(1)
+
+    def _abandon_concurrent(self, work: object) -> set[str]:
+        """Before an abandoned run's results are written: record the concurrent steps that
+        completed, and take back what was issued after the hung step.
+
+        Returns the components whose step may still be running (not to be terminated).
+        """
+        hung = self._joining
+        if hung is not None and hung.work is work:
+            n, place = hung.n, hung.index
+        else:
+            assert isinstance(work, _Due)
+            n, place = self._clock[0], self._entry_index.get(id(work), 0)
+        busy: set[str] = set()
+        for lane in self._lanes:
+            job = lane.job
+            if job is None or job is hung:
+                continue
+            if lane.done():
+                job, outcome = lane.wait()
+                after = job.work.after  # type: ignore[attr-defined]
+                if outcome is None and after is not None:
+                    after.sample()
+            else:
+                busy.add(lane.name)
+        assert isinstance(work, _Due)
+        self._truncate(n, place, work)
+        self._clock[0] = n
+        return busy
 
     def _due_at(self, n: int) -> tuple[_Due, ...]:
         return tuple(due for due, p in self._fallback if n % p == 0)

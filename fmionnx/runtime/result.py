@@ -11,7 +11,7 @@ import abc
 import enum
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Literal
 
 import numpy as np
 import numpy.typing as npt
@@ -55,6 +55,9 @@ class EndedBy:
         return {"component": self.component, "time": self.time, "reason": self.reason}
 
 
+#: How the in-process master schedules steps (``--schedule``).
+Schedule = Literal["parallel", "sequential"]
+
 #: ``progress(steps_done, total_steps, time)``; called every few hundred steps.
 ProgressCallback = Callable[[int, int, float], None]
 
@@ -89,6 +92,10 @@ class RunOptions:
     #: Receives the results of a run abandoned because an in-process step overran the step
     #: timeout, just before the process ends (exit status 1); see :mod:`.watchdog`.
     abandon: ResultCallback | None = None
+    #: ``parallel`` (default): steps that may overlap others run on worker threads, with
+    #: results bit-identical to ``sequential``, where every step runs on the loop's thread
+    #: (docs/execution.md, "Parallel schedule").
+    schedule: Schedule = "parallel"
 
 
 @dataclass

@@ -124,6 +124,9 @@ def test_gain_chain_is_stepped_by_one_native_group(fixture_fmu, write_system) ->
         "native_groups": 1,
         "native_components": 3,
         "native_library": "installed",
+        "schedule": "parallel",
+        "concurrent": None,
+        "concurrent_steps": 0,
     }
     assert result["g2.y"][-1] == 8.0
 

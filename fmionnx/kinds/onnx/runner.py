@@ -31,6 +31,10 @@ def concrete_shape(port: Port, size: int | None) -> tuple[int, ...]:
 class OnnxRunner:
     """Runs an ONNX model once per step of its component."""
 
+    #: onnxruntime's ``run`` releases the GIL for the whole inference (milliseconds for an
+    #: image model), so the master's parallel schedule may step it on a worker thread.
+    releases_gil = True
+
     def __init__(self, component: Component, sizes: dict[str, int]) -> None:
         self.component = component
         self.lazy_outputs: frozenset[str] = frozenset()
@@ -75,7 +79,9 @@ class OnnxRunner:
                 str(self.component.path), sess_options=options, providers=providers
             )
         except Exception as exc:
-            raise fault(self.component.name, f"cannot create the session: {exc}", time=0.0) from None
+            raise fault(
+                self.component.name, f"cannot create the session: {exc}", time=0.0
+            ) from None
 
     def setup(self, start: float, stop: float) -> None:
         """Allocate input buffers from start values, run once so outputs hold initial values."""
