@@ -43,7 +43,14 @@ from fmionnx.compile.expected_path import (
 from fmionnx.compile.scalarpos import position_in_value
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
-from fmionnx.core.types import Causality, Component, ComponentInterface, DType, flat_index
+from fmionnx.core.types import (
+    Causality,
+    Component,
+    ComponentInterface,
+    DType,
+    PortRef,
+    flat_index,
+)
 from fmionnx.kinds.base import SITES, Site, SiteSource
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import CheckSpec
@@ -130,6 +137,51 @@ def compile_checks(
             span = position_in_value(value_span, spec.expect, exc.start)
             bag.emit(exc.code, f"check `{name}`: {exc.message}", span, hint=exc.hint)
     return tuple(checks)
+
+
+def compile_measure(
+    label: str,
+    raw: str,
+    components: Mapping[str, Component],
+    span: Span,
+    bag: DiagnosticBag,
+) -> tuple[ir.Expr, tuple[PortRef, ...]] | None:
+    """A measure alone (a study's metric): the left side of a check, resolved the same way.
+
+    Returns the expression and the ports it reads; None, with the problem in ``bag`` at its
+    character (``label`` starts the message, e.g. "metric `error`"), when it does not resolve
+    or is not one number.
+    """
+    resolver = _Resolver(components)
+    try:
+        node = parse(raw)
+        if isinstance(node, BinaryOp) and node.operator in COMPARISONS:
+            raise _CheckError(
+                "E093",
+                "a metric is a measure (one number), not a comparison",
+                node.start,
+                "keep the left side: `final(plant.y)` rather than `final(plant.y) < 1`",
+            )
+        typed = resolver.value(node)
+        if typed.type is not Type.NUMBER:
+            raise _CheckError("E093", _not_a_number(typed.type), node.start, _REDUCE_HINT)
+        signals = ir.signals_of(typed.expr)
+        if not signals:
+            raise _CheckError(
+                "E093",
+                "the measure reads no signal: it would be the same for every case",
+                node.start,
+                "measure a signal, e.g. `final(plant.y)`",
+            )
+    except ParseError as exc:
+        bag.emit("E090", f"{label}: {exc.message}", position_in_value(span, raw, exc.start), hint=exc.hint)
+        return None
+    except _CheckError as exc:
+        where = position_in_value(span, raw, exc.start)
+        bag.emit(exc.code, f"{label}: {exc.message}", where, hint=exc.hint)
+        return None
+    refs = tuple(dict.fromkeys(s.ref for s in signals if s.ref is not None))
+    return typed.expr, refs
 
 
 class _Resolver:

@@ -1,0 +1,106 @@
+"""The sweep engine: a Dask cluster runs a study's cases, outcomes come back as they finish.
+
+By default a :class:`distributed.LocalCluster` of worker processes (one per core, one thread
+each: cases are CPU-bound and models are not all thread-safe); with ``scheduler`` an existing
+cluster (``tcp://host:8786``). The driver sends the compiled system once as JSON and each
+model once per worker by content hash (:mod:`.models`), then one small task per case
+(:func:`.case.run_case`). Each outcome is handed to ``on_done`` on the driver as soon as its
+case finishes, so the caller can record it durably before the next one arrives. A worker that
+dies while running a case (a model crashing a non-isolated component) makes that case
+``failed``; the study goes on.
+"""
+
+from __future__ import annotations
+
+import logging
+import os
+from collections.abc import Callable, Iterable, Iterator
+from contextlib import contextmanager
+from typing import Any
+
+from fmionnx.backends.sweep.case import CaseOutcome, Job, run_case
+from fmionnx.backends.sweep.models import pack_models
+from fmionnx.compile.studyir import Case, StudyPlan
+from fmionnx.compile.systemfile import to_json
+
+#: How often Dask retries a case whose worker died: once (a crash repeats; the study goes on).
+ALLOWED_FAILURES = 1
+
+
+def default_workers() -> int:
+    """One worker per core this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@contextmanager
+def open_client(scheduler: str | None = None, workers: int | None = None) -> Iterator[Any]:
+    """A Dask client: of the cluster at ``scheduler``, else of a new local cluster of
+    ``workers`` processes (default: one per core) that is closed with the block."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        with Client(scheduler, set_as_default=False) as client:
+            yield client
+        return
+    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
+        cluster = LocalCluster(
+            n_workers=workers or default_workers(),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+            memory_limit=0,
+        )
+    try:
+        with Client(cluster, set_as_default=False) as client:
+            yield client
+    finally:
+        cluster.close()
+
+
+def run_study(
+    client: Any,
+    plan: StudyPlan,
+    cases: Iterable[Case],
+    job: Job,
+    on_done: Callable[[CaseOutcome], None],
+) -> None:
+    """Run ``cases`` of ``plan`` on ``client``'s cluster; ``on_done`` gets every outcome."""
+    from distributed import as_completed
+
+    text = client.scatter(to_json(plan.system), hash=True)
+    models = {digest: client.scatter(blob, hash=True) for digest, blob in pack_models(plan.system).items()}
+    shared_job = client.scatter(job, hash=False)
+    by_key: dict[str, Case] = {}
+    futures = []
+    for case in cases:
+        future = client.submit(
+            run_case, text, models, case, shared_job,
+            key=f"fmionnx-case-{plan.fingerprint[:16]}-{case.id}", pure=False,
+        )  # fmt: skip
+        by_key[future.key] = case
+        futures.append(future)
+    for future in as_completed(futures, loop=client.loop):
+        case = by_key[future.key]
+        if future.status == "finished":
+            outcome = future.result()
+        else:
+            outcome = CaseOutcome(case.id, "failed", _died(future))
+        future.release()
+        on_done(outcome)
+
+
+def _died(future: Any) -> str:
+    """Why a case's task failed (the case itself never raises: its worker died)."""
+    try:
+        exception = future.exception()
+    except Exception as exc:  # noqa: BLE001 - cancelled or lost: say so
+        return f"the case did not finish: {type(exc).__name__}: {exc}"
+    name = type(exception).__name__
+    if name == "KilledWorker":
+        return "the worker running the case died (a model crashed its process)"
+    return f"{name}: {exception}"
