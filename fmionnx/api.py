@@ -49,7 +49,6 @@ if TYPE_CHECKING:  # numpy and the runtime load when a system runs, not for `val
     import pandas as pd
 
     from fmionnx.results.sweep import SweepProgress
-
     from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 __all__ = [

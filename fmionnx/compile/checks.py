@@ -152,36 +152,18 @@ def compile_measure(
     character (``label`` starts the message, e.g. "metric `error`"), when it does not resolve
     or is not one number.
     """
-    resolver = _Resolver(components)
     try:
-        node = parse(raw)
-        if isinstance(node, BinaryOp) and node.operator in COMPARISONS:
-            raise _CheckError(
-                "E093",
-                "a metric is a measure (one number), not a comparison",
-                node.start,
-                "keep the left side: `final(plant.y)` rather than `final(plant.y) < 1`",
-            )
-        typed = resolver.value(node)
-        if typed.type is not Type.NUMBER:
-            raise _CheckError("E093", _not_a_number(typed.type), node.start, _REDUCE_HINT)
-        signals = ir.signals_of(typed.expr)
-        if not signals:
-            raise _CheckError(
-                "E093",
-                "the measure reads no signal: it would be the same for every case",
-                node.start,
-                "measure a signal, e.g. `final(plant.y)`",
-            )
+        expr = _Resolver(components).measure(raw)
     except ParseError as exc:
-        bag.emit("E090", f"{label}: {exc.message}", position_in_value(span, raw, exc.start), hint=exc.hint)
+        where = position_in_value(span, raw, exc.start)
+        bag.emit("E090", f"{label}: {exc.message}", where, hint=exc.hint)
         return None
     except _CheckError as exc:
         where = position_in_value(span, raw, exc.start)
         bag.emit(exc.code, f"{label}: {exc.message}", where, hint=exc.hint)
         return None
-    refs = tuple(dict.fromkeys(s.ref for s in signals if s.ref is not None))
-    return typed.expr, refs
+    signals = ir.signals_of(expr)
+    return expr, tuple(dict.fromkeys(s.ref for s in signals if s.ref is not None))
 
 
 class _Resolver:
@@ -234,6 +216,28 @@ class _Resolver:
         refs = tuple(dict.fromkeys(s.ref for s in signals if s.ref is not None))
         comparison = _COMPARISON[node.operator]
         return ir.Check(name, text, measure.expr, comparison, bound, refs, span)
+
+    def measure(self, raw: str) -> ir.Expr:
+        """A measure alone: one number that reads at least one signal (a study's metric)."""
+        node = parse(raw)
+        if isinstance(node, BinaryOp) and node.operator in COMPARISONS:
+            raise _CheckError(
+                "E093",
+                "a metric is a measure (one number), not a comparison",
+                node.start,
+                "keep the left side: `final(plant.y)` rather than `final(plant.y) < 1`",
+            )
+        typed = self.value(node)
+        if typed.type is not Type.NUMBER:
+            raise _CheckError("E093", _not_a_number(typed.type), node.start, _REDUCE_HINT)
+        if not ir.signals_of(typed.expr):
+            raise _CheckError(
+                "E093",
+                "the measure reads no signal: it would be the same for every case",
+                node.start,
+                "measure a signal, e.g. `final(plant.y)`",
+            )
+        return typed.expr
 
     # -- values --------------------------------------------------------------------------------
 

@@ -113,9 +113,15 @@ def resolve_study(
             hint="use fewer values per grid axis, or sample (`random`, `latin_hypercube`)",
         )
         return None
-    rows = _sample_rows(sampled, spec.sampling.samples if spec.sampling else 0, spec.sampling.seed if spec.sampling else 0)
+    rows = _sample_rows(
+        sampled,
+        spec.sampling.samples if spec.sampling else 0,
+        spec.sampling.seed if spec.sampling else 0,
+    )
     ok = True
-    for target, values in [*grid.items(), *((t, [r[t] for r in rows]) for t in sampled)]:
+    tried: dict[str, list[SettingValue | StudyValue]] = {t: list(v) for t, v in grid.items()}
+    tried.update({t: [r[t] for r in rows] for t in sampled})
+    for target, values in tried.items():
         ok = _check_values(system, target, kinds[target], values, loaded, bag) and ok
     metrics = _metrics(spec, system, loaded, bag)
     objective = _objective(spec, loaded, bag)
@@ -124,7 +130,7 @@ def resolve_study(
         return None
     cases = _cases(grid, rows or [{}], kinds, list(spec.parameters))
     return StudyPlan(
-        name=loaded.path.stem,
+        name=loaded.path.name,
         system=system,
         targets=tuple(spec.parameters),
         cases=cases,
@@ -237,7 +243,9 @@ def _sample_rows(
         for j, target in enumerate(random):
             bounds = sampled[target].random
             assert bounds is not None
-            columns[target] = [bounds.low + (bounds.high - bounds.low) * float(u) for u in draws[:, j]]
+            columns[target] = [
+                bounds.low + (bounds.high - bounds.low) * float(u) for u in draws[:, j]
+            ]
     if lhs:
         for target in lhs:  # one stratum per sample in every dimension, strata paired at random
             bounds = sampled[target].latin_hypercube
@@ -246,7 +254,7 @@ def _sample_rows(
             jitter = rng.random(samples)
             units = (strata + jitter) / samples
             columns[target] = [bounds.low + (bounds.high - bounds.low) * float(u) for u in units]
-    order = [t for t in sampled]
+    order = list(sampled)
     return [{t: _tidy(columns[t][i]) for t in order} for i in range(samples)]
 
 
@@ -260,10 +268,11 @@ def _cases(
     points = list(itertools.product(*grid.values()))
     total = len(points) * len(rows)
     width = max(4, len(str(total - 1)))
-    cases = []
+    cases: list[Case] = []
     for point, row in itertools.product(points, rows):
         values: dict[str, SettingValue] = {
-            t: _frozen(_tidy(v) if isinstance(v, float) else v) for t, v in zip(grid, point, strict=True)
+            t: _frozen(_tidy(v) if isinstance(v, float) else v)
+            for t, v in zip(grid, point, strict=True)
         }
         values.update(row)
         settings = tuple(Setting(t, kinds[t], values[t]) for t in order)

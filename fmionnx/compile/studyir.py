@@ -91,7 +91,10 @@ class StudyPlan:
         finished cases were run from another plan."""
         payload = {
             "system": self.system.content_hash,
-            "cases": [[c.id, [[s.target, s.kind, _plain(s.value)] for s in c.settings]] for c in self.cases],
+            "cases": [
+                [c.id, [[s.target, s.kind, _plain(s.value)] for s in c.settings]]
+                for c in self.cases
+            ],
             "metrics": [[m.name, m.expression] for m in self.metrics],
             "isolate": list(self.isolate),
             "timeout": self.timeout,

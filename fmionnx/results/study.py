@@ -222,5 +222,16 @@ def _write_results(path: Path, signals: dict[str, Any]) -> None:
     step = float(time[1] - time[0]) if len(time) > 1 else 0.0
     start = float(time[0]) if len(time) else 0.0
     stop = float(time[-1]) if len(time) else 0.0
-    result = RunResult("case", "inprocess", RunStatus.COMPLETED, start, stop, step, max(len(time) - 1, 0), 0.0, time, rest)
+    result = RunResult(
+        "case",
+        "inprocess",
+        RunStatus.COMPLETED,
+        start,
+        stop,
+        step,
+        max(len(time) - 1, 0),
+        0.0,
+        time,
+        rest,
+    )
     write_csv(result, path)

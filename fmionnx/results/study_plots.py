@@ -68,7 +68,9 @@ def _file(prefix: str, name: str) -> str:
 
 
 def _heatmap(table: pd.DataFrame, targets: list[str], metric: str, out: Path) -> Path:
-    grid = table.pivot_table(index=targets[1], columns=targets[0], values=metric, aggfunc="mean", dropna=False)
+    grid = table.pivot_table(
+        index=targets[1], columns=targets[0], values=metric, aggfunc="mean", dropna=False
+    )
     figure, axes = new_figure_plain()
     image = axes.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap="viridis")
     _ticks(axes, grid)
@@ -76,8 +78,11 @@ def _heatmap(table: pd.DataFrame, targets: list[str], metric: str, out: Path) ->
     axes.set_ylabel(targets[1])
     axes.set_title(metric)
     figure.colorbar(image, ax=axes, label=metric)
+    low, high = image.get_clim()
     for (row, col), value in _cells(grid):
-        axes.text(col, row, f"{value:.3g}", ha="center", va="center", color="white", fontsize=8)
+        bright = high > low and (value - low) / (high - low) > 0.6  # viridis is light up there
+        colour = "black" if bright else "white"
+        axes.text(col, row, f"{value:.3g}", ha="center", va="center", color=colour, fontsize=8)
     return save_figure(figure, out / _file("heatmap", metric))
 
 

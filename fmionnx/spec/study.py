@@ -229,7 +229,7 @@ def load_study(path: Path, bag: DiagnosticBag) -> LoadedStudy:
     data: Any = parse_yaml(text, path, sources, bag)
     if data is None:
         return LoadedStudy(None, sources, path)
-    if not isinstance(data, dict) or "system" not in data and "components" in data:
+    if not isinstance(data, dict) or ("system" not in data and "components" in data):
         bag.emit(
             "E100",
             "a study file is a mapping with keys `fmionnx`, `system`, `parameters` ...",

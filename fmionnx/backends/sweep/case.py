@@ -132,7 +132,7 @@ def run_case(text: str, models: Mapping[str, bytes], case: Case, job: Job) -> Ca
     try:
         system = base_system(text, models, worker_store())
         outcome = _run(apply_case(system, case), case, job)
-    except Exception as exc:  # noqa: BLE001 - any problem is this case's, recorded, not raised
+    except Exception as exc:
         outcome = CaseOutcome(case.id, "failed", f"{type(exc).__name__}: {exc}")
     outcome.wall_time = time.perf_counter() - began
     outcome.worker = worker
@@ -152,15 +152,15 @@ def record_refs(system: CompiledSystem, job: Job) -> tuple[PortRef, ...]:
 
 
 def _run(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
-    from fmionnx.backends.inprocess import InProcessBackend
     from fmionnx.runtime.checks import MeasureError, evaluate_checks, measure
     from fmionnx.runtime.isolated.factory import isolation_targets
+    from fmionnx.runtime.master import Master
     from fmionnx.runtime.result import RunOptions, RunStatus
 
-    backend = InProcessBackend()
-    problems = backend.validate(system)
-    if problems:
-        return CaseOutcome(case.id, "failed", problems[0].message)
+    external = [c.name for c in system.components if c.external]
+    if external:  # what the in-process backend refuses too (E018)
+        msg = f"component `{external[0]}` is `external: true`: only the ROS 2 backend provides it"
+        return CaseOutcome(case.id, "failed", msg)
     isolate, _ = isolation_targets(system, job.isolate)
     started = time.perf_counter()
     expired = [False]
@@ -177,14 +177,16 @@ def _run(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
         isolate=isolate,
         step_timeout=job.timeout,
     )
-    result = backend.run(system, options)
+    result = Master(system, options).run()  # the in-process backend's master
     status: CaseStatus = "ok"
     message = ""
     if result.status is RunStatus.FAULT:
         status, message = "fault", str(result.error) if result.error else "fault"
     elif expired[0]:
         status = "timeout"
-        message = f"stopped after the study's timeout of {job.timeout:g} s at t={result.time[-1]:g} s"
+        message = (
+            f"stopped after the study's timeout of {job.timeout:g} s at t={result.time[-1]:g} s"
+        )
     elif result.status is not RunStatus.COMPLETED:
         status, message = "failed", f"the run ended {result.status.value}"
     outcome = CaseOutcome(case.id, status, message)

@@ -73,7 +73,9 @@ def run_study(
     from distributed import as_completed
 
     text = client.scatter(to_json(plan.system), hash=True)
-    models = {digest: client.scatter(blob, hash=True) for digest, blob in pack_models(plan.system).items()}
+    models = {
+        digest: client.scatter(blob, hash=True) for digest, blob in pack_models(plan.system).items()
+    }
     shared_job = client.scatter(job, hash=False)
     by_key: dict[str, Case] = {}
     futures = []
@@ -98,7 +100,7 @@ def _died(future: Any) -> str:
     """Why a case's task failed (the case itself never raises: its worker died)."""
     try:
         exception = future.exception()
-    except Exception as exc:  # noqa: BLE001 - cancelled or lost: say so
+    except Exception as exc:
         return f"the case did not finish: {type(exc).__name__}: {exc}"
     name = type(exception).__name__
     if name == "KilledWorker":
