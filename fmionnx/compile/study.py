@@ -138,6 +138,7 @@ def resolve_study(
         objective=objective,
         isolate=isolate,
         timeout=spec.timeout,
+        step_timeout=spec.step_timeout,
     )
 
 

@@ -79,6 +79,8 @@ class StudyPlan:
     #: ``isolate`` words (``fmus``, ``all``, ``none``, component names), as ``run --isolate``.
     isolate: tuple[str, ...] = ()
     timeout: float | None = None
+    #: Seconds one step may take (None: ``timeout``).
+    step_timeout: float | None = None
 
     @property
     def check_names(self) -> tuple[str, ...]:
@@ -98,6 +100,7 @@ class StudyPlan:
             "metrics": [[m.name, m.expression] for m in self.metrics],
             "isolate": list(self.isolate),
             "timeout": self.timeout,
+            "step_timeout": self.step_timeout,
         }
         text = json.dumps(payload, sort_keys=True)
         return hashlib.sha256(text.encode()).hexdigest()

@@ -71,7 +71,7 @@ def run_sweep(
     folder = StudyFolder(out, plan)
     finished = folder.prepare(resume=resume)
     pending = [c for c in plan.cases if c.id not in finished]
-    job = Job(plan.metrics, plan.isolate, plan.timeout, keep_results)
+    job = Job(plan.metrics, plan.isolate, plan.timeout, keep_results, plan.step_timeout)
     counts = [len(finished), 0]
     if progress is not None:
         progress(counts[0], counts[1], len(plan.cases))

@@ -182,6 +182,14 @@ class StudySpec(StrictModel):
         allow_inf_nan=False,
         description="Seconds of wall time one case may take (null: no limit).",
     )
+    step_timeout: float | None = Field(
+        default=None,
+        gt=0,
+        allow_inf_nan=False,
+        description="Seconds one step of a component (its loading included) may take, as "
+        "`fmionnx run --step-timeout`; an isolated model over it is killed (a `fault`). "
+        "Default: `timeout`.",
+    )
 
     @field_validator("fmionnx")
     @classmethod

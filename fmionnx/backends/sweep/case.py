@@ -43,6 +43,8 @@ class Job:
     isolate: tuple[str, ...]
     timeout: float | None
     keep_results: bool = False
+    #: Seconds one step may take (None: ``timeout``).
+    step_timeout: float | None = None
 
 
 @dataclass
@@ -175,7 +177,7 @@ def _run(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
         progress=progress if job.timeout is not None else None,
         progress_every=20,
         isolate=isolate,
-        step_timeout=job.timeout,
+        step_timeout=job.step_timeout if job.step_timeout is not None else job.timeout,
     )
     result = Master(system, options).run()  # the in-process backend's master
     status: CaseStatus = "ok"

@@ -14,7 +14,7 @@ from __future__ import annotations
 
 import logging
 import os
-from collections.abc import Callable, Iterable, Iterator
+from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any
 
@@ -68,32 +68,48 @@ def run_study(
     cases: Iterable[Case],
     job: Job,
     on_done: Callable[[CaseOutcome], None],
+    models: Mapping[str, bytes] | None = None,
 ) -> None:
-    """Run ``cases`` of ``plan`` on ``client``'s cluster; ``on_done`` gets every outcome."""
+    """Run ``cases`` of ``plan`` on ``client``'s cluster; ``on_done`` gets every outcome.
+
+    ``models`` are the packed models (:func:`.models.pack_models`), packed here by default.
+    """
     from distributed import as_completed
 
-    text = client.scatter(to_json(plan.system), hash=True)
-    models = {
-        digest: client.scatter(blob, hash=True) for digest, blob in pack_models(plan.system).items()
+    # The shared values are tasks, not scattered data: the scheduler keeps their recipe, so a
+    # worker that dies (a crashing model) loses nothing the other cases need.
+    prefix = f"fmionnx-{plan.fingerprint[:16]}"
+    packed = models if models is not None else pack_models(plan.system)
+    text = client.submit(_value, to_json(plan.system), key=f"{prefix}-system", pure=False)
+    shared_models = {
+        digest: client.submit(_value, blob, key=f"fmionnx-model-{digest}", pure=False)
+        for digest, blob in packed.items()
     }
-    shared_job = client.scatter(job, hash=False)
+    shared_job = client.submit(_value, job, key=f"{prefix}-job-{int(job.keep_results)}", pure=False)
     by_key: dict[str, Case] = {}
     futures = []
     for case in cases:
         future = client.submit(
-            run_case, text, models, case, shared_job,
+            run_case, text, shared_models, case, shared_job,
             key=f"fmionnx-case-{plan.fingerprint[:16]}-{case.id}", pure=False,
         )  # fmt: skip
         by_key[future.key] = case
         futures.append(future)
     for future in as_completed(futures, loop=client.loop):
         case = by_key[future.key]
-        if future.status == "finished":
-            outcome = future.result()
-        else:
+        try:
+            outcome = future.result() if future.status == "finished" else None
+        except Exception:  # lost between the two calls: as below
+            outcome = None
+        if outcome is None:
             outcome = CaseOutcome(case.id, "failed", _died(future))
         future.release()
         on_done(outcome)
+
+
+def _value(value: object) -> object:
+    """A task that is its argument: how a shared value becomes recomputable."""
+    return value
 
 
 def _died(future: Any) -> str:
