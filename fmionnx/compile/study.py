@@ -89,9 +89,12 @@ def resolve_study(
         kind = _target_kind(system, target, sources.key(("parameters", target)), bag)
         if kind is not None:
             kinds[target] = kind
+    metrics = _metrics(spec, system, loaded, bag)
+    objective = _objective(spec, loaded, bag)
+    isolate = _isolation(spec, system, loaded, bag)
     if len(kinds) != len(spec.parameters):
         return None
-    axes = {t: _axis(a) for t, a in spec.parameters.items()}
+    axes = spec.parameters
     grid = {t: a.grid_values() for t, a in axes.items() if a.sampled is None}
     sampled = {t: a for t, a in axes.items() if a.sampled is not None}
     if sampled and spec.sampling is None:
@@ -123,9 +126,6 @@ def resolve_study(
     tried.update({t: [r[t] for r in rows] for t in sampled})
     for target, values in tried.items():
         ok = _check_values(system, target, kinds[target], values, loaded, bag) and ok
-    metrics = _metrics(spec, system, loaded, bag)
-    objective = _objective(spec, loaded, bag)
-    isolate = _isolation(spec, system, loaded, bag)
     if not ok or metrics is None or bag.has_errors or isolate is None:
         return None
     cases = _cases(grid, rows or [{}], kinds, list(spec.parameters))
@@ -140,10 +140,6 @@ def resolve_study(
         timeout=spec.timeout,
         step_timeout=spec.step_timeout,
     )
-
-
-def _axis(axis: list[StudyValue] | AxisSpec) -> AxisSpec:
-    return AxisSpec(values=axis) if isinstance(axis, list) else axis
 
 
 def _target_kind(

@@ -80,6 +80,12 @@ class AxisSpec(StrictModel):
 
     model_config = StrictModel.model_config | {"populate_by_name": True}
 
+    @model_validator(mode="before")
+    @classmethod
+    def _bare_list(cls, data: Any) -> Any:
+        """``target: [1, 2]`` is short for ``target: {values: [1, 2]}``."""
+        return {"values": data} if isinstance(data, list) else data
+
     @model_validator(mode="after")
     def _exactly_one(self) -> AxisSpec:
         given = [
@@ -157,7 +163,7 @@ class StudySpec(StrictModel):
     fmionnx: int = Field(description="Format version of this file; this release reads 1.")
     system: str = Field(min_length=1, description="The system file varied, relative to this file.")
     description: str = ""
-    parameters: dict[str, list[StudyValue] | AxisSpec] = Field(
+    parameters: dict[str, AxisSpec] = Field(
         min_length=1,
         description="Targets (`component.parameter`, a system input, `run.stop`, "
         "`run.output_interval`) and how each varies: a list of values (a grid axis) or one of "
@@ -201,14 +207,9 @@ class StudySpec(StrictModel):
 
     @field_validator("parameters")
     @classmethod
-    def _lists_not_empty(
-        cls, value: dict[str, list[StudyValue] | AxisSpec]
-    ) -> dict[str, list[StudyValue] | AxisSpec]:
+    def _finite(cls, value: dict[str, AxisSpec]) -> dict[str, AxisSpec]:
         for target, axis in value.items():
-            if isinstance(axis, list) and not axis:
-                msg = f"`{target}`: an empty list of values gives no case"
-                raise ValueError(msg)
-            for item in axis if isinstance(axis, list) else axis.grid_values():
+            for item in axis.grid_values():
                 if isinstance(item, float) and not math.isfinite(item):
                     msg = f"`{target}`: values must be finite numbers"
                     raise ValueError(msg)
@@ -258,6 +259,9 @@ def load_study(path: Path, bag: DiagnosticBag) -> LoadedStudy:
 def json_schema() -> dict[str, Any]:
     """The JSON Schema of the study file (written to ``schemas/study.schema.json``)."""
     schema = StudySpec.model_json_schema(by_alias=True)
+    axis = schema["properties"]["parameters"]["additionalProperties"]
+    value = schema["$defs"]["AxisSpec"]["properties"]["values"]["anyOf"][0]
+    schema["properties"]["parameters"]["additionalProperties"] = {"anyOf": [value, axis]}
     schema["$schema"] = "https://json-schema.org/draft/2020-12/schema"
     schema["$id"] = "https://fmionnx.dev/schemas/study.schema.json"
     schema["title"] = "fmionnx study file"
