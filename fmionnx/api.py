@@ -328,13 +328,15 @@ def sweep(
     workers: int | None = None,
     resume: bool = False,
     keep_results: bool = False,
+    force: bool = False,
     progress: SweepProgress | None = None,
 ) -> pd.DataFrame:
     """Run a study file's cases (``fmionnx sweep``) and return its table, one row per case.
 
     ``scheduler`` is an existing Dask cluster (``tcp://host:8786``); without it a local
     cluster of ``workers`` processes (default: one per core) runs the cases. Results go to
-    ``out`` (docs/sweep.md); ``resume`` finishes an interrupted study there. Raises
+    ``out`` (docs/sweep.md); ``resume`` finishes an interrupted study there, ``force``
+    replaces an earlier study's results there. Raises
     DiagnosticError for a study (or system) file with errors, before anything runs.
     """
     from fmionnx.results.sweep import plan_study, run_sweep
@@ -342,6 +344,6 @@ def sweep(
     plan, _ = plan_study(study)
     result = run_sweep(
         plan, Path(out), scheduler=scheduler, workers=workers, resume=resume,
-        keep_results=keep_results, progress=progress,
+        keep_results=keep_results, force=force, progress=progress,
     )  # fmt: skip
     return result.table

@@ -48,6 +48,9 @@ def sweep(
         bool,
         typer.Option("--keep-results", help="Keep each case's results.csv (cases/<id>/)."),
     ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace the results of a study already in --out.")
+    ] = False,
     quiet: QuietOption = False,
 ) -> None:
     """Run every case of a study in parallel and write one row per case (cases.parquet/.csv).
@@ -63,6 +66,8 @@ def sweep(
     from fmionnx.results.study import StudyFolderError
     from fmionnx.results.sweep import plan_study, run_sweep
 
+    if resume and force:
+        raise fail("--resume keeps the finished cases, --force removes them: choose one")
     if workers is not None and scheduler is not None:
         raise fail("--workers starts a local cluster; an existing one (--scheduler) has its own")
     try:
@@ -83,7 +88,7 @@ def sweep(
         with _progress(console, quiet=quiet) as update:
             result = run_sweep(
                 plan, out, scheduler=scheduler, workers=workers, resume=resume,
-                keep_results=keep_results, progress=update,
+                keep_results=keep_results, force=force, progress=update,
             )  # fmt: skip
     except StudyFolderError as exc:
         raise fail(str(exc)) from None

@@ -55,21 +55,27 @@ class StudyFolder:
         """Where finished cases are recorded."""
         return self.out / "records"
 
-    def prepare(self, *, resume: bool) -> set[str]:
+    def prepare(self, *, resume: bool, force: bool = False) -> set[str]:
         """Create the folder (or check it, with ``resume``); returns the finished cases' ids.
 
         A folder holding another study's records is refused (resuming would mix two plans);
         without ``resume`` a folder that already holds a study is refused too, so finished
-        results are never overwritten by accident.
+        results are never overwritten by accident -- unless ``force`` says to start afresh
+        (then what a study writes is removed, nothing else).
         """
         marker = self.out / "study.json"
+        if marker.exists() and force and not resume:
+            self._clear()
         if marker.exists():
             try:
                 previous = json.loads(marker.read_text(encoding="utf-8"))
             except (OSError, ValueError):
                 previous = {}
             if not resume:
-                msg = f"`{self.out}` already holds a study's results; use --resume to finish it, or another folder"
+                msg = (
+                    f"`{self.out}` already holds a study's results: --resume finishes it, "
+                    "--force starts afresh"
+                )
                 raise StudyFolderError(msg)
             if previous.get("fingerprint") != self.plan.fingerprint:
                 msg = (
@@ -86,6 +92,16 @@ class StudyFolder:
                 json.dump(self.description(), stream, indent=2)
                 stream.write("\n")
         return self.finished()
+
+    def _clear(self) -> None:
+        """Remove what a study writes in ``out`` (records, kept results, table, plots)."""
+        import shutil
+
+        for folder in (self.records, self.out / "cases"):
+            shutil.rmtree(folder, ignore_errors=True)
+        for pattern in ("cases.parquet", "cases.csv", "*.png", "study.json"):
+            for path in self.out.glob(pattern):
+                path.unlink()
 
     def description(self) -> dict[str, Any]:
         """``study.json``."""

@@ -60,16 +60,20 @@ def run_sweep(
     workers: int | None = None,
     resume: bool = False,
     keep_results: bool = False,
+    force: bool = False,
     progress: SweepProgress | None = None,
 ) -> SweepResult:
-    """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots."""
+    """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
+
+    ``force`` replaces the results of a study already in ``out`` (without: refused).
+    """
     from fmionnx.backends.sweep.case import Job
     from fmionnx.backends.sweep.engine import open_client, run_study
     from fmionnx.results.study import StudyFolder
     from fmionnx.results.study_plots import write_study_plots
 
     folder = StudyFolder(out, plan)
-    finished = folder.prepare(resume=resume)
+    finished = folder.prepare(resume=resume, force=force)
     pending = [c for c in plan.cases if c.id not in finished]
     job = Job(plan.metrics, plan.isolate, plan.timeout, keep_results, plan.step_timeout)
     counts = [len(finished), 0]

@@ -94,3 +94,10 @@ def test_resume_runs_only_the_unfinished_cases(
     with pytest.raises(StudyFolderError, match="another study"):
         run_sweep(plan_study(other)[0], out, scheduler=cluster, resume=True)
     assert json.loads((out / "study.json").read_text())["fingerprint"] == plan.fingerprint
+    # --force starts afresh: every case runs again, nothing of the first study is left
+    (out / "notes.txt").write_text("mine")
+    again = run_sweep(plan, out, scheduler=cluster, force=True)
+    assert again.resumed == 0
+    assert not (out / "cases").exists()  # kept results of the first run removed
+    assert (out / "notes.txt").read_text() == "mine"  # what the study did not write stays
+    pd.testing.assert_frame_equal(_stable(again.table), _stable(full))
