@@ -35,7 +35,7 @@ from benchmarks import chain, machine, report, scenario  # noqa: E402
 
 DEFAULT_OUT = REPO / "build" / "bench" / "results.json"
 #: Scripts owned by others that ``make bench`` runs as they are, when present.
-EXTERNAL_PATTERNS = ("validate_large.py", "ros2_*.py", "isolation.py")
+EXTERNAL_PATTERNS = ("validate_large.py", "ros2_*.py", "isolation.py", "sweep.py")
 EXTERNAL_TIMEOUT = 300.0
 
 
