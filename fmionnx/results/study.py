@@ -64,7 +64,8 @@ class StudyFolder:
         (then what a study writes is removed, nothing else).
         """
         marker = self.out / "study.json"
-        if marker.exists() and force and not resume:
+        cleared = marker.exists() and force and not resume
+        if cleared:
             self._clear()
         if marker.exists():
             try:
@@ -83,7 +84,7 @@ class StudyFolder:
                     "changed): --resume continues only the same study"
                 )
                 raise StudyFolderError(msg)
-        elif self.out.exists() and any(self.out.iterdir()):
+        elif not cleared and self.out.exists() and any(self.out.iterdir()):
             msg = f"`{self.out}` is not empty and holds no study: choose a new or empty folder"
             raise StudyFolderError(msg)
         self.records.mkdir(parents=True, exist_ok=True)
