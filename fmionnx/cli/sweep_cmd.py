@@ -92,6 +92,11 @@ def sweep(
             )  # fmt: skip
     except StudyFolderError as exc:
         raise fail(str(exc)) from None
+    except KeyboardInterrupt:  # the finished cases are recorded: nothing to lose
+        console.print(f"interrupted: the finished cases are in {out}; `--resume` runs the rest")
+        from fmionnx.runtime.stopping import exit_code
+
+        raise typer.Exit(exit_code(None)) from None
     except OSError as exc:
         if scheduler is None:
             raise

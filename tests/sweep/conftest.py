@@ -62,3 +62,13 @@ def cluster() -> object:
 
     with open_client(workers=2) as client:
         yield client.scheduler.address
+
+
+@pytest.fixture(autouse=True)
+def _collect_garbage() -> object:
+    """Collect after each test, so what Dask leaves to the collector is reported (and ignored,
+    see the modules' ``pytestmark``) here rather than in whichever test runs next."""
+    import gc
+
+    yield
+    gc.collect()

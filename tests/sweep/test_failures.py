@@ -11,6 +11,11 @@ import pytest
 
 from fmionnx.results.sweep import plan_study, run_sweep
 
+#: Dask's comms now and then leave a socket of a closed connection to the garbage collector
+#: (a ResourceWarning raised while collecting, so not attributable to a line of ours).
+pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+
+
 SYSTEM = """\
 fmionnx: 1
 name: faulty

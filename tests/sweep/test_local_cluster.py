@@ -7,9 +7,15 @@ from pathlib import Path
 
 import numpy as np
 import pandas as pd
+import pytest
 
 import fmionnx
 from tests.sweep.conftest import WriteStudy
+
+#: Dask's comms now and then leave a socket of a closed connection to the garbage collector
+#: (a ResourceWarning raised while collecting, so not attributable to a line of ours).
+pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+
 
 GRID = """\
 fmionnx: 1

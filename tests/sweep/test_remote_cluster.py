@@ -24,6 +24,11 @@ from fmionnx.compile.systemfile import has_model_file
 from fmionnx.results.sweep import plan_study
 from tests.sweep.conftest import WriteStudy
 
+#: Dask's comms now and then leave a socket of a closed connection to the garbage collector
+#: (a ResourceWarning raised while collecting, so not attributable to a line of ours).
+pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+
+
 STUDY = """\
 fmionnx: 1
 system: system.yaml

@@ -80,26 +80,25 @@ class _Deadline(KeyboardInterrupt):
 #: Base systems this worker has read, by the sha256 of their JSON, with models relocated into its store.
 _SYSTEMS: dict[str, CompiledSystem] = {}
 _SYSTEMS_LOCK = threading.Lock()
+#: The model store of a process that is not a Dask worker (made on first use).
+_LOCAL_STORE: list[Path] = []
 
 
 def worker_store() -> Path:
-    """This worker's model store (in its local directory; a temporary folder off Dask)."""
+    """This worker's model store: in its local directory; off Dask (a plain loop in one
+    process), in a scratch folder of this process, removed when it exits."""
     from fmionnx.backends.sweep.models import STORE_NAME
 
     try:
         from distributed import get_worker
 
         return Path(get_worker().local_directory) / STORE_NAME
-    except ValueError:  # not inside a worker (a plain loop, a test)
-        import tempfile
+    except ValueError:  # not inside a worker
+        if not _LOCAL_STORE:
+            from fmionnx.core.scratch import make_scratch
 
-        return Path(tempfile.gettempdir()) / f"{STORE_NAME}-{_process_tag()}"
-
-
-def _process_tag() -> str:
-    import os
-
-    return str(os.getpid())
+            _LOCAL_STORE.append(make_scratch("sweep-models"))
+        return _LOCAL_STORE[0] / STORE_NAME
 
 
 def _worker_name() -> str:

@@ -25,6 +25,8 @@ from fmionnx.compile.systemfile import to_json
 
 #: How often Dask retries a case whose worker died: once (a crash repeats; the study goes on).
 ALLOWED_FAILURES = 1
+#: Seconds to wait for an existing cluster's scheduler to answer.
+CONNECT_TIMEOUT = 20
 
 
 def default_workers() -> int:
@@ -43,7 +45,7 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        with Client(scheduler, set_as_default=False) as client:
+        with Client(scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT) as client:
             yield client
         return
     with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
