@@ -33,7 +33,13 @@ objective: {maximize: y_end}
 """
 
 
-def test_every_case_matches_a_direct_run(write_study: WriteStudy, tmp_path: Path) -> None:
+def test_every_case_matches_a_direct_run(
+    write_study: WriteStudy, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    from fmionnx.backends.sweep import engine
+
+    monkeypatch.setattr(engine, "MIN_WINDOW", 1)  # 2 cases in flight: the window is refilled
+    monkeypatch.setattr(engine, "PER_THREAD", 1)
     study = write_study(GRID)
     out = tmp_path / "out"
     table = fmionnx.sweep(study, out=out, workers=2)

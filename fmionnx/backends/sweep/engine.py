@@ -12,6 +12,7 @@ dies while running a case (a model crashing a non-isolated component) makes that
 
 from __future__ import annotations
 
+import itertools
 import logging
 import os
 from collections.abc import Callable, Iterable, Iterator, Mapping
@@ -25,6 +26,10 @@ from fmionnx.compile.systemfile import to_json
 
 #: How often Dask retries a case whose worker died: once (a crash repeats; the study goes on).
 ALLOWED_FAILURES = 1
+#: Cases in flight: at least this many, or so many per worker thread; the rest wait on the
+#: driver.
+MIN_WINDOW = 16
+PER_THREAD = 4
 #: Seconds to wait for an existing cluster's scheduler to answer.
 CONNECT_TIMEOUT = 20
 
@@ -89,16 +94,22 @@ def run_study(
     }
     shared_job = client.submit(_value, job, key=f"{prefix}-job-{int(job.keep_results)}", pure=False)
     by_key: dict[str, Case] = {}
-    futures = []
-    for case in cases:
+
+    def submit(case: Case) -> Any:
         future = client.submit(
             run_case, text, shared_models, case, shared_job,
-            key=f"fmionnx-case-{plan.fingerprint[:16]}-{case.id}", pure=False,
+            key=f"{prefix}-{case.id}", pure=False,
         )  # fmt: skip
         by_key[future.key] = case
-        futures.append(future)
-    for future in as_completed(futures, loop=client.loop):
-        case = by_key[future.key]
+        return future
+
+    # A window of cases in flight, not the whole study: a study of 10^5 cases does not become
+    # 10^5 tasks on the scheduler at once; the window is refilled as cases finish.
+    window = max(MIN_WINDOW, PER_THREAD * sum(client.nthreads().values()))
+    waiting = iter(cases)
+    running = as_completed([submit(c) for c in itertools.islice(waiting, window)], loop=client.loop)
+    for future in running:
+        case = by_key.pop(future.key)
         try:
             outcome = future.result() if future.status == "finished" else None
         except Exception:  # lost between the two calls: as below
@@ -107,6 +118,9 @@ def run_study(
             outcome = CaseOutcome(case.id, "failed", _died(future))
         future.release()
         on_done(outcome)
+        following = next(waiting, None)
+        if following is not None:
+            running.add(submit(following))
 
 
 def _value(value: object) -> object:
