@@ -12,8 +12,10 @@ Two studies, each run three ways side by side in one run (so machine load hits a
 
 *loop* is :func:`fmionnx.backends.sweep.case.run_case` (what a worker runs for a case) called
 for every case in this process: no Dask. *1 worker* / *2 workers* are a local Dask cluster of
-that many processes; the cluster's start is timed apart from the study. Every mode must give
-the same metrics per case. Targets (reported, never asserted): 2 workers >= 1.8x the cases/s
+that many processes; the cluster's start and a warm-up case per worker (models shipped, caches
+filled) are timed apart from the study. The modes are interleaved: the cases are cut into
+rounds and every round runs in the three modes, each round starting with another one, so that
+drifting machine load hits all alike. Every mode must give the same metrics per case. Targets (reported, never asserted): 2 workers >= 1.8x the cases/s
 of 1 worker; the sweep's overhead (1 worker against the loop) <= 10 % of the loop on the
 reference scenario.
 
@@ -23,6 +25,7 @@ Run: ``python benchmarks/sweep.py`` (a few minutes on 2 cores), ``--quick`` for 
 from __future__ import annotations
 
 import argparse
+import dataclasses
 import os
 import sys
 import tempfile
@@ -101,43 +104,69 @@ def _job(plan: Any) -> Any:
     return Job(plan.metrics, plan.isolate, plan.timeout, step_timeout=plan.step_timeout)
 
 
-def run_loop(plan: Any) -> Timing:
-    """Every case through ``run_case`` in this process, one after the other."""
+def _loop_cases(plan: Any, cases: Sequence[Any], shared: tuple[str, Any]) -> list[Any]:
+    """Cases through ``run_case`` in this process, one after the other."""
     from fmionnx.backends.sweep.case import run_case
+
+    text, packed = shared
+    job = _job(plan)
+    return [run_case(text, packed, case, job) for case in cases]
+
+
+def _cluster_cases(client: Any, plan: Any, cases: Sequence[Any]) -> list[Any]:
+    from fmionnx.backends.sweep.engine import run_study
+
+    outcomes: list[Any] = []
+    run_study(client, plan, cases, _job(plan), outcomes.append)
+    return outcomes
+
+
+def measure(plan: Any, rounds: int) -> list[Timing]:
+    """The three modes on the same cases, interleaved: the cases are cut into ``rounds``
+    slices and each slice runs in every mode (starting with another mode each round), so
+    drifting machine load hits all modes alike. The clusters start once, timed apart."""
+    from fmionnx.backends.sweep.engine import open_client
     from fmionnx.backends.sweep.models import pack_models
     from fmionnx.compile.systemfile import to_json
 
-    job = _job(plan)
-    began = time.perf_counter()
-    text, packed = to_json(plan.system), pack_models(plan.system)
-    outcomes = [run_case(text, packed, case, job) for case in plan.cases]
-    seconds = time.perf_counter() - began
-    return Timing(LOOP, seconds, 0.0, {o.id: o.metrics for o in outcomes}, _failed(outcomes))
-
-
-def run_cluster(plan: Any, workers: int) -> Timing:
-    """The cases on a fresh local cluster of ``workers`` processes."""
-    from fmionnx.backends.sweep.engine import open_client, run_study
-
-    outcomes: list[Any] = []
-    began = time.perf_counter()
-    with open_client(workers=workers) as client:
-        client.wait_for_workers(workers)
-        started = time.perf_counter()
-        run_study(client, plan, plan.cases, _job(plan), outcomes.append)
-        seconds = time.perf_counter() - started
-    mode = f"{workers} worker" + ("s" if workers > 1 else "")
-    metrics = {o.id: o.metrics for o in outcomes}
-    return Timing(mode, seconds, started - began, metrics, _failed(outcomes))
+    shared = (to_json(plan.system), pack_models(plan.system))
+    cases = list(plan.cases)
+    slices = [cases[i::rounds] for i in range(rounds)]
+    seconds = dict.fromkeys(MODES, 0.0)
+    outcomes: dict[str, list[Any]] = {mode: [] for mode in MODES}
+    startup: dict[str, float] = {LOOP: 0.0}
+    with open_client(workers=1) as one, open_client(workers=2) as two:
+        for mode, client, workers in ((MODES[1], one, 1), (MODES[2], two, 2)):
+            began = time.perf_counter()
+            client.wait_for_workers(workers)
+            warm = [dataclasses.replace(c, id=f"warm-up-{c.id}") for c in cases[:workers]]
+            _cluster_cases(client, plan, warm)  # models shipped, caches filled (own task keys)
+            startup[mode] = time.perf_counter() - began
+        _loop_cases(plan, cases[:1], shared)
+        for index, part in enumerate(slices):
+            order = MODES[index % 3 :] + MODES[: index % 3]
+            for mode in order:
+                began = time.perf_counter()
+                if mode == LOOP:
+                    done = _loop_cases(plan, part, shared)
+                else:
+                    done = _cluster_cases(one if mode == MODES[1] else two, plan, part)
+                seconds[mode] += time.perf_counter() - began
+                outcomes[mode].extend(done)
+    return [
+        Timing(
+            mode,
+            seconds[mode],
+            startup[mode],
+            {o.id: o.metrics for o in sorted(outcomes[mode], key=lambda o: o.id)},
+            _failed(outcomes[mode]),
+        )
+        for mode in MODES
+    ]
 
 
 def _failed(outcomes: Sequence[Any]) -> int:
     return sum(o.status != "ok" for o in outcomes)
-
-
-def measure(plan: Any) -> list[Timing]:
-    """The three modes, the loop first (it also warms the model caches of this process)."""
-    return [run_loop(plan), run_cluster(plan, 1), run_cluster(plan, 2)]
 
 
 def rows(study: str, timings: list[Timing]) -> list[dict[str, Any]]:
@@ -176,7 +205,7 @@ COLUMNS = (
     ("cases", "cases"),
     ("seconds", "s (cases only)"),
     ("cases_per_s", "cases/s"),
-    ("startup", "cluster start s"),
+    ("startup", "cluster start + warm-up s"),
     ("vs_1_worker", "speed-up vs 1 worker"),
     ("overhead_per_case_ms", "overhead ms/case vs loop"),
     ("overhead_share", "overhead share"),
@@ -217,9 +246,10 @@ def main(argv: list[str] | None = None, console: Console | None = None) -> dict[
     parser.add_argument("--small-cases", type=int, default=200)
     parser.add_argument("--scenario-cases", type=int, default=20)
     parser.add_argument("--stop", type=float, default=4.0, help="reference scenario stop time")
+    parser.add_argument("--rounds", type=int, default=4, help="interleaved rounds per study")
     args = parser.parse_args(argv)
     if args.quick:
-        args.small_cases, args.scenario_cases, args.stop = 10, 2, 0.5
+        args.small_cases, args.scenario_cases, args.stop, args.rounds = 10, 2, 0.5, 2
     console = console or Console()
     with tempfile.TemporaryDirectory(prefix="fmionnx-bench-sweep-") as scratch:
         folder = Path(scratch)
@@ -236,8 +266,10 @@ def main(argv: list[str] | None = None, console: Console | None = None) -> dict[
                 ),
                 encoding="utf-8",
             )
-            small = rows("small FMU system", measure(_plan(small_study)))
-            scenario = rows(f"reference ({args.stop:g} s)", measure(_plan(scenario_study)))
+            small = rows("small FMU system", measure(_plan(small_study), args.rounds))
+            scenario = rows(
+                f"reference ({args.stop:g} s)", measure(_plan(scenario_study), args.rounds)
+            )
     found = targets(small, scenario)
     report.print_table(
         console,
