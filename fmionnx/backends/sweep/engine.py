@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 import logging
 import os
+import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from typing import Any
@@ -53,7 +54,13 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
         with Client(scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT) as client:
             yield client
         return
-    with dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}):
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}),
+        warnings.catch_warnings(),
+    ):
+        # The scheduler serves its health routes on 8787 even without a dashboard and warns
+        # when another cluster on this host has the port; it takes a free one: nothing to say.
+        warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
         cluster = LocalCluster(
             n_workers=workers or default_workers(),
             threads_per_worker=1,
