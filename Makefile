@@ -20,7 +20,7 @@ help:
 	@echo "make bench  - run the benchmarks and print their tables"
 	@echo "make fuzz   - run the fuzzers (tests/fuzz) with the long budget: thousands of inputs each"
 	@echo "make soak   - run the reference scenario for a simulated hour, watching RSS, files, threads"
-	@echo "make schema - regenerate schemas/system.schema.json"
+	@echo "make schema - regenerate schemas/system.schema.json and study.schema.json"
 
 setup-demo: $(DEMO_STAMP)
 setup-test: $(TEST_STAMP)
@@ -70,6 +70,7 @@ lint: $(TEST_STAMP)
 
 schema: $(DEMO_STAMP)
 	$(VENV)/bin/fmionnx schema -o schemas/system.schema.json
+	$(VENV)/bin/fmionnx schema --study -o schemas/study.schema.json
 
 test: $(TEST_STAMP) models lint examples
 	$(VENV)/bin/pytest -q -p no:cacheprovider

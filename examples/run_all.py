@@ -276,7 +276,49 @@ def external_simulator() -> Example:
     )
 
 
-ALL: tuple[Callable[[], Example], ...] = (robot, from_scratch, ssp_roundtrip, external_simulator)
+def _sweep_results(out: Path) -> list[str]:
+    """Every case of the study ran (a failed check is a result; a failed case is not)."""
+    with (out / "cases.csv").open(encoding="utf-8", newline="") as stream:
+        rows = list(csv.DictReader(stream))
+    problems = [f"{r['case']}: {r['status']} ({r['message']})" for r in rows if r["status"] != "ok"]
+    if len(rows) != 4:
+        problems.append(f"{out / 'cases.csv'}: {len(rows)} cases, the study has 4")
+    problems.extend(
+        f"{out / name} is missing"
+        for name in ("cases.parquet", "heatmap-time_to_B.png", "passfail.png")
+        if not (out / name).is_file()
+    )
+    return problems
+
+
+def _copy_file(source: Path) -> Callable[[Path], None]:
+    def make(destination: Path) -> None:
+        shutil.copyfile(source, destination)
+
+    return make
+
+
+def sweep_tracker() -> Example:
+    """A study over the tracker's gains on the reference scenario, on a local Dask cluster."""
+    out = BUILD / "sweep-tracker" / "out"
+    return Example(
+        name="sweep-tracker",
+        steps=(Step(f"fmionnx sweep examples/sweep-tracker/study.yaml --out {out} --force"),),
+        verify=lambda: _sweep_results(REPO / out),
+        pictures={
+            "heatmap.png": _copy_file(REPO / out / "heatmap-time_to_B.png"),
+            "passfail.png": _copy_file(REPO / out / "passfail.png"),
+        },
+    )
+
+
+ALL: tuple[Callable[[], Example], ...] = (
+    robot,
+    from_scratch,
+    ssp_roundtrip,
+    external_simulator,
+    sweep_tracker,
+)
 
 
 # -- running ------------------------------------------------------------------------------------

@@ -46,7 +46,9 @@ from fmionnx.core.types import (
 if TYPE_CHECKING:  # numpy and the runtime load when a system runs, not for `validate` / `--help`
     import numpy as np
     import numpy.typing as npt
+    import pandas as pd
 
+    from fmionnx.results.sweep import SweepProgress
     from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 __all__ = [
@@ -59,6 +61,7 @@ __all__ = [
     "load",
     "parse_value",
     "run_onnx_once",
+    "sweep",
 ]
 
 #: Single-model files ``load`` accepts besides system files.
@@ -312,3 +315,35 @@ def check_model(path: str | Path) -> CompileResult:
     if any(d.severity is Severity.ERROR for d in diagnostics):
         system = None
     return CompileResult(system, diagnostics)
+
+
+# -- studies -----------------------------------------------------------------------------------
+
+
+def sweep(
+    study: str | Path,
+    out: str | Path,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    resume: bool = False,
+    keep_results: bool = False,
+    force: bool = False,
+    progress: SweepProgress | None = None,
+) -> pd.DataFrame:
+    """Run a study file's cases (``fmionnx sweep``) and return its table, one row per case.
+
+    ``scheduler`` is an existing Dask cluster (``tcp://host:8786``); without it a local
+    cluster of ``workers`` processes (default: one per core) runs the cases. Results go to
+    ``out`` (docs/sweep.md); ``resume`` finishes an interrupted study there, ``force``
+    replaces an earlier study's results there. Raises
+    DiagnosticError for a study (or system) file with errors, before anything runs.
+    """
+    from fmionnx.results.sweep import plan_study, run_sweep
+
+    plan, _ = plan_study(study)
+    result = run_sweep(
+        plan, Path(out), scheduler=scheduler, workers=workers, resume=resume,
+        keep_results=keep_results, force=force, progress=progress,
+    )  # fmt: skip
+    return result.table

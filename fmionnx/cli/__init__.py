@@ -15,6 +15,7 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands
     run_cmd,
     schema_cmd,
     ssp_cmd,
+    sweep_cmd,
     validate_cmd,
 )
 from fmionnx.cli.app import ExitCode, app

@@ -43,7 +43,14 @@ from fmionnx.compile.expected_path import (
 from fmionnx.compile.scalarpos import position_in_value
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
-from fmionnx.core.types import Causality, Component, ComponentInterface, DType, flat_index
+from fmionnx.core.types import (
+    Causality,
+    Component,
+    ComponentInterface,
+    DType,
+    PortRef,
+    flat_index,
+)
 from fmionnx.kinds.base import SITES, Site, SiteSource
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import CheckSpec
@@ -132,6 +139,33 @@ def compile_checks(
     return tuple(checks)
 
 
+def compile_measure(
+    label: str,
+    raw: str,
+    components: Mapping[str, Component],
+    span: Span,
+    bag: DiagnosticBag,
+) -> tuple[ir.Expr, tuple[PortRef, ...]] | None:
+    """A measure alone (a study's metric): the left side of a check, resolved the same way.
+
+    Returns the expression and the ports it reads; None, with the problem in ``bag`` at its
+    character (``label`` starts the message, e.g. "metric `error`"), when it does not resolve
+    or is not one number.
+    """
+    try:
+        expr = _Resolver(components).measure(raw)
+    except ParseError as exc:
+        where = position_in_value(span, raw, exc.start)
+        bag.emit("E090", f"{label}: {exc.message}", where, hint=exc.hint)
+        return None
+    except _CheckError as exc:
+        where = position_in_value(span, raw, exc.start)
+        bag.emit(exc.code, f"{label}: {exc.message}", where, hint=exc.hint)
+        return None
+    signals = ir.signals_of(expr)
+    return expr, tuple(dict.fromkeys(s.ref for s in signals if s.ref is not None))
+
+
 class _Resolver:
     """Resolves one expression against the system's components."""
 
@@ -182,6 +216,28 @@ class _Resolver:
         refs = tuple(dict.fromkeys(s.ref for s in signals if s.ref is not None))
         comparison = _COMPARISON[node.operator]
         return ir.Check(name, text, measure.expr, comparison, bound, refs, span)
+
+    def measure(self, raw: str) -> ir.Expr:
+        """A measure alone: one number that reads at least one signal (a study's metric)."""
+        node = parse(raw)
+        if isinstance(node, BinaryOp) and node.operator in COMPARISONS:
+            raise _CheckError(
+                "E093",
+                "a metric is a measure (one number), not a comparison",
+                node.start,
+                "keep the left side: `final(plant.y)` rather than `final(plant.y) < 1`",
+            )
+        typed = self.value(node)
+        if typed.type is not Type.NUMBER:
+            raise _CheckError("E093", _not_a_number(typed.type), node.start, _REDUCE_HINT)
+        if not ir.signals_of(typed.expr):
+            raise _CheckError(
+                "E093",
+                "the measure reads no signal: it would be the same for every case",
+                node.start,
+                "measure a signal, e.g. `final(plant.y)`",
+            )
+        return typed.expr
 
     # -- values --------------------------------------------------------------------------------
 

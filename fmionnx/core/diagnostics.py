@@ -390,6 +390,24 @@ CODES: dict[str, ErrorCode] = _codes(
         "E093", "check-meaning", _E, "checks", "A check expression that parses but means nothing."
     ),
     ErrorCode("E094", "duplicate-check", _E, "checks", "Two checks share a name."),
+    # --- studies (issue #15): `fmionnx sweep`
+    ErrorCode("E100", "study-file", _E, "study", "A study file that is missing or not a study."),
+    ErrorCode(
+        "E101", "study-system", _E, "study", "The study's system file is missing or does not compile."
+    ),
+    ErrorCode(
+        "E102",
+        "study-target",
+        _E,
+        "study",
+        "A study target that names no parameter, system input, run setting or component.",
+    ),
+    ErrorCode(
+        "E103", "study-values", _E, "study", "Values that do not fit their target, or no sampling."
+    ),
+    ErrorCode("E104", "study-metric", _E, "study", "A metric named like one of the system's checks."),
+    ErrorCode("E105", "study-objective", _E, "study", "An objective that names no metric."),
+    ErrorCode("E106", "study-size", _E, "study", "A study of more than a million cases."),
 )
 
 

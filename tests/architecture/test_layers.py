@@ -51,6 +51,8 @@ ALLOWED = {
 COMPILED_SYSTEM = (
     "fmionnx.compile.checkir",
     "fmionnx.compile.ir",
+    "fmionnx.compile.overrides",  # pure functions of the compiled system: a sweep worker applies them
+    "fmionnx.compile.studyir",
     "fmionnx.compile.systemfile",
     "fmionnx.compile.ros2.fields",
     "fmionnx.compile.ros2.messages",

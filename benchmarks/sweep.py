@@ -1,0 +1,289 @@
+"""What ``fmionnx sweep`` costs and gains: cases per second on 1 and 2 Dask workers, against the
+same cases run one after the other in a plain loop in this process.
+
+Two studies, each run three ways side by side in one run (so machine load hits all alike):
+
+1. **Small FMU system**: a ``signal`` into one ``Gain`` FMU, 100 base steps, 200 cases
+   (``gain.k`` over a grid), nothing isolated: almost all of a case is the sweep's own
+   machinery (task, transfer, record), the worst case for overhead per case.
+2. **Reference scenario** ``systems/sign_follower.yaml``: 20 cases over the tracker's turn
+   rate, shortened to 4 s simulated by default (``--stop 32`` for the whole run), FMUs
+   isolated as ``fmionnx run`` does by default.
+
+*loop* is :func:`fmionnx.backends.sweep.case.run_case` (what a worker runs for a case) called
+for every case in this process: no Dask. *1 worker* / *2 workers* are a local Dask cluster of
+that many processes; the cluster's start and a warm-up case per worker (models shipped, caches
+filled) are timed apart from the study. The modes are interleaved: the cases are cut into
+rounds and every round runs in the three modes, each round starting with another one, so that
+drifting machine load hits all alike. Every mode must give the same metrics per case. Targets (reported, never asserted): 2 workers >= 1.8x the cases/s
+of 1 worker; the sweep's overhead (1 worker against the loop) <= 10 % of the loop on the
+reference scenario.
+
+Run: ``python benchmarks/sweep.py`` (a few minutes on 2 cores), ``--quick`` for a smoke run.
+"""
+
+from __future__ import annotations
+
+import argparse
+import dataclasses
+import os
+import sys
+import tempfile
+import time
+from collections.abc import Sequence
+from dataclasses import dataclass
+from pathlib import Path
+from typing import Any
+
+REPO = Path(__file__).resolve().parent.parent
+if str(REPO) not in sys.path:
+    sys.path.insert(0, str(REPO))  # run as a script: make `benchmarks` importable
+
+os.environ.setdefault("MUJOCO_GL", "egl")  # as the other benchmarks do; set before mujoco loads
+
+from rich.console import Console  # noqa: E402
+
+from benchmarks import chain, machine, report  # noqa: E402
+
+LOOP = "loop"
+MODES = (LOOP, "1 worker", "2 workers")
+SPEEDUP_TARGET = 1.8
+OVERHEAD_TARGET = 0.10
+
+SMALL_SYSTEM = """\
+fmionnx: 1
+name: small
+run: {{stop: 1, step: 0.01}}
+components:
+  src: {{kind: signal, outputs: {{y: {{sine: {{frequency: 1}}}}}}}}
+  gain: {{kind: fmu, path: {gain}, parameters: {{v: [0, 0, 0]}}}}
+connections:
+  - src.y -> gain.u
+"""
+SMALL_STUDY = """\
+fmionnx: 1
+system: small.yaml
+isolate: [none]
+parameters:
+  gain.k: {{range: {{start: 0.1, stop: 2, num: {cases}}}}}
+metrics:
+  peak: max(gain.y)
+"""
+SCENARIO_STUDY = """\
+fmionnx: 1
+system: {system}
+parameters:
+  tracker.turnRate: {{range: {{start: 0.6, stop: 1.2, num: {cases}}}}}
+  run.stop: [{stop}]
+metrics:
+  x_end: final(odometry.posX)
+  y_end: final(odometry.posY)
+"""
+
+
+@dataclass(frozen=True)
+class Timing:
+    """One mode of one study: the cases' wall time, the cluster's start, the metrics."""
+
+    mode: str
+    seconds: float
+    startup: float
+    metrics: dict[str, dict[str, float | None]]
+    failed: int
+
+
+def _plan(study: Path) -> Any:
+    from fmionnx.results.sweep import plan_study
+
+    return plan_study(study)[0]
+
+
+def _job(plan: Any) -> Any:
+    from fmionnx.backends.sweep.case import Job
+
+    return Job(plan.metrics, plan.isolate, plan.timeout, step_timeout=plan.step_timeout)
+
+
+def _loop_cases(plan: Any, cases: Sequence[Any], shared: tuple[str, Any]) -> list[Any]:
+    """Cases through ``run_case`` in this process, one after the other."""
+    from fmionnx.backends.sweep.case import run_case
+
+    text, packed = shared
+    job = _job(plan)
+    return [run_case(text, packed, case, job) for case in cases]
+
+
+def _cluster_cases(client: Any, plan: Any, cases: Sequence[Any]) -> list[Any]:
+    from fmionnx.backends.sweep.engine import run_study
+
+    outcomes: list[Any] = []
+    run_study(client, plan, cases, _job(plan), outcomes.append)
+    return outcomes
+
+
+def measure(plan: Any, rounds: int) -> list[Timing]:
+    """The three modes on the same cases, interleaved: the cases are cut into ``rounds``
+    slices and each slice runs in every mode (starting with another mode each round), so
+    drifting machine load hits all modes alike. The clusters start once, timed apart."""
+    from fmionnx.backends.sweep.engine import open_client
+    from fmionnx.backends.sweep.models import pack_models
+    from fmionnx.compile.systemfile import to_json
+
+    shared = (to_json(plan.system), pack_models(plan.system))
+    cases = list(plan.cases)
+    slices = [cases[i::rounds] for i in range(rounds)]
+    seconds = dict.fromkeys(MODES, 0.0)
+    outcomes: dict[str, list[Any]] = {mode: [] for mode in MODES}
+    startup: dict[str, float] = {LOOP: 0.0}
+    with open_client(workers=1) as one, open_client(workers=2) as two:
+        for mode, client, workers in ((MODES[1], one, 1), (MODES[2], two, 2)):
+            began = time.perf_counter()
+            client.wait_for_workers(workers)
+            warm = [dataclasses.replace(c, id=f"warm-up-{c.id}") for c in cases[:workers]]
+            _cluster_cases(client, plan, warm)  # models shipped, caches filled (own task keys)
+            startup[mode] = time.perf_counter() - began
+        _loop_cases(plan, cases[:1], shared)
+        for index, part in enumerate(slices):
+            order = MODES[index % 3 :] + MODES[: index % 3]
+            for mode in order:
+                began = time.perf_counter()
+                if mode == LOOP:
+                    done = _loop_cases(plan, part, shared)
+                else:
+                    done = _cluster_cases(one if mode == MODES[1] else two, plan, part)
+                seconds[mode] += time.perf_counter() - began
+                outcomes[mode].extend(done)
+    return [
+        Timing(
+            mode,
+            seconds[mode],
+            startup[mode],
+            {o.id: o.metrics for o in sorted(outcomes[mode], key=lambda o: o.id)},
+            _failed(outcomes[mode]),
+        )
+        for mode in MODES
+    ]
+
+
+def _failed(outcomes: Sequence[Any]) -> int:
+    return sum(o.status != "ok" for o in outcomes)
+
+
+def rows(study: str, timings: list[Timing]) -> list[dict[str, Any]]:
+    """One table row per mode; ratios against the loop and against 1 worker."""
+    loop = timings[0]
+    one = timings[1]
+    cases = len(loop.metrics)
+    out = []
+    for timing in timings:
+        same = timing.metrics == loop.metrics
+        out.append(
+            {
+                "study": study,
+                "mode": timing.mode,
+                "cases": cases,
+                "seconds": timing.seconds,
+                "cases_per_s": cases / timing.seconds if timing.seconds else None,
+                "startup": timing.startup if timing.mode != LOOP else None,
+                "vs_1_worker": one.seconds / timing.seconds if timing.mode != LOOP else None,
+                "overhead_per_case_ms": (timing.seconds - loop.seconds) / cases * 1000
+                if timing.mode == "1 worker"
+                else None,
+                "overhead_share": (timing.seconds - loop.seconds) / loop.seconds
+                if timing.mode == "1 worker"
+                else None,
+                "failed": timing.failed,
+                "same_metrics": same,
+            }
+        )
+    return out
+
+
+COLUMNS = (
+    ("study", "study"),
+    ("mode", "mode"),
+    ("cases", "cases"),
+    ("seconds", "s (cases only)"),
+    ("cases_per_s", "cases/s"),
+    ("startup", "cluster start + warm-up s"),
+    ("vs_1_worker", "speed-up vs 1 worker"),
+    ("overhead_per_case_ms", "overhead ms/case vs loop"),
+    ("overhead_share", "overhead share"),
+    ("failed", "failed"),
+    ("same_metrics", "same metrics as loop"),
+)
+
+
+def targets(small: list[dict[str, Any]], scenario: list[dict[str, Any]]) -> list[dict[str, Any]]:
+    """The issue's two targets, measured on the reference scenario (speed-up on both)."""
+    found = []
+    for study_rows in (small, scenario):
+        two = next(r for r in study_rows if r["mode"] == "2 workers")
+        found.append(
+            {
+                "target": f"2 workers vs 1 ({two['study']})",
+                "value": two["vs_1_worker"],
+                "limit": f">= {SPEEDUP_TARGET}",
+                "met": two["vs_1_worker"] is not None and two["vs_1_worker"] >= SPEEDUP_TARGET,
+            }
+        )
+    one = next(r for r in scenario if r["mode"] == "1 worker")
+    found.append(
+        {
+            "target": "overhead vs plain loop (reference scenario)",
+            "value": one["overhead_share"],
+            "limit": f"<= {OVERHEAD_TARGET:.0%}",
+            "met": one["overhead_share"] is not None and one["overhead_share"] <= OVERHEAD_TARGET,
+        }
+    )
+    return found
+
+
+def main(argv: list[str] | None = None, console: Console | None = None) -> dict[str, Any]:
+    """Run both studies in the three modes, print the tables, return what was measured."""
+    parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
+    parser.add_argument("--quick", action="store_true", help="smoke run: 10 + 2 short cases")
+    parser.add_argument("--small-cases", type=int, default=200)
+    parser.add_argument("--scenario-cases", type=int, default=20)
+    parser.add_argument("--stop", type=float, default=4.0, help="reference scenario stop time")
+    parser.add_argument("--rounds", type=int, default=4, help="interleaved rounds per study")
+    args = parser.parse_args(argv)
+    if args.quick:
+        args.small_cases, args.scenario_cases, args.stop, args.rounds = 10, 2, 0.5, 2
+    console = console or Console()
+    with tempfile.TemporaryDirectory(prefix="fmionnx-bench-sweep-") as scratch:
+        folder = Path(scratch)
+        with chain.built_gain(folder) as (gain, _):
+            (folder / "small.yaml").write_text(SMALL_SYSTEM.format(gain=gain), encoding="utf-8")
+            small_study = folder / "small-study.yaml"
+            small_study.write_text(SMALL_STUDY.format(cases=args.small_cases), encoding="utf-8")
+            scenario_study = folder / "scenario-study.yaml"
+            scenario_study.write_text(
+                SCENARIO_STUDY.format(
+                    system=REPO / "systems" / "sign_follower.yaml",
+                    cases=args.scenario_cases,
+                    stop=args.stop,
+                ),
+                encoding="utf-8",
+            )
+            small = rows("small FMU system", measure(_plan(small_study), args.rounds))
+            scenario = rows(
+                f"reference ({args.stop:g} s)", measure(_plan(scenario_study), args.rounds)
+            )
+    found = targets(small, scenario)
+    report.print_table(
+        console,
+        "Sweep: cases per second, 1 and 2 workers, against a plain loop",
+        COLUMNS,
+        [*small, *scenario],
+    )
+    report.print_table(console, "Targets", report.TARGET_COLUMNS, found)
+    console.print(
+        f"machine: {machine.cpu_model()}, {machine.usable_cores()} usable cores "
+        "(shared with other work: ratios measured side by side in one run)"
+    )
+    return {"small": small, "scenario": scenario, "targets": found}
+
+
+if __name__ == "__main__":
+    main()

@@ -1,0 +1,206 @@
+"""One case, run on a worker: derive its system, run it in-process, measure, report.
+
+Everything here runs in the worker process. The base compiled system arrives as JSON (read
+once per worker and cached by content hash, with its models relocated into the worker's own
+store), the case as a few settings. The case's system is :func:`apply_case` of the base; it
+runs with the in-process backend, its FMUs isolated in processes of their own by default, so
+a model that crashes or hangs ends the case as a ``fault`` and never the worker. A case that
+outlasts the study's timeout is stopped between steps (``timeout``). Whatever happens, the
+worker returns a :class:`CaseOutcome`: a failing case never raises into the study.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import hashlib
+import math
+import threading
+import time
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import Literal
+
+import numpy as np
+import numpy.typing as npt
+
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.studyir import Case, Metric, apply_case
+from fmionnx.compile.systemfile import from_json, relocate
+from fmionnx.core.types import PortRef
+
+#: How a case ended. ``ok``: the run completed (its checks may still fail); ``fault``: a model
+#: failed (or crashed, when isolated); ``timeout``: stopped after the study's timeout;
+#: ``failed``: the case could not run at all (a setting that does not fit, the worker died).
+CaseStatus = Literal["ok", "fault", "timeout", "failed"]
+
+
+@dataclass(frozen=True)
+class Job:
+    """What every case of one study shares besides the system: metrics and run options."""
+
+    metrics: tuple[Metric, ...]
+    isolate: tuple[str, ...]
+    timeout: float | None
+    keep_results: bool = False
+    #: Seconds one step may take (None: ``timeout``).
+    step_timeout: float | None = None
+
+
+@dataclass
+class CaseOutcome:
+    """What a case produced. ``metrics`` (None: no value, ``notes`` says why), each check's
+    verdict, and with ``keep_results`` the recorded signals (``time`` first)."""
+
+    id: str
+    status: CaseStatus
+    message: str = ""
+    metrics: dict[str, float | None] = field(default_factory=dict)
+    checks: dict[str, bool] = field(default_factory=dict)
+    notes: dict[str, str] = field(default_factory=dict)
+    wall_time: float = 0.0
+    worker: str = ""
+    signals: dict[str, npt.NDArray[np.float64]] | None = None
+
+    def as_json(self) -> dict[str, object]:
+        """The record written when the case finishes (``--resume`` reads it back)."""
+        data = dataclasses.asdict(self)
+        data.pop("signals")
+        data["metrics"] = {
+            k: (v if v is not None and math.isfinite(v) else None) for k, v in self.metrics.items()
+        }
+        return data
+
+
+class _Deadline(KeyboardInterrupt):
+    """Raised from the progress callback when the case's time is up: the master ends the run
+    as it ends one on Ctrl-C (between steps, models terminated, results kept)."""
+
+
+#: Base systems this worker has read, by the sha256 of their JSON, with models relocated into its store.
+_SYSTEMS: dict[str, CompiledSystem] = {}
+_SYSTEMS_LOCK = threading.Lock()
+#: The model store of a process that is not a Dask worker (made on first use).
+_LOCAL_STORE: list[Path] = []
+
+
+def worker_store() -> Path:
+    """This worker's model store: in its local directory; off Dask (a plain loop in one
+    process), in a scratch folder of this process, removed when it exits."""
+    from fmionnx.backends.sweep.models import STORE_NAME
+
+    try:
+        from distributed import get_worker
+
+        return Path(get_worker().local_directory) / STORE_NAME
+    except ValueError:  # not inside a worker
+        if not _LOCAL_STORE:
+            from fmionnx.core.scratch import make_scratch
+
+            _LOCAL_STORE.append(make_scratch("sweep-models"))
+        return _LOCAL_STORE[0] / STORE_NAME
+
+
+def _worker_name() -> str:
+    try:
+        from distributed import get_worker
+
+        return str(get_worker().address)
+    except ValueError:
+        return "local"
+
+
+def base_system(text: str, models: Mapping[str, bytes], store: Path) -> CompiledSystem:
+    """The base compiled system of ``text`` with its models in ``store`` (cached per process)."""
+    from fmionnx.backends.sweep.models import unpack_models
+
+    key = hashlib.sha256(text.encode()).hexdigest()
+    with _SYSTEMS_LOCK:
+        cached = _SYSTEMS.get(key)
+        if cached is not None:
+            return cached
+        system = from_json(text, origin="the study's compiled system")
+        unpack_models(store, models)
+        system = relocate(system, store)
+        _SYSTEMS[key] = system
+        return system
+
+
+def run_case(text: str, models: Mapping[str, bytes], case: Case, job: Job) -> CaseOutcome:
+    """Run ``case`` of the system ``text`` (models by hash) here; never raises."""
+    began = time.perf_counter()
+    worker = _worker_name()
+    try:
+        system = base_system(text, models, worker_store())
+        outcome = _run(apply_case(system, case), case, job)
+    except Exception as exc:
+        outcome = CaseOutcome(case.id, "failed", f"{type(exc).__name__}: {exc}")
+    outcome.wall_time = time.perf_counter() - began
+    outcome.worker = worker
+    return outcome
+
+
+def record_refs(system: CompiledSystem, job: Job) -> tuple[PortRef, ...]:
+    """What a case records: what the metrics and checks measure, and with ``keep_results``
+    what a plain run records."""
+    from fmionnx.runtime.master import default_record, required_refs
+
+    refs: list[PortRef] = [ref for m in job.metrics for ref in m.refs]
+    refs.extend(ref for check in system.checks for ref in check.refs)
+    if job.keep_results:
+        refs = [*(system.record or default_record(system)), *required_refs(system), *refs]
+    return tuple(dict.fromkeys(refs))
+
+
+def _run(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
+    from fmionnx.runtime.checks import MeasureError, evaluate_checks, measure
+    from fmionnx.runtime.isolated.factory import isolation_targets
+    from fmionnx.runtime.master import Master
+    from fmionnx.runtime.result import RunOptions, RunStatus
+
+    external = [c.name for c in system.components if c.external]
+    if external:  # what the in-process backend refuses too (E018)
+        msg = f"component `{external[0]}` is `external: true`: only the ROS 2 backend provides it"
+        return CaseOutcome(case.id, "failed", msg)
+    isolate, _ = isolation_targets(system, job.isolate)
+    started = time.perf_counter()
+    expired = [False]
+
+    def progress(done: int, total: int, t: float) -> None:
+        if job.timeout is not None and time.perf_counter() - started > job.timeout:
+            expired[0] = True
+            raise _Deadline
+
+    options = RunOptions(
+        record=record_refs(system, job),
+        progress=progress if job.timeout is not None else None,
+        progress_every=20,
+        isolate=isolate,
+        step_timeout=job.step_timeout if job.step_timeout is not None else job.timeout,
+    )
+    result = Master(system, options).run()  # the in-process backend's master
+    status: CaseStatus = "ok"
+    message = ""
+    if result.status is RunStatus.FAULT:
+        status, message = "fault", str(result.error) if result.error else "fault"
+    elif expired[0]:
+        status = "timeout"
+        message = (
+            f"stopped after the study's timeout of {job.timeout:g} s at t={result.time[-1]:g} s"
+        )
+    elif result.status is not RunStatus.COMPLETED:
+        status, message = "failed", f"the run ended {result.status.value}"
+    outcome = CaseOutcome(case.id, status, message)
+    for metric in job.metrics:
+        try:
+            outcome.metrics[metric.name] = measure(metric.measure, result)
+        except MeasureError as exc:
+            outcome.metrics[metric.name] = None
+            outcome.notes[metric.name] = str(exc)
+    for verdict in evaluate_checks(system.checks, result):
+        outcome.checks[verdict.name] = verdict.passed and status == "ok"
+        if verdict.note and not verdict.passed:
+            outcome.notes[verdict.name] = verdict.note
+    if job.keep_results:
+        outcome.signals = {"time": result.time, **result.signals}
+    return outcome

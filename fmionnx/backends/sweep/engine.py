@@ -1,0 +1,147 @@
+"""The sweep engine: a Dask cluster runs a study's cases, outcomes come back as they finish.
+
+By default a :class:`distributed.LocalCluster` of worker processes (one per core, one thread
+each: cases are CPU-bound and models are not all thread-safe); with ``scheduler`` an existing
+cluster (``tcp://host:8786``). The driver sends the compiled system once as JSON and each
+model once per worker by content hash (:mod:`.models`), then one small task per case
+(:func:`.case.run_case`). Each outcome is handed to ``on_done`` on the driver as soon as its
+case finishes, so the caller can record it durably before the next one arrives. A worker that
+dies while running a case (a model crashing a non-isolated component) makes that case
+``failed``; the study goes on.
+"""
+
+from __future__ import annotations
+
+import itertools
+import logging
+import os
+import warnings
+from collections.abc import Callable, Iterable, Iterator, Mapping
+from contextlib import contextmanager
+from typing import Any
+
+from fmionnx.backends.sweep.case import CaseOutcome, Job, run_case
+from fmionnx.backends.sweep.models import pack_models
+from fmionnx.compile.studyir import Case, StudyPlan
+from fmionnx.compile.systemfile import to_json
+
+#: How often Dask retries a case whose worker died: once (a crash repeats; the study goes on).
+ALLOWED_FAILURES = 1
+#: Cases in flight: at least this many, or so many per worker thread; the rest wait on the
+#: driver.
+MIN_WINDOW = 16
+PER_THREAD = 4
+#: Seconds to wait for an existing cluster's scheduler to answer.
+CONNECT_TIMEOUT = 20
+
+
+def default_workers() -> int:
+    """One worker per core this process may use."""
+    try:
+        return max(1, len(os.sched_getaffinity(0)))
+    except AttributeError:  # not Linux
+        return max(1, os.cpu_count() or 1)
+
+
+@contextmanager
+def open_client(scheduler: str | None = None, workers: int | None = None) -> Iterator[Any]:
+    """A Dask client: of the cluster at ``scheduler``, else of a new local cluster of
+    ``workers`` processes (default: one per core) that is closed with the block."""
+    import dask
+    from distributed import Client, LocalCluster
+
+    if scheduler is not None:
+        with Client(scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT) as client:
+            yield client
+        return
+    with (
+        dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}),
+        warnings.catch_warnings(),
+    ):
+        # The scheduler serves its health routes on 8787 even without a dashboard and warns
+        # when another cluster on this host has the port; it takes a free one: nothing to say.
+        warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
+        cluster = LocalCluster(
+            n_workers=workers or default_workers(),
+            threads_per_worker=1,
+            processes=True,
+            dashboard_address=None,
+            silence_logs=logging.ERROR,
+            memory_limit=0,
+        )
+    try:
+        with Client(cluster, set_as_default=False) as client:
+            yield client
+    finally:
+        cluster.close()
+
+
+def run_study(
+    client: Any,
+    plan: StudyPlan,
+    cases: Iterable[Case],
+    job: Job,
+    on_done: Callable[[CaseOutcome], None],
+    models: Mapping[str, bytes] | None = None,
+) -> None:
+    """Run ``cases`` of ``plan`` on ``client``'s cluster; ``on_done`` gets every outcome.
+
+    ``models`` are the packed models (:func:`.models.pack_models`), packed here by default.
+    """
+    from distributed import as_completed
+
+    # The shared values are tasks, not scattered data: the scheduler keeps their recipe, so a
+    # worker that dies (a crashing model) loses nothing the other cases need.
+    prefix = f"fmionnx-{plan.fingerprint[:16]}"
+    packed = models if models is not None else pack_models(plan.system)
+    text = client.submit(_value, to_json(plan.system), key=f"{prefix}-system", pure=False)
+    shared_models = {
+        digest: client.submit(_value, blob, key=f"fmionnx-model-{digest}", pure=False)
+        for digest, blob in packed.items()
+    }
+    shared_job = client.submit(_value, job, key=f"{prefix}-job-{int(job.keep_results)}", pure=False)
+    by_key: dict[str, Case] = {}
+
+    def submit(case: Case) -> Any:
+        future = client.submit(
+            run_case, text, shared_models, case, shared_job,
+            key=f"{prefix}-{case.id}", pure=False,
+        )  # fmt: skip
+        by_key[future.key] = case
+        return future
+
+    # A window of cases in flight, not the whole study: a study of 10^5 cases does not become
+    # 10^5 tasks on the scheduler at once; the window is refilled as cases finish.
+    window = max(MIN_WINDOW, PER_THREAD * sum(client.nthreads().values()))
+    waiting = iter(cases)
+    running = as_completed([submit(c) for c in itertools.islice(waiting, window)], loop=client.loop)
+    for future in running:
+        case = by_key.pop(future.key)
+        try:
+            outcome = future.result() if future.status == "finished" else None
+        except Exception:  # lost between the two calls: as below
+            outcome = None
+        if outcome is None:
+            outcome = CaseOutcome(case.id, "failed", _died(future))
+        future.release()
+        on_done(outcome)
+        following = next(waiting, None)
+        if following is not None:
+            running.add(submit(following))
+
+
+def _value(value: object) -> object:
+    """A task that is its argument: how a shared value becomes recomputable."""
+    return value
+
+
+def _died(future: Any) -> str:
+    """Why a case's task failed (the case itself never raises: its worker died)."""
+    try:
+        exception = future.exception()
+    except Exception as exc:
+        return f"the case did not finish: {type(exc).__name__}: {exc}"
+    name = type(exception).__name__
+    if name == "KilledWorker":
+        return "the worker running the case died (a model crashed its process)"
+    return f"{name}: {exception}"

@@ -1,0 +1,198 @@
+"""``fmionnx sweep``: run a study's cases on a local or an existing Dask cluster.
+
+Dask, pandas and pyarrow are imported inside the command (through :mod:`fmionnx.results.sweep`),
+never when the CLI starts: ``fmionnx --help`` must not pay for them.
+"""
+
+from __future__ import annotations
+
+import sys
+from pathlib import Path
+from typing import TYPE_CHECKING, Annotated, Any
+
+import typer
+
+from fmionnx.cli.app import ExitCode, QuietOption, app, fail
+from fmionnx.cli.outputs import check_output_folder
+
+if TYPE_CHECKING:
+    from fmionnx.results.sweep import SweepResult
+
+#: Rows of the ranked table printed for an objective.
+RANKED_ROWS = 10
+
+
+@app.command(
+    epilog="Examples:\n\n"
+    "  fmionnx sweep study.yaml --out sweeps/gains\n\n"
+    "  fmionnx sweep study.yaml --out sweeps/gains --scheduler tcp://10.0.0.5:8786\n\n"
+    "  fmionnx sweep study.yaml --out sweeps/gains --resume   # after an interruption",
+)
+def sweep(
+    study: Annotated[Path, typer.Argument(help="Study file (YAML): the system and what to vary.")],
+    out: Annotated[Path, typer.Option("--out", "-o", help="Results folder (new, or --resume).")],
+    scheduler: Annotated[
+        str | None,
+        typer.Option(
+            "--scheduler", help="An existing Dask cluster's scheduler (`tcp://HOST:8786`)."
+        ),
+    ] = None,
+    workers: Annotated[
+        int | None,
+        typer.Option("--workers", "-w", min=1, help="Local worker processes (default: cores)."),
+    ] = None,
+    resume: Annotated[
+        bool, typer.Option("--resume", help="Finish an interrupted study in --out.")
+    ] = False,
+    keep_results: Annotated[
+        bool,
+        typer.Option("--keep-results", help="Keep each case's results.csv (cases/<id>/)."),
+    ] = False,
+    force: Annotated[
+        bool, typer.Option("--force", help="Replace the results of a study already in --out.")
+    ] = False,
+    quiet: QuietOption = False,
+) -> None:
+    """Run every case of a study in parallel and write one row per case (cases.parquet/.csv).
+
+    The system is compiled once; each case is the compiled system with the study's settings
+    applied, run in-process on a worker (FMUs isolated by default). A failing case is
+    recorded with its diagnostic and the study goes on.
+    """
+    from fmionnx.core.diagnostics import Severity
+    from fmionnx.core.errors import DiagnosticError
+    from fmionnx.reporters import FileResult
+    from fmionnx.reporters.text import TextReporter
+    from fmionnx.results.study import StudyFolderError
+    from fmionnx.results.sweep import plan_study, run_sweep
+
+    if resume and force:
+        raise fail("--resume keeps the finished cases, --force removes them: choose one")
+    if workers is not None and scheduler is not None:
+        raise fail("--workers starts a local cluster; an existing one (--scheduler) has its own")
+    try:
+        plan, diagnostics = plan_study(study)
+    except DiagnosticError as exc:
+        TextReporter().render(
+            [FileResult(study, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
+        )
+        raise typer.Exit(ExitCode.PROBLEMS) from None
+    warnings = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
+    if warnings and not quiet:
+        TextReporter().render([FileResult(study, warnings)], sys.stderr, color=sys.stderr.isatty())
+    check_output_folder(out, "--out")
+    from rich.console import Console
+
+    console = Console(highlight=False)
+    try:
+        with _progress(console, quiet=quiet) as update:
+            result = run_sweep(
+                plan, out, scheduler=scheduler, workers=workers, resume=resume,
+                keep_results=keep_results, force=force, progress=update,
+            )  # fmt: skip
+    except StudyFolderError as exc:
+        raise fail(str(exc)) from None
+    except KeyboardInterrupt:  # the finished cases are recorded: nothing to lose
+        console.print(f"interrupted: the finished cases are in {out}; `--resume` runs the rest")
+        from fmionnx.runtime.stopping import exit_code
+
+        raise typer.Exit(exit_code(None)) from None
+    except OSError as exc:
+        if scheduler is None:
+            raise
+        raise fail(
+            f"cannot reach the Dask scheduler at {scheduler}: {exc}", ExitCode.PROBLEMS
+        ) from None
+    if not quiet:
+        _summary(console, result)
+    failed = int((result.table["status"] != "ok").sum())
+    if failed:
+        raise typer.Exit(ExitCode.PROBLEMS)
+
+
+class _progress:  # noqa: N801 - used as a function-like context manager
+    """A rich progress bar (cases done, failed, ETA) on a terminal; silent otherwise."""
+
+    def __init__(self, console: Any, *, quiet: bool) -> None:
+        self.console = console
+        self.quiet = quiet or not console.is_terminal
+        self.bar: Any = None
+        self.task: Any = None
+
+    def __enter__(self) -> Any:
+        if self.quiet:
+            return None
+        from rich.progress import (
+            BarColumn,
+            MofNCompleteColumn,
+            Progress,
+            TextColumn,
+            TimeElapsedColumn,
+            TimeRemainingColumn,
+        )
+
+        self.bar = Progress(
+            TextColumn("[bold]cases"),
+            BarColumn(),
+            MofNCompleteColumn(),
+            TextColumn("[red]{task.fields[failed]} failed"),
+            TimeElapsedColumn(),
+            TextColumn("ETA"),
+            TimeRemainingColumn(),
+            console=self.console,
+            transient=True,
+        )
+        self.bar.__enter__()
+        self.task = self.bar.add_task("cases", total=None, failed=0)
+        return self.update
+
+    def update(self, done: int, failed: int, total: int) -> None:
+        self.bar.update(self.task, completed=done, total=total, failed=failed)
+
+    def __exit__(self, *exc: object) -> None:
+        if self.bar is not None:
+            self.bar.__exit__(None, None, None)
+
+
+def _summary(console: Any, result: SweepResult) -> None:
+    from rich.table import Table
+
+    from fmionnx.results.study import ranked
+
+    table = result.table
+    counts = table["status"].value_counts()
+    overview = Table(title=f"study {result.plan.name}", show_header=False, title_justify="left")
+    overview.add_column(style="bold")
+    overview.add_column()
+    overview.add_row("cases", str(len(result.plan.cases)))
+    if result.resumed:
+        overview.add_row("resumed", f"{result.resumed} finished before")
+    for status in ("ok", "fault", "timeout", "failed"):
+        if counts.get(status, 0):
+            colour = "green" if status == "ok" else "red"
+            overview.add_row(status, f"[{colour}]{counts[status]}[/]")
+    for check in result.plan.check_names:
+        column = table["check: " + check]
+        overview.add_row(f"check {check}", f"{int(column.sum())} of {len(column)} passed")
+    for file in result.files:
+        overview.add_row("wrote", str(file))
+    console.print(overview)
+    best = ranked(table, result.plan)
+    objective = result.plan.objective
+    if objective is None or best.empty:
+        return
+    ranking = Table(
+        title=f"best cases ({objective.sense} {objective.metric})", title_justify="left"
+    )
+    columns = ["case", *result.plan.targets, *(m.name for m in result.plan.metrics)]
+    for name in columns:
+        ranking.add_column(name, justify="left" if name == "case" else "right")
+    for _, row in best.head(RANKED_ROWS).iterrows():
+        ranking.add_row(*(_cell(row[name]) for name in columns))
+    console.print(ranking)
+
+
+def _cell(value: object) -> str:
+    if isinstance(value, float):
+        return f"{value:.6g}"
+    return str(value)

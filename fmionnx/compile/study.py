@@ -1,0 +1,340 @@
+"""The study compiler: a study file and its system become a :class:`StudyPlan` (or diagnostics).
+
+The system is compiled once. Every target is looked up in the compiled system (``run.stop``,
+``run.output_interval``, a system input, or ``component.parameter``: an unknown name gets a
+"did you mean"), every value of every axis is applied to it with the command line's own
+overrides (so a value that ``fmionnx run --param`` would refuse is refused here, at its place
+in the study file), the cases are enumerated in a fixed order, and the metrics are resolved
+like the left side of a check. Nothing runs.
+
+Cases: the grid axes combine as a cartesian product (the first target varies slowest); the
+sampled targets draw ``sampling.samples`` rows from one seeded generator (``random`` targets
+first, then one Latin-hypercube design over every ``latin_hypercube`` target); every grid
+point is combined with every sample row. Same study file, same cases, same ids.
+"""
+
+from __future__ import annotations
+
+import itertools
+import math
+from collections.abc import Sequence
+from typing import Literal
+
+from fmionnx.compile.checks import compile_measure
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.overrides import OverrideError
+from fmionnx.compile.studyir import (
+    Case,
+    Metric,
+    Objective,
+    Setting,
+    SettingKind,
+    SettingValue,
+    StudyPlan,
+    apply_setting,
+)
+from fmionnx.core.diagnostics import DiagnosticBag, Span, did_you_mean, one_of
+from fmionnx.core.types import Causality
+from fmionnx.spec.study import AxisSpec, LoadedStudy, StudySpec, StudyValue
+
+#: More cases than this is a mistake in the study file (a grid axis too many), not a study.
+MAX_CASES = 1_000_000
+#: Run settings a study may vary (``run.<key>``), as the system file spells them.
+RUN_TARGETS: dict[str, SettingKind] = {"run.stop": "stop", "run.output_interval": "output_interval"}
+#: Significant digits kept of generated numbers (a range, a sample): tidy tables, same cases.
+DIGITS = 12
+#: ``isolate`` words besides component names (as ``fmionnx run --isolate``).
+ISOLATE_WORDS = ("fmus", "all", "none")
+
+
+def compile_study(loaded: LoadedStudy, bag: DiagnosticBag) -> StudyPlan | None:
+    """Compile the study's system and resolve the study; None when anything is wrong."""
+    from fmionnx.compile.compiler import compile_spec
+    from fmionnx.spec.frontends import load_system
+
+    spec = loaded.spec
+    if spec is None:
+        return None
+    sources = loaded.sources
+    system_path = loaded.path.parent / spec.system
+    if not system_path.is_file():
+        bag.emit(
+            "E101",
+            f"the study's system file `{spec.system}` does not exist",
+            sources.value(("system",)),
+            hint="`system:` is relative to the study file",
+        )
+        return None
+    system_bag = DiagnosticBag()
+    loaded_system = load_system(system_path, system_bag)
+    system = compile_spec(loaded_system, system_bag) if loaded_system.spec is not None else None
+    bag.extend(system_bag.sorted())
+    if system is None or system_bag.has_errors:
+        bag.emit(
+            "E101",
+            f"the study's system `{spec.system}` does not compile (errors above)",
+            sources.value(("system",)),
+        )
+        return None
+    return resolve_study(spec, system, loaded, bag)
+
+
+def resolve_study(
+    spec: StudySpec, system: CompiledSystem, loaded: LoadedStudy, bag: DiagnosticBag
+) -> StudyPlan | None:
+    """The plan of ``spec`` over the compiled ``system`` (problems into ``bag``)."""
+    sources = loaded.sources
+    kinds: dict[str, SettingKind] = {}
+    for target in spec.parameters:
+        kind = _target_kind(system, target, sources.key(("parameters", target)), bag)
+        if kind is not None:
+            kinds[target] = kind
+    metrics = _metrics(spec, system, loaded, bag)
+    objective = _objective(spec, loaded, bag)
+    isolate = _isolation(spec, system, loaded, bag)
+    if len(kinds) != len(spec.parameters):
+        return None
+    axes = spec.parameters
+    grid = {t: a.grid_values() for t, a in axes.items() if a.sampled is None}
+    sampled = {t: a for t, a in axes.items() if a.sampled is not None}
+    if sampled and spec.sampling is None:
+        first = next(iter(sampled))
+        bag.emit(
+            "E103",
+            f"`{first}` is sampled, but the study has no `sampling: {{samples: N, seed: S}}`",
+            sources.value(("parameters", first)),
+            hint="add `sampling: {samples: 20, seed: 1}`: the number of rows and the seed",
+        )
+        return None
+    samples = spec.sampling.samples if sampled and spec.sampling is not None else 1
+    count = math.prod(len(v) for v in grid.values()) * samples
+    if count > MAX_CASES:
+        bag.emit(
+            "E106",
+            f"the study has {count} cases, more than {MAX_CASES}",
+            sources.key(("parameters",)),
+            hint="use fewer values per grid axis, or sample (`random`, `latin_hypercube`)",
+        )
+        return None
+    rows = _sample_rows(
+        sampled,
+        spec.sampling.samples if spec.sampling else 0,
+        spec.sampling.seed if spec.sampling else 0,
+    )
+    ok = True
+    tried: dict[str, list[SettingValue | StudyValue]] = {t: list(v) for t, v in grid.items()}
+    tried.update({t: [r[t] for r in rows] for t in sampled})
+    for target, values in tried.items():
+        ok = _check_values(system, target, kinds[target], values, loaded, bag) and ok
+    if not ok or metrics is None or bag.has_errors or isolate is None:
+        return None
+    cases = _cases(grid, rows or [{}], kinds, list(spec.parameters))
+    return StudyPlan(
+        name=loaded.path.name,
+        system=system,
+        targets=tuple(spec.parameters),
+        cases=cases,
+        metrics=metrics,
+        objective=objective,
+        isolate=isolate,
+        timeout=spec.timeout,
+        step_timeout=spec.step_timeout,
+    )
+
+
+def _target_kind(
+    system: CompiledSystem, target: str, span: Span, bag: DiagnosticBag
+) -> SettingKind | None:
+    """What ``target`` names in ``system``; a diagnostic (with a suggestion) when nothing."""
+    names = [c.name for c in system.components]
+    if target in RUN_TARGETS and "run" not in names:
+        return RUN_TARGETS[target]
+    if any(i.name == target for i in system.inputs):
+        return "parameter"
+    owners = [n for n in names if target.startswith(n + ".")]
+    if not owners:
+        head = target.split(".", 1)[0]
+        candidates = [*names, *(i.name for i in system.inputs)]
+        if head == "run":
+            bag.emit(
+                "E102",
+                f"`{target}` is not a run setting a study can vary",
+                span,
+                hint=did_you_mean(target, RUN_TARGETS) or one_of(RUN_TARGETS),
+            )
+            return None
+        hint = did_you_mean(head, candidates) or did_you_mean(target, candidates)
+        bag.emit(
+            "E102",
+            f"`{target}`: the system has no component `{head}`",
+            span,
+            hint=hint or (one_of(candidates) + " (a target is `component.parameter`)"),
+        )
+        return None
+    component = system.component(max(owners, key=len))
+    port_name = target[len(component.name) + 1 :]
+    settable = [
+        p.name
+        for p in component.interface.ports
+        if p.causality in (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER, Causality.INPUT)
+    ]
+    if port_name not in settable:
+        bag.emit(
+            "E102",
+            f"`{target}`: `{component.name}` has no parameter `{port_name}`",
+            span,
+            hint=did_you_mean(port_name, settable) or one_of(settable),
+        )
+        return None
+    return "parameter"
+
+
+def _check_values(
+    system: CompiledSystem,
+    target: str,
+    kind: SettingKind,
+    values: Sequence[SettingValue | StudyValue],
+    loaded: LoadedStudy,
+    bag: DiagnosticBag,
+) -> bool:
+    """Apply every value alone to the base system: a value that does not fit is E103."""
+    for value in dict.fromkeys(_frozen(v) for v in values):
+        try:
+            apply_setting(system, Setting(target, kind, value))
+        except OverrideError as exc:
+            detail = str(exc).split(": ", 1)[-1] if str(exc).startswith("--param") else str(exc)
+            detail = detail.replace("--stop-time", "run.stop").replace(
+                "--output-interval", "run.output_interval"
+            )
+            bag.emit(
+                "E103",
+                f"`{target}`: {detail}",
+                loaded.sources.value(("parameters", target)),
+            )
+            return False
+    return True
+
+
+def _frozen(value: SettingValue | StudyValue) -> SettingValue:
+    return tuple(value) if isinstance(value, list | tuple) else value
+
+
+def _tidy(value: float) -> float:
+    return float(f"{value:.{DIGITS}g}")
+
+
+def _sample_rows(
+    sampled: dict[str, AxisSpec], samples: int, seed: int
+) -> list[dict[str, SettingValue]]:
+    """``samples`` rows of the sampled targets from one seeded generator (empty: none)."""
+    if not sampled:
+        return []
+    import numpy as np
+
+    rng = np.random.default_rng(seed)
+    random = [t for t, a in sampled.items() if a.random is not None]
+    lhs = [t for t, a in sampled.items() if a.latin_hypercube is not None]
+    columns: dict[str, list[float]] = {}
+    if random:
+        draws = rng.random((samples, len(random)))
+        for j, target in enumerate(random):
+            bounds = sampled[target].random
+            assert bounds is not None
+            columns[target] = [
+                bounds.low + (bounds.high - bounds.low) * float(u) for u in draws[:, j]
+            ]
+    if lhs:
+        for target in lhs:  # one stratum per sample in every dimension, strata paired at random
+            bounds = sampled[target].latin_hypercube
+            assert bounds is not None
+            strata = rng.permutation(samples)
+            jitter = rng.random(samples)
+            units = (strata + jitter) / samples
+            columns[target] = [bounds.low + (bounds.high - bounds.low) * float(u) for u in units]
+    order = list(sampled)
+    return [{t: _tidy(columns[t][i]) for t in order} for i in range(samples)]
+
+
+def _cases(
+    grid: dict[str, list[StudyValue]],
+    rows: list[dict[str, SettingValue]],
+    kinds: dict[str, SettingKind],
+    order: list[str],
+) -> tuple[Case, ...]:
+    """Every grid point with every sample row, in a fixed order, with stable ids."""
+    points = list(itertools.product(*grid.values()))
+    total = len(points) * len(rows)
+    width = max(4, len(str(total - 1)))
+    cases: list[Case] = []
+    for point, row in itertools.product(points, rows):
+        values: dict[str, SettingValue] = {
+            t: _frozen(_tidy(v) if isinstance(v, float) else v)
+            for t, v in zip(grid, point, strict=True)
+        }
+        values.update(row)
+        settings = tuple(Setting(t, kinds[t], values[t]) for t in order)
+        cases.append(Case(f"case-{len(cases):0{width}d}", settings))
+    return tuple(cases)
+
+
+def _metrics(
+    spec: StudySpec, system: CompiledSystem, loaded: LoadedStudy, bag: DiagnosticBag
+) -> tuple[Metric, ...] | None:
+    components = {c.name: c for c in system.components}
+    metrics = []
+    ok = True
+    checks = {c.name for c in system.checks}
+    for name, expression in spec.metrics.items():
+        span = loaded.sources.value(("metrics", name))
+        if name in checks:
+            bag.emit(
+                "E104",
+                f"metric `{name}` has the name of one of the system's checks",
+                loaded.sources.key(("metrics", name)),
+                hint="the table has a column per check and per metric: give the metric another name",
+            )
+            ok = False
+            continue
+        resolved = compile_measure(f"metric `{name}`", expression, components, span, bag)
+        if resolved is None:
+            ok = False
+            continue
+        text = " ".join(expression.split())
+        metrics.append(Metric(name, text, resolved[0], resolved[1]))
+    return tuple(metrics) if ok else None
+
+
+def _objective(spec: StudySpec, loaded: LoadedStudy, bag: DiagnosticBag) -> Objective | None:
+    if spec.objective is None:
+        return None
+    sense: Literal["minimize", "maximize"] = (
+        "minimize" if spec.objective.minimize is not None else "maximize"
+    )
+    name = spec.objective.metric
+    if name not in spec.metrics:
+        bag.emit(
+            "E105",
+            f"the objective names no metric `{name}`",
+            loaded.sources.value(("objective", sense)),
+            hint=did_you_mean(name, spec.metrics) or one_of(spec.metrics),
+        )
+        return None
+    return Objective(name, sense)
+
+
+def _isolation(
+    spec: StudySpec, system: CompiledSystem, loaded: LoadedStudy, bag: DiagnosticBag
+) -> tuple[str, ...] | None:
+    """The ``isolate`` words, each a component name or ``fmus``/``all``/``none``; the worker
+    selects the components with the runtime's own rule (``--isolate``)."""
+    words = [*ISOLATE_WORDS, *(c.name for c in system.components)]
+    for word in spec.isolate:
+        if word not in words:
+            bag.emit(
+                "E102",
+                f"`isolate`: no component `{word}`",
+                loaded.sources.value(("isolate",)),
+                hint=did_you_mean(word, words) or one_of(words),
+            )
+            return None
+    return tuple(spec.isolate)

@@ -1,0 +1,129 @@
+"""A study as its workers need it: resolved cases, metrics and run options, nothing of the file.
+
+The compiler of studies (:mod:`fmionnx.compile.study`) checks every target and value against
+the compiled system once; a case is then only a list of :class:`Setting` values that
+:func:`apply_case` turns into the case's own compiled system with the same overrides
+``fmionnx run --param/--stop-time`` uses (:mod:`fmionnx.compile.overrides`). A worker that
+received the base compiled system (as JSON) and a case derives the case's system itself: the
+case is pure data, the derivation a pure function, so the same case gives the same system on
+any host.
+"""
+
+from __future__ import annotations
+
+import hashlib
+import json
+from dataclasses import dataclass
+from typing import Literal
+
+from fmionnx.compile.checkir import Expr
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.overrides import override_output_interval, override_parameter, override_stop
+from fmionnx.core.types import PortRef, Scalar
+
+#: What a setting changes: a parameter (or system input), the stop time, the output interval.
+SettingKind = Literal["parameter", "stop", "output_interval"]
+#: A setting's value: a scalar, or a flat list for an array parameter.
+SettingValue = Scalar | tuple[Scalar, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Setting:
+    """One target's value in one case (``target`` as the study file writes it)."""
+
+    target: str
+    kind: SettingKind
+    value: SettingValue
+
+
+@dataclass(frozen=True, slots=True)
+class Case:
+    """One run of a study: its id (stable for a given study) and its settings."""
+
+    id: str
+    settings: tuple[Setting, ...]
+
+    def values(self) -> dict[str, SettingValue]:
+        """Target -> value, in the study's order."""
+        return {s.target: s.value for s in self.settings}
+
+
+@dataclass(frozen=True, slots=True)
+class Metric:
+    """A named measure (checks language), resolved like a check's left side."""
+
+    name: str
+    expression: str
+    measure: Expr
+    refs: tuple[PortRef, ...]
+
+
+@dataclass(frozen=True, slots=True)
+class Objective:
+    """Rank cases by ``metric``, smallest first (``minimize``) or largest first."""
+
+    metric: str
+    sense: Literal["minimize", "maximize"]
+
+
+@dataclass(frozen=True)
+class StudyPlan:
+    """A whole study, resolved: the base system, every case, the metrics and run options."""
+
+    name: str
+    system: CompiledSystem
+    targets: tuple[str, ...]
+    cases: tuple[Case, ...]
+    metrics: tuple[Metric, ...] = ()
+    objective: Objective | None = None
+    #: ``isolate`` words (``fmus``, ``all``, ``none``, component names), as ``run --isolate``.
+    isolate: tuple[str, ...] = ()
+    timeout: float | None = None
+    #: Seconds one step may take (None: ``timeout``).
+    step_timeout: float | None = None
+
+    @property
+    def check_names(self) -> tuple[str, ...]:
+        """The system's checks, evaluated on every case."""
+        return tuple(c.name for c in self.system.checks)
+
+    @property
+    def fingerprint(self) -> str:
+        """sha256 over what decides the cases' results: ``--resume`` refuses a folder whose
+        finished cases were run from another plan."""
+        payload = {
+            "system": self.system.content_hash,
+            "cases": [
+                [c.id, [[s.target, s.kind, _plain(s.value)] for s in c.settings]]
+                for c in self.cases
+            ],
+            "metrics": [[m.name, m.expression] for m in self.metrics],
+            "isolate": list(self.isolate),
+            "timeout": self.timeout,
+            "step_timeout": self.step_timeout,
+        }
+        text = json.dumps(payload, sort_keys=True)
+        return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _plain(value: SettingValue) -> object:
+    return list(value) if isinstance(value, tuple) else value
+
+
+def apply_setting(system: CompiledSystem, setting: Setting) -> CompiledSystem:
+    """``system`` with one setting applied (OverrideError when the value does not fit)."""
+    if setting.kind == "stop":
+        assert isinstance(setting.value, int | float)
+        return override_stop(system, float(setting.value))
+    if setting.kind == "output_interval":
+        assert isinstance(setting.value, int | float)
+        return override_output_interval(system, float(setting.value))
+    value = list(setting.value) if isinstance(setting.value, tuple) else setting.value
+    return override_parameter(system, setting.target, value)
+
+
+def apply_case(system: CompiledSystem, case: Case) -> CompiledSystem:
+    """The case's compiled system: the base with every setting applied, in order."""
+    for setting in case.settings:
+        system = apply_setting(system, setting)
+    return system

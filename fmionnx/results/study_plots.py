@@ -1,0 +1,136 @@
+"""Summary plots of a study (matplotlib, Agg): what a table of numbers hides at a glance.
+
+* one target: each metric against it (``metric-<name>.png``);
+* two targets: a heat map per metric over the grid (``heatmap-<name>.png``);
+* more targets, or sampled ones: each metric against each target, as points;
+* always, with checks: a pass/fail map (``passfail.png``) over the first two targets (or
+  against the first one), green where the case ran and passed every check.
+
+Cases that did not complete are drawn as missing (a grey cell, a cross), never as a value.
+"""
+
+from __future__ import annotations
+
+import re
+from pathlib import Path
+from typing import TYPE_CHECKING, Any
+
+from fmionnx.compile.studyir import StudyPlan
+from fmionnx.results.plots import DPI, save_figure
+from fmionnx.results.study import CHECK_PREFIX
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+#: Inches per panel.
+PANEL = (6.0, 4.5)
+
+
+def new_figure_plain(ncols: int = 1) -> tuple[Any, Any]:
+    """A matplotlib Figure (object API, no pyplot state) and its axes (one per column)."""
+    from matplotlib.figure import Figure
+
+    figure = Figure(figsize=(PANEL[0] * ncols, PANEL[1]), dpi=DPI)
+    return figure, figure.subplots(ncols=ncols)
+
+
+def write_study_plots(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Path]:
+    """Write the study's summary plots into ``out``; returns their paths."""
+    numeric = [t for t in plan.targets if _numeric(table[t])]
+    written: list[Path] = []
+    if table.empty or not numeric:
+        return written
+    for metric in plan.metrics:
+        if len(numeric) == 2 and _is_grid(table, numeric):
+            written.append(_heatmap(table, numeric, metric.name, out))
+        else:
+            written.append(_against(table, numeric, metric.name, out))
+    if plan.check_names:
+        written.append(_passfail(table, numeric, plan, out))
+    return written
+
+
+def _numeric(column: pd.Series) -> bool:
+    import pandas as pd
+
+    return bool(pd.api.types.is_numeric_dtype(column)) and not bool(
+        pd.api.types.is_bool_dtype(column)
+    )
+
+
+def _is_grid(table: pd.DataFrame, targets: list[str]) -> bool:
+    return not table.duplicated(subset=targets).any()
+
+
+def _file(prefix: str, name: str) -> str:
+    slug = re.sub(r"[^A-Za-z0-9_.-]+", "_", name).strip("_") or "metric"
+    return f"{prefix}-{slug}.png"
+
+
+def _heatmap(table: pd.DataFrame, targets: list[str], metric: str, out: Path) -> Path:
+    grid = table.pivot_table(
+        index=targets[1], columns=targets[0], values=metric, aggfunc="mean", dropna=False
+    )
+    figure, axes = new_figure_plain()
+    image = axes.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap="viridis")
+    _ticks(axes, grid)
+    axes.set_xlabel(targets[0])
+    axes.set_ylabel(targets[1])
+    axes.set_title(metric)
+    figure.colorbar(image, ax=axes, label=metric)
+    low, high = image.get_clim()
+    for (row, col), value in _cells(grid):
+        bright = high > low and (value - low) / (high - low) > 0.6  # viridis is light up there
+        colour = "black" if bright else "white"
+        axes.text(col, row, f"{value:.3g}", ha="center", va="center", color=colour, fontsize=8)
+    return save_figure(figure, out / _file("heatmap", metric))
+
+
+def _cells(grid: pd.DataFrame) -> list[tuple[tuple[int, int], float]]:
+    import math
+
+    cells = []
+    values = grid.to_numpy(dtype=float)
+    for row in range(values.shape[0]):
+        for col in range(values.shape[1]):
+            if not math.isnan(values[row, col]):
+                cells.append(((row, col), float(values[row, col])))
+    return cells
+
+
+def _ticks(axes: Any, grid: pd.DataFrame) -> None:
+    axes.set_xticks(range(len(grid.columns)), [f"{v:g}" for v in grid.columns])
+    axes.set_yticks(range(len(grid.index)), [f"{v:g}" for v in grid.index])
+
+
+def _against(table: pd.DataFrame, targets: list[str], metric: str, out: Path) -> Path:
+    figure, axes = new_figure_plain(ncols=len(targets))
+    panels = axes if len(targets) > 1 else [axes]
+    for panel, target in zip(panels, targets, strict=True):
+        ordered = table.sort_values(target, kind="stable")
+        style = "o-" if len(targets) == 1 else "o"
+        panel.plot(ordered[target], ordered[metric], style)
+        panel.set_xlabel(target)
+        panel.set_ylabel(metric)
+        panel.grid(visible=True, alpha=0.3)
+    figure.suptitle(metric)
+    return save_figure(figure, out / _file("metric", metric))
+
+
+def _passfail(table: pd.DataFrame, targets: list[str], plan: StudyPlan, out: Path) -> Path:
+    checks = [CHECK_PREFIX + n for n in plan.check_names]
+    passed = (table["status"] == "ok") & table[checks].all(axis=1)
+    figure, axes = new_figure_plain()
+    x = table[targets[0]]
+    y = table[targets[1]] if len(targets) > 1 else passed.astype(int)
+    axes.scatter(x[passed], y[passed], c="tab:green", marker="o", s=80, label="passed")
+    axes.scatter(x[~passed], y[~passed], c="tab:red", marker="x", s=80, label="failed")
+    axes.set_xlabel(targets[0])
+    if len(targets) > 1:
+        axes.set_ylabel(targets[1])
+    else:
+        axes.set_yticks([0, 1], ["failed", "passed"])
+    axes.set_title("checks: " + ", ".join(plan.check_names))
+    axes.legend(loc="best")
+    axes.grid(visible=True, alpha=0.3)
+    return save_figure(figure, out / "passfail.png")

@@ -1,0 +1,96 @@
+"""Running a study end to end: study file -> plan -> cases on a Dask cluster -> results folder.
+
+What ``fmionnx sweep`` and :func:`fmionnx.sweep` both do. The study is compiled first (every
+problem is a diagnostic, nothing is written); then the results folder is prepared (a resumed
+study keeps its finished cases), the remaining cases run on the cluster, each outcome is
+recorded the moment it arrives, and finally the table and the plots are written from the
+records.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from dataclasses import dataclass
+from pathlib import Path
+from typing import TYPE_CHECKING
+
+from fmionnx.compile.studyir import StudyPlan
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity
+from fmionnx.core.errors import DiagnosticError
+
+if TYPE_CHECKING:
+    import pandas as pd
+
+    from fmionnx.backends.sweep.case import CaseOutcome
+
+#: ``progress(done, failed, total)``: after every finished case (and once before the first).
+SweepProgress = Callable[[int, int, int], None]
+
+
+@dataclass(frozen=True)
+class SweepResult:
+    """A finished study: its plan, the table, the files written, the cases skipped (resume)."""
+
+    plan: StudyPlan
+    table: pd.DataFrame
+    files: tuple[Path, ...]
+    resumed: int
+    warnings: tuple[Diagnostic, ...] = ()
+
+
+def plan_study(study: str | Path) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
+    """Compile a study file; raises DiagnosticError with every error."""
+    from fmionnx.compile.study import compile_study
+    from fmionnx.spec.study import load_study
+
+    bag = DiagnosticBag()
+    plan = compile_study(load_study(Path(study), bag), bag)
+    diagnostics = tuple(bag.sorted())
+    errors = [d for d in diagnostics if d.severity is Severity.ERROR]
+    if plan is None or errors:
+        raise DiagnosticError(errors)
+    return plan, diagnostics
+
+
+def run_sweep(
+    plan: StudyPlan,
+    out: Path,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    resume: bool = False,
+    keep_results: bool = False,
+    force: bool = False,
+    progress: SweepProgress | None = None,
+) -> SweepResult:
+    """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
+
+    ``force`` replaces the results of a study already in ``out`` (without: refused).
+    """
+    from fmionnx.backends.sweep.case import Job
+    from fmionnx.backends.sweep.engine import open_client, run_study
+    from fmionnx.results.study import StudyFolder
+    from fmionnx.results.study_plots import write_study_plots
+
+    folder = StudyFolder(out, plan)
+    finished = folder.prepare(resume=resume, force=force)
+    pending = [c for c in plan.cases if c.id not in finished]
+    job = Job(plan.metrics, plan.isolate, plan.timeout, keep_results, plan.step_timeout)
+    counts = [len(finished), 0]
+    if progress is not None:
+        progress(counts[0], counts[1], len(plan.cases))
+
+    def on_done(outcome: CaseOutcome) -> None:
+        folder.record(outcome)
+        counts[0] += 1
+        counts[1] += outcome.status != "ok"
+        if progress is not None:
+            progress(counts[0], counts[1], len(plan.cases))
+
+    if pending:
+        with open_client(scheduler, workers) as client:
+            run_study(client, plan, pending, job, on_done)
+    table = folder.table()
+    files = folder.write_table(table)
+    files.extend(write_study_plots(table, plan, out))
+    return SweepResult(plan, table, tuple(files), len(finished))

@@ -1,0 +1,74 @@
+"""Study fixtures: a small FMU-only system (a signal, an Integrator and a Gain test FMU).
+
+``final(gain.y)`` is ``k * (x0 + t_stop)``: every case's metric can be checked against a direct
+run of the same system with the same parameters.
+"""
+
+from __future__ import annotations
+
+from collections.abc import Callable
+from pathlib import Path
+
+import pytest
+
+SYSTEM = """\
+fmionnx: 1
+name: chain
+run: {{stop: 1, step: 0.01}}
+components:
+  src: {{kind: signal, outputs: {{y: {{constant: 1}}}}}}
+  integ: {{kind: fmu, path: {integrator}}}
+  gain: {{kind: fmu, path: {gain}, parameters: {{v: [0, 0, 0]}}}}
+connections:
+  - src.y -> integ.u
+  - integ.x -> gain.u
+checks:
+  - name: small
+    expect: final(gain.y) < 3
+"""
+
+#: Writes ``study.yaml`` (text) beside the chain system (``system.yaml``) and returns its path.
+WriteStudy = Callable[[str], Path]
+
+
+@pytest.fixture
+def chain_folder(tmp_path: Path, fixture_fmu: Callable[[str], Path]) -> Path:
+    """A folder with the chain system and copies of its two FMUs (``models/``)."""
+    import shutil
+
+    models = tmp_path / "models"
+    models.mkdir()
+    for name in ("Integrator", "Gain"):
+        shutil.copy(fixture_fmu(name), models / f"{name}.fmu")
+    text = SYSTEM.format(integrator="models/Integrator.fmu", gain="models/Gain.fmu")
+    (tmp_path / "system.yaml").write_text(text, encoding="utf-8")
+    return tmp_path
+
+
+@pytest.fixture
+def write_study(chain_folder: Path) -> WriteStudy:
+    def write(text: str) -> Path:
+        path = chain_folder / "study.yaml"
+        path.write_text(text, encoding="utf-8")
+        return path
+
+    return write
+
+
+@pytest.fixture(scope="module")
+def cluster() -> object:
+    """One local Dask cluster (2 worker processes) shared by a module's tests."""
+    from fmionnx.backends.sweep.engine import open_client
+
+    with open_client(workers=2) as client:
+        yield client.scheduler.address
+
+
+@pytest.fixture(autouse=True)
+def _collect_garbage() -> object:
+    """Collect after each test, so what Dask leaves to the collector is reported (and ignored,
+    see the modules' ``pytestmark``) here rather than in whichever test runs next."""
+    import gc
+
+    yield
+    gc.collect()
