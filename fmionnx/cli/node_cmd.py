@@ -54,8 +54,13 @@ def node(
     component: Annotated[str, typer.Argument(help="The component this node runs.")],
     sync: Annotated[str, typer.Option("--sync", help="`lockstep` or `free`.")] = "free",
     ros_distro: Annotated[
-        str, typer.Option("--ros-distro", help="humble, iron, jazzy or kilted.")
-    ] = "jazzy",
+        str | None,
+        typer.Option(
+            "--ros-distro",
+            help="humble, iron, jazzy or kilted; replaces the system's `ros2: distro:` "
+            "(default: that, else jazzy).",
+        ),
+    ] = None,
     stop_time: Annotated[
         float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
     ] = None,
@@ -118,7 +123,7 @@ def node(
     """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time, 1 on a fault."""
     from fmionnx import api
     from fmionnx.backends.ros2.env import Ros2EnvError
-    from fmionnx.backends.ros2.loading import plan_for
+    from fmionnx.backends.ros2.loading import plan_for, resolve_distro
     from fmionnx.backends.ros2.middleware import Middleware
     from fmionnx.backends.ros2.node import Node, NodeError, NodeOptions, SyncMode
     from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError, distro_problem
@@ -129,7 +134,7 @@ def node(
 
     try:
         mode = SyncMode(sync)
-        distro = RosDistro(ros_distro)
+        requested = None if ros_distro is None else RosDistro(ros_distro)
         transport = Middleware(middleware)
     except ValueError as exc:
         raise _fail(str(exc), ExitCode.USAGE) from None
@@ -149,9 +154,6 @@ def node(
         if wrong is not None or zenoh_router == "auto":
             raise _fail(wrong or "--zenoh-router of a node is an endpoint, not `auto`",
                         ExitCode.USAGE)  # fmt: skip
-    problem = distro_problem(distro) if transport is Middleware.RCLPY else None
-    if problem is not None:
-        raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
     params = {}
     for item in param or []:
         key, sep, value = item.partition("=")
@@ -173,6 +175,10 @@ def node(
                 f"{max_steps:.3g}; check the stop time and step, or pass a larger --max-steps",
                 ExitCode.USAGE,
             )
+        distro = resolve_distro(compiled, requested)  # --ros-distro, else the system's own
+        problem = distro_problem(distro) if transport is Middleware.RCLPY else None
+        if problem is not None:
+            raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
         plan = plan_for(compiled, distro)
         options = NodeOptions(
             mode,

@@ -18,7 +18,12 @@ ros2_app = typer.Typer(
 app.add_typer(ros2_app, name="ros2")
 
 DistroOption = Annotated[
-    str, typer.Option("--ros-distro", help="humble, iron, jazzy or kilted.")
+    str | None,
+    typer.Option(
+        "--ros-distro",
+        help="humble, iron, jazzy or kilted; replaces the system file's `ros2: distro:` "
+        "(default: that, else jazzy).",
+    ),
 ]
 
 
@@ -27,14 +32,15 @@ def _fail(message: str, code: int) -> typer.Exit:
     return typer.Exit(code)
 
 
-def _plan(system: Path, distro: str) -> tuple[object, object]:
+def _plan(system: Path, distro: str | None) -> tuple[object, object]:
+    """The compiled system and its plan for ``--ros-distro`` (None: the system's own)."""
     from fmionnx import api
     from fmionnx.backends.ros2.loading import plan_for
     from fmionnx.compile.ros2.messages import RosDistro
     from fmionnx.core.errors import DiagnosticError
 
     try:
-        chosen = RosDistro(distro)
+        chosen = None if distro is None else RosDistro(distro)
     except ValueError:
         names = ", ".join(d.value for d in RosDistro)
         raise _fail(f"--ros-distro must be one of {names}", ExitCode.USAGE) from None
@@ -64,7 +70,7 @@ def graph(
         typer.Option("--domain", help="ROS domain (default: ROS_DOMAIN_ID or 0)."),
     ] = None,
     timeout: Annotated[float, typer.Option("--timeout", help="Seconds to listen.")] = 2.0,
-    ros_distro: DistroOption = "jazzy",
+    ros_distro: DistroOption = None,
     output_format: Annotated[str, typer.Option("--format", "-f", help="text or json.")] = "text",
     middleware: Annotated[
         str,
@@ -133,7 +139,7 @@ def graph(
 def launch_file(
     system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp).")],
     output: Annotated[Path, typer.Option("--output", "-o", help="The .launch.py to write.")],
-    ros_distro: DistroOption = "jazzy",
+    ros_distro: DistroOption = None,
     middleware: Annotated[
         str,
         typer.Option(

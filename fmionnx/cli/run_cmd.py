@@ -150,11 +150,13 @@ def run(
         ),
     ] = "lockstep",
     ros_distro: Annotated[
-        str,
+        str | None,
         typer.Option(
-            "--ros-distro", help="With --backend ros2: humble, iron, jazzy or kilted (wire types)."
+            "--ros-distro",
+            help="With --backend ros2: humble, iron, jazzy or kilted (wire types); replaces the "
+            "system file's `ros2: distro:` (default: that, else jazzy).",
         ),
-    ] = "jazzy",
+    ] = None,
     middleware: Annotated[
         str,
         typer.Option(
@@ -371,7 +373,7 @@ def _check_out(out: Path, *, force: bool, system_run: bool, default: bool = Fals
 def _ros2_options(
     backend: str,
     sync: str,
-    distro: str,
+    distro: str | None,
     middleware: str,
     rtf: float,
     suffix: str,
@@ -389,7 +391,7 @@ def _ros2_options(
 
     if sync not in {m.value for m in SyncMode}:
         raise fail(f"--sync must be `lockstep` or `free`, not `{sync}`")
-    if distro not in {d.value for d in RosDistro}:
+    if distro is not None and distro not in {d.value for d in RosDistro}:
         raise fail(f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}")
     if middleware not in ("dds", "rclpy", "zenoh"):
         raise fail(f"--middleware must be `dds`, `rclpy` or `zenoh`, not `{middleware}`")
@@ -400,15 +402,29 @@ def _ros2_options(
     if not step_timeout > 0:
         raise fail("--step-timeout must be > 0 seconds")
     if middleware == "rclpy":  # checked in a child process: rclpy stays out of this one
-        from fmionnx.backends.ros2.rclpy_env import distro_problem, rclpy_problem
+        from fmionnx.backends.ros2.rclpy_env import rclpy_problem
 
-        problem = rclpy_problem() or distro_problem(RosDistro(distro))
+        problem = rclpy_problem()
         if problem is not None:
             raise fail(f"--middleware rclpy: {problem}; or use `--middleware dds` (the default)")
     return Ros2Options(
-        sync=SyncMode(sync), distro=RosDistro(distro), rtf=rtf, record=record,
+        sync=SyncMode(sync), distro=None if distro is None else RosDistro(distro), rtf=rtf,
+        record=record,
         step_timeout=step_timeout, middleware=middleware,
     )  # fmt: skip
+
+
+def _check_rclpy_distro(compiled: Any, ros2: Any) -> None:
+    """``--middleware rclpy``: the run's distribution (``--ros-distro``, else the system
+    file's) must be rclpy's; known only once the system is loaded, still before any node."""
+    if ros2.middleware != "rclpy":
+        return
+    from fmionnx.backends.ros2.loading import resolve_distro
+    from fmionnx.backends.ros2.rclpy_env import distro_problem
+
+    problem = distro_problem(resolve_distro(compiled, ros2.distro))
+    if problem is not None:
+        raise fail(f"--middleware rclpy: {problem}; or use `--middleware dds` (the default)")
 
 
 def _with_input_wait(ros2: Any, seconds: float) -> Any:
@@ -528,6 +544,7 @@ def _run_system(
         from fmionnx.backends.ros2.supervisor import run_ros2
 
         ros2 = dataclasses.replace(ros2, out=out)
+        _check_rclpy_distro(system.compiled, ros2)
 
         def run_fn(*, options: RunOptions) -> Any:
             return run_ros2(system.compiled, dataclasses.replace(ros2, run=options))

@@ -83,6 +83,9 @@ MATCH_TIMEOUT = 60.0
 INPUT_WAIT = 0.1
 #: Free run: stale steps logged per input (the rest are only counted).
 STALE_LOGGED = 5
+#: Exit status of a node whose model ended the simulation (FMI ``terminateSimulation``): not
+#: a fault; its status file says who ended the run and when (``docs/ros2.md``).
+ENDED_BY_MODEL = 3
 
 
 class SyncMode(enum.StrEnum):
@@ -328,6 +331,8 @@ class Node:
             options.sync is SyncMode.FREE and clock_source(system, plan) == component
         )
         self.steps_done = 0
+        #: The step from which the model asked to end the simulation (None: it did not).
+        self.ending_step: int | None = None
         self.inboxes: list[Inbox] = []
         self.outboxes: list[Outbox] = []
         self.transfers: tuple[Transfer, ...] = ()
@@ -457,7 +462,15 @@ class Node:
         if recording is not None and recording.before is not None:
             recording.before.sample()
         h = self.component.period_steps * self.system.run.step
-        runner.step(t, h)
+        try:
+            runner.step(t, h)
+        except ModelTerminated:
+            # the step completed (a runner gets the outputs first): they are the last row
+            if recording is not None and recording.after is not None:
+                recording.after.sample()
+            self.steps_done = n + self.component.period_steps
+            self.ending_step = n
+            raise
         if recording is not None and recording.after is not None:
             recording.after.sample()
         self.steps_done = n + self.component.period_steps
@@ -549,10 +562,12 @@ class Node:
     # -- the process ---------------------------------------------------------------------------
 
     def run(self) -> int:
-        """Run to the end of the simulation; 0 when completed, 1 on a fault, 130 when stopped."""
+        """Run to the end of the simulation; 0 when completed, 1 on a fault, 130 when stopped,
+        :data:`ENDED_BY_MODEL` when the model ended the simulation."""
         _terminate_on_sigterm()
         opts = self.options
         status, error, code = "completed", None, 0
+        ended: dict[str, str | float | int] | None = None
         participant = open_transport(
             opts.middleware, from_environment(self.plan.distro), self.node_plan.namespace,
             self.node_plan.name, zenoh_router=opts.zenoh_router,
@@ -598,8 +613,11 @@ class Node:
                 self._free(runner, clock_in)
             log.info("finished at step %d", self.steps_done)
         except ModelTerminated as exc:
-            # The model ended the simulation (FMI terminateSimulation): the node ends normally.
-            log.info("ended by the model at step %d: %s", self.steps_done, exc.reason)
+            # The model ended the simulation (FMI terminateSimulation): no fault, but the
+            # other nodes must stop too; the supervisor reads who and when from the status.
+            ended = self._ended(exc)
+            status, code = "ended", ENDED_BY_MODEL
+            log.info("the model ended the simulation at t=%g s: %s", ended["time"], exc.reason)
         except RunError as exc:
             status, error, code = "fault", exc, 1
             log.error("fault: %s", exc)  # noqa: TRY400 - the fault is the message, not a bug
@@ -610,12 +628,28 @@ class Node:
             if opts.record_dir is not None:
                 inputs = self.input_counts() if opts.sync is SyncMode.FREE else None
                 save_node(opts.record_dir, self.recording, self.component.name,
-                          status=status, steps=self.steps_done, error=error, inputs=inputs)
+                          status=status, steps=self.steps_done, error=error, inputs=inputs,
+                          ended=ended)  # fmt: skip
             runner.terminate()
             if announcer is not None:
                 announcer.withdraw()
             participant.close()
         return code
+
+
+    def _ended(self, request: ModelTerminated) -> dict[str, str | float | int]:
+        """The status file's ``ended_by``: as the in-process master words it, plus ``step``
+        (the base step the ending step started from). The run ends at the end of that step,
+        at the stop time at the latest."""
+        run = self.system.run
+        n = self.ending_step if self.ending_step is not None else self.steps_done
+        end = min(n + self.component.period_steps, run.steps)
+        return {
+            "component": request.component or self.component.name,
+            "time": run.start + end * run.step,
+            "reason": request.reason,
+            "step": n,
+        }
 
 
 def describe_node(plan: Ros2Plan, component: str) -> str:

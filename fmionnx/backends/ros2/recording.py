@@ -14,6 +14,7 @@ from __future__ import annotations
 import io
 import json
 from dataclasses import dataclass
+from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
@@ -105,15 +106,19 @@ def save_node(
     steps: int,
     error: RunError | None = None,
     inputs: dict[str, dict[str, str | int]] | None = None,
+    ended: dict[str, str | float | int] | None = None,
 ) -> None:
     """Write ``<component>.npz`` (rows) and ``<component>.json`` (how the node ended and,
-    in a free run, what happened to each input: ``inputs``, see :mod:`.inputsync`)."""
+    in a free run, what happened to each input: ``inputs``, see :mod:`.inputsync`; when its
+    model ended the simulation, ``ended_by``: component, time, reason and step)."""
     folder.mkdir(parents=True, exist_ok=True)
     arrays: dict[str, Any] = {}
+    after = recording.after if recording else None
     for i, track in enumerate(recording.tracks if recording else ()):
         arrays[f"rows{i}"] = track.rows[: track.count]
         arrays[f"columns{i}"] = np.array(track.columns, dtype=str)
         arrays[f"period{i}"] = np.array(track.period_steps)
+        arrays[f"after{i}"] = np.array(track is after)
     packed = io.BytesIO()
     np.savez(packed, **arrays)
     write_bytes_atomic(folder / f"{component}.npz", packed.getvalue())
@@ -132,6 +137,8 @@ def save_node(
     }
     if inputs is not None:
         info["inputs"] = inputs
+    if ended is not None:
+        info["ended_by"] = ended
     write_text_atomic(folder / f"{component}.json", json.dumps(info, indent=2))
 
 
@@ -159,9 +166,18 @@ def error_of(status: dict[str, Any]) -> RunError | None:
 
 
 def merge(
-    folder: Path, components: list[str], refs: tuple[PortRef, ...], system: CompiledSystem
+    folder: Path,
+    components: list[str],
+    refs: tuple[PortRef, ...],
+    system: CompiledSystem,
+    issued: Mapping[str, int] | None = None,
 ) -> Recorder:
-    """A recorder holding every node's saved tracks, columns in the in-process order."""
+    """A recorder holding every node's saved tracks, columns in the in-process order.
+
+    ``issued``: per component, the steps the in-process order issued before the run ended
+    (a model ending it, :func:`issued_before`); rows of later steps a node did anyway, running
+    concurrently, are dropped (inputs: one row per step, outputs: one more, the initial one).
+    """
     recorder = Recorder()
     available: set[str] = set()
     for component in components:
@@ -173,7 +189,12 @@ def merge(
             while f"rows{i}" in data:
                 rows = np.asarray(data[f"rows{i}"], dtype=np.float64)
                 columns = [str(c) for c in data[f"columns{i}"]]
-                track = Track(int(data[f"period{i}"]), len(rows), columns, [], rows, len(rows))
+                count = len(rows)
+                if issued is not None and component in issued:
+                    after = f"after{i}" in data and bool(data[f"after{i}"])
+                    count = min(count, issued[component] + (1 if after else 0))
+                    rows = rows[:count]
+                track = Track(int(data[f"period{i}"]), count, columns, [], rows, count)
                 if len(rows):
                     recorder.tracks.append(track)
                     available.update(columns)
@@ -187,3 +208,23 @@ def merge(
         seen.update(names)
         recorder.order.extend(names)
     return recorder
+
+
+def issued_before(system: CompiledSystem, n: int, ender: str, components: list[str]) -> dict[str, int]:
+    """Per component but ``ender``: the steps the in-process order issues before ``ender``'s
+    step from base step ``n`` (the one that ended the run).
+
+    In-process, components before ``ender`` in the order step at ``n``, those after it do not
+    (``Master._allowed``); ROS 2 nodes step concurrently, so the supervisor trims to this.
+    """
+    place = system.order.index(ender)
+    counts = {}
+    for component in components:
+        if component == ender:
+            continue
+        period = system.component(component).period_steps
+        before = -(-n // period)
+        if n % period == 0 and system.order.index(component) < place:
+            before += 1
+        counts[component] = before
+    return counts

@@ -13,7 +13,9 @@ every node due at ``n``; finally publish ``t_N``, on which every node saves and 
 publish ``t_0`` once as the start signal; the simulator node then publishes ``/clock``.
 
 Any child ending early stops the run: a node that reported a fault gives a FAULT result with its
-error; any other exit is a crash, reported with the node's name, exit status and last log lines.
+error; a node whose model ended the simulation (exit status :data:`ENDED_BY_MODEL`) ends it
+normally, ``ended_by`` that component, as in-process (:meth:`Supervisor._model_end`); any other
+exit is a crash, reported with the node's name, exit status and last log lines.
 Ctrl-C / SIGTERM stop every child (SIGTERM, then SIGKILL after a grace period).
 """
 
@@ -29,7 +31,7 @@ import sys
 import time
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from fmionnx.backends.ros2.bag import TopicRecorder
 from fmionnx.backends.ros2.control import (
@@ -45,13 +47,25 @@ from fmionnx.backends.ros2.control import (
 )
 from fmionnx.backends.ros2.discovery import GraphAnnouncer, NodeEntities
 from fmionnx.backends.ros2.env import DdsEnvironment, from_environment
-from fmionnx.backends.ros2.loading import plan_for
+from fmionnx.backends.ros2.loading import plan_for, resolve_distro
 from fmionnx.backends.ros2.middleware import NodeTransport, SampleReader, SampleWriter
-from fmionnx.backends.ros2.node import INPUT_WAIT, SyncMode, clock_source, describe_node
-from fmionnx.backends.ros2.recording import error_of, load_status, merge, record_refs
+from fmionnx.backends.ros2.node import (
+    ENDED_BY_MODEL,
+    INPUT_WAIT,
+    SyncMode,
+    clock_source,
+    describe_node,
+)
+from fmionnx.backends.ros2.recording import (
+    error_of,
+    issued_before,
+    load_status,
+    merge,
+    record_refs,
+)
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
+from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.plan import CLOCK_TYPE
 from fmionnx.compile.ros2.types import Ros2Plan
 from fmionnx.compile.systemfile import SUFFIX as COMPILED_SUFFIX
@@ -59,7 +73,7 @@ from fmionnx.compile.systemfile import write_compiled
 from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.core.safewrite import open_growing
 from fmionnx.core.scratch import scratch
-from fmionnx.runtime.result import Detail, RunOptions, RunResult, RunStatus
+from fmionnx.runtime.result import Detail, EndedBy, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import stop_on_signals, stop_reason
 
 if TYPE_CHECKING:
@@ -86,12 +100,14 @@ class Ros2Options:
 
     Every node starts from the supervisor's compiled system (overrides applied, plan for
     ``distro`` included), written to ``<out>/system.fmionnx.json``: no node compiles anything.
+    ``distro`` None: the system's own (its ``ros2: distro:``, else the default); given, it
+    overrides the system file (``--ros-distro``).
     ``out``: that file, logs and node rows go to ``out/logs`` and ``out/nodes`` (a temporary
     folder without it).
     """
 
     sync: SyncMode = SyncMode.LOCKSTEP
-    distro: RosDistro = DEFAULT_DISTRO
+    distro: RosDistro | None = None
     out: Path | None = None
     rtf: float = 1.0
     ready_timeout: float = 180.0
@@ -216,16 +232,23 @@ class Supervisor:
     def __init__(self, system: CompiledSystem, options: Ros2Options, folder: Path) -> None:
         self.system = system
         self.options = options
-        self.plan: Ros2Plan = plan_for(system, options.distro)
+        #: The distribution of the run: ``--ros-distro``, else the system file's.
+        self.distro: RosDistro = resolve_distro(system, options.distro)
+        self.plan: Ros2Plan = plan_for(system, self.distro)
         self.folder = folder
         #: What every node starts from (written when the run starts).
         self.compiled_file = folder / f"system{COMPILED_SUFFIX}"
         self.records = folder / "nodes"
         self.logs = folder / "logs"
         self.children = Children(self.logs)
-        self.clock = StepClock(system.run, options.distro)
+        self.clock = StepClock(system.run, self.distro)
         self.components = [n.component for n in self.plan.nodes]
         self.steps_done = 0
+        #: Lockstep: the nodes due at the current step that did not report it done yet.
+        self.pending: set[str] = set()
+        #: A model ended the simulation: who, when (as in-process), and the rows to keep.
+        self.ended_by: EndedBy | None = None
+        self.issued: dict[str, int] | None = None
         self.recorder: TopicRecorder | None = None
         self.domain_id = 0
         #: ``--middleware zenoh``: the router the run uses (chosen when it starts).
@@ -236,7 +259,7 @@ class Supervisor:
         opts = self.options
         argv = [
             sys.executable, "-m", "fmionnx", "node", str(self.compiled_file), component,
-            "--sync", opts.sync.value, "--ros-distro", opts.distro.value,
+            "--sync", opts.sync.value, "--ros-distro", self.distro.value,
             "--record-dir", str(self.records), "--supervised", "--rtf", repr(opts.rtf),
         ]  # fmt: skip
         if opts.middleware != "dds":
@@ -259,7 +282,7 @@ class Supervisor:
                 msg = f"node(s) {names} did not become ready in {self.options.ready_timeout:g} s"
                 raise SupervisorError(msg)
             for data in ready.take():
-                waiting.discard(decode_ready(data, self.options.distro))
+                waiting.discard(decode_ready(data, self.distro))
             ready.wait(0.2)
 
     def _wait_for_clock_readers(self, writer: SampleWriter, timeout: float = 30.0) -> None:
@@ -283,7 +306,7 @@ class Supervisor:
         total = system.run.steps
         for n in range(total):
             writer.write(self.clock.encode(n))
-            due = {c for c, p in periods.items() if n % p == 0}
+            due = self.pending = {c for c, p in periods.items() if n % p == 0}
             deadline = time.monotonic() + self.options.step_timeout
             while due:
                 for data in done.take(256):
@@ -343,11 +366,12 @@ class Supervisor:
         status, error = RunStatus.COMPLETED, None
         self.interrupted_by: str | None = None
         write_compiled(dataclasses.replace(self.system, ros2_plan=self.plan), self.compiled_file)
-        env = from_environment(self.options.distro)
+        env = from_environment(self.distro)
         self.domain_id = env.domain_id
         participant = self._open_transport(env)
         started = time.perf_counter()
         wall_start = started
+        done: SampleReader | None = None
         try:
             self._refuse_loops()
             ready = participant.reader(READY_DDS, READY_TYPE, CONTROL_READER_QOS)
@@ -372,7 +396,7 @@ class Supervisor:
                 self._free(clock_writer, clock_reader)
             self._finish()
         except NodeEnded as ended:
-            status, error = RunStatus.FAULT, self._ended_error(ended)
+            status, error = self._node_ended(ended, done)
         except SupervisorError as exc:
             status, error = RunStatus.FAULT, RunError(str(exc))
         except KeyboardInterrupt as exc:
@@ -433,6 +457,81 @@ class Supervisor:
             raise SupervisorError(msg)
         self.children.ended_cleanly(self.records)
 
+    def _node_ended(
+        self, ended: NodeEnded, done: SampleReader | None
+    ) -> tuple[RunStatus, RunError | None]:
+        """A node ended before the run did: its model ending the simulation, else a fault."""
+        try:
+            if self._model_end(ended, done):
+                return RunStatus.COMPLETED, None
+        except NodeEnded as other:  # a node before it failed in the same step: that wins
+            return RunStatus.FAULT, self._ended_error(other)
+        except SupervisorError as exc:
+            return RunStatus.FAULT, RunError(str(exc))
+        return RunStatus.FAULT, self._ended_error(ended)
+
+    def _end_request(self, component: str, code: int) -> dict[str, Any] | None:
+        """The ``ended_by`` of a node that exited because its model ended the simulation."""
+        if code != ENDED_BY_MODEL:
+            return None
+        status = load_status(self.records, component) or {}
+        ended = status.get("ended_by")
+        if status.get("status") != "ended" or not isinstance(ended, dict):
+            return None
+        return ended
+
+    def _model_end(self, ended: NodeEnded, done: SampleReader | None) -> bool:
+        """End the run as in-process when ``ended``'s model ended the simulation; False if not.
+
+        In-process, the run ends at the end of that step: components before it in the order
+        did their step at that time, those after it did not. Lockstep therefore waits until
+        the nodes before it finished the step (one of them ending the run too takes over, as
+        the earlier one in the order) and keeps no row of work the order would not have done
+        (:func:`issued_before`); the other nodes are stopped like at Ctrl-C.
+        """
+        component, request = ended.component, self._end_request(ended.component, ended.code)
+        if request is None:
+            return False
+        n = int(request["step"])
+        if self.options.sync is SyncMode.LOCKSTEP and done is not None:
+            component, request = self._settle_step(component, request, done)
+            self.issued = issued_before(self.system, n, component, self.components)
+        run = self.system.run
+        self.steps_done = min(n + self.system.component(component).period_steps, run.steps)
+        self.ended_by = EndedBy(
+            str(request["component"]), run.start + self.steps_done * run.step,
+            str(request["reason"]),
+        )  # fmt: skip
+        return True
+
+    def _settle_step(
+        self, component: str, request: dict[str, Any], done: SampleReader
+    ) -> tuple[str, dict[str, Any]]:
+        """Lockstep: wait for the nodes before ``component`` still busy with the ending step;
+        the component that ends the run (the earliest in the order) and its request."""
+        n = int(request["step"])
+        order = self.system.order
+        waiting = {c for c in self.pending if order.index(c) < order.index(component)}
+        deadline = time.monotonic() + self.options.step_timeout
+        while waiting:
+            for data in done.take(256):
+                finished, step = self.clock.decode_done(data)
+                if step == n:
+                    waiting.discard(finished)
+            for other in sorted(waiting, key=order.index):
+                code = self.children.procs[other].poll()
+                if code is None:
+                    continue
+                earlier = self._end_request(other, code)
+                if earlier is None or int(earlier["step"]) != n:
+                    raise NodeEnded(other, code)
+                component, request = other, earlier
+                waiting = {c for c in waiting if order.index(c) < order.index(other)}
+                break
+            if waiting and not done.wait(0.2) and time.monotonic() > deadline:
+                raise SupervisorError(self._hung(waiting, n))
+        return component, request
+
     def _ended_error(self, ended: NodeEnded) -> RunError:
         node = describe_node(self.plan, ended.component)
         status = load_status(self.records, ended.component)
@@ -450,10 +549,10 @@ class Supervisor:
     def _result(self, status: RunStatus, error: RunError | None, wall: float) -> RunResult:
         n = self.steps_done
         refs = record_refs(self.system, self.options.run)
-        recorder = merge(self.records, self.components, refs, self.system)
+        recorder = merge(self.records, self.components, refs, self.system, self.issued)
         return RunResult.after(
             self.system, BACKEND_NAME, status, n, wall, recorder.table(n), error, self._details(),
-            self.interrupted_by,
+            self.interrupted_by, self.ended_by,
         )  # fmt: skip
 
     def _inputs(self) -> dict[str, Detail]:
@@ -471,7 +570,7 @@ class Supervisor:
         free = opts.sync is SyncMode.FREE
         return {
             "sync": opts.sync.value,
-            "ros_distro": opts.distro.value,
+            "ros_distro": self.distro.value,
             "ros_domain_id": self.domain_id,
             "nodes": ", ".join(n.fqn for n in self.plan.nodes),
             "external": ", ".join(self.plan.external) or None,
