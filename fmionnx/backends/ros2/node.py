@@ -603,8 +603,8 @@ class Node:
                 ready.wait_for_readers(1, MATCH_TIMEOUT)
                 done.wait_for_readers(1, MATCH_TIMEOUT)
                 ready.write(encode_ready(self.component.name, self.plan.distro))
-            log.info("node %s (%s) ready, sync %s", self.node_plan.fqn, self.component.name,
-                     opts.sync.value)
+            log.info("node %s (%s) ready, sync %s, ROS 2 %s", self.node_plan.fqn,
+                     self.component.name, opts.sync.value, self.plan.distro.value)
             if opts.sync is SyncMode.LOCKSTEP:
                 self._lockstep(runner, clock_in, done)
             elif clock_out is not None:
