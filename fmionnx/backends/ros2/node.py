@@ -636,7 +636,6 @@ class Node:
             participant.close()
         return code
 
-
     def _ended(self, request: ModelTerminated) -> dict[str, str | float | int]:
         """The status file's ``ended_by``: as the in-process master words it, plus ``step``
         (the base step the ending step started from). The run ends at the end of that step,

@@ -13,8 +13,8 @@ from __future__ import annotations
 
 import io
 import json
-from dataclasses import dataclass
 from collections.abc import Mapping
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
@@ -210,7 +210,9 @@ def merge(
     return recorder
 
 
-def issued_before(system: CompiledSystem, n: int, ender: str, components: list[str]) -> dict[str, int]:
+def issued_before(
+    system: CompiledSystem, n: int, ender: str, components: list[str]
+) -> dict[str, int]:
     """Per component but ``ender``: the steps the in-process order issues before ``ender``'s
     step from base step ``n`` (the one that ended the run).
 
