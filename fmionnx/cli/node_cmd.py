@@ -120,7 +120,8 @@ def node(
         ),
     ] = MAX_RUN_STEPS,
 ) -> None:
-    """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time, 1 on a fault."""
+    """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time,
+    1 on a fault, 3 when its model ended the simulation (docs/ros2.md)."""
     from fmionnx import api
     from fmionnx.backends.ros2.env import Ros2EnvError
     from fmionnx.backends.ros2.loading import plan_for, resolve_distro
