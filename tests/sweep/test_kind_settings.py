@@ -142,7 +142,8 @@ def test_a_study_moves_a_sign_of_the_reference_scene(tmp_path: Path, scheduler: 
 
     assert (table["status"] == "ok").all(), table["message"].tolist()
     first, moved = table.to_dict("records")
-    assert first["blue_size"] > 0 and moved["blue_size"] > 0  # the camera sees the sign
+    assert first["blue_size"] > 0
+    assert moved["blue_size"] > 0
     assert moved["blue_x"] != pytest.approx(first["blue_x"], abs=1e-3)  # ... elsewhere
     for row in (first, moved):
         direct = _scene_folder(
@@ -245,7 +246,8 @@ def test_settings_are_the_kinds_own(tmp_path: Path, fixture_fmu: Callable[[str],
     system = fmionnx.load(folder / "system.yaml").compiled
     src, world = system.component("src"), system.component("world")
     signal_kind, scene_kind = kind_of(src), kind_of(world)
-    assert isinstance(signal_kind, Settable) and isinstance(scene_kind, Settable)
+    assert isinstance(signal_kind, Settable)
+    assert isinstance(scene_kind, Settable)
     assert signal_kind.settings(src)[:4] == ("amplitude", "frequency", "phase", "offset")
     assert "y.amplitude" in signal_kind.settings(src)
     names = scene_kind.settings(world)
