@@ -201,11 +201,12 @@ def _target_kind(
     if port_name in settings:
         return "setting"
     names = [*settable, *settings]
+    hint = kind.setting_hint(component, port_name)
     bag.emit(
         "E107",
         f"`{target}`: `{component.name}` has no parameter or setting `{port_name}`",
         span,
-        hint=did_you_mean(port_name, names) or one_of(names),
+        hint=hint or did_you_mean(port_name, names) or one_of(names),
     )
     return None
 

@@ -167,6 +167,11 @@ class Settable(Protocol):
         name is unknown or the value is refused)."""
         ...
 
+    def setting_hint(self, component: Component, name: str) -> str | None:
+        """Why ``name`` is not one of ``component``'s settings when the kind knows better than
+        a "did you mean" (a body that moves, a table's values), else None."""
+        ...
+
 
 @dataclass(frozen=True, slots=True)
 class Display:

@@ -134,6 +134,19 @@ def test_a_scene_offers_its_fixed_bodies_and_numeric_fields(scene: fmionnx.Syste
         apply_kind_setting(scene.compiled, "world.numeric.gains", 1.0)
     with pytest.raises(SettingError, match=re.escape("did you mean `body.post.pos`")):
         apply_kind_setting(scene.compiled, "world.body.pst.pos", (0, 0, 0))
+    with pytest.raises(SettingError, match=re.escape("body `ball` moves")):
+        apply_kind_setting(scene.compiled, "world.body.ball.pos.x", 1)
+
+
+def test_a_tables_values_are_not_settings(tmp_path: Path) -> None:
+    (tmp_path / "t.csv").write_text("time,v\n0,1\n1,2\n", encoding="utf-8")
+    text = "fmionnx: 1\nname: t\nrun: {stop: 1, step: 0.1}\ncomponents:\n"
+    text += "  tab: {kind: signal, path: t.csv}\n"
+    (tmp_path / "system.yaml").write_text(text, encoding="utf-8")
+    system = fmionnx.load(tmp_path / "system.yaml").compiled
+    assert kind_of(system.component("tab")).settings(system.component("tab")) == ()  # type: ignore[attr-defined]
+    with pytest.raises(SettingError, match="a table's values are not settings"):
+        apply_kind_setting(system, "tab.v.value", 1)
 
 
 def test_the_runner_moves_a_body_before_the_first_step(scene: fmionnx.System) -> None:

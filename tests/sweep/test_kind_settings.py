@@ -214,7 +214,10 @@ def test_unknown_settings_get_a_suggestion(
         "hint: did you mean `amplitude`?",
         "hint: did you mean `body.sign_left.pos`?",
     ]
-    assert "base" not in hints[2]  # the robot's body moves: not a setting
+    assert hints[2] == (  # the robot moves: not a setting
+        "hint: body `base` moves (a joint or mocap between it and the world): only bodies "
+        "fixed to the world are scene values"
+    )
     assert not (tmp_path / "out").exists()
 
 

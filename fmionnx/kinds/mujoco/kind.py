@@ -138,6 +138,12 @@ class MujocoKind:
         kept = tuple((n, v) for n, v in config.scene_values if n != name)
         return dataclasses.replace(config, scene_values=(*kept, (name, numbers)))
 
+    def setting_hint(self, component: Component, name: str) -> str | None:
+        """A body that moves is named as such: only bodies fixed to the world are settings."""
+        from fmionnx.kinds.mujoco.scenevalues import moving_body_hint
+
+        return moving_body_hint(component.path, name)
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.mujoco.runner.MujocoRunner` (loads mujoco only now)."""
         from fmionnx.kinds.mujoco.runner import MujocoRunner

@@ -50,12 +50,33 @@ def scene_values(path: Path) -> dict[str, int]:
     return values
 
 
+def moving_body_hint(path: Path, name: str) -> str | None:
+    """When ``name`` is ``body.NAME.pos...`` of a body that moves: why it is not a setting."""
+    import mujoco
+
+    from fmionnx.kinds.mujoco.interface import load_model
+    from fmionnx.kinds.mujoco.sites import moving_body
+
+    kind, _, rest = name.partition(".")
+    body_name = rest.split(".pos", 1)[0]
+    if kind != "body" or not body_name:
+        return None
+    model, _ = load_model(path)
+    body = mujoco.mj_name2id(model, mujoco.mjtObj.mjOBJ_BODY, body_name)
+    if body <= 0 or moving_body(model, body) is None:
+        return None
+    return (
+        f"body `{body_name}` moves (a joint or mocap between it and the world): only bodies "
+        "fixed to the world are scene values"
+    )
+
+
 def checked_value(path: Path, component: str, name: str, value: SettingInput) -> tuple[float, ...]:
     """``value`` as the numbers scene value ``name`` takes (SettingError when it does not fit)."""
     exposed = scene_values(path)
     size = exposed.get(name)
     if size is None:
-        hint = did_you_mean(name, exposed) or one_of(exposed)
+        hint = moving_body_hint(path, name) or did_you_mean(name, exposed) or one_of(exposed)
         raise SettingError(f"the scene of `{component}` has no value `{name}`; {hint}")
     flat = value if isinstance(value, tuple) else (value,)
     numbers = tuple(

@@ -113,6 +113,13 @@ class SignalKind:
 
         return with_signal_setting(component, name, value)
 
+    def setting_hint(self, component: Component, name: str) -> str | None:
+        """A table's values are not settings (only waveforms written in the entry are)."""
+        config = component.config
+        if isinstance(config, SignalConfig) and config.interpolation is not None:
+            return "a table's values are not settings: only `outputs:` waveforms have settings"
+        return None
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.signal.runner.SignalRunner` (numpy loads only now)."""
         from fmionnx.kinds.signal.runner import SignalRunner

@@ -73,6 +73,8 @@ def with_signal_setting(component: Component, name: str, value: SettingInput) ->
     names = signal_settings(component)
     if name not in names:
         hint = did_you_mean(name, names) or one_of(names)
+        if config.interpolation is not None:
+            hint = "a table's values are not settings: only `outputs:` waveforms have settings"
         raise SettingError(f"`{component.name}` has no setting `{name}`; {hint}")
     port, _, field = name.rpartition(".")
     if not port:
