@@ -1,7 +1,8 @@
 """The study compiler: a study file and its system become a :class:`StudyPlan` (or diagnostics).
 
 The system is compiled once. Every target is looked up in the compiled system (``run.stop``,
-``run.output_interval``, a system input, or ``component.parameter``: an unknown name gets a
+``run.output_interval``, a system input, ``component.parameter``, or a setting the
+component's kind exposes, :class:`fmionnx.kinds.base.Settable`: an unknown name gets a
 "did you mean"), every value of every axis is applied to it with the command line's own
 overrides (so a value that ``fmionnx run --param`` would refuse is refused here, at its place
 in the study file), the cases are enumerated in a fixed order, and the metrics are resolved
@@ -34,7 +35,10 @@ from fmionnx.compile.studyir import (
     apply_setting,
 )
 from fmionnx.core.diagnostics import DiagnosticBag, Span, did_you_mean, one_of
+from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality
+from fmionnx.kinds.base import Settable, SettingError
+from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.study import AxisSpec, LoadedStudy, StudySpec, StudyValue
 
 #: More cases than this is a mistake in the study file (a grid axis too many), not a study.
@@ -178,7 +182,10 @@ def _target_kind(
         for p in component.interface.ports
         if p.causality in (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER, Causality.INPUT)
     ]
-    if port_name not in settable:
+    if port_name in settable:
+        return "parameter"
+    kind = COMPONENT_KINDS[component.kind]
+    if not isinstance(kind, Settable):
         bag.emit(
             "E102",
             f"`{target}`: `{component.name}` has no parameter `{port_name}`",
@@ -186,7 +193,22 @@ def _target_kind(
             hint=did_you_mean(port_name, settable) or one_of(settable),
         )
         return None
-    return "parameter"
+    try:
+        settings = kind.settings(component)
+    except ModelError as exc:
+        bag.emit("E107", f"`{target}`: cannot read the settings of `{component.name}`: {exc}", span)
+        return None
+    if port_name in settings:
+        return "setting"
+    names = [*settable, *settings]
+    hint = kind.setting_hint(component, port_name)
+    bag.emit(
+        "E107",
+        f"`{target}`: `{component.name}` has no parameter or setting `{port_name}`",
+        span,
+        hint=hint or did_you_mean(port_name, names) or one_of(names),
+    )
+    return None
 
 
 def _check_values(
@@ -201,6 +223,13 @@ def _check_values(
     for value in dict.fromkeys(_frozen(v) for v in values):
         try:
             apply_setting(system, Setting(target, kind, value))
+        except SettingError as exc:
+            bag.emit(
+                "E108",
+                f"`{target}`: {exc}",
+                loaded.sources.value(("parameters", target)),
+            )
+            return False
         except OverrideError as exc:
             detail = str(exc).split(": ", 1)[-1] if str(exc).startswith("--param") else str(exc)
             detail = detail.replace("--stop-time", "run.stop").replace(

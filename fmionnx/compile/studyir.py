@@ -3,7 +3,9 @@
 The compiler of studies (:mod:`fmionnx.compile.study`) checks every target and value against
 the compiled system once; a case is then only a list of :class:`Setting` values that
 :func:`apply_case` turns into the case's own compiled system with the same overrides
-``fmionnx run --param/--stop-time`` uses (:mod:`fmionnx.compile.overrides`). A worker that
+``fmionnx run --param/--stop-time`` uses (:mod:`fmionnx.compile.overrides`), or, for a
+setting a component's kind owns (a signal's amplitude, a scene's body position), with the
+kind's own :meth:`~fmionnx.kinds.base.Settable.with_setting`. A worker that
 received the base compiled system (as JSON) and a case derives the case's system itself: the
 case is pure data, the derivation a pure function, so the same case gives the same system on
 any host.
@@ -11,6 +13,7 @@ any host.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import json
 from dataclasses import dataclass
@@ -20,9 +23,12 @@ from fmionnx.compile.checkir import Expr
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.overrides import override_output_interval, override_parameter, override_stop
 from fmionnx.core.types import PortRef, Scalar
+from fmionnx.kinds.base import Settable
+from fmionnx.kinds.registry import COMPONENT_KINDS
 
-#: What a setting changes: a parameter (or system input), the stop time, the output interval.
-SettingKind = Literal["parameter", "stop", "output_interval"]
+#: What a setting changes: a parameter (or system input), the stop time, the output interval,
+#: or a setting of a component's kind (``setting``: a signal's amplitude, a scene value).
+SettingKind = Literal["parameter", "stop", "output_interval", "setting"]
 #: A setting's value: a scalar, or a flat list for an array parameter.
 SettingValue = Scalar | tuple[Scalar, ...]
 
@@ -118,8 +124,38 @@ def apply_setting(system: CompiledSystem, setting: Setting) -> CompiledSystem:
     if setting.kind == "output_interval":
         assert isinstance(setting.value, int | float)
         return override_output_interval(system, float(setting.value))
+    if setting.kind == "setting":
+        return apply_kind_setting(system, setting.target, setting.value)
     value = list(setting.value) if isinstance(setting.value, tuple) else setting.value
     return override_parameter(system, setting.target, value)
+
+
+def owner(system: CompiledSystem, target: str) -> tuple[str, str] | None:
+    """``(component, rest)`` of ``component.rest`` (the longest matching component name)."""
+    owners = [c.name for c in system.components if target.startswith(c.name + ".")]
+    if not owners:
+        return None
+    name = max(owners, key=len)
+    return name, target[len(name) + 1 :]
+
+
+def apply_kind_setting(system: CompiledSystem, target: str, value: SettingValue) -> CompiledSystem:
+    """``system`` with the kind setting ``component.name`` at ``value``: the component's config
+    replaced by its kind's :meth:`~fmionnx.kinds.base.Settable.with_setting` (SettingError
+    when the kind refuses it)."""
+    from fmionnx.kinds.base import SettingError
+
+    found = owner(system, target)
+    if found is None:
+        raise SettingError(f"`{target}` names no component")
+    component = system.component(found[0])
+    kind = COMPONENT_KINDS[component.kind]
+    if not isinstance(kind, Settable):
+        raise SettingError(f"`{component.name}` has no settings a study can vary")
+    config = kind.with_setting(component, found[1], value)
+    updated = dataclasses.replace(component, config=config)
+    components = tuple(updated if c.name == component.name else c for c in system.components)
+    return dataclasses.replace(system, components=components)
 
 
 def apply_case(system: CompiledSystem, case: Case) -> CompiledSystem:

@@ -408,6 +408,20 @@ CODES: dict[str, ErrorCode] = _codes(
     ErrorCode("E104", "study-metric", _E, "study", "A metric named like one of the system's checks."),
     ErrorCode("E105", "study-objective", _E, "study", "An objective that names no metric."),
     ErrorCode("E106", "study-size", _E, "study", "A study of more than a million cases."),
+    ErrorCode(
+        "E107",
+        "study-setting",
+        _E,
+        "study",
+        "A study target that names no parameter or setting of its component.",
+    ),
+    ErrorCode(
+        "E108",
+        "study-setting-value",
+        _E,
+        "study",
+        "A value that a component's setting refuses (a signal's or a scene's).",
+    ),
 )
 
 

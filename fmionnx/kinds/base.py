@@ -13,8 +13,9 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
+from fmionnx.core.errors import FmionnxError
 from fmionnx.core.specbase import ComponentSpecBase
-from fmionnx.core.types import Component, ComponentInterface, KindConfig
+from fmionnx.core.types import Component, ComponentInterface, KindConfig, Scalar
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.runner import Runner, Wiring
@@ -133,6 +134,42 @@ class Repeatable(Protocol):
 
     def repeat_problem(self, component: Component) -> str | None:
         """Why ``component`` cannot repeat a step from a saved state, or None when it can."""
+        ...
+
+
+#: A value a study gives one of a kind's settings: a number, or a flat list (a position).
+SettingInput = Scalar | tuple[Scalar, ...]
+
+
+class SettingError(FmionnxError):
+    """A value (or a name) that one of a kind's settings refuses; the message says why."""
+
+
+@runtime_checkable
+class Settable(Protocol):
+    """A kind whose components have settings a study can vary besides model parameters.
+
+    A ``signal``'s waveform numbers, a scene's values: things of the resolved config rather
+    than ports of the model. A study target ``component.setting`` names one; the study
+    compiler asks :meth:`settings` for the names (its "did you mean") and :meth:`with_setting`
+    for the new config, which it puts into the case's compiled system. ``with_setting`` is a
+    pure function checked with the rules the kind applies at compile time, so a worker that
+    derives a case's system from the base gets the same result, or the same refusal.
+    """
+
+    def settings(self, component: Component) -> tuple[str, ...]:
+        """The names of ``component``'s settings (raises ModelError when its model is
+        unreadable)."""
+        ...
+
+    def with_setting(self, component: Component, name: str, value: SettingInput) -> KindConfig:
+        """``component``'s config with setting ``name`` at ``value`` (SettingError when the
+        name is unknown or the value is refused)."""
+        ...
+
+    def setting_hint(self, component: Component, name: str) -> str | None:
+        """Why ``name`` is not one of ``component``'s settings when the kind knows better than
+        a "did you mean" (a body that moves, a table's values), else None."""
         ...
 
 

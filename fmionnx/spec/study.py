@@ -166,7 +166,8 @@ class StudySpec(StrictModel):
     parameters: dict[str, AxisSpec] = Field(
         min_length=1,
         description="Targets (`component.parameter`, a system input, `run.stop`, "
-        "`run.output_interval`) and how each varies: a list of values (a grid axis) or one of "
+        "`run.output_interval`, a signal's `component.amplitude`, a scene's "
+        "`component.body.NAME.pos`) and how each varies: a list of values (a grid axis) or one of "
         "`values`, `list`, `range`, `random`, `latin_hypercube`.",
     )
     sampling: SamplingSpec | None = Field(

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -21,6 +22,7 @@ from fmionnx.kinds.base import (
     KindProblem,
     RoleDefault,
     SceneMap,
+    SettingInput,
     Site,
 )
 
@@ -66,6 +68,9 @@ class MujocoConfig(KindConfig):
     kind: str = "mujoco"
     cameras: tuple[CameraConfig, ...] = ()
     gl: Literal["auto", "egl", "osmesa"] = "auto"
+    #: Scene values a study set (``body.sign.pos``: numbers), applied to the loaded model
+    #: before the first step; see :mod:`fmionnx.kinds.mujoco.scenevalues`.
+    scene_values: tuple[tuple[str, tuple[float, ...]], ...] = ()
 
 
 _POSITION = tuple(f"pose.pose.position.{a}" for a in "xyz")
@@ -115,6 +120,29 @@ class MujocoKind:
         assert isinstance(spec, MujocoSpec)
         cameras = tuple(CameraConfig(n, c.width, c.height) for n, c in spec.cameras.items())
         return MujocoConfig(cameras=cameras, gl=spec.gl)
+
+    def settings(self, component: Component) -> tuple[str, ...]:
+        """The values the scene exposes (fixed bodies' positions, ``<numeric>`` fields)."""
+        from fmionnx.kinds.mujoco.scenevalues import scene_values
+
+        return tuple(scene_values(component.path))
+
+    def with_setting(self, component: Component, name: str, value: SettingInput) -> MujocoConfig:
+        """The config with scene value ``name`` set (SettingError when the scene has no such
+        value or the numbers do not fit it)."""
+        from fmionnx.kinds.mujoco.scenevalues import checked_value
+
+        config = component.config
+        assert isinstance(config, MujocoConfig)
+        numbers = checked_value(component.path, component.name, name, value)
+        kept = tuple((n, v) for n, v in config.scene_values if n != name)
+        return dataclasses.replace(config, scene_values=(*kept, (name, numbers)))
+
+    def setting_hint(self, component: Component, name: str) -> str | None:
+        """A body that moves is named as such: only bodies fixed to the world are settings."""
+        from fmionnx.kinds.mujoco.scenevalues import moving_body_hint
+
+        return moving_body_hint(component.path, name)
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.mujoco.runner.MujocoRunner` (loads mujoco only now)."""

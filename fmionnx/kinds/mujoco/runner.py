@@ -60,6 +60,14 @@ class MujocoRunner:
                 self._model = mujoco.MjModel.from_xml_path(path)
         except Exception as exc:
             raise fault(self.component.name, f"cannot load the scene: {exc}", time=0.0) from None
+        if self.config.scene_values:
+            from fmionnx.kinds.mujoco.scenevalues import apply_scene_values
+
+            try:
+                apply_scene_values(self._model, self.config.scene_values)
+            except KeyError as exc:
+                msg = f"the scene has no value {exc} any more (it changed since compiling)"
+                raise fault(self.component.name, msg, time=0.0) from None
         self._data = mujoco.MjData(self._model)
 
     def setup(self, start: float, stop: float) -> None:

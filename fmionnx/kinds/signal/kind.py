@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
 from fmionnx.core.units import builtin_unit
-from fmionnx.kinds.base import Display, KindProblem, RoleDefault
+from fmionnx.kinds.base import Display, KindProblem, RoleDefault, SettingInput
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.signal.spec import NAME, SignalSpec
 from fmionnx.kinds.signal.table import read_table, table_interface
@@ -98,6 +98,26 @@ class SignalKind:
 
     def repeat_problem(self, component: Component) -> str | None:
         """None: a signal's values are computed from the time, never accumulated."""
+        return None
+
+    def settings(self, component: Component) -> tuple[str, ...]:
+        """The waveforms' numbers (``amplitude``, ``v.frequency``): see
+        :mod:`fmionnx.kinds.signal.settings`."""
+        from fmionnx.kinds.signal.settings import signal_settings
+
+        return signal_settings(component)
+
+    def with_setting(self, component: Component, name: str, value: SettingInput) -> SignalConfig:
+        """The config with one waveform number changed (SettingError when refused)."""
+        from fmionnx.kinds.signal.settings import with_signal_setting
+
+        return with_signal_setting(component, name, value)
+
+    def setting_hint(self, component: Component, name: str) -> str | None:
+        """A table's values are not settings (only waveforms written in the entry are)."""
+        config = component.config
+        if isinstance(config, SignalConfig) and config.interpolation is not None:
+            return "a table's values are not settings: only `outputs:` waveforms have settings"
         return None
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
