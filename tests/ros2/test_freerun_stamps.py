@@ -135,8 +135,10 @@ def test_a_wait_shorter_than_the_delay_makes_stale_steps_never_future_ones_and_c
     counts = info["execution"]["inputs"]["detector"][CAMERA]
     assert counts["matched"] + counts["stale"] <= steps
     assert counts["stale"] >= 3  # typically 25 of 30: the frames come 0.2 s late
-    # every detector step expects another frame: each stale step's frame came late or never
-    assert counts["late"] + counts["dropped"] == counts["stale"]
+    # every detector step expects another frame: the frame of each stale step that waited
+    # came late or never; a step while the camera was silent (no frame since the last stale
+    # step) waited for nothing and expects no frame, so it is stale only
+    assert 1 <= counts["late"] + counts["dropped"] <= counts["stale"]
     own = [k % 15 for k in range(steps)]
     on_time = sum(u == o for u, o in zip(used, own, strict=True))
     assert on_time <= steps - counts["stale"] + 1

@@ -14,6 +14,7 @@ import pytest
 
 from fmionnx.backends.ros2.codec import WHOLE, PortField, TopicCodec
 from fmionnx.backends.ros2.inputsync import (
+    MAX_PENDING,
     Match,
     StampedInput,
     StepScale,
@@ -184,7 +185,49 @@ def test_after_a_stale_step_a_silent_topic_is_not_waited_for_until_a_sample_arri
     assert not sync.ready(15)
     assert sync.use(15) == b"s5"
     counts = sync.finish()
-    assert (counts.matched, counts.stale, counts.late, counts.dropped) == (1, 3, 1, 2)
+    # 10: its step did not wait (silent), so it is no dropped sample; 15 was waited for.
+    assert (counts.matched, counts.stale, counts.late, counts.dropped) == (1, 3, 1, 1)
+
+
+def test_a_dead_producer_adds_one_dropped_sample_and_no_bookkeeping_per_step() -> None:
+    sync = _stamped()
+    _offer(sync, 0)
+    sync.use(0)
+    steps = 50_000  # far beyond any window: one expectation per step would show
+    for n in range(1, steps + 1):
+        assert sync.use(5 * n) is None
+    assert sync.missed == {5}  # only the one stamp a step waited for
+    counts = sync.finish()
+    assert (counts.matched, counts.stale, counts.late, counts.dropped) == (1, steps, 0, 1)
+
+
+def test_missed_expectations_at_or_below_the_sample_in_use_are_settled_as_dropped() -> None:
+    sync = _stamped()
+    _offer(sync, 0)
+    sync.use(0)
+    sync.use(5)  # stale: 5 missed
+    _offer(sync, 7)  # a sample off the expected grid: 5 will never be used now
+    assert sync.use(10) == b"s7"  # stale, waited for (7 arrived): 10 missed
+    assert sync.missed == {10}  # 5 lies below the sample in use: settled
+    assert sync.counts.dropped == 2
+    _offer(sync, 10)
+    assert sync.use(10) == b"s10"  # late
+    counts = sync.finish()
+    assert (counts.matched, counts.stale, counts.late, counts.dropped) == (2, 2, 1, 1)
+
+
+def test_missed_expectations_are_bounded_and_the_evicted_count_as_dropped() -> None:
+    sync = _stamped()
+    _offer(sync, 0)
+    sync.use(0)
+    steps = 3 * MAX_PENDING
+    for n in range(1, steps + 1):
+        _offer(sync, 0)  # a stuck producer repeating an old stamp: alive, never useful
+        assert sync.use(n) is None
+    assert len(sync.missed) == MAX_PENDING
+    assert min(sync.missed) == steps - MAX_PENDING + 1  # the newest expectations are kept
+    counts = sync.finish()
+    assert (counts.matched, counts.stale, counts.late, counts.dropped) == (1, steps, 0, steps)
 
 
 def test_samples_from_the_future_wait_for_their_step() -> None:

@@ -19,8 +19,13 @@ its *stamp* and a step takes the sample of its own time:
   the step uses the newest older sample it has. After a stale step the topic is *silent*: no
   step waits for it again until a new sample of it arrives, so a producer that stopped or
   never started costs one wait, not one per step.
-* **Late sample**: a sample used after a step that expected it had gone stale.
-* **Dropped sample**: a sample that some step expected and no step used.
+* **Late sample**: a sample used after a step that waited for it in vain.
+* **Dropped sample**: a sample that a step waited for in vain and no step used (lost on the
+  way, or never published). Steps while the topic is silent are stale but wait for nothing,
+  so they record no expectation: a producer that stopped adds one dropped sample, not one per
+  step, and the bookkeeping stays bounded for a run of any length (at most ``MAX_PENDING``
+  expectations are kept; older ones, and those at or below the sample in use, which no step
+  can use any more, are counted as dropped and forgotten).
 
 Topics that no node of the run publishes (a real camera) and samples without a usable stamp
 (rclpy cannot set a source timestamp, so headerless messages through rclpy; a source timestamp
@@ -41,6 +46,7 @@ _STAMP_LE = struct.Struct("<iI")
 _STAMP_BE = struct.Struct(">iI")
 _HEADER_TYPE = "std_msgs/msg/Header"
 #: Samples kept per topic waiting for their step; beyond, the oldest go (a runaway producer).
+#: Also the number of missed expectations kept per topic; beyond, the oldest count as dropped.
 MAX_PENDING = 512
 
 
@@ -152,8 +158,11 @@ class StampedInput:
     pending: dict[int, bytes] = field(default_factory=dict)
     #: Stamp of the sample in use (None before the first).
     current: int | None = None
-    #: Expected stamps that a step waited for in vain and no step has used yet.
+    #: Expected stamps that a step waited for in vain and no step has used yet (at most
+    #: ``MAX_PENDING``, all above ``current``).
     missed: set[int] = field(default_factory=set)
+    #: Missed expectations already settled as dropped (evicted or passed by ``current``).
+    settled_dropped: int = 0
     #: Arrival mode: the newest sample not yet used.
     newest: bytes | None = None
     #: A step went stale and no sample arrived since: do not wait for this topic.
@@ -220,7 +229,8 @@ class StampedInput:
             chosen = expected
         else:
             self.counts.stale += 1
-            self.missed.add(expected)
+            if not self.silent:  # a silent topic's step waited for nothing: expects nothing
+                self._miss(expected)
             self.silent = True
             older = [stamp for stamp in self.pending if stamp < expected]
             if not older:
@@ -233,10 +243,24 @@ class StampedInput:
         self.current = chosen
         for stamp in [s for s in self.pending if s <= chosen]:
             del self.pending[stamp]
-        self.counts.dropped = len(self.missed)
+        passed = [s for s in self.missed if s <= chosen]  # older than the sample in use:
+        self.missed.difference_update(passed)  # offer() discards them, no step can use them
+        self.settled_dropped += len(passed)
+        self._count_dropped()
         return data
+
+    def _miss(self, expected: int) -> None:
+        """Record a stamp a step waited for in vain, within the window of ``MAX_PENDING``."""
+        self.missed.add(expected)
+        if len(self.missed) > MAX_PENDING:
+            self.missed.discard(min(self.missed))
+            self.settled_dropped += 1
+        self._count_dropped()
+
+    def _count_dropped(self) -> None:
+        self.counts.dropped = self.settled_dropped + len(self.missed)
 
     def finish(self) -> InputCounts:
         """The counts at the end of the run (expected samples never used are dropped)."""
-        self.counts.dropped = len(self.missed)
+        self._count_dropped()
         return self.counts

@@ -134,6 +134,22 @@ def test_environment_reads_domain_config_file_and_overrides(tmp_path) -> None:
     assert env.with_router("tcp/127.0.0.1:9").endpoints() == ["tcp/127.0.0.1:9"]
 
 
+def test_sessions_listen_on_loopback_only_unless_configured_otherwise(tmp_path) -> None:
+    # rmw_zenoh's default session config: peers accept connections from this host only; the
+    # router carries traffic between hosts. Zenoh's own default would be `tcp/[::]:0`.
+    assert zenoh_environment(RosDistro.JAZZY, {}).listen_endpoints() == ["tcp/localhost:0"]
+    routed = zenoh_environment(RosDistro.JAZZY, {}).with_router("tcp/10.0.0.2:7447")
+    assert routed.listen_endpoints() == ["tcp/localhost:0"]
+    override = zenoh_environment(
+        RosDistro.JAZZY, {"ZENOH_CONFIG_OVERRIDE": 'listen/endpoints=["tcp/[::]:0"]'}
+    )
+    assert override.listen_endpoints() == ["tcp/[::]:0"]
+    config = tmp_path / "zenoh.json5"
+    config.write_text('{mode: "peer", listen: {endpoints: ["tcp/0.0.0.0:7500"]}}')
+    from_file = zenoh_environment(RosDistro.JAZZY, {"ZENOH_SESSION_CONFIG_URI": str(config)})
+    assert from_file.listen_endpoints() == ["tcp/0.0.0.0:7500"]
+
+
 @pytest.mark.parametrize(
     ("environ", "message"),
     [

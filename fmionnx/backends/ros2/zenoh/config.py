@@ -1,8 +1,11 @@
 """The Zenoh session of a node, configured from the environment as rmw_zenoh configures it.
 
-rmw_zenoh opens every context's session in **peer** mode with multicast scouting off and
-connects it to a router on ``tcp/localhost:7447``: the router is the discovery point, data then
-flows between peers directly. The user changes that the same two ways as with rmw_zenoh:
+rmw_zenoh opens every context's session in **peer** mode with multicast scouting off,
+connects it to a router on ``tcp/localhost:7447`` and lets it listen on ``tcp/localhost:0``
+only: the router is the discovery point, data then flows between the peers of one host
+directly, and traffic between hosts goes through routers. A session listening on every
+interface (Zenoh's own default, ``tcp/[::]:0``) would let any host that reaches the machine
+connect and publish samples that a node decodes into model inputs. The user changes that the same two ways as with rmw_zenoh:
 ``ZENOH_SESSION_CONFIG_URI`` names a JSON5 configuration file that replaces the defaults, and
 ``ZENOH_CONFIG_OVERRIDE='key=value;key=value'`` changes single keys afterwards
 (``connect/endpoints=["tcp/10.0.0.2:7447"]``). ``ROS_DOMAIN_ID`` is part of every key, so it
@@ -27,6 +30,8 @@ from fmionnx.compile.ros2.messages import RosDistro
 
 #: rmw_zenoh's default router endpoint.
 DEFAULT_ROUTER = "tcp/localhost:7447"
+#: rmw_zenoh's default listen endpoint: loopback only, a free port.
+DEFAULT_LISTEN = "tcp/localhost:0"
 CONFIG_URI_ENV = "ZENOH_SESSION_CONFIG_URI"
 CONFIG_OVERRIDE_ENV = "ZENOH_CONFIG_OVERRIDE"
 
@@ -63,6 +68,7 @@ class ZenohEnvironment:
                 config = zenoh.Config()
                 config.insert_json5("mode", json.dumps(mode))
                 config.insert_json5("connect/endpoints", json.dumps([DEFAULT_ROUTER]))
+                config.insert_json5("listen/endpoints", json.dumps([DEFAULT_LISTEN]))
                 config.insert_json5("scouting/multicast/enabled", "false")
             # Transient-local publishers need timestamps (rmw_zenoh's own default config too).
             config.insert_json5("timestamping/enabled", "true")
@@ -81,8 +87,16 @@ class ZenohEnvironment:
 
     def endpoints(self) -> list[str]:
         """The endpoints a session of this environment connects to."""
+        return self._peer_endpoints("connect/endpoints")
+
+    def listen_endpoints(self) -> list[str]:
+        """The endpoints a session of this environment listens on."""
+        return self._peer_endpoints("listen/endpoints")
+
+    def _peer_endpoints(self, key: str) -> list[str]:
+        """The endpoint list at ``key`` of a peer session's configuration."""
         try:
-            value = json.loads(self.config().get_json("connect/endpoints"))
+            value = json.loads(self.config().get_json(key))
         except (ValueError, TypeError):
             return []
         if isinstance(value, dict):  # per-mode endpoints: {"peer": [...], "router": [...]}

@@ -52,7 +52,11 @@ def free_port() -> int:
 
 
 class InProcessRouter:
-    """A Zenoh session in router mode on a loopback port, closed with :meth:`close`."""
+    """A Zenoh session in router mode on a loopback port, closed with :meth:`close`.
+
+    Loopback only, whatever the environment says: it serves the nodes the supervisor starts on
+    this host. A run across hosts names a router the hosts can reach (``--zenoh-router``).
+    """
 
     def __init__(self, port: int | None = None) -> None:
         import zenoh

@@ -27,7 +27,7 @@ from __future__ import annotations
 import threading
 import time
 from collections import deque
-from typing import Any
+from typing import Any, ClassVar
 
 from fmionnx.backends.ros2.transport import TransportError
 from fmionnx.backends.ros2.zenoh import attachment
@@ -47,43 +47,73 @@ def _ros_name(dds_name: str) -> str:
     return topic
 
 
-class ZenohWriter:
-    """Publishes serialised samples with rmw_zenoh's attachment."""
+class _ZenohEntity:
+    """What a writer and a reader share: the topic's key, a Zenoh handle, a liveliness token.
+
+    The handle (publisher or subscriber) is declared before the entity's token, so the graph
+    never shows an entity that cannot carry data yet; the GID follows from the token.
+    """
+
+    kind: ClassVar[EntityKind]
 
     def __init__(
         self, transport: ZenohTransport, topic: str, msgtype: str, qos: QosProfile
     ) -> None:
-        import zenoh
-        import zenoh.ext
-
         self.transport = transport
         self.topic = topic
         self.msgtype = msgtype
         self.qos = qos
         self.key = topic_key(transport.domain_id, topic, msgtype, transport.distro)
-        session = transport.session
+        self.handle: Any = self._declare(transport.session)
+        self.token = transport.declare_entity(self.kind, topic, msgtype, qos)
+        self.gid = gid_of(self.token)
+
+    def _declare(self, session: Any) -> Any:
+        """The Zenoh publisher or subscriber on :attr:`key`."""
+        raise NotImplementedError
+
+    def undeclare(self) -> None:
+        """Undeclare the handle (the token goes with the transport's)."""
+        self.handle.undeclare()
+
+
+class ZenohWriter(_ZenohEntity):
+    """Publishes serialised samples with rmw_zenoh's attachment."""
+
+    kind = EntityKind.PUBLISHER
+
+    def __init__(
+        self, transport: ZenohTransport, topic: str, msgtype: str, qos: QosProfile
+    ) -> None:
+        super().__init__(transport, topic, msgtype, qos)
+        self.sequence = 0
+
+    @property
+    def publisher(self) -> Any:
+        """The Zenoh publisher (an advanced one for TRANSIENT_LOCAL)."""
+        return self.handle
+
+    def _declare(self, session: Any) -> Any:
+        import zenoh
+        import zenoh.ext
+
         congestion = (
             zenoh.CongestionControl.BLOCK
-            if qos.reliability is Reliability.RELIABLE
+            if self.qos.reliability is Reliability.RELIABLE
             else zenoh.CongestionControl.DROP
         )
-        self.publisher: Any
-        if qos.durability is Durability.TRANSIENT_LOCAL:
-            self.publisher = zenoh.ext.declare_advanced_publisher(
+        if self.qos.durability is Durability.TRANSIENT_LOCAL:
+            return zenoh.ext.declare_advanced_publisher(
                 session, self.key, congestion_control=congestion,
-                cache=zenoh.ext.CacheConfig(max(qos.depth, 1)), publisher_detection=True,
+                cache=zenoh.ext.CacheConfig(max(self.qos.depth, 1)), publisher_detection=True,
             )  # fmt: skip
-        else:
-            self.publisher = session.declare_publisher(self.key, congestion_control=congestion)
-        self.token = transport.declare_entity(EntityKind.PUBLISHER, topic, msgtype, qos)
-        self.gid = gid_of(self.token)
-        self.sequence = 0
+        return session.declare_publisher(self.key, congestion_control=congestion)
 
     def write(self, data: bytes, stamp_ns: int | None = None) -> None:
         """Publish one sample; ``stamp_ns`` (simulated time) or the wall clock is its source time."""
         self.sequence += 1
         stamp = time.time_ns() if stamp_ns is None else stamp_ns
-        self.publisher.put(data, attachment=attachment.encode(self.sequence, stamp, self.gid))
+        self.handle.put(data, attachment=attachment.encode(self.sequence, stamp, self.gid))
 
     def matched(self) -> int:
         """Subscriptions of this topic alive in the graph (this process's own included)."""
@@ -94,18 +124,15 @@ class ZenohWriter:
         return self.transport.graph.wait_for(EntityKind.SUBSCRIPTION, self.topic, count, timeout)
 
 
-class ZenohReader:
+class ZenohReader(_ZenohEntity):
     """Queues samples as they arrive (a zenoh callback thread) and hands them out in order."""
+
+    kind = EntityKind.SUBSCRIPTION
 
     def __init__(
         self, transport: ZenohTransport, topic: str, msgtype: str, qos: QosProfile
     ) -> None:
-        import zenoh.ext
-
-        self.transport = transport
-        self.topic = topic
-        self.msgtype = msgtype
-        self.key = topic_key(transport.domain_id, topic, msgtype, transport.distro)
+        # The queue exists before the subscriber: its callback may run at once.
         self._queue: deque[tuple[bytes, int | None]] = deque(
             maxlen=None if qos.keep_all else max(qos.depth, 1)
         )
@@ -114,19 +141,24 @@ class ZenohReader:
         self.dropped_duplicates = 0
         #: Samples whose payload arrived in Zenoh shared memory (same host, large payloads).
         self.shared_memory_samples = 0
-        session = transport.session
-        self.subscriber: Any
-        if qos.durability is Durability.TRANSIENT_LOCAL:
+        super().__init__(transport, topic, msgtype, qos)
+
+    @property
+    def subscriber(self) -> Any:
+        """The Zenoh subscriber (an advanced one for TRANSIENT_LOCAL)."""
+        return self.handle
+
+    def _declare(self, session: Any) -> Any:
+        import zenoh.ext
+
+        if self.qos.durability is Durability.TRANSIENT_LOCAL:
             history = zenoh.ext.HistoryConfig(
-                detect_late_publishers=True, max_samples=max(qos.depth, 1)
+                detect_late_publishers=True, max_samples=max(self.qos.depth, 1)
             )
-            self.subscriber = zenoh.ext.declare_advanced_subscriber(
+            return zenoh.ext.declare_advanced_subscriber(
                 session, self.key, self._on_sample, history=history
             )
-        else:
-            self.subscriber = session.declare_subscriber(self.key, self._on_sample)
-        self.token = transport.declare_entity(EntityKind.SUBSCRIPTION, topic, msgtype, qos)
-        self.gid = gid_of(self.token)
+        return session.declare_subscriber(self.key, self._on_sample)
 
     def _on_sample(self, sample: Any) -> None:
         payload = sample.payload
@@ -227,8 +259,7 @@ class ZenohTransport:
         if self.session.is_closed():
             return
         for entity in self.entities:
-            handle = entity.publisher if isinstance(entity, ZenohWriter) else entity.subscriber
-            handle.undeclare()
+            entity.undeclare()
         for token in self._tokens:
             token.undeclare()
         self.graph.close()
