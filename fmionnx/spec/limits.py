@@ -28,18 +28,12 @@ import re
 from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Any
-
-from ruamel.yaml import YAML
-from ruamel.yaml.error import YAMLError
-from ruamel.yaml.events import (
-    AliasEvent,
-    CollectionEndEvent,
-    CollectionStartEvent,
-    ScalarEvent,
-)
+from typing import TYPE_CHECKING, Any
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
+
+if TYPE_CHECKING:  # ruamel is imported when a document is checked: a lone model reads none
+    from ruamel.yaml.events import ScalarEvent
 
 #: Largest document read, in bytes (system files and lock files alike).
 MAX_DOCUMENT_BYTES = 16 * 1024 * 1024
@@ -92,6 +86,13 @@ class _Counter:
             self.stack[-1].nodes += nodes
 
     def feed(self, event: Any) -> None:
+        from ruamel.yaml.events import (
+            AliasEvent,
+            CollectionEndEvent,
+            CollectionStartEvent,
+            ScalarEvent,
+        )
+
         if isinstance(event, CollectionStartEvent):
             if len(self.stack) >= MAX_DEPTH:
                 self.fail(
@@ -151,6 +152,8 @@ def _events(text: str) -> Iterator[Any]:
     try:
         from ruamel.yaml.cyaml import CParser  # type: ignore[attr-defined]  # from _ruamel_yaml
     except ImportError:  # pragma: no cover - the C extension ships with ruamel.yaml wheels
+        from ruamel.yaml import YAML
+
         yield from YAML(typ="safe", pure=True).parse(text)
         return
     parser = CParser(text)
@@ -183,6 +186,8 @@ def check_limits(text: str, path: Path, bag: DiagnosticBag) -> bool:
     """
     if not check_size(len(text.encode("utf-8", "surrogatepass")), path, bag):
         return False
+    from ruamel.yaml.error import YAMLError
+
     counter = _Counter(path, bag)
     try:
         for event in _events(text):

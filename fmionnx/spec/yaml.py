@@ -11,13 +11,9 @@ from __future__ import annotations
 import datetime as dt
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
-from ruamel.yaml import YAML
-from ruamel.yaml.comments import CommentedMap, CommentedSeq
-from ruamel.yaml.constructor import DuplicateKeyError
-from ruamel.yaml.error import MarkedYAMLError, YAMLError
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.spec.limits import MAX_DOCUMENT_BYTES, check_limits, check_size
@@ -25,6 +21,10 @@ from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import KeyPath, SourceMap
 from fmionnx.spec.yaml_hints import flow_index_hint
+
+if TYPE_CHECKING:
+    from ruamel.yaml.comments import CommentedMap, CommentedSeq
+    from ruamel.yaml.error import MarkedYAMLError
 
 #: Kept for callers of the former name; the limits live in :mod:`fmionnx.spec.limits`.
 MAX_SYSTEM_FILE_BYTES = MAX_DOCUMENT_BYTES
@@ -121,6 +121,12 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
     """
     if not check_limits(text, path, bag):
         return None
+    # ruamel is imported here, not at the top: a lone model (`fmionnx run model.fmu`) is
+    # compiled through the spec types of this module but reads no YAML.
+    from ruamel.yaml import YAML
+    from ruamel.yaml.constructor import DuplicateKeyError
+    from ruamel.yaml.error import MarkedYAMLError, YAMLError
+
     yaml = YAML(typ="rt")
     yaml.allow_duplicate_keys = False
     try:
@@ -192,6 +198,8 @@ def _plain(
     ``inside``: the containers being converted, so that an alias to one of them (``&a [*a]``,
     a structure that contains itself) is refused instead of recursing for ever.
     """
+    from ruamel.yaml.comments import CommentedMap, CommentedSeq  # loaded by parse_yaml
+
     file = sources.file
     if isinstance(node, (CommentedMap, CommentedSeq)):
         if id(node) in inside:

@@ -101,9 +101,15 @@ def test_running_a_system_of_fmus_loads_no_other_runtime(folder: Path, isolate: 
 
 
 def test_running_one_fmu_needs_no_graph_library(folder: Path) -> None:
-    """A lone model has no connection to order: networkx stays out too."""
+    """A lone model has no connection to order: networkx stays out too; and it is no YAML
+    file, so the YAML parser (ruamel) stays out (it loads when a document is read)."""
     modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", "out-single")
-    assert modules & (RUNTIME_EXTRAS | {"networkx"}) == set()
+    assert modules & (RUNTIME_EXTRAS | {"networkx", "ruamel"}) == set()
+
+
+def test_a_system_file_still_loads_the_yaml_parser(folder: Path) -> None:
+    """The lazy import is taken where a document is read (the probe sees ruamel then)."""
+    assert "ruamel" in loaded(folder, "validate", "system.yaml")
 
 
 def test_plots_load_matplotlib_only_when_asked(folder: Path) -> None:
