@@ -41,6 +41,9 @@ from fmionnx.runtime.isolated.channel import Control
 
 #: Seconds a child gets to terminate its model and exit before it is killed.
 TERMINATE_GRACE = 5.0
+#: Seconds added to the step timeout for the first answer: it includes starting the child's
+#: Python interpreter, which is not the model's time and takes seconds on a loaded machine.
+PROCESS_START_ALLOWANCE = 10.0
 
 
 @dataclass(frozen=True)
@@ -130,7 +133,8 @@ class IsolatedRunner:
     def setup(self, start: float, stop: float) -> None:
         """Wait for the model to load, then initialize it and map the port buffers it reports."""
         self._time = start
-        self._await_answer()  # instantiate
+        limit = self._settings.step_timeout
+        self._await(self._time, 0.0, None if limit is None else limit + PROCESS_START_ALLOWANCE)
         self._request("setup", start, stop)
         document = self._await_answer()
         available = os.fstat(self._shared).st_size - channel.CONTROL_SIZE
