@@ -6,6 +6,7 @@ never when the CLI starts: ``fmionnx --help`` must not pay for them.
 
 from __future__ import annotations
 
+import contextlib
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated, Any
@@ -80,6 +81,12 @@ def sweep(
     warnings = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
     if warnings and not quiet:
         TextReporter().render([FileResult(study, warnings)], sys.stderr, color=sys.stderr.isatty())
+    from fmionnx.backends.sweep.engine import SchedulerError, scheduler_problem
+
+    problem = None if scheduler is None else scheduler_problem(scheduler)
+    if problem is not None:
+        raise fail(problem)
+    made_out = not out.exists()
     check_output_folder(out, "--out")
     from rich.console import Console
 
@@ -92,17 +99,16 @@ def sweep(
             )  # fmt: skip
     except StudyFolderError as exc:
         raise fail(str(exc)) from None
+    except SchedulerError as exc:
+        if made_out:  # made just now and still empty: no trace of a study that never started
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise fail(str(exc), ExitCode.PROBLEMS) from None
     except KeyboardInterrupt:  # the finished cases are recorded: nothing to lose
         console.print(f"interrupted: the finished cases are in {out}; `--resume` runs the rest")
         from fmionnx.runtime.stopping import exit_code
 
         raise typer.Exit(exit_code(None)) from None
-    except OSError as exc:
-        if scheduler is None:
-            raise
-        raise fail(
-            f"cannot reach the Dask scheduler at {scheduler}: {exc}", ExitCode.PROBLEMS
-        ) from None
     if not quiet:
         _summary(console, result)
     failed = int((result.table["status"] != "ok").sum())

@@ -9,10 +9,11 @@ records.
 
 from __future__ import annotations
 
+import contextlib
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING
+from typing import TYPE_CHECKING, Any
 
 from fmionnx.compile.studyir import StudyPlan
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity
@@ -67,6 +68,25 @@ def run_sweep(
 
     ``force`` replaces the results of a study already in ``out`` (without: refused).
     """
+    from fmionnx.backends.sweep.engine import open_client
+
+    with contextlib.ExitStack() as stack:
+        # An existing cluster is reached before the folder is touched: a wrong address or a
+        # scheduler that does not answer leaves nothing behind to be --resume'd or --force'd.
+        remote = None if scheduler is None else stack.enter_context(open_client(scheduler))
+        return _run(plan, out, remote, workers, resume, keep_results, force, progress)
+
+
+def _run(
+    plan: StudyPlan,
+    out: Path,
+    remote: Any,
+    workers: int | None,
+    resume: bool,
+    keep_results: bool,
+    force: bool,
+    progress: SweepProgress | None,
+) -> SweepResult:
     from fmionnx.backends.sweep.case import Job
     from fmionnx.backends.sweep.engine import open_client, run_study
     from fmionnx.results.study import StudyFolder
@@ -87,8 +107,10 @@ def run_sweep(
         if progress is not None:
             progress(counts[0], counts[1], len(plan.cases))
 
-    if pending:
-        with open_client(scheduler, workers) as client:
+    if pending and remote is not None:
+        run_study(remote, plan, pending, job, on_done)
+    elif pending:
+        with open_client(None, workers) as client:
             run_study(client, plan, pending, job, on_done)
     table = folder.table()
     files = folder.write_table(table)

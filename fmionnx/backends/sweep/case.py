@@ -4,7 +4,9 @@ Everything here runs in the worker process. The base compiled system arrives as 
 once per worker and cached by content hash, with its models relocated into the worker's own
 store), the case as a few settings. The case's system is :func:`apply_case` of the base; it
 runs with the in-process backend, its FMUs isolated in processes of their own by default, so
-a model that crashes or hangs ends the case as a ``fault`` and never the worker. A case that
+an isolated model that crashes or hangs ends the case as a ``fault`` and never the worker. A
+component in the worker's own process (not isolated) that crashes, or hangs past the step
+timeout, takes the worker down: the case ends ``failed`` (see ``docs/sweep.md``). A case that
 outlasts the study's timeout is stopped between steps (``timeout``). Whatever happens, the
 worker returns a :class:`CaseOutcome`: a failing case never raises into the study.
 """

@@ -15,6 +15,7 @@ from __future__ import annotations
 import itertools
 import logging
 import os
+import uuid
 import warnings
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
@@ -24,6 +25,7 @@ from fmionnx.backends.sweep.case import CaseOutcome, Job, run_case
 from fmionnx.backends.sweep.models import pack_models
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
+from fmionnx.core.errors import FmionnxError
 
 #: How often Dask retries a case whose worker died: once (a crash repeats; the study goes on).
 ALLOWED_FAILURES = 1
@@ -33,6 +35,35 @@ MIN_WINDOW = 16
 PER_THREAD = 4
 #: Seconds to wait for an existing cluster's scheduler to answer.
 CONNECT_TIMEOUT = 20
+#: Address schemes of a Dask scheduler that a study can reach.
+SCHEDULER_SCHEMES = ("tcp", "tls", "ws", "wss", "ucx")
+
+
+class SchedulerError(FmionnxError):
+    """An existing cluster's scheduler that cannot be used: a malformed address or no answer."""
+
+
+def scheduler_problem(address: str) -> str | None:
+    """What is wrong with a scheduler address, or None; checked before anything is written.
+
+    Dask itself reports a wrong scheme or a missing port as a ``ValueError`` from deep inside
+    its client, after a study folder would have been made.
+    """
+    from urllib.parse import urlsplit
+
+    expected = f"expected SCHEME://HOST:PORT with SCHEME one of {', '.join(SCHEDULER_SCHEMES)}"
+    parts = urlsplit(address)
+    if parts.scheme not in SCHEDULER_SCHEMES or not parts.netloc:
+        return f"--scheduler {address!r}: {expected} (e.g. tcp://10.0.0.5:8786)"
+    try:
+        port = parts.port
+    except ValueError:
+        port = None
+    if not parts.hostname or port is None or not 0 < port < 65536:
+        return f"--scheduler {address!r}: no valid port; {expected}"
+    if parts.path not in ("", "/") or parts.query or parts.fragment:
+        return f"--scheduler {address!r}: {expected}, nothing after the port"
+    return None
 
 
 def default_workers() -> int:
@@ -51,7 +82,15 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     from distributed import Client, LocalCluster
 
     if scheduler is not None:
-        with Client(scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT) as client:
+        problem = scheduler_problem(scheduler)
+        if problem is not None:
+            raise SchedulerError(problem)
+        try:
+            client = Client(scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT)
+        except (OSError, ValueError, TimeoutError) as exc:
+            msg = f"cannot reach the Dask scheduler at {scheduler}: {exc}"
+            raise SchedulerError(msg) from None
+        with client:
             yield client
         return
     with (
@@ -92,7 +131,9 @@ def run_study(
 
     # The shared values are tasks, not scattered data: the scheduler keeps their recipe, so a
     # worker that dies (a crashing model) loses nothing the other cases need.
-    prefix = f"fmionnx-{plan.fingerprint[:16]}"
+    # One prefix per run of a study: two drivers running the same study on one shared cluster
+    # (say, one with --keep-results) must not be handed each other's outcomes by key.
+    prefix = f"fmionnx-{plan.fingerprint[:16]}-{uuid.uuid4().hex[:12]}"
     packed = models if models is not None else pack_models(plan.system)
     text = client.submit(_value, to_json(plan.system), key=f"{prefix}-system", pure=False)
     shared_models = {
