@@ -39,6 +39,7 @@ import select
 import signal
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -60,10 +61,16 @@ BACKEND_NAME = "inprocess"
 
 #: Bytes of the control block at the start of the shared file: cells, then two directory slots.
 CONTROL = 1 << 20  # sparse: pages cost only once written
-_CELLS = 16
-_SLOT = (CONTROL - _CELLS * 8) // 2
 # float64 cells of the control block
 _T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY = range(8)
+#: Then, per lane of the parallel schedule (a worker thread stepping one component), the
+#: step in flight there: (work index, t, n, place in the order); work index -1: none.
+_LANES = 16
+_LANE_SLOTS = 256  # lanes beyond these are not tracked (their crash is blamed on the loop's work)
+_LANE_WORK, _LANE_T, _LANE_N, _LANE_PLACE = range(4)
+_LANE_CELLS = 4
+_CELLS = _LANES + _LANE_SLOTS * _LANE_CELLS
+_SLOT = (CONTROL - _CELLS * 8) // 2
 _PR_SET_PDEATHSIG = 1
 #: Seconds a stopped child gets to send its result (while nothing arrives) before it is
 #: killed: a model that does not return from its step cannot see the stop request.
@@ -90,6 +97,7 @@ class _Shared:
         self.cells = np.frombuffer(self.control, dtype=np.float64, count=_CELLS)
         self.cells[:] = 0.0
         self.cells[_WORK] = -1.0
+        self.cells[_LANES + _LANE_WORK :: _LANE_CELLS] = -1.0
 
     # -- the child's side ----------------------------------------------------------------------
 
@@ -156,6 +164,10 @@ class _SharedTracks:
         self.tracks: list[SharedTrack] = []
         self.recorders: list[SharedRecorder] = []
         self.works: list[str] = []
+        #: Each work's place in the execution order (-1: unknown), parallel to ``works``.
+        self.places: list[int] = []
+        #: Works are registered by the loop's thread and by lanes: one at a time.
+        self.lock = threading.RLock()
 
     def publish(self) -> None:
         tracks = [
@@ -168,7 +180,8 @@ class _SharedTracks:
             for t in self.tracks
         ]
         order = [name for r in self.recorders for name in r.order]
-        self.shared.publish({"tracks": tracks, "order": order, "works": self.works})
+        directory = {"tracks": tracks, "order": order, "works": self.works, "places": self.places}
+        self.shared.publish(directory)
 
 
 #: The child's registry (set once in the forked child; empty in the guardian).
@@ -201,9 +214,10 @@ class SharedTrack(recording.Track):
             new[:kept] = self.rows[:kept]
         count[0] = self.count
         self.rows, self._count, self._block, self.offset = new, count, block, offset
-        if not any(track is self for track in registry.tracks):
-            registry.tracks.append(self)
-        registry.publish()
+        with registry.lock:  # a lane may be registering a work (and publishing) meanwhile
+            if not any(track is self for track in registry.tracks):
+                registry.tracks.append(self)
+            registry.publish()
 
     def sample(self) -> None:
         """Append the current values as the next row; the count is published after it."""
@@ -236,15 +250,19 @@ class SharedMarker:
     """The watchdog's marker, mirrored into the shared cells (child only).
 
     The loop stores the time and the work under way before each step, as for the watchdog;
-    the stores also land in shared memory, where the guardian reads them after a crash.
+    the stores also land in shared memory, where the guardian reads them after a crash. A
+    step on a lane (a worker thread of the parallel schedule) is marked by the lane around
+    the step, in a slot of its own: the loop may be busy elsewhere when it crashes.
     """
 
-    __slots__ = ("_cells", "_index", "_work")
+    __slots__ = ("_cells", "_index", "_slots", "_work")
 
     def __init__(self, control: mmap.mmap) -> None:
         self._cells = memoryview(control)[: _CELLS * 8].cast("d")  # cheaper stores than numpy's
         self._work: object = None
         self._index: dict[int, int] = {}
+        #: id(work) -> first cell of its lane slot (one lane steps one work).
+        self._slots: dict[int, int] = {}
 
     @property
     def t(self) -> float:
@@ -263,17 +281,50 @@ class SharedMarker:
         if value is self._work:  # one component stepping: the same work every step
             return
         self._work = value
+        self._cells[_WORK] = self._work_index(value)
+
+    def lane_started(self, job: Any) -> None:
+        """Mark ``job`` (a :class:`~fmionnx.runtime.parallel.Job`) in flight on its lane."""
+        key = id(job.work)
+        base = self._slots.get(key)
+        if base is None:
+            base = self._lane_slot(key)
+            if base < 0:
+                return
+        cells = self._cells
+        cells[base + _LANE_T] = job.t
+        cells[base + _LANE_N] = job.n
+        cells[base + _LANE_PLACE] = job.index
+        cells[base + _LANE_WORK] = self._work_index(job.work)  # last: the slot is whole
+
+    def lane_ended(self, job: Any) -> None:
+        """``job``'s step returned (or raised, which the loop settles): nothing in flight."""
+        base = self._slots.get(id(job.work), -1)
+        if base >= 0:
+            self._cells[base + _LANE_WORK] = -1.0
+
+    def _work_index(self, value: object) -> int:
         index = self._index.get(id(value))
-        if index is None:
-            index = self._register(value)
-        self._cells[_WORK] = index
+        return index if index is not None else self._register(value)
+
+    def _lane_slot(self, key: int) -> int:
+        with _REGISTRY[0].lock:
+            if key not in self._slots:
+                slot = len(self._slots)
+                self._slots[key] = _LANES + slot * _LANE_CELLS if slot < _LANE_SLOTS else -1
+            return self._slots[key]
 
     def _register(self, value: object) -> int:
         registry = _REGISTRY[0]
-        index = len(registry.works)
-        self._index[id(value)] = index
-        registry.works.append(str(getattr(value, "name", "")))
-        registry.publish()
+        with registry.lock:
+            index = self._index.get(id(value))
+            if index is not None:
+                return index
+            index = len(registry.works)
+            registry.works.append(str(getattr(value, "name", "")))
+            registry.places.append(int(getattr(value, "place", -1)))
+            registry.publish()
+            self._index[id(value)] = index
         return index
 
 
@@ -457,13 +508,10 @@ def _salvage(
     system: CompiledSystem, shared: _Shared, status: int, reason: str | None, wall: float
 ) -> RunResult:
     """The result of a child that died: every completed step, a fault naming who was stepping."""
-    cells = shared.cells
     directory = shared.directory() or {"tracks": [], "order": [], "works": []}
     run = system.run
-    index = int(cells[_WORK])
     works: list[str] = directory.get("works", [])
-    t = float(cells[_T]) if index >= 0 else run.start
-    steps_done = max(0, min(run.steps, round((t - run.start) / run.step))) if index >= 0 else 0
+    index, t, steps_done = _blamed(shared, directory, system)
     signals = _table(shared, directory, steps_done)
     if reason is not None:  # stopped, then killed when it did not stop: interrupted
         return RunResult.after(
@@ -482,6 +530,35 @@ def _salvage(
     else:
         error = RunError(f"the run's process {how} while preparing the run", time=run.start)
     return RunResult.after(system, BACKEND_NAME, RunStatus.FAULT, steps_done, wall, signals, error)
+
+
+def _blamed(
+    shared: _Shared, directory: dict[str, Any], system: CompiledSystem
+) -> tuple[int, float, int]:
+    """(work index, t, steps done) of the step to blame for a crash; index -1: none began.
+
+    The steps that may have been under way: the loop's marked work and each lane's step in
+    flight. The earliest in the sequential order is blamed, as the sequential run would have
+    met it first; the steps done are those before its communication point.
+    """
+    cells = shared.cells
+    run = system.run
+    places: list[int] = directory.get("places", [])
+    marks: list[tuple[int, int, int, float]] = []  # (n, place, work index, t)
+    index = int(cells[_WORK])
+    if index >= 0:
+        t = float(cells[_T])
+        n = round((t - run.start) / run.step)
+        marks.append((n, places[index] if index < len(places) else -1, index, t))
+    for base in range(_LANES, _CELLS, _LANE_CELLS):
+        lane = int(cells[base + _LANE_WORK])
+        if lane >= 0:
+            n, place = int(cells[base + _LANE_N]), int(cells[base + _LANE_PLACE])
+            marks.append((n, place, lane, float(cells[base + _LANE_T])))
+    if not marks:
+        return -1, run.start, 0
+    n, _, index, t = min(marks)
+    return index, t, max(0, min(run.steps, n))
 
 
 def _table(

@@ -98,6 +98,9 @@ class _Due:
     members: tuple[str, ...] = ()
     #: ``component``, ``group`` (native kernel) or ``loop`` (iterated algebraic loop).
     what: str = "component"
+    #: Its place in the execution order (set by ``prepare``; the guardian's marker reads it
+    #: to tell, after a crash, which of the steps under way came first).
+    place: int = -1
 
 
 class Master:
@@ -179,6 +182,8 @@ class Master:
             self._fallback = entries
         self._entry_list = entries
         self._entry_index = {id(due): i for i, (due, _) in enumerate(entries)}
+        for i, (due, _) in enumerate(entries):
+            due.place = i
         if self.options.schedule == "parallel" and self._hyper:
             self._plan_parallel(entries)
 
@@ -201,7 +206,7 @@ class Master:
             if any(c.src.port in self.runners[c.src.component].lazy_outputs for c in incoming):
                 lazy.add(id(due))
             if due.what == "component" and self._may_overlap(due.name):
-                lanes[id(due)] = Lane(due.name)
+                lanes[id(due)] = Lane(due.name, self._marker)
         if not lanes:
             return
         if self.options.frames is not None:
