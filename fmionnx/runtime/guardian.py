@@ -75,6 +75,8 @@ _PR_SET_PDEATHSIG = 1
 #: Seconds a stopped child gets to send its result (while nothing arrives) before it is
 #: killed: a model that does not return from its step cannot see the stop request.
 STOP_GRACE = 5.0
+#: Bytes of the child's result message: the offset and length of the pickled result.
+_RESULT_MESSAGE = 16
 
 RunFunction = Callable[..., RunResult]
 
@@ -335,11 +337,31 @@ def _die_with_parent() -> None:
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
 
 
+def _fresh_streams() -> None:
+    """New ``sys.stdout``/``sys.stderr`` on fds 1 and 2 for the forked child.
+
+    The parent's may be wrappers (a live progress display redirects them through its
+    console) whose locks another thread of the parent held at the fork: in the child that
+    thread does not exist, and the first write would wait for it forever.
+    """
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        old = getattr(sys, name, None)
+        encoding = getattr(old, "encoding", None) or "utf-8"
+        with contextlib.suppress(OSError, ValueError):
+            stream = open(  # noqa: SIM115 - the child's stream for the rest of its life
+                fd, "w", encoding=encoding, errors="backslashreplace", closefd=False,
+                buffering=1,
+            )  # fmt: skip
+            setattr(sys, name, stream)
+            setattr(sys, f"__{name}__", stream)
+
+
 def _child(
     run_fn: RunFunction, options: RunOptions, shared: _Shared, result_pipe: int, scratch: Path
 ) -> int:
     """Run in the forked child; returns its exit status (the result went down the pipe)."""
     _die_with_parent()
+    _fresh_streams()
     os.environ["TMPDIR"] = str(scratch)
     tempfile.tempdir = str(scratch)
     _REGISTRY[:] = [_SharedTracks(shared)]
@@ -359,9 +381,9 @@ def _child(
     abandon = options.abandon
 
     def abandoned(result: RunResult) -> None:
-        cells[_ABANDONED] = 1.0
         if abandon is not None:
             abandon(result)
+        cells[_ABANDONED] = 1.0  # only now: the results are written (else the guardian does)
 
     options = dataclasses.replace(
         options,
@@ -415,9 +437,10 @@ def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions
         data, reason = _wait(pid, read_end, shared, options, stop_reason)
         status = _reap(pid)
         if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results and said so
-            remove_scratch(scratch)
-            sys.stdout.flush()
-            os._exit(1)
+            # The process ends with status 1 as an abandoned in-process run's does, but
+            # through SystemExit: the caller's progress display is taken down on the way
+            # out (the terminal's cursor restored), and nothing is written twice.
+            raise SystemExit(1)
         result = _unpickle(data, shared)
         if result is None:
             result = _salvage(system, shared, status, reason, time.perf_counter() - started)
@@ -435,8 +458,18 @@ def _wait(
     options: RunOptions,
     stop_reason: Callable[[BaseException], str],
 ) -> tuple[bytes, str | None]:
-    """Read the child's result until the pipe closes; pass progress and stop signals on."""
+    """Read the child's result until the pipe closes; pass progress and stop signals on.
+
+    The child is killed when it stays silent for :data:`STOP_GRACE` seconds after it was
+    asked to stop (stuck in a model) or after its result arrived (stuck on its way out: its
+    result is whole and is used).
+
+    The first stop signal is passed on to the child; later ones are not seen here (the
+    CLI's ``stop_on_signals`` ignores them), so a child that does not stop is killed at
+    the deadline, not earlier.
+    """
     chunks: list[bytes] = []
+    received = 0
     reason: str | None = None
     seen = 0.0
     cells = shared.cells
@@ -449,8 +482,10 @@ def _wait(
                 if not chunk:
                     break
                 chunks.append(chunk)
-                deadline = time.monotonic() + STOP_GRACE if reason is not None else deadline
-            elif time.monotonic() > deadline:  # stopped, and silent: stuck in a model
+                received += len(chunk)
+                if reason is not None or received >= _RESULT_MESSAGE:
+                    deadline = time.monotonic() + STOP_GRACE
+            elif time.monotonic() > deadline:  # stopped or done, and silent: stuck
                 deadline = float("inf")
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.SIGKILL)
@@ -463,9 +498,6 @@ def _wait(
                 deadline = time.monotonic() + STOP_GRACE
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.Signals[reason])
-            else:  # asked twice: a model that does not return is not waited for
-                with contextlib.suppress(ProcessLookupError):
-                    os.kill(pid, signal.SIGKILL)
     return b"".join(chunks), reason
 
 
@@ -482,7 +514,7 @@ def _reap(pid: int) -> int:
 
 def _unpickle(data: bytes, shared: _Shared) -> RunResult | None:
     """The child's result, when it wrote one whole (it is our own forked process)."""
-    if len(data) != 16:
+    if len(data) != _RESULT_MESSAGE:
         return None
     offset = int.from_bytes(data[:8], "little")
     length = int.from_bytes(data[8:], "little")
