@@ -223,15 +223,12 @@ class SharedTrack(recording.Track):
 
     def sample(self) -> None:
         """Append the current values as the next row; the count is published after it."""
-        if self.count == len(self.rows):
-            self._grow()
-        row = self.rows[self.count]
-        for view, a, b in self.views:
-            if b - a == 1:
-                row[a] = view[0]
-            else:
-                row[a:b] = view
-        self.count += 1
+        super().sample()  # grows through _grow, into shared memory
+        self._count[0] = self.count
+
+    def truncate(self, count: int) -> None:
+        """Keep at most ``count`` rows, here and in the count the guardian reads."""
+        super().truncate(count)
         self._count[0] = self.count
 
 

@@ -630,9 +630,9 @@ class Master:
             for name in due.members or (due.name,):
                 before, after = self._tracks.get(name, (None, None))
                 if before is not None:
-                    before.count = min(before.count, issued)
+                    before.truncate(issued)
                 if after is not None:
-                    after.count = min(after.count, issued + 1)
+                    after.truncate(issued + 1)
 
     def _close_lanes(self) -> set[str]:
         """No step may still run when the runners are freed; then let the workers end.

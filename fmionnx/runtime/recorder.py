@@ -67,6 +67,10 @@ class Track:
                 row[a:b] = view
         self.count += 1
 
+    def truncate(self, count: int) -> None:
+        """Keep at most the first ``count`` rows (a step taken back: see the parallel master)."""
+        self.count = min(self.count, count)
+
 
 class Recorder:
     """All tracks of a run; :meth:`table` builds the base-step columns."""
