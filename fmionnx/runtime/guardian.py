@@ -178,6 +178,8 @@ class _SharedTracks:
                 "capacity": len(t.rows),
                 "columns": t.columns,
                 "period": t.period_steps,
+                "place": t.place,
+                "outputs": t.outputs,
             }
             for t in self.tracks
         ]
@@ -540,8 +542,8 @@ def _salvage(
     directory = shared.directory() or {"tracks": [], "order": [], "works": []}
     run = system.run
     works: list[str] = directory.get("works", [])
-    index, t, steps_done = _blamed(shared, directory, system)
-    signals = _table(shared, directory, steps_done)
+    index, t, steps_done, place = _blamed(shared, directory, system)
+    signals = _table(shared, directory, steps_done, place)
     if reason is not None:  # stopped, then killed when it did not stop: interrupted
         return RunResult.after(
             system, BACKEND_NAME, RunStatus.INTERRUPTED, steps_done, wall, signals,
@@ -563,8 +565,8 @@ def _salvage(
 
 def _blamed(
     shared: _Shared, directory: dict[str, Any], system: CompiledSystem
-) -> tuple[int, float, int]:
-    """(work index, t, steps done) of the step to blame for a crash; index -1: none began.
+) -> tuple[int, float, int, int]:
+    """(work index, t, steps done, place) of the step to blame for a crash; index -1: none.
 
     The steps that may have been under way: the loop's marked work and each lane's step in
     flight. The earliest in the sequential order is blamed, as the sequential run would have
@@ -585,22 +587,34 @@ def _blamed(
             n, place = int(cells[base + _LANE_N]), int(cells[base + _LANE_PLACE])
             marks.append((n, place, lane, float(cells[base + _LANE_T])))
     if not marks:
-        return -1, run.start, 0
-    n, _, index, t = min(marks)
-    return index, t, max(0, min(run.steps, n))
+        return -1, run.start, 0, -1
+    n, place, index, t = min(marks)
+    return index, t, max(0, min(run.steps, n)), place
 
 
 def _table(
-    shared: _Shared, directory: dict[str, Any], steps_done: int
+    shared: _Shared, directory: dict[str, Any], steps_done: int, place: int = -1
 ) -> dict[str, npt.NDArray[np.float64]]:
-    """The recorder's base-step columns, rebuilt from the shared tracks."""
+    """The recorder's base-step columns, rebuilt from the shared tracks.
+
+    With the parallel schedule the loop may have recorded the inputs of work after the
+    blamed step (at ``place`` in the order, from ``steps_done``) while that step ran on its
+    lane: those rows, which the sequential run never recorded, are left out.
+    """
     rebuilt = recording.Recorder()
     rebuilt.order.extend(directory.get("order", []))
     for entry in directory.get("tracks", []):
         columns = list(entry["columns"])
         count, rows = shared.rows(int(entry["offset"]), int(entry["capacity"]), len(columns))
-        track = recording.Track(int(entry["period"]), int(entry["capacity"]), columns)
+        period = int(entry["period"])
+        track = recording.Track(period, int(entry["capacity"]), columns)
         track.rows, track.count = rows, count
+        own = int(entry.get("place", -1))
+        if place >= 0 and own >= 0 and own != place:
+            issued = -(-steps_done // period)  # steps the sequential order issued before
+            if steps_done % period == 0 and own < place:
+                issued += 1
+            track.truncate(issued + 1 if entry.get("outputs") else issued)
         rebuilt.tracks.append(track)
     return rebuilt.table(steps_done)
 

@@ -184,6 +184,11 @@ class Master:
         self._entry_index = {id(due): i for i, (due, _) in enumerate(entries)}
         for i, (due, _) in enumerate(entries):
             due.place = i
+            for name in due.members or (due.name,):
+                before, after = self._tracks.get(name, (None, None))
+                for track in (before, after):
+                    if track is not None:
+                        track.place, track.outputs = i, track is after
         if self.options.schedule == "parallel" and self._hyper:
             self._plan_parallel(entries)
 

@@ -15,7 +15,7 @@ import numpy as np
 
 import fmionnx
 from fmionnx.core.runner import Runner, Wiring
-from fmionnx.core.types import Component
+from fmionnx.core.types import Component, PortRef
 from fmionnx.kinds.registry import make_runner
 from fmionnx.runtime.guardian import run_guarded
 from fmionnx.runtime.master import Master
@@ -75,13 +75,13 @@ def _factory(component: Component, wiring: Wiring) -> Any:
     return runner
 
 
-def _run(path: Path, schedule: str) -> RunResult:
+def _run(path: Path, schedule: str, record: tuple[PortRef, ...] | None = None) -> RunResult:
     compiled = fmionnx.load(path).compiled
 
     def run_fn(*, options: RunOptions) -> RunResult:
         return Master(compiled, options, _factory).run()
 
-    return run_guarded(compiled, run_fn, RunOptions(schedule=schedule))
+    return run_guarded(compiled, run_fn, RunOptions(schedule=schedule, record=record))
 
 
 def test_a_crash_on_a_lane_names_its_component_and_keeps_the_sequential_rows(
@@ -101,3 +101,43 @@ def test_a_crash_on_a_lane_names_its_component_and_keeps_the_sequential_rows(
     for name, column in sequential.signals.items():
         np.testing.assert_array_equal(parallel.signals[name], column, err_msg=name)
     np.testing.assert_array_equal(parallel.time, sequential.time)
+
+
+RAMPED = """
+fmionnx: 1
+name: ramped
+run: {{stop: 0.1, step: 0.01}}
+components:
+  ramp: {{kind: fmu, path: {integrator}, parameters: {{u: 1.0}}}}
+  a: {{kind: fmu, path: {faulty}, parameters: {{mode: {mode}, failAt: 0.05}}}}
+  b: {{kind: fmu, path: {gain}}}
+  sink_a: {{kind: fmu, path: {gain}}}
+  sink_b: {{kind: fmu, path: {gain}}}
+connections:
+  - ramp.x -> b.u
+  - a.y -> sink_a.u
+  - b.y -> sink_b.u
+"""
+
+
+def test_inputs_recorded_by_the_loop_after_a_lane_crashed_are_not_kept(
+    fixture_fmu, write_system
+) -> None:
+    """The loop went on to b (after a in the order) while a crashed on its lane: b's inputs
+    at that step, which the sequential run never recorded, are not in the salvaged table."""
+    path = write_system(
+        RAMPED.format(
+            integrator=fixture_fmu("Integrator"), faulty=fixture_fmu("Faulty"),
+            gain=fixture_fmu("Gain"), mode=ABORT,
+        )
+    )  # fmt: skip
+    record = (PortRef("b", "u"), PortRef("b", "y"), PortRef("a", "y"))
+    sequential = _run(path, "sequential", record)
+    parallel = _run(path, "parallel", record)
+    for result in (sequential, parallel):
+        assert result.error is not None
+        assert result.error.component == "a", result.error
+    assert parallel.steps_done == sequential.steps_done == 5
+    assert list(parallel.signals) == list(sequential.signals) == ["b.u", "b.y", "a.y"]
+    for name, column in sequential.signals.items():
+        np.testing.assert_array_equal(parallel.signals[name], column, err_msg=name)
