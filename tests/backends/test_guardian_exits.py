@@ -130,3 +130,54 @@ def test_a_child_dying_while_writing_abandoned_results_is_salvaged(
     # the guardian did not take "abandoned" for "written": it wrote the salvaged run itself
     assert process.returncode == 0, process.stderr
     assert process.stdout.split() == ["salvaged", "fault", "30", "bad+gain"], process.stdout
+
+
+ABANDON_WRITES = """
+import contextlib, sys
+import fmionnx
+from fmionnx.runtime.guardian import run_guarded
+from fmionnx.runtime.result import RunOptions
+
+system = fmionnx.load(sys.argv[1])
+
+def abandon(result):
+    print("written by the child", result.error.component, flush=True)
+
+@contextlib.contextmanager
+def display():  # stands for the CLI's progress display: it must be taken down
+    try:
+        yield
+    finally:
+        print("display taken down", flush=True)
+
+options = RunOptions(step_timeout=0.5, abandon=abandon, schedule="sequential")
+try:
+    with display():
+        run_guarded(system.compiled, system.run, options)
+except SystemExit as exc:
+    print("exit status", exc.code)
+"""
+
+
+def test_an_abandoned_run_ends_the_guardian_through_its_callers_clean_up(
+    fixture_fmu, write_system
+) -> None:
+    path = write_system(
+        SYSTEM.format(
+            faulty=fixture_fmu("Faulty"), gain=fixture_fmu("Gain"), mode=HANG, stop=1.0,
+            step=0.01, fail_at=0.3,
+        )
+    )  # fmt: skip
+    process = subprocess.run(
+        [sys.executable, "-c", ABANDON_WRITES, str(path)],
+        check=False,
+        capture_output=True,
+        text=True,
+        timeout=60,
+    )
+    assert process.returncode == 0, process.stderr
+    assert process.stdout.splitlines() == [
+        "written by the child bad+gain",
+        "display taken down",
+        "exit status 1",
+    ], process.stdout
