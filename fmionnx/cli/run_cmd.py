@@ -554,7 +554,14 @@ def _run_system(
         where = "" if ros2 is None else f" as ROS 2 nodes ({ros2.sync.value})"
         console.print(f"running {system.name}{where} from {run.start:g} to {run.stop:g} s ...")
     try:
-        result = _with_progress(run_fn, system, options, quiet=quiet, console=console)
+        result = _with_progress(
+            run_fn,
+            system,
+            options,
+            quiet=quiet,
+            console=console,
+            guarded=ros2 is None and safety is not None and safety.guardian,
+        )
     except DiagnosticError as exc:
         if recorder is not None:
             recorder.finish(None)
@@ -612,7 +619,15 @@ def _run_system(
     return int(ExitCode.OK)
 
 
-def _with_progress(run_fn: Any, system: Any, options: Any, *, quiet: bool, console: Any) -> Any:
+def _with_progress(
+    run_fn: Any, system: Any, options: Any, *, quiet: bool, console: Any, guarded: bool = False
+) -> Any:
+    """``run_fn`` with a progress bar on a terminal.
+
+    Under the guardian (``guarded``) the bar is refreshed by its updates (the guardian
+    passes the child's progress on at up to 10 Hz) instead of by rich's refresh thread: the
+    guardian forks, and a lock that thread held at the fork would be held in the child forever.
+    """
     import dataclasses
 
     if quiet or not console.is_terminal:
@@ -629,6 +644,7 @@ def _with_progress(run_fn: Any, system: Any, options: Any, *, quiet: bool, conso
         TimeElapsedColumn(),
         console=console,
         transient=True,
+        auto_refresh=not guarded,
     ) as progress:
         task = progress.add_task(system.name, total=system.compiled.run.steps, sim=0.0, rtf=0.0)
 
@@ -636,6 +652,8 @@ def _with_progress(run_fn: Any, system: Any, options: Any, *, quiet: bool, conso
             wall = time.perf_counter() - started
             simulated = sim - system.compiled.run.start
             progress.update(task, completed=done, sim=sim, rtf=simulated / wall if wall else 0.0)
+            if guarded:
+                progress.refresh()
 
         return run_fn(options=dataclasses.replace(options, progress=update))
 

@@ -80,6 +80,8 @@ class RunSafety:
             assert out is not None
             write_results(result, compiled, out, aliases=aliases, checkpoint=True)
 
+        guarded = self.guardian
+
         def abandon(result: Any) -> None:
             if out is not None:
                 from fmionnx.results import write_results
@@ -87,7 +89,12 @@ class RunSafety:
                 write_results(
                     result, compiled, out, aliases=aliases, plot_signals=self.plot_signals
                 )
-            console.print(f"[bold red]fault:[/] {result.error}")
+            shown = console
+            if guarded:  # in the guarded child: the parent's console may be locked for good
+                from rich.console import Console
+
+                shown = Console(stderr=True, highlight=False)
+            shown.print(f"[bold red]fault:[/] {result.error}")
             if out is not None:
                 print(f"Results: {out}")
             sys.stdout.flush()

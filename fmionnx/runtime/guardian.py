@@ -39,6 +39,7 @@ import select
 import signal
 import sys
 import tempfile
+import threading
 import time
 import traceback
 from collections.abc import Callable
@@ -60,14 +61,22 @@ BACKEND_NAME = "inprocess"
 
 #: Bytes of the control block at the start of the shared file: cells, then two directory slots.
 CONTROL = 1 << 20  # sparse: pages cost only once written
-_CELLS = 16
-_SLOT = (CONTROL - _CELLS * 8) // 2
 # float64 cells of the control block
 _T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY = range(8)
+#: Then, per lane of the parallel schedule (a worker thread stepping one component), the
+#: step in flight there: (work index, t, n, place in the order); work index -1: none.
+_LANES = 16
+_LANE_SLOTS = 256  # lanes beyond these are not tracked (their crash is blamed on the loop's work)
+_LANE_WORK, _LANE_T, _LANE_N, _LANE_PLACE = range(4)
+_LANE_CELLS = 4
+_CELLS = _LANES + _LANE_SLOTS * _LANE_CELLS
+_SLOT = (CONTROL - _CELLS * 8) // 2
 _PR_SET_PDEATHSIG = 1
 #: Seconds a stopped child gets to send its result (while nothing arrives) before it is
 #: killed: a model that does not return from its step cannot see the stop request.
 STOP_GRACE = 5.0
+#: Bytes of the child's result message: the offset and length of the pickled result.
+_RESULT_MESSAGE = 16
 
 RunFunction = Callable[..., RunResult]
 
@@ -90,6 +99,7 @@ class _Shared:
         self.cells = np.frombuffer(self.control, dtype=np.float64, count=_CELLS)
         self.cells[:] = 0.0
         self.cells[_WORK] = -1.0
+        self.cells[_LANES + _LANE_WORK :: _LANE_CELLS] = -1.0
 
     # -- the child's side ----------------------------------------------------------------------
 
@@ -156,6 +166,10 @@ class _SharedTracks:
         self.tracks: list[SharedTrack] = []
         self.recorders: list[SharedRecorder] = []
         self.works: list[str] = []
+        #: Each work's place in the execution order (-1: unknown), parallel to ``works``.
+        self.places: list[int] = []
+        #: Works are registered by the loop's thread and by lanes: one at a time.
+        self.lock = threading.RLock()
 
     def publish(self) -> None:
         tracks = [
@@ -164,11 +178,14 @@ class _SharedTracks:
                 "capacity": len(t.rows),
                 "columns": t.columns,
                 "period": t.period_steps,
+                "place": t.place,
+                "outputs": t.outputs,
             }
             for t in self.tracks
         ]
         order = [name for r in self.recorders for name in r.order]
-        self.shared.publish({"tracks": tracks, "order": order, "works": self.works})
+        directory = {"tracks": tracks, "order": order, "works": self.works, "places": self.places}
+        self.shared.publish(directory)
 
 
 #: The child's registry (set once in the forked child; empty in the guardian).
@@ -201,21 +218,19 @@ class SharedTrack(recording.Track):
             new[:kept] = self.rows[:kept]
         count[0] = self.count
         self.rows, self._count, self._block, self.offset = new, count, block, offset
-        if not any(track is self for track in registry.tracks):
-            registry.tracks.append(self)
-        registry.publish()
+        with registry.lock:  # a lane may be registering a work (and publishing) meanwhile
+            if not any(track is self for track in registry.tracks):
+                registry.tracks.append(self)
+            registry.publish()
 
     def sample(self) -> None:
         """Append the current values as the next row; the count is published after it."""
-        if self.count == len(self.rows):
-            self._grow()
-        row = self.rows[self.count]
-        for view, a, b in self.views:
-            if b - a == 1:
-                row[a] = view[0]
-            else:
-                row[a:b] = view
-        self.count += 1
+        super().sample()  # grows through _grow, into shared memory
+        self._count[0] = self.count
+
+    def truncate(self, count: int) -> None:
+        """Keep at most ``count`` rows, here and in the count the guardian reads."""
+        super().truncate(count)
         self._count[0] = self.count
 
 
@@ -236,15 +251,19 @@ class SharedMarker:
     """The watchdog's marker, mirrored into the shared cells (child only).
 
     The loop stores the time and the work under way before each step, as for the watchdog;
-    the stores also land in shared memory, where the guardian reads them after a crash.
+    the stores also land in shared memory, where the guardian reads them after a crash. A
+    step on a lane (a worker thread of the parallel schedule) is marked by the lane around
+    the step, in a slot of its own: the loop may be busy elsewhere when it crashes.
     """
 
-    __slots__ = ("_cells", "_index", "_work")
+    __slots__ = ("_cells", "_index", "_slots", "_work")
 
     def __init__(self, control: mmap.mmap) -> None:
         self._cells = memoryview(control)[: _CELLS * 8].cast("d")  # cheaper stores than numpy's
         self._work: object = None
         self._index: dict[int, int] = {}
+        #: id(work) -> first cell of its lane slot (one lane steps one work).
+        self._slots: dict[int, int] = {}
 
     @property
     def t(self) -> float:
@@ -263,17 +282,50 @@ class SharedMarker:
         if value is self._work:  # one component stepping: the same work every step
             return
         self._work = value
+        self._cells[_WORK] = self._work_index(value)
+
+    def lane_started(self, job: Any) -> None:
+        """Mark ``job`` (a :class:`~fmionnx.runtime.parallel.Job`) in flight on its lane."""
+        key = id(job.work)
+        base = self._slots.get(key)
+        if base is None:
+            base = self._lane_slot(key)
+            if base < 0:
+                return
+        cells = self._cells
+        cells[base + _LANE_T] = job.t
+        cells[base + _LANE_N] = job.n
+        cells[base + _LANE_PLACE] = job.index
+        cells[base + _LANE_WORK] = self._work_index(job.work)  # last: the slot is whole
+
+    def lane_ended(self, job: Any) -> None:
+        """``job``'s step returned (or raised, which the loop settles): nothing in flight."""
+        base = self._slots.get(id(job.work), -1)
+        if base >= 0:
+            self._cells[base + _LANE_WORK] = -1.0
+
+    def _work_index(self, value: object) -> int:
         index = self._index.get(id(value))
-        if index is None:
-            index = self._register(value)
-        self._cells[_WORK] = index
+        return index if index is not None else self._register(value)
+
+    def _lane_slot(self, key: int) -> int:
+        with _REGISTRY[0].lock:
+            if key not in self._slots:
+                slot = len(self._slots)
+                self._slots[key] = _LANES + slot * _LANE_CELLS if slot < _LANE_SLOTS else -1
+            return self._slots[key]
 
     def _register(self, value: object) -> int:
         registry = _REGISTRY[0]
-        index = len(registry.works)
-        self._index[id(value)] = index
-        registry.works.append(str(getattr(value, "name", "")))
-        registry.publish()
+        with registry.lock:
+            index = self._index.get(id(value))
+            if index is not None:
+                return index
+            index = len(registry.works)
+            registry.works.append(str(getattr(value, "name", "")))
+            registry.places.append(int(getattr(value, "place", -1)))
+            registry.publish()
+            self._index[id(value)] = index
         return index
 
 
@@ -284,11 +336,31 @@ def _die_with_parent() -> None:
         libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
 
 
+def _fresh_streams() -> None:
+    """New ``sys.stdout``/``sys.stderr`` on fds 1 and 2 for the forked child.
+
+    The parent's may be wrappers (a live progress display redirects them through its
+    console) whose locks another thread of the parent held at the fork: in the child that
+    thread does not exist, and the first write would wait for it forever.
+    """
+    for fd, name in ((1, "stdout"), (2, "stderr")):
+        old = getattr(sys, name, None)
+        encoding = getattr(old, "encoding", None) or "utf-8"
+        with contextlib.suppress(OSError, ValueError):
+            stream = open(  # noqa: SIM115 - the child's stream for the rest of its life
+                fd, "w", encoding=encoding, errors="backslashreplace", closefd=False,
+                buffering=1,
+            )  # fmt: skip
+            setattr(sys, name, stream)
+            setattr(sys, f"__{name}__", stream)
+
+
 def _child(
     run_fn: RunFunction, options: RunOptions, shared: _Shared, result_pipe: int, scratch: Path
 ) -> int:
     """Run in the forked child; returns its exit status (the result went down the pipe)."""
     _die_with_parent()
+    _fresh_streams()
     os.environ["TMPDIR"] = str(scratch)
     tempfile.tempdir = str(scratch)
     _REGISTRY[:] = [_SharedTracks(shared)]
@@ -308,9 +380,9 @@ def _child(
     abandon = options.abandon
 
     def abandoned(result: RunResult) -> None:
-        cells[_ABANDONED] = 1.0
         if abandon is not None:
             abandon(result)
+        cells[_ABANDONED] = 1.0  # only now: the results are written (else the guardian does)
 
     options = dataclasses.replace(
         options,
@@ -364,9 +436,10 @@ def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions
         data, reason = _wait(pid, read_end, shared, options, stop_reason)
         status = _reap(pid)
         if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results and said so
-            remove_scratch(scratch)
-            sys.stdout.flush()
-            os._exit(1)
+            # The process ends with status 1 as an abandoned in-process run's does, but
+            # through SystemExit: the caller's progress display is taken down on the way
+            # out (the terminal's cursor restored), and nothing is written twice.
+            raise SystemExit(1)
         result = _unpickle(data, shared)
         if result is None:
             result = _salvage(system, shared, status, reason, time.perf_counter() - started)
@@ -384,8 +457,18 @@ def _wait(
     options: RunOptions,
     stop_reason: Callable[[BaseException], str],
 ) -> tuple[bytes, str | None]:
-    """Read the child's result until the pipe closes; pass progress and stop signals on."""
+    """Read the child's result until the pipe closes; pass progress and stop signals on.
+
+    The child is killed when it stays silent for :data:`STOP_GRACE` seconds after it was
+    asked to stop (stuck in a model) or after its result arrived (stuck on its way out: its
+    result is whole and is used).
+
+    The first stop signal is passed on to the child; later ones are not seen here (the
+    CLI's ``stop_on_signals`` ignores them), so a child that does not stop is killed at
+    the deadline, not earlier.
+    """
     chunks: list[bytes] = []
+    received = 0
     reason: str | None = None
     seen = 0.0
     cells = shared.cells
@@ -398,8 +481,10 @@ def _wait(
                 if not chunk:
                     break
                 chunks.append(chunk)
-                deadline = time.monotonic() + STOP_GRACE if reason is not None else deadline
-            elif time.monotonic() > deadline:  # stopped, and silent: stuck in a model
+                received += len(chunk)
+                if reason is not None or received >= _RESULT_MESSAGE:
+                    deadline = time.monotonic() + STOP_GRACE
+            elif time.monotonic() > deadline:  # stopped or done, and silent: stuck
                 deadline = float("inf")
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.SIGKILL)
@@ -412,9 +497,6 @@ def _wait(
                 deadline = time.monotonic() + STOP_GRACE
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.Signals[reason])
-            else:  # asked twice: a model that does not return is not waited for
-                with contextlib.suppress(ProcessLookupError):
-                    os.kill(pid, signal.SIGKILL)
     return b"".join(chunks), reason
 
 
@@ -431,7 +513,7 @@ def _reap(pid: int) -> int:
 
 def _unpickle(data: bytes, shared: _Shared) -> RunResult | None:
     """The child's result, when it wrote one whole (it is our own forked process)."""
-    if len(data) != 16:
+    if len(data) != _RESULT_MESSAGE:
         return None
     offset = int.from_bytes(data[:8], "little")
     length = int.from_bytes(data[8:], "little")
@@ -457,14 +539,11 @@ def _salvage(
     system: CompiledSystem, shared: _Shared, status: int, reason: str | None, wall: float
 ) -> RunResult:
     """The result of a child that died: every completed step, a fault naming who was stepping."""
-    cells = shared.cells
     directory = shared.directory() or {"tracks": [], "order": [], "works": []}
     run = system.run
-    index = int(cells[_WORK])
     works: list[str] = directory.get("works", [])
-    t = float(cells[_T]) if index >= 0 else run.start
-    steps_done = max(0, min(run.steps, round((t - run.start) / run.step))) if index >= 0 else 0
-    signals = _table(shared, directory, steps_done)
+    index, t, steps_done, place = _blamed(shared, directory, system)
+    signals = _table(shared, directory, steps_done, place)
     if reason is not None:  # stopped, then killed when it did not stop: interrupted
         return RunResult.after(
             system, BACKEND_NAME, RunStatus.INTERRUPTED, steps_done, wall, signals,
@@ -484,17 +563,58 @@ def _salvage(
     return RunResult.after(system, BACKEND_NAME, RunStatus.FAULT, steps_done, wall, signals, error)
 
 
+def _blamed(
+    shared: _Shared, directory: dict[str, Any], system: CompiledSystem
+) -> tuple[int, float, int, int]:
+    """(work index, t, steps done, place) of the step to blame for a crash; index -1: none.
+
+    The steps that may have been under way: the loop's marked work and each lane's step in
+    flight. The earliest in the sequential order is blamed, as the sequential run would have
+    met it first; the steps done are those before its communication point.
+    """
+    cells = shared.cells
+    run = system.run
+    places: list[int] = directory.get("places", [])
+    marks: list[tuple[int, int, int, float]] = []  # (n, place, work index, t)
+    index = int(cells[_WORK])
+    if index >= 0:
+        t = float(cells[_T])
+        n = round((t - run.start) / run.step)
+        marks.append((n, places[index] if index < len(places) else -1, index, t))
+    for base in range(_LANES, _CELLS, _LANE_CELLS):
+        lane = int(cells[base + _LANE_WORK])
+        if lane >= 0:
+            n, place = int(cells[base + _LANE_N]), int(cells[base + _LANE_PLACE])
+            marks.append((n, place, lane, float(cells[base + _LANE_T])))
+    if not marks:
+        return -1, run.start, 0, -1
+    n, place, index, t = min(marks)
+    return index, t, max(0, min(run.steps, n)), place
+
+
 def _table(
-    shared: _Shared, directory: dict[str, Any], steps_done: int
+    shared: _Shared, directory: dict[str, Any], steps_done: int, place: int = -1
 ) -> dict[str, npt.NDArray[np.float64]]:
-    """The recorder's base-step columns, rebuilt from the shared tracks."""
+    """The recorder's base-step columns, rebuilt from the shared tracks.
+
+    With the parallel schedule the loop may have recorded the inputs of work after the
+    blamed step (at ``place`` in the order, from ``steps_done``) while that step ran on its
+    lane: those rows, which the sequential run never recorded, are left out.
+    """
     rebuilt = recording.Recorder()
     rebuilt.order.extend(directory.get("order", []))
     for entry in directory.get("tracks", []):
         columns = list(entry["columns"])
         count, rows = shared.rows(int(entry["offset"]), int(entry["capacity"]), len(columns))
-        track = recording.Track(int(entry["period"]), int(entry["capacity"]), columns)
+        period = int(entry["period"])
+        track = recording.Track(period, int(entry["capacity"]), columns)
         track.rows, track.count = rows, count
+        own = int(entry.get("place", -1))
+        if place >= 0 and own >= 0 and own != place:
+            issued = -(-steps_done // period)  # steps the sequential order issued before
+            if steps_done % period == 0 and own < place:
+                issued += 1
+            track.truncate(issued + 1 if entry.get("outputs") else issued)
         rebuilt.tracks.append(track)
     return rebuilt.table(steps_done)
 

@@ -98,6 +98,9 @@ class _Due:
     members: tuple[str, ...] = ()
     #: ``component``, ``group`` (native kernel) or ``loop`` (iterated algebraic loop).
     what: str = "component"
+    #: Its place in the execution order (set by ``prepare``; the guardian's marker reads it
+    #: to tell, after a crash, which of the steps under way came first).
+    place: int = -1
 
 
 class Master:
@@ -179,6 +182,13 @@ class Master:
             self._fallback = entries
         self._entry_list = entries
         self._entry_index = {id(due): i for i, (due, _) in enumerate(entries)}
+        for i, (due, _) in enumerate(entries):
+            due.place = i
+            for name in due.members or (due.name,):
+                before, after = self._tracks.get(name, (None, None))
+                for track in (before, after):
+                    if track is not None:
+                        track.place, track.outputs = i, track is after
         if self.options.schedule == "parallel" and self._hyper:
             self._plan_parallel(entries)
 
@@ -201,7 +211,7 @@ class Master:
             if any(c.src.port in self.runners[c.src.component].lazy_outputs for c in incoming):
                 lazy.add(id(due))
             if due.what == "component" and self._may_overlap(due.name):
-                lanes[id(due)] = Lane(due.name)
+                lanes[id(due)] = Lane(due.name, self._marker)
         if not lanes:
             return
         if self.options.frames is not None:
@@ -411,8 +421,7 @@ class Master:
             wall = _time.perf_counter() - started
             if self._watchdog is not None:
                 self._watchdog.stop()
-            self._close_lanes()
-            self._terminate()
+            self._terminate(skip=self._close_lanes())
         n = self._clock[0]
         return RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
@@ -541,10 +550,17 @@ class Master:
             progress(total, total, run.stop)
 
     def _join(self, lane: Lane) -> None:
-        """Wait for ``lane``'s pending step and record its outputs (raises :class:`_StepFailedError`).
+        """Wait for ``lane``'s pending step and record its outputs (raises :class:`_StepFailedError`)."""
+        job, outcome = self._await(lane)
+        if outcome is not None:
+            raise _StepFailedError(job, outcome)
 
-        While waiting, the watchdog's marker names that step, so a concurrent step that
-        hangs is reported as itself.
+    def _await(self, lane: Lane, *, record: bool = True) -> tuple[Job, BaseException | None]:
+        """Wait for ``lane``'s pending step; record its outputs if it completed (``record``).
+
+        Returns the step and what it raised (None: it completed). While waiting, the
+        watchdog's marker names that step, so a concurrent step that hangs is reported as
+        itself, wherever the loop waits for it (a join, a drain, a settlement, the end).
         """
         marker = self._marker
         job = lane.job
@@ -552,14 +568,16 @@ class Master:
         self._joining = job
         work, t = marker.work, marker.t
         marker.work, marker.t = job.work, job.t
-        job, outcome = lane.wait()
-        marker.work, marker.t = work, t
-        self._joining = None
-        if outcome is not None:
-            raise _StepFailedError(job, outcome)
-        after = job.work.after  # type: ignore[attr-defined]
-        if after is not None:
-            after.sample()
+        try:
+            job, outcome = lane.wait()
+        finally:
+            marker.work, marker.t = work, t
+            self._joining = None
+        if record and outcome is None:
+            after = job.work.after  # type: ignore[attr-defined]
+            if after is not None:
+                after.sample()
+        return job, outcome
 
     def _drain(self) -> None:
         """Join every pending step (before a checkpoint and at the end of the run)."""
@@ -571,10 +589,7 @@ class Master:
         """Wait for every pending step, recording those that completed (Ctrl-C, a bug)."""
         for lane in self._lanes:
             if lane.job is not None:
-                job, outcome = lane.wait()
-                after = job.work.after  # type: ignore[attr-defined]
-                if outcome is None and after is not None:
-                    after.sample()
+                self._await(lane)
 
     def _settle(self, job: Job, error: BaseException) -> None:
         """End the run at the earliest failure in the sequential order, as that run would.
@@ -586,12 +601,8 @@ class Master:
         failures = [(job.n, job.index, job, error)]
         for lane in self._lanes:
             if lane.job is not None:
-                other, outcome = lane.wait()
-                if outcome is None:
-                    after = other.work.after  # type: ignore[attr-defined]
-                    if after is not None:
-                        after.sample()
-                else:
+                other, outcome = self._await(lane)
+                if outcome is not None:
                     failures.append((other.n, other.index, other, outcome))
         n, place, job, error = min(failures, key=lambda failure: (failure[0], failure[1]))
         work = job.work
@@ -624,17 +635,25 @@ class Master:
             for name in due.members or (due.name,):
                 before, after = self._tracks.get(name, (None, None))
                 if before is not None:
-                    before.count = min(before.count, issued)
+                    before.truncate(issued)
                 if after is not None:
-                    after.count = min(after.count, issued + 1)
+                    after.truncate(issued + 1)
 
-    def _close_lanes(self) -> None:
-        """No step may still run when the runners are freed; then let the workers end."""
+    def _close_lanes(self) -> set[str]:
+        """No step may still run when the runners are freed; then let the workers end.
+
+        Returns the components whose step is still running (a repeated stop signal ended the
+        wait): their runners must not be freed under the step (see :meth:`_terminate`).
+        """
+        busy: set[str] = set()
         for lane in self._lanes:
             if lane.job is not None:
-                with contextlib.suppress(BaseException):
-                    lane.wait()
+                with contextlib.suppress(BaseException):  # the run's outcome is decided
+                    self._await(lane, record=False)
+                if lane.job is not None:
+                    busy.add(lane.name)
             lane.close()
+        return busy
 
     def _end_by(self, request: ModelTerminated, n: int) -> None:
         """A model asked to end the run during its step from ``t_n``: end it normally there.
@@ -737,7 +756,10 @@ class Master:
     def _due_at(self, n: int) -> tuple[_Due, ...]:
         return tuple(due for due, p in self._fallback if n % p == 0)
 
-    def _terminate(self) -> None:
-        for runner in self.runners.values():
+    def _terminate(self, skip: set[str] | frozenset[str] = frozenset()) -> None:
+        """Free every runner but those in ``skip`` (a step of theirs may still be running)."""
+        for name, runner in self.runners.items():
+            if name in skip:
+                continue
             with contextlib.suppress(Exception):  # freeing after a fault must not mask it
                 runner.terminate()

@@ -35,6 +35,8 @@ import threading
 from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 
+from fmionnx.runtime.watchdog import Marker
+
 
 @dataclass(frozen=True, slots=True)
 class Footprint:
@@ -69,8 +71,10 @@ class Lane:
     (it is a conflict), so steps of one component never overlap each other.
     """
 
-    def __init__(self, name: str) -> None:
+    def __init__(self, name: str, marker: Marker | None = None) -> None:
         self.name = name
+        #: Told when a step starts and ends on this lane (the guardian's marker records it).
+        self._marker = marker if marker is not None else Marker()
         self.job: Job | None = None
         self.steps = 0
         self._inbox: queue.SimpleQueue[Job | None] = queue.SimpleQueue()
@@ -107,17 +111,19 @@ class Lane:
             self._thread = None
 
     def _serve(self) -> None:
-        inbox, outbox = self._inbox, self._outbox
+        inbox, outbox, marker = self._inbox, self._outbox, self._marker
         while True:
             job = inbox.get()
             if job is None:
                 return
+            outcome: BaseException | None = None
+            marker.lane_started(job)
             try:
                 job.step(job.t, job.h)
             except BaseException as exc:  # handed to the loop's thread, which decides
-                outbox.put(exc)
-            else:
-                outbox.put(None)
+                outcome = exc
+            marker.lane_ended(job)
+            outbox.put(outcome)
 
 
 @dataclass(frozen=True, slots=True)

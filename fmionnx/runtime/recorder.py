@@ -39,6 +39,11 @@ class Track:
     views: list[tuple[Buffer, int, int]] = field(default_factory=list)
     rows: npt.NDArray[np.float64] = field(default_factory=lambda: np.zeros((0, 0)))
     count: int = 0
+    #: The place in the execution order of the work sampling it (-1: not known), and whether
+    #: it holds outputs (sampled after the step, with a first row at the start time): what
+    #: the guardian needs to take back rows after a crash as the parallel master does.
+    place: int = -1
+    outputs: bool = False
 
     def add(self, names: list[str], view: Buffer) -> None:
         """Record ``view`` (flat) under ``names``, one column per element."""
@@ -66,6 +71,10 @@ class Track:
             else:
                 row[a:b] = view
         self.count += 1
+
+    def truncate(self, count: int) -> None:
+        """Keep at most the first ``count`` rows (a step taken back: see the parallel master)."""
+        self.count = min(self.count, count)
 
 
 class Recorder:

@@ -35,6 +35,16 @@ class Marker:
         self.work: object = None
         self.t = 0.0
 
+    def lane_started(self, job: object) -> None:
+        """A worker thread (a lane of the parallel schedule) starts ``job``'s step.
+
+        Nothing to do here: the watchdog times a concurrent step when the loop joins it. The
+        guardian's marker overrides this to know which steps are in flight on lanes.
+        """
+
+    def lane_ended(self, job: object) -> None:
+        """``job``'s step on a lane returned or raised (see :meth:`lane_started`)."""
+
 
 class Watchdog:
     """Calls ``on_expiry(work, t)`` once when the marked work stays the same too long.
