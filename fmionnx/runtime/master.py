@@ -41,7 +41,7 @@ from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.parallel import Footprint, Issue, Job, Lane, footprint, plan
 from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
-from fmionnx.runtime.stopping import stop_reason
+from fmionnx.runtime.stopping import shield_begin, shield_end, stop_reason
 from fmionnx.runtime.transfer import Transfer, make_transfer
 from fmionnx.runtime.watchdog import Marker, Watchdog
 
@@ -569,14 +569,19 @@ class Master:
         work, t = marker.work, marker.t
         marker.work, marker.t = job.work, job.t
         try:
-            job, outcome = lane.wait()
+            lane.wait_finished()
         finally:
             marker.work, marker.t = work, t
             self._joining = None
-        if record and outcome is None:
-            after = job.work.after  # type: ignore[attr-defined]
-            if after is not None:
-                after.sample()
+        shield_begin()  # a stop signal here would lose the finished step's outcome or outputs
+        try:
+            job, outcome = lane.take()
+            if record and outcome is None:
+                after = job.work.after  # type: ignore[attr-defined]
+                if after is not None:
+                    after.sample()
+        finally:
+            shield_end()
         return job, outcome
 
     def _drain(self) -> None:

@@ -35,6 +35,7 @@ import threading
 from collections.abc import Callable, Collection, Iterable, Sequence
 from dataclasses import dataclass
 
+from fmionnx.runtime.stopping import shield_begin, shield_end
 from fmionnx.runtime.watchdog import Marker
 
 
@@ -78,31 +79,59 @@ class Lane:
         self.job: Job | None = None
         self.steps = 0
         self._inbox: queue.SimpleQueue[Job | None] = queue.SimpleQueue()
-        self._outbox: queue.SimpleQueue[BaseException | None] = queue.SimpleQueue()
+        #: Set by the worker when the pending job finished; its outcome is in ``_outcome``.
+        #: Waiting on an event consumes nothing, so a wait cut short by a stop signal can
+        #: simply be waited again (a queue's ``get`` cut after it returned would lose it).
+        self._finished = threading.Event()
+        self._outcome: BaseException | None = None
         self._thread: threading.Thread | None = None
 
     def submit(self, job: Job) -> None:
         """Hand ``job`` to the worker (started on first use)."""
-        if self._thread is None:
-            self._thread = threading.Thread(
-                target=self._serve, name=f"fmionnx-step-{self.name}", daemon=True
-            )
-            self._thread.start()
-        self.job = job
-        self.steps += 1
-        self._inbox.put(job)
+        shield_begin()  # the pending job and the queued job are one, whatever signal comes
+        try:
+            if self._thread is None:
+                self._thread = threading.Thread(
+                    target=self._serve, name=f"fmionnx-step-{self.name}", daemon=True
+                )
+                self._thread.start()
+            self._finished.clear()
+            self.job = job
+            self.steps += 1
+            self._inbox.put(job)
+        finally:
+            shield_end()
+
+    def wait_finished(self) -> None:
+        """Block until the pending job has finished (a stop signal may interrupt it: then
+        nothing changed, and it can be called again)."""
+        assert self.job is not None
+        self._finished.wait()
+
+    def take(self) -> tuple[Job, BaseException | None]:
+        """The finished job and what it raised (None: it completed); the lane is free again.
+
+        Call inside a shield (:func:`~fmionnx.runtime.stopping.shield_begin`) together with
+        whatever must follow it, after :meth:`wait_finished`.
+        """
+        job = self.job
+        assert job is not None
+        assert self._finished.is_set()
+        self.job = None
+        return job, self._outcome
 
     def wait(self) -> tuple[Job, BaseException | None]:
         """Wait for the pending job; returns it and what it raised (None: it completed)."""
-        job = self.job
-        assert job is not None
-        outcome = self._outbox.get()
-        self.job = None
-        return job, outcome
+        self.wait_finished()
+        shield_begin()
+        try:
+            return self.take()
+        finally:
+            shield_end()
 
     def done(self) -> bool:
         """Whether the pending job has finished (its outcome can be taken without waiting)."""
-        return not self._outbox.empty()
+        return self._finished.is_set()
 
     def close(self) -> None:
         """Let the worker end after its pending job (it is a daemon: it never keeps us alive)."""
@@ -111,7 +140,7 @@ class Lane:
             self._thread = None
 
     def _serve(self) -> None:
-        inbox, outbox, marker = self._inbox, self._outbox, self._marker
+        inbox, marker = self._inbox, self._marker
         while True:
             job = inbox.get()
             if job is None:
@@ -123,7 +152,8 @@ class Lane:
             except BaseException as exc:  # handed to the loop's thread, which decides
                 outcome = exc
             marker.lane_ended(job)
-            outbox.put(outcome)
+            self._outcome = outcome
+            self._finished.set()
 
 
 @dataclass(frozen=True, slots=True)

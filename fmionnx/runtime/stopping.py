@@ -39,6 +39,30 @@ def exit_code(reason: str | None) -> int:
     return 128 + int(signal.Signals[reason])
 
 
+#: Depth of shielded sections on the main thread, and a stop signal that arrived in one.
+_shield_depth = [0]
+_held: list[int] = []
+
+
+def shield_begin() -> None:
+    """Start a few statements that a stop signal must not cut in half (see :func:`shield_end`).
+
+    A stop signal raises :class:`StopRequested` wherever the main thread happens to be; a
+    worker lane's hand-over (set the pending step, queue it; take its outcome, clear it) cut
+    between two statements would leave the loop waiting for ever for a step that was never
+    queued or whose outcome was already taken. Inside a shield the signal is held and raised
+    by :func:`shield_end`, once the state is whole again. Only for short, non-blocking code.
+    """
+    _shield_depth[0] += 1
+
+
+def shield_end() -> None:
+    """End a shielded section; raise the stop request held during it, if any."""
+    _shield_depth[0] -= 1
+    if not _shield_depth[0] and _held:
+        raise StopRequested(_held.pop())
+
+
 @contextlib.contextmanager
 def stop_on_signals() -> Iterator[list[int]]:
     """Turn the first stop signal into :class:`StopRequested`; ignore later ones until the
@@ -48,6 +72,9 @@ def stop_on_signals() -> Iterator[list[int]]:
     def handler(signum: int, frame: FrameType | None) -> None:
         received.append(signum)
         if len(received) == 1:
+            if _shield_depth[0]:  # raised by shield_end, when the hand-over is whole
+                _held.append(signum)
+                return
             raise StopRequested(signum)
 
     previous = {}
