@@ -7,7 +7,7 @@ Two studies, each run three ways side by side in one run (so machine load hits a
    (``gain.k`` over a grid), nothing isolated: almost all of a case is the sweep's own
    machinery (task, transfer, record), the worst case for overhead per case.
 2. **Reference scenario** ``systems/sign_follower.yaml``: 20 cases over the tracker's turn
-   rate, shortened to 4 s simulated by default (``--stop 32`` for the whole run), FMUs
+   rate, the whole 32 s run by default (``--stop 4`` for a shorter one), FMUs
    isolated as ``fmionnx run`` does by default.
 
 *loop* is :func:`fmionnx.backends.sweep.case.run_case` (what a worker runs for a case) called
@@ -245,7 +245,7 @@ def main(argv: list[str] | None = None, console: Console | None = None) -> dict[
     parser.add_argument("--quick", action="store_true", help="smoke run: 10 + 2 short cases")
     parser.add_argument("--small-cases", type=int, default=200)
     parser.add_argument("--scenario-cases", type=int, default=20)
-    parser.add_argument("--stop", type=float, default=4.0, help="reference scenario stop time")
+    parser.add_argument("--stop", type=float, default=32.0, help="reference scenario stop time")
     parser.add_argument("--rounds", type=int, default=4, help="interleaved rounds per study")
     args = parser.parse_args(argv)
     if args.quick:
