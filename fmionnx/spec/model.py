@@ -19,6 +19,15 @@ from fmionnx.kinds.registry import COMPONENT_KINDS
 #: The format versions this release reads (the ``fmionnx:`` key).
 SUPPORTED_FORMATS = (1,)
 
+
+def known_format(value: int) -> int:
+    """The ``fmionnx:`` format version of a system or study file, if this release reads it."""
+    if value not in SUPPORTED_FORMATS:
+        msg = f"format version {value} is not supported; this release reads {SUPPORTED_FORMATS}"
+        raise ValueError(msg)
+    return value
+
+
 #: Every registered kind's entry model, discriminated by ``kind`` (built from the kind table,
 #: so a new kind is a new entry there and nothing here).
 #: (Type checkers see the common base: the union is only known at run time.)
@@ -285,10 +294,7 @@ class SystemSpec(StrictModel):
     @field_validator("fmionnx")
     @classmethod
     def _known_format(cls, value: int) -> int:
-        if value not in SUPPORTED_FORMATS:
-            msg = f"format version {value} is not supported; this release reads {SUPPORTED_FORMATS}"
-            raise ValueError(msg)
-        return value
+        return known_format(value)
 
     @field_validator("inputs")
     @classmethod

@@ -23,7 +23,7 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.specbase import ScalarLiteral, StrictModel
-from fmionnx.spec.model import SUPPORTED_FORMATS
+from fmionnx.spec.model import known_format
 from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import parse_yaml, read_text
@@ -201,10 +201,7 @@ class StudySpec(StrictModel):
     @field_validator("fmionnx")
     @classmethod
     def _known_format(cls, value: int) -> int:
-        if value not in SUPPORTED_FORMATS:
-            msg = f"format version {value} is not supported; this release reads {SUPPORTED_FORMATS}"
-            raise ValueError(msg)
-        return value
+        return known_format(value)
 
     @field_validator("parameters")
     @classmethod
