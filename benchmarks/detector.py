@@ -235,8 +235,7 @@ def main(argv: Sequence[str] | None = None, console: Console | None = None) -> d
     info = machine.describe()
     results: dict[str, Any] = {"gl": f"MUJOCO_GL={os.environ['MUJOCO_GL']}, {mr.gl_renderer()}"}
     console.print(
-        f"[bold]fmionnx sign detector and camera rendering[/bold]  {info['cpu']}, "
-        f"{info['cores']} cores, {info['python']}, {info['os']}; {results['gl']}"
+        machine.headline("fmionnx sign detector and camera rendering", info) + f"; {results['gl']}"
     )
     missing = [p.name for p in (md.DETECTOR,) if not p.exists()]
     if missing:

@@ -326,10 +326,7 @@ def main(argv: Sequence[str] | None = None, console: Console | None = None) -> d
     args = parse(argv)
     console = console or Console(width=None if sys.stdout.isatty() else 150)
     info = machine.describe()
-    console.print(
-        f"[bold]fmionnx isolation cost[/bold]  {info['cpu']}, {info['cores']} cores, "
-        f"{info['python']}, {info['os']}"
-    )
+    console.print(machine.headline("fmionnx isolation cost", info))
     results: dict[str, Any] = {}
     targets: list[Row] = []
 

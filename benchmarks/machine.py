@@ -50,3 +50,8 @@ def describe() -> dict[str, object]:
         "mujoco_gl": os.environ.get("MUJOCO_GL", ""),
         "packages": versions(),
     }
+
+
+def headline(title: str, info: dict[str, object]) -> str:
+    """A benchmark's first line: its title in bold, then the machine it ran on."""
+    return f"[bold]{title}[/bold]  {info['cpu']}, {info['cores']} cores, {info['python']}, {info['os']}"

@@ -179,10 +179,7 @@ def main(argv: Sequence[str] | None = None, console: Console | None = None) -> d
     args = parse(argv)
     console = console or Console(width=None if sys.stdout.isatty() else 150)
     info = machine.describe()
-    console.print(
-        f"[bold]fmionnx native kernel reach[/bold]  {info['cpu']}, {info['cores']} cores, "
-        f"{info['python']}, {info['os']}"
-    )
+    console.print(machine.headline("fmionnx native kernel reach", info))
     folder = Path(tempfile.mkdtemp(prefix="fmionnx-reach-fmus-"))
     try:
         fmus = build_fixtures(folder, [case.fixture for case in CASES])

@@ -221,10 +221,7 @@ def main(argv: Sequence[str] | None = None, console: Console | None = None) -> d
     args = parse(argv)
     console = console or Console(width=None if sys.stdout.isatty() else 150)
     info = machine.describe()
-    console.print(
-        f"[bold]fmionnx start-up and end to end[/bold]  {info['cpu']}, {info['cores']} cores, "
-        f"{info['python']}, {info['os']}"
-    )
+    console.print(machine.headline("fmionnx start-up and end to end", info))
     results: dict[str, Any] = {"machine": info}
     work = Path(tempfile.mkdtemp(prefix="fmionnx-startup-"))
     try:
