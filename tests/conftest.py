@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import socket
+import subprocess
 from pathlib import Path
 
 import pytest
@@ -27,6 +28,20 @@ def _no_network(monkeypatch: pytest.MonkeyPatch) -> None:
         return real_connect(self, address)  # type: ignore[arg-type]
 
     monkeypatch.setattr(socket.socket, "connect", guarded)
+
+
+def finish(process: subprocess.Popen[str], timeout: float) -> tuple[str, str]:
+    """``process.communicate(timeout)``, killing the process if it does not end in time.
+
+    A test that gives up on a hung run must not leave it behind: a leftover process would
+    load the machine (and hold its files) for every test after it.
+    """
+    try:
+        return process.communicate(timeout=timeout)
+    except subprocess.TimeoutExpired:
+        process.kill()
+        _, err = process.communicate()
+        pytest.fail(f"the process did not end within {timeout} s; killed. stderr:\n{err[-4000:]}")
 
 
 def _tree_hash(folder: Path) -> str:

@@ -22,6 +22,7 @@ import pytest
 import fmionnx
 from fmionnx.results.csvfile import read_csv
 from fmionnx.runtime.result import RunOptions, RunStatus
+from tests.conftest import finish
 
 SYSTEM = """
 fmionnx: 1
@@ -61,7 +62,7 @@ def _cli(args: list[str], tmp: Path) -> subprocess.Popen[str]:
 
 def _finish(process: subprocess.Popen[str], timeout: float = 60) -> tuple[int, str]:
     """Exit status, and stderr then stdout (whose last line names the results folder)."""
-    out, err = process.communicate(timeout=timeout)
+    out, err = finish(process, timeout)
     return process.returncode, err + out
 
 

@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 
 from fmionnx.cli import app
 from fmionnx.results.csvfile import read_csv
+from tests.conftest import finish
 
 CHAIN = """
 fmionnx: 1
@@ -101,7 +102,7 @@ def test_ctrl_c_stops_cleanly_writes_results_and_exits_130(
         if (out / "run.json").exists() and json.loads((out / "run.json").read_text())["steps"]:
             break
     process.send_signal(signal.SIGINT)
-    stdout, stderr = process.communicate(timeout=60)
+    stdout, stderr = finish(process, 60)
     assert process.returncode == 130, stderr
     assert stdout.strip().splitlines()[-1] == f"Results: {out}"
     info = json.loads((out / "run.json").read_text())

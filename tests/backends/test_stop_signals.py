@@ -15,7 +15,7 @@ from pathlib import Path
 
 import pytest
 
-from tests.conftest import build_fixture_fmu
+from tests.conftest import build_fixture_fmu, finish
 
 LONG = """
 fmionnx: 1
@@ -69,7 +69,7 @@ def test_a_stop_signal_writes_the_results_recorded_so_far(
 ) -> None:
     process = _started_run(tmp_path)
     process.send_signal(signum)
-    _, stderr = process.communicate(timeout=120)
+    _, stderr = finish(process, 120)
     assert process.returncode == code, stderr
     assert f"interrupted by {signum.name}" in stderr
     info = json.loads((tmp_path / "out" / "run.json").read_text(encoding="utf-8"))
@@ -90,7 +90,7 @@ def test_a_second_signal_does_not_cut_off_writing_the_results(tmp_path: Path) ->
     time.sleep(0.05)  # pending signals are delivered lowest number first: let SIGTERM land
     process.send_signal(signal.SIGTERM)
     process.send_signal(signal.SIGHUP)
-    _, stderr = process.communicate(timeout=120)
+    _, stderr = finish(process, 120)
     assert process.returncode == 143, stderr
     info = json.loads((tmp_path / "out" / "run.json").read_text(encoding="utf-8"))
     assert info["interrupted_by"] == "SIGTERM"
