@@ -320,6 +320,35 @@ def check_model(path: str | Path) -> CompileResult:
 # -- studies -----------------------------------------------------------------------------------
 
 
+def is_study_file(path: str | Path) -> bool:
+    """True for a YAML file that is a study (it names a ``system:`` to vary and has no
+    ``components:``): ``validate`` checks it as ``fmionnx sweep`` would compile it."""
+    from fmionnx.spec.sourcemap import SourceMap
+    from fmionnx.spec.yaml import is_study_document, parse_yaml, read_text
+
+    target = Path(path)
+    if target.suffix.lower() not in {".yaml", ".yml"} or not target.is_file():
+        return False
+    quiet = DiagnosticBag()  # a file that does not parse is the system compiler's to report
+    text = read_text(target, quiet)
+    return text is not None and is_study_document(
+        parse_yaml(text, target, SourceMap(target), quiet)
+    )
+
+
+def check_study(path: str | Path) -> CompileResult:
+    """Check a study file and the system it varies (``fmionnx validate study.yaml``), without
+    running a case: every diagnostic ``fmionnx sweep`` would stop on, at its place."""
+    from fmionnx.compile.study import compile_study
+    from fmionnx.spec.study import load_study
+
+    bag = DiagnosticBag()
+    plan = compile_study(load_study(Path(path), bag), bag)
+    diagnostics = tuple(bag.sorted())
+    ok = plan is not None and all(d.severity is not Severity.ERROR for d in diagnostics)
+    return CompileResult(plan.system if ok and plan is not None else None, diagnostics)
+
+
 def sweep(
     study: str | Path,
     out: str | Path,

@@ -53,7 +53,7 @@ RUNNABLE = {"fmionnx", "sed", "cat", "ls", "head", "grep", "echo", "cp", "mkdir"
 ACTIVATE = {". .venv/bin/activate", "source .venv/bin/activate"}
 # What a scratch copy holds: everything a documented command may read or write by a relative
 # path. Built models are copied too, so no command can write into the repository through them.
-SCRATCH_TREES = ["systems", "schemas", "models", "tests/fixtures"]
+SCRATCH_TREES = ["systems", "schemas", "models", "tests/fixtures", "examples"]
 KNOWN_MARKERS = {"not-run", "part-of", "valid-system"}
 TIMEOUT_S = 120
 # What a transcript of a failing command shows: a diagnostic summary with errors, an error

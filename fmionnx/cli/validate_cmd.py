@@ -26,14 +26,16 @@ def _check_format(value: str) -> str:
     "  fmionnx validate systems/sign_follower.yaml\n\n"
     "  fmionnx validate systems/*.yaml --format json > report.json\n\n"
     "  fmionnx validate build/models/ReadOdometry.fmu build/models/sign_detector.onnx\n\n"
+    "  fmionnx validate examples/sweep-tracker/study.yaml\n\n"
     "  fmionnx validate --locked --format github systems/*.yaml   # in CI",
 )
 def validate(
     systems: Annotated[
         list[Path],
         typer.Argument(
-            help="System files (.yaml, .ssp, .ssd), or single models (.fmu, .onnx, MuJoCo "
-            ".xml, signal .csv) checked alone.",
+            help="System files (.yaml, .ssp, .ssd), study files (checked as `fmionnx sweep` "
+            "compiles them), or single models (.fmu, .onnx, MuJoCo .xml, signal .csv) checked "
+            "alone.",
             metavar="FILES...",
         ),
     ],
@@ -52,11 +54,13 @@ def validate(
         typer.Option(
             "--locked",
             help="Also fail when a model's interface differs from `<system>.fmionnx.lock` "
-            "(written by `fmionnx lock`). System files only: a single model has no lock.",
+            "(written by `fmionnx lock`). System files only: a single model or a study has "
+            "no lock (lock the system a study varies).",
         ),
     ] = False,
 ) -> None:
-    """Check system files and the models they use, or single models; exit 1 on any error.
+    """Check system files and the models they use, study files, or single models; exit 1 on
+    any error.
 
     A single model is compiled as `fmionnx run` would, then checked deeper: FMPy's validation
     and the binary of an FMU, the ONNX checker and shape inference, MuJoCo's scene compiler.
@@ -69,14 +73,19 @@ def validate(
     results = []
     for path in systems:
         model = api.is_model_file(path)
-        result = api.check_model(path) if model else api.compile_system(path)
+        study = not model and api.is_study_file(path)
+        if model:
+            result = api.check_model(path)
+        else:
+            result = api.check_study(path) if study else api.compile_system(path)
         diagnostics = result.diagnostics
-        if locked and not model:
+        if locked and not model and not study:
             merged = [*diagnostics, *check_lock(path)]
             diagnostics = tuple(sorted(dict.fromkeys(merged), key=Diagnostic.sort_key))
         if quiet:
             diagnostics = tuple(d for d in diagnostics if d.severity is Severity.ERROR)
-        results.append(FileResult(path, diagnostics, locked=locked))
+        document = "model" if model else "study" if study else "system"
+        results.append(FileResult(path, diagnostics, locked=locked, document=document))
     reporter = REPORTER_BY_NAME[output_format]
     reporter.render(results, sys.stdout, color=sys.stdout.isatty())
     worst = max((r.worst for r in results if r.worst is not None), default=None)

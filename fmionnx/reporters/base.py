@@ -19,6 +19,9 @@ class FileResult:
     #: True when the interface lock was checked (``validate --locked``); reports that list
     #: the checks performed (JUnit) mark the lock check skipped otherwise.
     locked: bool = False
+    #: What the file is: ``system``, ``study`` or ``model`` (a single model checked alone).
+    #: Reports that list the checks performed (JUnit) skip the study check for the others.
+    document: str = "system"
 
     @property
     def worst(self) -> Severity | None:

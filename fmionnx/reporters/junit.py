@@ -6,7 +6,7 @@ file becomes one ``<testsuite>`` holding one ``<testcase>`` per check, always th
 so CI trend views can follow a check across runs. A check fails when it produced an error;
 its ``<failure>`` carries every error of the category in text form. Warnings and infos do not
 fail a check: they go to the test case's ``<system-out>``. The ``lock`` check is skipped
-unless ``--locked`` was given.
+unless ``--locked`` was given, the ``study`` check unless the file is a study.
 """
 
 from __future__ import annotations
@@ -60,6 +60,9 @@ def _testcase(check: str, result: FileResult, name: str) -> tuple[ET.Element, st
         outcome = "failed"
     elif check == "lock" and not result.locked:
         ET.SubElement(case, "skipped", {"message": "interface lock not checked (use --locked)"})
+        outcome = "skipped"
+    elif check == "study" and result.document != "study":
+        ET.SubElement(case, "skipped", {"message": f"not a study file (a {result.document})"})
         outcome = "skipped"
     if others:
         out = ET.SubElement(case, "system-out")

@@ -88,6 +88,12 @@ def read_text(path: Path, bag: DiagnosticBag) -> str | None:
         return None
 
 
+def is_study_document(data: object) -> bool:
+    """True for a parsed YAML document that is a study: it names a ``system:`` to vary and
+    lists no ``components:`` of its own (a system file does the opposite)."""
+    return isinstance(data, dict) and "system" in data and "components" not in data
+
+
 def load_yaml_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
     """Load and validate a YAML system file; every problem goes into ``bag``."""
     sources = SourceMap(path)
@@ -103,6 +109,15 @@ def load_yaml_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
             "a system file must be a mapping with keys `fmionnx`, `name`, `components` ...",
             Span(path, 1, 1),
             hint="start the file with `fmionnx: 1`",
+        )
+        return LoadedSpec(None, sources, path)
+    if is_study_document(data):
+        bag.emit(
+            "E003",
+            f"`{path.name}` is a study file (it names a `system:` to vary), not a system file",
+            Span(path, 1, 1),
+            hint=f"run its cases with `fmionnx sweep {path.name} --out DIR`; "
+            f"`fmionnx validate {path.name}` checks it",
         )
         return LoadedSpec(None, sources, path)
     try:

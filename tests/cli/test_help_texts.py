@@ -58,7 +58,7 @@ def test_run_help_no_longer_calls_itself_in_process_only() -> None:
 def test_validate_help_names_single_models() -> None:
     text = help_text("validate")
     assert "or single models (.fmu, .onnx, MuJoCo .xml, signal .csv) checked alone" in text
-    assert "System files only: a single model has no lock." in text
+    assert "System files only: a single model or a study has no lock" in text
 
 
 def test_a_single_fmu_takes_bare_parameter_names_as_the_help_says(

@@ -51,8 +51,8 @@ def test_errors_fail_their_check_warnings_go_to_system_out(two_files: list[FileR
 
 def test_lock_check_is_skipped_unless_locked(tmp_path: Path) -> None:
     info = make("I080", "binary changed", Span(tmp_path / "s.yaml", 3, 3))
-    unlocked = parse([FileResult(tmp_path / "s.yaml", ())])
-    locked = parse([FileResult(tmp_path / "s.yaml", (info,), locked=True)])
+    unlocked = parse([FileResult(tmp_path / "s.yaml", (), document="study")])
+    locked = parse([FileResult(tmp_path / "s.yaml", (info,), locked=True, document="study")])
     assert unlocked.find("testsuite/testcase[@name='lock']/skipped") is not None
     assert unlocked.get("skipped") == "1"
     lock_case = locked.find("testsuite/testcase[@name='lock']")
