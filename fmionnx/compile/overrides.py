@@ -1,4 +1,5 @@
-"""Command-line overrides applied to a compiled system: a new stop time, parameter values.
+"""Command-line overrides applied to a compiled system: a new stop time, parameter values,
+kind settings (a signal's waveform numbers, a scene's values).
 
 They act on the compiled system itself (never on the system file), so a node or a worker that
 received a compiled system applies them the same way the CLI does.
@@ -12,10 +13,11 @@ import math
 
 from fmionnx.compile.ir import CompiledSystem, Origin, SystemInput
 from fmionnx.core.diagnostics import did_you_mean, one_of
-from fmionnx.core.errors import FmionnxError
+from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.steps import count_problem, output_interval_problem, suggest_interval
 from fmionnx.core.types import (
     Causality,
+    Component,
     DType,
     ParameterValue,
     Scalar,
@@ -32,7 +34,6 @@ class OverrideError(FmionnxError):
     """A command-line override (``--param``, ``--stop-time``) that does not fit the system."""
 
 
-
 def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
     """The system with another stop time (a whole number of base steps after the start)."""
     run = system.run
@@ -47,7 +48,9 @@ def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
         msg = f"--stop-time {stop}: {problem}"
         raise OverrideError(msg)
     if is_whole_multiple(stop - run.start, run.step, rel=1e-6) is None:
-        msg = f"--stop-time {stop} is not a whole number of base steps ({run.step} s) after the start"
+        msg = (
+            f"--stop-time {stop} is not a whole number of base steps ({run.step} s) after the start"
+        )
         raise OverrideError(msg)
     origins = (*((k, o) for k, o in run.origins if k != "stop"), ("stop", Origin.COMMAND_LINE))
     return dataclasses.replace(system, run=dataclasses.replace(run, stop=stop, origins=origins))
@@ -194,8 +197,13 @@ def _override_port(
     ]
     port = component.interface.port(port_name)
     if port is None or port.name not in settable:
-        hint = did_you_mean(port_name, settable) or one_of(settable)
-        msg = f"--param `{key}`: `{component_name}` has no parameter `{port_name}`; {hint}"
+        settings = kind_settings(component)
+        if port_name in settings:
+            return _override_setting(system, component, port_name, value, key)
+        known = [*settable, *settings]
+        hint = did_you_mean(port_name, known) or one_of(known)
+        what = "parameter or setting" if settings else "parameter"
+        msg = f"--param `{key}`: `{component_name}` has no {what} `{port_name}`; {hint}"
         raise OverrideError(msg)
     flat = value if isinstance(value, list) else [value]
     size = port.size or 1
@@ -218,3 +226,53 @@ def _override_port(
     )
     components = tuple(updated if c.name == component_name else c for c in system.components)
     return dataclasses.replace(system, components=components)
+
+
+def kind_settings(component: Component) -> tuple[str, ...]:
+    """The settings of ``component``'s kind (a signal's waveform numbers, a scene's values),
+    or none when the kind has none or its model cannot be read (the compiler reported it)."""
+    from fmionnx.kinds.base import Settable
+    from fmionnx.kinds.registry import COMPONENT_KINDS
+
+    kind = COMPONENT_KINDS.get(component.kind)
+    if not isinstance(kind, Settable):
+        return ()
+    try:
+        return kind.settings(component)
+    except ModelError:
+        return ()
+
+
+def apply_kind_setting(
+    system: CompiledSystem, component: Component, name: str, value: Scalar | tuple[Scalar, ...]
+) -> CompiledSystem:
+    """``system`` with ``component``'s kind setting ``name`` at ``value``: its config replaced by
+    the kind's :meth:`~fmionnx.kinds.base.Settable.with_setting` (SettingError when the kind
+    refuses it). A study's cases and ``--param`` go through here alike."""
+    from fmionnx.kinds.base import Settable, SettingError
+    from fmionnx.kinds.registry import COMPONENT_KINDS
+
+    kind = COMPONENT_KINDS[component.kind]
+    if not isinstance(kind, Settable):
+        raise SettingError(f"`{component.name}` has no settings a study can vary")
+    config = kind.with_setting(component, name, value)
+    updated = dataclasses.replace(component, config=config)
+    components = tuple(updated if c.name == component.name else c for c in system.components)
+    return dataclasses.replace(system, components=components)
+
+
+def _override_setting(
+    system: CompiledSystem,
+    component: Component,
+    name: str,
+    value: Scalar | list[Scalar],
+    key: str,
+) -> CompiledSystem:
+    from fmionnx.kinds.base import SettingError
+
+    try:
+        return apply_kind_setting(
+            system, component, name, tuple(value) if isinstance(value, list) else value
+        )
+    except SettingError as exc:
+        raise OverrideError(f"--param `{key}`: {exc}") from exc

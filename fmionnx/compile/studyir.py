@@ -13,7 +13,6 @@ any host.
 
 from __future__ import annotations
 
-import dataclasses
 import hashlib
 import json
 from dataclasses import dataclass
@@ -21,10 +20,11 @@ from typing import Literal
 
 from fmionnx.compile.checkir import Expr
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.overrides import (
+    apply_kind_setting as apply_component_setting,
+)
 from fmionnx.compile.overrides import override_output_interval, override_parameter, override_stop
 from fmionnx.core.types import PortRef, Scalar
-from fmionnx.kinds.base import Settable
-from fmionnx.kinds.registry import COMPONENT_KINDS
 
 #: What a setting changes: a parameter (or system input), the stop time, the output interval,
 #: or a setting of a component's kind (``setting``: a signal's amplitude, a scene value).
@@ -140,22 +140,14 @@ def owner(system: CompiledSystem, target: str) -> tuple[str, str] | None:
 
 
 def apply_kind_setting(system: CompiledSystem, target: str, value: SettingValue) -> CompiledSystem:
-    """``system`` with the kind setting ``component.name`` at ``value``: the component's config
-    replaced by its kind's :meth:`~fmionnx.kinds.base.Settable.with_setting` (SettingError
-    when the kind refuses it)."""
+    """``system`` with the kind setting ``component.name`` at ``value`` (SettingError when the
+    kind refuses it): see :func:`fmionnx.compile.overrides.apply_kind_setting`."""
     from fmionnx.kinds.base import SettingError
 
     found = owner(system, target)
     if found is None:
         raise SettingError(f"`{target}` names no component")
-    component = system.component(found[0])
-    kind = COMPONENT_KINDS[component.kind]
-    if not isinstance(kind, Settable):
-        raise SettingError(f"`{component.name}` has no settings a study can vary")
-    config = kind.with_setting(component, found[1], value)
-    updated = dataclasses.replace(component, config=config)
-    components = tuple(updated if c.name == component.name else c for c in system.components)
-    return dataclasses.replace(system, components=components)
+    return apply_component_setting(system, system.component(found[0]), found[1], value)
 
 
 def apply_case(system: CompiledSystem, case: Case) -> CompiledSystem:
