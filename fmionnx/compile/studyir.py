@@ -104,6 +104,10 @@ class StudyPlan:
                 for c in self.cases
             ],
             "metrics": [[m.name, m.expression] for m in self.metrics],
+            # not in the system's content hash (they do not change what is simulated), but
+            # they decide a case's row: its pass/fail columns and the rows metrics measure
+            "checks": [[c.name, c.comparison, c.bound, c.expression] for c in self.system.checks],
+            "output_interval": self.system.run.output_interval,
             "isolate": list(self.isolate),
             "timeout": self.timeout,
             "step_timeout": self.step_timeout,
