@@ -11,6 +11,7 @@ from __future__ import annotations
 
 import contextlib
 import signal
+import threading
 from collections.abc import Iterator
 from types import FrameType
 
@@ -44,6 +45,13 @@ _shield_depth = [0]
 _held: list[int] = []
 
 
+def _on_main_thread() -> bool:
+    """Python runs signal handlers on the main thread only, so only its shields hold them: a
+    master run on another thread (two runs in one program) neither holds the main thread's
+    signal nor receives it in its own :func:`shield_end`."""
+    return threading.get_ident() == threading.main_thread().ident
+
+
 def shield_begin() -> None:
     """Start a few statements that a stop signal must not cut in half (see :func:`shield_end`).
 
@@ -53,11 +61,14 @@ def shield_begin() -> None:
     queued or whose outcome was already taken. Inside a shield the signal is held and raised
     by :func:`shield_end`, once the state is whole again. Only for short, non-blocking code.
     """
-    _shield_depth[0] += 1
+    if _on_main_thread():
+        _shield_depth[0] += 1
 
 
 def shield_end() -> None:
     """End a shielded section; raise the stop request held during it, if any."""
+    if not _on_main_thread():
+        return
     _shield_depth[0] -= 1
     if not _shield_depth[0] and _held:
         raise StopRequested(_held.pop())

@@ -31,6 +31,39 @@ def test_a_signal_inside_a_shield_is_raised_when_it_ends() -> None:
     assert stopped.value.signal_name == "SIGTERM"
 
 
+def test_a_shield_on_another_thread_neither_holds_nor_receives_the_signal() -> None:
+    """Two runs in one program: a master on a worker thread opens shields too. The main
+    thread's signal must stop the main thread now, and never surface in the other thread."""
+    opened, release = threading.Event(), threading.Event()
+    raised: list[BaseException] = []
+
+    def other_run() -> None:
+        shield_begin()
+        opened.set()
+        release.wait(10)
+        try:
+            shield_end()
+        except BaseException as exc:  # what leaked into this thread, reported below
+            raised.append(exc)
+
+    thread = threading.Thread(target=other_run)
+    thread.start()
+    assert opened.wait(10)
+    stopped = False
+    try:
+        with stop_on_signals():
+            os.kill(os.getpid(), signal.SIGTERM)
+            for _ in range(1000):  # Python runs the handler at one of these statements
+                pass
+    except StopRequested:
+        stopped = True
+    finally:
+        release.set()
+        thread.join(10)
+    assert stopped
+    assert raised == []
+
+
 class _SignallingQueue:
     """Delivers SIGTERM to this process just before the real ``put``: the moment where a
     signal cut the hand-over in half before it was shielded."""
