@@ -201,9 +201,10 @@ def run(
         typer.Option(
             "--isolate",
             help="In-process: components whose models run in a process of their own, so a "
-            "crash or hang cannot take the run down: `fmus` (default: every FMU), `all`, "
-            "`none`, or component names (repeat the option or separate by commas); "
-            "`guardian`: the whole run in one guarded process instead (docs/running.md).",
+            "crash or hang cannot take the run down: `fmus` (every FMU), `all`, `none`, or "
+            "component names (repeat the option or separate by commas); `guardian`: the whole "
+            "run in one guarded process instead. Default: `guardian` for a lone FMU (on Linux, "
+            "without --sandbox or --record), else `fmus` (docs/running.md).",
         ),
     ] = None,
     sandbox: Annotated[
@@ -306,7 +307,9 @@ def run(
     if not checkpoint_every >= 0:
         raise fail("--checkpoint-every must be >= 0 seconds")
     safety = RunSafety(
-        isolate=[w.strip() for item in (isolate or ["fmus"]) for w in item.split(",") if w.strip()],
+        isolate=None  # not given: chosen per system (a lone FMU: guardian; see RunSafety)
+        if isolate is None
+        else [w.strip() for item in isolate for w in item.split(",") if w.strip()],
         sandbox=sandbox,
         step_timeout=step_timeout,
         checkpoint_every=checkpoint_every,
@@ -535,7 +538,8 @@ def _run_system(
 
         recorder = McapRecorder(record)
     options = RunOptions(frames=recorder)
-    if ros2 is None and safety is not None:
+    if ros2 is None and safety is not None:  # --isolate's default depends on the system
+        safety = safety.resolved(system.compiled, record=record is not None)
         options = safety.options(options, system, out, console)
     run_fn = system.run
     if ros2 is None and safety is not None:  # --isolate guardian: the run in a guarded child
@@ -552,7 +556,10 @@ def _run_system(
     if not quiet:
         run = system.compiled.run
         where = "" if ros2 is None else f" as ROS 2 nodes ({ros2.sync.value})"
-        console.print(f"running {system.name}{where} from {run.start:g} to {run.stop:g} s ...")
+        how = ""
+        if ros2 is None and safety is not None and safety.guardian:
+            how = " in a guarded process" + (", the default for a lone FMU" if safety.by_default else "")
+        console.print(f"running {system.name}{where} from {run.start:g} to {run.stop:g} s{how} ...")
     try:
         result = _with_progress(
             run_fn,
