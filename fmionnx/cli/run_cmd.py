@@ -274,10 +274,8 @@ def run(
     if interface is not None and suffix != ".fmu":
         raise fail("--interface applies to a single .fmu only")
     if suffix == ".onnx" and (step, start_time, output_interval) != (None, None, None):
-        raise fail(
-            "--step, --start-time and --output-interval apply to systems and FMUs, not to "
-            "a single ONNX model's inference"
-        )
+        raise fail("--step, --start-time and --output-interval apply to systems and FMUs, not to "
+                   "a single ONNX model's inference")
     if inputs and suffix != ".onnx":
         raise fail("--input applies to a single .onnx model only")
     if out is not None and no_out:
@@ -560,9 +558,9 @@ def _run_system(
         where = "" if ros2 is None else f" as ROS 2 nodes ({ros2.sync.value})"
         how = ""
         if ros2 is None and safety is not None and safety.guardian:
-            how = " in a guarded process" + (
-                ", the default for a lone FMU" if safety.by_default else ""
-            )
+            how = " in a guarded process"
+            if safety.by_default:
+                how += ", the default for a lone FMU"
         console.print(f"running {system.name}{where} from {run.start:g} to {run.stop:g} s{how} ...")
     try:
         result = _with_progress(
@@ -677,11 +675,8 @@ def _summary(console: Any, result: Any, files: list[Path]) -> None:
     table.add_column()
     colour = {"completed": "green", "fault": "red", "interrupted": "yellow"}[result.status.value]
     table.add_row("status", f"[{colour}]{result.status.value}[/]")
-    table.add_row(
-        "simulated",
-        f"{result.start:g} .. {result.start + result.simulated_time:g} s "
-        f"({result.steps_done} steps of {result.step:g} s)",
-    )
+    table.add_row("simulated", f"{result.start:g} .. {result.start + result.simulated_time:g} s "
+                  f"({result.steps_done} steps of {result.step:g} s)")
     table.add_row("wall time", f"{result.wall_time:.3f} s")
     table.add_row("real-time factor", f"{result.real_time_factor:.2f}x")
     table.add_row("signals", str(len(result.signals)))
