@@ -542,8 +542,10 @@ def _run_system(
         safety = safety.resolved(system.compiled, record=record is not None)
         options = safety.options(options, system, out, console)
     run_fn = system.run
+    ahead = None  # results.csv formatted while a guarded run goes on
     if ros2 is None and safety is not None:  # --isolate guardian: the run in a guarded child
-        run_fn = safety.guard(system, run_fn, record=record is not None)
+        ahead = safety.csv_ahead(system, out)
+        run_fn = safety.guard(system, run_fn, record=record is not None, ahead=ahead)
     if ros2 is not None:
         from fmionnx.backends.ros2.supervisor import run_ros2
 
@@ -597,6 +599,7 @@ def _run_system(
             also=files,
             checks=checks,
             plot_signals=plot_signals,
+            ahead=ahead,
         )
     if not quiet:
         _summary(console, result, files)

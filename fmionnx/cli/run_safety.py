@@ -75,9 +75,19 @@ class RunSafety:
         """run.json's ``execution.isolate`` (the words in force) and whether by default."""
         return {"isolate": ",".join(self.words), "isolate_default": self.by_default}
 
-    def guard(self, system: Any, run_fn: Any, *, record: bool) -> Any:
+    def csv_ahead(self, system: Any, out: Path | None) -> Any:
+        """A :class:`~fmionnx.results.csvahead.CsvAhead` for a guarded run with an output
+        folder (its ``results.csv`` formatted while the run goes on), else None."""
+        if not self.guardian or out is None:
+            return None
+        from fmionnx.results.csvahead import CsvAhead
+
+        return CsvAhead(system.compiled)
+
+    def guard(self, system: Any, run_fn: Any, *, record: bool, ahead: Any = None) -> Any:
         """``run_fn`` under the guardian when ``--isolate guardian`` asks for it (or the
-        default chose it); either way the result's ``details`` say how the run was isolated."""
+        default chose it); either way the result's ``details`` say how the run was isolated.
+        ``ahead`` (:meth:`csv_ahead`) formats results.csv while the guarded run goes on."""
         inner = run_fn
         if self.guardian:
             from fmionnx.runtime.guardian import available, guard
@@ -89,7 +99,7 @@ class RunSafety:
                 raise fail("--isolate guardian does not combine with --record (the frames would "
                            "be recorded in the guarded process); isolate components by name "
                            "instead")  # fmt: skip
-            inner = guard(system.compiled, run_fn)
+            inner = guard(system.compiled, run_fn, follower=ahead)
         details = self.details()
 
         def described(*, options: Any) -> Any:

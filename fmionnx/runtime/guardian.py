@@ -31,7 +31,9 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import dataclasses
+import fcntl
 import json
+import logging
 import mmap
 import os
 import pickle
@@ -53,6 +55,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import fault
 from fmionnx.runtime import recorder as recording
+from fmionnx.runtime.published import Follower, Published
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 
 #: The ``--isolate`` word that selects the guardian.
@@ -79,6 +82,7 @@ STOP_GRACE = 5.0
 _RESULT_MESSAGE = 16
 
 RunFunction = Callable[..., RunResult]
+logger = logging.getLogger(__name__)
 
 
 def available() -> str | None:
@@ -92,8 +96,15 @@ class _Shared:
     """The memfd both processes map: control cells, the directory, then the tracks' rows."""
 
     def __init__(self) -> None:
-        self.fd = os.memfd_create("fmionnx-guardian")
+        flags = os.MFD_CLOEXEC | getattr(os, "MFD_ALLOW_SEALING", 0)
+        self.fd = os.memfd_create("fmionnx-guardian", flags)
         os.ftruncate(self.fd, CONTROL)
+        #: Whether the file can never shrink: then this process may read it while the child
+        #: runs (a mapping beyond a truncated end would kill this process with SIGBUS).
+        self.sealed = False
+        with contextlib.suppress(OSError, AttributeError):
+            fcntl.fcntl(self.fd, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_SEAL)
+            self.sealed = True
         self.size = CONTROL
         self.control = mmap.mmap(self.fd, CONTROL)
         self.cells = np.frombuffer(self.control, dtype=np.float64, count=_CELLS)
@@ -129,12 +140,12 @@ class _Shared:
         if chosen not in (1, 2):
             return None
         start = _CELLS * 8 + (chosen - 1) * _SLOT
-        length = int.from_bytes(self.control[start : start + 8], "little")
+        length = min(int.from_bytes(self.control[start : start + 8], "little"), _SLOT - 8)
         try:
-            parsed: dict[str, Any] = json.loads(self.control[start + 8 : start + 8 + length])
-        except ValueError:
+            parsed = json.loads(self.control[start + 8 : start + 8 + length])
+        except (ValueError, RecursionError):  # also read while the child runs: torn, or hostile
             return None
-        return parsed
+        return parsed if isinstance(parsed, dict) else None
 
     def rows(self, offset: int, capacity: int, columns: int) -> tuple[int, np.ndarray]:
         """(count, rows) of a track region written by the child, copied out of the file."""
@@ -406,12 +417,24 @@ def _child(
     return 0
 
 
-def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions) -> RunResult:
-    """``run_fn(options=options)`` in a forked child; a crash of the child is a fault here."""
+def run_guarded(
+    system: CompiledSystem,
+    run_fn: RunFunction,
+    options: RunOptions,
+    follower: Follower | None = None,
+) -> RunResult:
+    """``run_fn(options=options)`` in a forked child; a crash of the child is a fault here.
+
+    ``follower`` puts the rows the child publishes to use while it runs (this process is
+    idle meanwhile): ``results.csv`` formatted ahead, :mod:`fmionnx.results.csvahead`.
+    """
     from fmionnx.core.scratch import make_scratch, remove_scratch
     from fmionnx.runtime.stopping import stop_reason
 
     shared = _Shared()
+    published = None
+    if follower is not None and shared.sealed:
+        published = Published(shared.fd, shared.directory, system.run.steps, sealed=True)
     scratch = make_scratch("guardian")
     read_end, write_end = os.pipe()
     sys.stdout.flush()
@@ -433,7 +456,8 @@ def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions
             os._exit(code)
     os.close(write_end)
     try:
-        data, reason = _wait(pid, read_end, shared, options, stop_reason)
+        following = None if published is None or follower is None else (follower, published)
+        data, reason = _wait(pid, read_end, shared, options, stop_reason, following)
         status = _reap(pid)
         if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results and said so
             # The process ends with status 1 as an abandoned in-process run's does, but
@@ -445,6 +469,8 @@ def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions
             result = _salvage(system, shared, status, reason, time.perf_counter() - started)
         return result
     finally:
+        if published is not None:
+            published.close()
         os.close(read_end)
         shared.close()
         remove_scratch(scratch)
@@ -456,8 +482,10 @@ def _wait(
     shared: _Shared,
     options: RunOptions,
     stop_reason: Callable[[BaseException], str],
+    following: tuple[Follower, Published] | None = None,
 ) -> tuple[bytes, str | None]:
-    """Read the child's result until the pipe closes; pass progress and stop signals on.
+    """Read the child's result until the pipe closes; pass progress and stop signals on,
+    and let the follower work while nothing arrives.
 
     The child is killed when it stays silent for :data:`STOP_GRACE` seconds after it was
     asked to stop (stuck in a model) or after its result arrived (stuck on its way out: its
@@ -473,9 +501,10 @@ def _wait(
     seen = 0.0
     cells = shared.cells
     deadline = float("inf")
+    busy = False  # the follower found work last time: look at the pipe without waiting
     while True:
         try:
-            ready, _, _ = select.select([pipe], [], [], 0.1)
+            ready, _, _ = select.select([pipe], [], [], 0.0 if busy else _tick(following))
             if ready:
                 chunk = os.read(pipe, 1 << 20)
                 if not chunk:
@@ -491,6 +520,11 @@ def _wait(
             if options.progress is not None and cells[_PROGRESS] != seen:
                 seen = float(cells[_PROGRESS])
                 options.progress(int(cells[_DONE]), int(cells[_TOTAL]), float(cells[_SIM]))
+            if following is not None and not ready:
+                worked = _follow(*following)
+                if worked is None:  # the follower failed: the run goes on without it
+                    following = None
+                busy = bool(worked)
         except KeyboardInterrupt as exc:  # SIGINT/SIGTERM/SIGHUP here: the child stops too
             if reason is None:
                 reason = stop_reason(exc)
@@ -498,6 +532,23 @@ def _wait(
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.Signals[reason])
     return b"".join(chunks), reason
+
+
+def _tick(following: tuple[Follower, Published] | None) -> float:
+    """Seconds to wait for the child's message: short while a follower keeps up with it."""
+    return 0.1 if following is None else 0.02
+
+
+def _follow(follower: Follower, published: Published) -> bool | None:
+    """One piece of the follower's work; None when it failed (it is then left out: what it
+    does is an optimisation, and a run's results must not depend on it)."""
+    try:
+        return follower.follow(published)
+    except (KeyboardInterrupt, SystemExit):
+        raise
+    except Exception:  # whatever the follower hit, the run goes on
+        logger.debug("guardian: the follower failed; the run goes on without it", exc_info=True)
+        return None
 
 
 def _reap(pid: int) -> int:
@@ -619,11 +670,13 @@ def _table(
     return rebuilt.table(steps_done)
 
 
-def guard(system: CompiledSystem, run_fn: RunFunction) -> RunFunction:
-    """``run_fn`` (``system.run``), run under the guardian."""
+def guard(
+    system: CompiledSystem, run_fn: RunFunction, follower: Follower | None = None
+) -> RunFunction:
+    """``run_fn`` (``system.run``), run under the guardian (``follower``: see run_guarded)."""
 
     def guarded(*, options: RunOptions) -> RunResult:
-        return run_guarded(system, run_fn, options)
+        return run_guarded(system, run_fn, options, follower)
 
     return guarded
 
