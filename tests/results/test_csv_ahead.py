@@ -21,6 +21,7 @@ from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from tests.backends.test_isolation import SEGFAULT
 from tests.backends.test_native_group import _multi_rate
 
+
 @pytest.fixture
 def write_system(tmp_path: Path):  # as tests/backends' fixture
     def write(text: str) -> Path:
@@ -94,7 +95,8 @@ record: [bad.u, bad.y, slow.x]
     )  # fmt: skip
     result, ahead = _guarded(path)
     assert result.status is RunStatus.FAULT
-    assert result.error is not None and "SIGSEGV" in str(result.error)
+    assert result.error is not None
+    assert "SIGSEGV" in str(result.error)
     assert result.time[-1] == fail_at
     assert ahead.rows >= PIECE_ROWS
     # The same rows as a run stopped at the crash's time, byte for byte
