@@ -65,7 +65,17 @@ BACKEND_NAME = "inprocess"
 #: Bytes of the control block at the start of the shared file: cells, then two directory slots.
 CONTROL = 1 << 20  # sparse: pages cost only once written
 # float64 cells of the control block
-_T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY = range(8)
+_T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY, _PHASE, _PHASE_WHO = range(10)
+#: What the child is doing (the ``_PHASE`` cell; ``_PHASE_WHO``: the component's index in the
+#: system): stored around each model's instantiate, setup and terminate calls, once per run.
+#: The loop's steps are told apart by the marker's stores instead (no store more per step).
+_PREPARING, _INSTANTIATE, _SETUP, _LOOP, _TERMINATE, _ENDED = range(6)
+#: The phases a crash is blamed on, labelled as an isolated model's are.
+_PHASE_LABELS = {
+    _INSTANTIATE: "loading and instantiating the model",
+    _SETUP: "initialization",
+    _TERMINATE: "terminate",
+}
 #: Then, per lane of the parallel schedule (a worker thread stepping one component), the
 #: step in flight there: (work index, t, n, place in the order); work index -1: none.
 _LANES = 16
@@ -147,6 +157,13 @@ class _Shared:
             return None
         return parsed if isinstance(parsed, dict) else None
 
+    def count(self, offset: int, capacity: int) -> int:
+        """The row count of the track region at ``offset`` (0 when outside the file)."""
+        if not CONTROL <= offset <= os.fstat(self.fd).st_size - 8:
+            return 0
+        count = int.from_bytes(os.pread(self.fd, 8, offset), "little", signed=True)
+        return max(0, min(count, capacity))
+
     def rows(self, offset: int, capacity: int, columns: int) -> tuple[int, np.ndarray]:
         """(count, rows) of a track region written by the child, copied out of the file."""
         size = os.fstat(self.fd).st_size
@@ -179,6 +196,9 @@ class _SharedTracks:
         self.works: list[str] = []
         #: Each work's place in the execution order (-1: unknown), parallel to ``works``.
         self.places: list[int] = []
+        #: Each model's function that advances it (``fmi2DoStep``), by component name: a
+        #: crash in the step of a component stepped alone is said to be in it.
+        self.functions: dict[str, str] = {}
         #: Works are registered by the loop's thread and by lanes: one at a time.
         self.lock = threading.RLock()
 
@@ -195,7 +215,10 @@ class _SharedTracks:
             for t in self.tracks
         ]
         order = [name for r in self.recorders for name in r.order]
-        directory = {"tracks": tracks, "order": order, "works": self.works, "places": self.places}
+        directory = {
+            "tracks": tracks, "order": order, "works": self.works, "places": self.places,
+            "functions": self.functions,
+        }  # fmt: skip
         self.shared.publish(directory)
 
 
@@ -366,8 +389,68 @@ def _fresh_streams() -> None:
             setattr(sys, f"__{name}__", stream)
 
 
+def _phased(method: Callable[..., Any], cells: Any, phase: int, then: int, who: int) -> Any:
+    """``method``, storing ``phase`` (and ``who``) before the call and ``then`` after it."""
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        cells[_PHASE_WHO] = who
+        cells[_PHASE] = phase
+        outcome = method(*args, **kwargs)
+        cells[_PHASE] = then
+        return outcome
+
+    return call
+
+
+def _phased_runners(master_class: type, cells: Any, components: list[str]) -> None:
+    """Every runner the master makes (in this forked child) marks its phases in ``cells``.
+
+    The master's runner factory is wrapped when a master is made, so runners of any factory
+    (isolated components' proxies, a test's wrappers) are covered; a runner's
+    ``instantiate``, ``setup`` and ``terminate`` become instance attributes that store the
+    phase around the call. Only in the child, which ends with the run.
+    """
+    index = {name: i for i, name in enumerate(components)}
+    registry = _REGISTRY[0]
+    made: Callable[..., None] = vars(master_class)["__init__"]  # the master's own
+
+    def init(self: Any, *args: Any, **kwargs: Any) -> None:
+        made(self, *args, **kwargs)
+        make = self.make_runner
+
+        def make_phased(component: Any, wiring: Any) -> Any:
+            who = index.get(component.name, -1)
+            cells[_PHASE_WHO], cells[_PHASE] = who, _INSTANTIATE  # making it may load it
+            runner = make(component, wiring)
+            cells[_PHASE] = _PREPARING
+            phases = (
+                ("instantiate", _INSTANTIATE, _PREPARING), ("setup", _SETUP, _LOOP),
+                ("terminate", _TERMINATE, _ENDED),
+            )  # fmt: skip
+            for name, phase, then in phases:
+                method = getattr(runner, name, None)
+                if callable(method):
+                    with contextlib.suppress(AttributeError, TypeError):  # slots: unmarked
+                        setattr(runner, name, _phased(method, cells, phase, then, who))
+            function = getattr(runner, "advance_function", None)
+            if isinstance(function, str):
+                with registry.lock:
+                    registry.functions[component.name] = function
+                    registry.publish()
+            return runner
+
+        self.make_runner = make_phased
+
+    setattr(master_class, "__init__", init)  # noqa: B010 - a method, rebound in the child only
+
+
 def _child(
-    run_fn: RunFunction, options: RunOptions, shared: _Shared, result_pipe: int, scratch: Path
+    run_fn: RunFunction,
+    options: RunOptions,
+    shared: _Shared,
+    result_pipe: int,
+    scratch: Path,
+    components: list[str],
 ) -> int:
     """Run in the forked child; returns its exit status (the result went down the pipe)."""
     _die_with_parent()
@@ -382,6 +465,7 @@ def _child(
     names = vars(master)  # the master module's globals, rebound in this process only
     names["Recorder"] = SharedRecorder
     names["Marker"] = lambda: SharedMarker(shared.control)
+    _phased_runners(master.Master, shared.cells, components)
     cells = shared.cells
 
     def progress(done: int, total: int, sim: float) -> None:
@@ -445,7 +529,8 @@ def run_guarded(
         code = 70
         try:
             os.close(read_end)
-            code = _child(run_fn, options, shared, write_end, scratch)
+            components = [c.name for c in system.components]
+            code = _child(run_fn, options, shared, write_end, scratch, components)
         except BaseException:
             with contextlib.suppress(Exception):
                 traceback.print_exc()
@@ -589,11 +674,17 @@ def _how(status: int) -> str:
 def _salvage(
     system: CompiledSystem, shared: _Shared, status: int, reason: str | None, wall: float
 ) -> RunResult:
-    """The result of a child that died: every completed step, a fault naming who was stepping."""
+    """The result of a child that died: every completed step, a fault naming who was stepping
+    (or instantiating, initializing, terminating)."""
     directory = shared.directory() or {"tracks": [], "order": [], "works": []}
     run = system.run
     works: list[str] = directory.get("works", [])
     index, t, steps_done, place = _blamed(shared, directory, system)
+    phase, who = int(shared.cells[_PHASE]), int(shared.cells[_PHASE_WHO])
+    if phase in (_TERMINATE, _ENDED):  # the loop is over: its steps are those recorded
+        recorded = _steps_recorded(shared, directory, run.steps)
+        steps_done, place = (steps_done if recorded is None else recorded), -1
+        t = run.start + steps_done * run.step
     signals = _table(shared, directory, steps_done, place)
     if reason is not None:  # stopped, then killed when it did not stop: interrupted
         return RunResult.after(
@@ -601,17 +692,50 @@ def _salvage(
             interrupted_by=reason,
         )  # fmt: skip
     how = _how(status)
-    if 0 <= index < len(works) and works[index]:
+    guarded = "the run was guarded in a process of its own"
+    names = [c.name for c in system.components]
+    if phase in _PHASE_LABELS and 0 <= who < len(names):
+        when = t if phase == _TERMINATE else run.start
+        label = _PHASE_LABELS[phase]
+        error = fault(names[who], f"the model {how} in {label} ({guarded})", time=when)
+    elif phase == _ENDED:
+        error = RunError(f"the run's process {how} after its models were terminated", time=t)
+    elif 0 <= index < len(works) and works[index]:
         label = works[index]
-        error = fault(
-            label,
-            f"the model {how} during its step (the run was guarded in a process of its own; "
-            "`--isolate` with the component's name tells the FMI function)",
-            time=t,
-        )
+        functions = directory.get("functions")
+        function = functions.get(label) if isinstance(functions, dict) else None
+        if isinstance(function, str):  # a component stepped alone: its step is this call
+            where = (
+                f"during its step, in {function} or the calls that set its inputs and get its "
+                f"outputs ({guarded}; `--isolate {label}` tells the exact FMI function)"
+            )
+        else:
+            where = (
+                f"during its step ({guarded}; `--isolate` with the component's name tells the "
+                "FMI function)"
+            )
+        error = fault(label, f"the model {how} {where}", time=t)
     else:
         error = RunError(f"the run's process {how} while preparing the run", time=run.start)
     return RunResult.after(system, BACKEND_NAME, RunStatus.FAULT, steps_done, wall, signals, error)
+
+
+def _steps_recorded(shared: _Shared, directory: dict[str, Any], steps: int) -> int | None:
+    """Base steps every track has recorded (after the loop: the steps done); None: no track.
+
+    A track of period p with c rows has recorded steps up to (c - 1) p: its first row is
+    the start (outputs) or the step from it (inputs, recorded before the step).
+    """
+    done: int | None = None
+    for entry in directory.get("tracks", []):
+        try:
+            count = shared.count(int(entry["offset"]), int(entry["capacity"]))
+            covered = (count - 1) * int(entry["period"])
+        except (KeyError, TypeError, ValueError):
+            continue
+        if count > 0 and entry.get("columns"):
+            done = covered if done is None else min(done, covered)
+    return None if done is None else max(0, min(steps, done))
 
 
 def _blamed(
