@@ -563,7 +563,10 @@ def _run_system(
             how = " in a guarded process"
             if safety.by_default:
                 how += ", the default for a lone FMU"
-        console.print(f"running {system.name}{where} from {run.start:g} to {run.stop:g} s{how} ...")
+        console.print(
+            f"running {system.name}{where} from {run.start:g} to {run.stop:g} s{how} ...",
+            soft_wrap=True,  # one line, as greppable as the short one
+        )
     try:
         result = _with_progress(
             run_fn,
