@@ -32,6 +32,7 @@ import contextlib
 import ctypes
 import dataclasses
 import fcntl
+import gc
 import json
 import logging
 import mmap
@@ -538,7 +539,16 @@ def run_guarded(
     sys.stdout.flush()
     sys.stderr.flush()
     started = time.perf_counter()
-    pid = os.fork()
+    # Objects made so far are left out of the garbage collector's passes, in both processes:
+    # a pass writes to every object it visits, which after the fork copies each page of the
+    # heap once more (0.05 s of CPU for a lone FMU's run; the guardian formats results.csv
+    # meanwhile, which runs the collector).
+    gc.freeze()
+    try:
+        pid = os.fork()
+    except BaseException:
+        gc.unfreeze()
+        raise
     if pid == 0:  # the child: never returns into the caller
         code = 70
         try:
@@ -568,6 +578,7 @@ def run_guarded(
             result = _salvage(system, shared, status, reason, time.perf_counter() - started)
         return result
     finally:
+        gc.unfreeze()
         if published is not None:
             published.close()
         os.close(read_end)
