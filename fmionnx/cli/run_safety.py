@@ -3,7 +3,7 @@
 - ``--isolate`` runs models in processes of their own: a crash, abort, exit or hang becomes a
   fault naming the component and the time. Its default depends on the system
   (:meth:`RunSafety.resolved`): a lone FMU runs under the guardian (the whole run in one
-  guarded child process, as fast as in-process), anything else with every FMU in a process
+  guarded child process, about as fast as in-process), anything else with every FMU in a process
   of its own (``fmus``), which also names the FMI function and can ``--sandbox`` a model.
 - ``--step-timeout`` bounds every step; a component in this process that overruns it has
   the run abandoned with its results written (:mod:`fmionnx.runtime.watchdog`).

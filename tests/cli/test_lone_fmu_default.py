@@ -154,3 +154,18 @@ def test_a_hang_of_a_lone_fmu_under_the_default_is_abandoned_with_its_results(
     assert info["execution"]["isolate"] == "guardian"
     assert len(read_csv(out / "results.csv")["time"]) == 31
     assert list((tmp_path / "tmp").iterdir()) == []
+
+
+def test_the_default_writes_the_bytes_of_an_unguarded_run(tmp_path: Path) -> None:
+    fmu = build_fixture_fmu("Integrator")
+    args = [str(fmu), "-q", "--stop-time", "300", "--step", "0.01", "-p", "u=0.3"]
+    files = {}
+    for mode in ("default", "none"):
+        out = tmp_path / mode
+        chosen = [] if mode == "default" else ["--isolate", "none"]
+        code, output = _run([*args, "--out", str(out), *chosen], tmp_path)
+        assert code == 0, output
+        files[mode] = (out / "results.csv").read_bytes()
+    assert _execution(tmp_path / "default")["execution"]["isolate"] == "guardian"
+    assert files["default"] == files["none"]
+    assert files["default"].count(b"\n") == 30_002  # the header, the start and every step
