@@ -27,6 +27,10 @@ from fmionnx.runtime.published import Published
 #: Rows formatted per piece: small enough that little is left when the run ends, large
 #: enough that the per-call cost of formatting stays negligible.
 PIECE_ROWS = 8192
+#: Bytes of text and values kept ahead at most. Formatting at the end streams the file in
+#: blocks; text formatted ahead is held until then, so a very long run stops formatting ahead
+#: here (about 8 million rows of two columns) and formats the rest at the end, as before.
+MAX_AHEAD_BYTES = 256 << 20
 
 
 @dataclass(frozen=True)
@@ -45,9 +49,12 @@ class CsvAhead:
         self._pieces: dict[int, _Piece] = {}  # first row -> piece
         self._next = 0  # the next piece's first row
         self._names: list[str] | None = None
+        self._bytes = 0  # text and values held (see MAX_AHEAD_BYTES)
 
     def follow(self, published: Published) -> bool:
         """Format the next piece if the child has published every row it needs."""
+        if self._bytes >= MAX_AHEAD_BYTES:
+            return False
         first = self._next
         rows = np.arange(first, first + PIECE_ROWS, dtype=np.int64)
         steps = rows * self._every  # the base steps of those rows (RunResult.after's grid)
@@ -55,13 +62,16 @@ class CsvAhead:
             return False
         if published.names != self._names:  # the columns changed: start again
             self._names, self._pieces, self._next = list(published.names), {}, 0
+            self._bytes = 0
             return True
         from fmionnx.results.csvfile import format_rows
 
         time = self._start + steps * self._step  # exactly as RunResult.after computes it
         values = np.column_stack([time, published.values(steps)])
-        self._pieces[first] = _Piece(values, format_rows(values))
+        text = format_rows(values)
+        self._pieces[first] = _Piece(values, text)
         self._next = first + PIECE_ROWS
+        self._bytes += len(text) + values.nbytes
         return True
 
     @property
@@ -92,4 +102,4 @@ class CsvAhead:
         return later if later in self._pieces else None
 
 
-__all__ = ["PIECE_ROWS", "CsvAhead"]
+__all__ = ["MAX_AHEAD_BYTES", "PIECE_ROWS", "CsvAhead"]

@@ -14,6 +14,7 @@ import numpy as np
 import pytest
 
 import fmionnx
+from fmionnx.results import csvahead
 from fmionnx.results.csvahead import PIECE_ROWS, CsvAhead
 from fmionnx.results.csvfile import write_csv, write_rows
 from fmionnx.runtime.guardian import run_guarded
@@ -125,3 +126,14 @@ def test_a_piece_whose_values_differ_from_the_result_is_not_used(
         write_rows(with_ahead, rows, ahead=ahead)
         write_rows(without, rows)
         assert with_ahead.getvalue() == without.getvalue()
+
+
+def test_formatting_ahead_stops_at_its_memory_bound(
+    fixture_fmu, write_system, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(csvahead, "MAX_AHEAD_BYTES", 1)  # one piece, then no more
+    path = _long(fixture_fmu, write_system, tmp_path)
+    result, ahead = _guarded(path)
+    assert ahead.rows == PIECE_ROWS
+    plain = fmionnx.load(path).run()
+    assert _csv(result, tmp_path / "ahead.csv", ahead) == _csv(plain, tmp_path / "plain.csv")
