@@ -201,9 +201,10 @@ def run(
         typer.Option(
             "--isolate",
             help="In-process: components whose models run in a process of their own, so a "
-            "crash or hang cannot take the run down: `fmus` (default: every FMU), `all`, "
-            "`none`, or component names (repeat the option or separate by commas); "
-            "`guardian`: the whole run in one guarded process instead (docs/running.md).",
+            "crash or hang cannot take the run down: `fmus` (every FMU), `all`, `none`, or "
+            "component names (repeat the option or separate by commas); `guardian`: the whole "
+            "run in one guarded process instead. Default: `guardian` for a lone FMU (on Linux, "
+            "without --sandbox or --record), else `fmus` (docs/running.md).",
         ),
     ] = None,
     sandbox: Annotated[
@@ -306,7 +307,9 @@ def run(
     if not checkpoint_every >= 0:
         raise fail("--checkpoint-every must be >= 0 seconds")
     safety = RunSafety(
-        isolate=[w.strip() for item in (isolate or ["fmus"]) for w in item.split(",") if w.strip()],
+        isolate=None  # not given: chosen per system (a lone FMU: guardian; see RunSafety)
+        if isolate is None
+        else [w.strip() for item in isolate for w in item.split(",") if w.strip()],
         sandbox=sandbox,
         step_timeout=step_timeout,
         checkpoint_every=checkpoint_every,
@@ -535,11 +538,14 @@ def _run_system(
 
         recorder = McapRecorder(record)
     options = RunOptions(frames=recorder)
-    if ros2 is None and safety is not None:
+    if ros2 is None and safety is not None:  # --isolate's default depends on the system
+        safety = safety.resolved(system.compiled, record=record is not None)
         options = safety.options(options, system, out, console)
     run_fn = system.run
+    ahead = None  # results.csv formatted while a guarded run goes on
     if ros2 is None and safety is not None:  # --isolate guardian: the run in a guarded child
-        run_fn = safety.guard(system, run_fn, record=record is not None)
+        ahead = safety.csv_ahead(system, out)
+        run_fn = safety.guard(system, run_fn, record=record is not None, ahead=ahead)
     if ros2 is not None:
         from fmionnx.backends.ros2.supervisor import run_ros2
 
@@ -552,7 +558,15 @@ def _run_system(
     if not quiet:
         run = system.compiled.run
         where = "" if ros2 is None else f" as ROS 2 nodes ({ros2.sync.value})"
-        console.print(f"running {system.name}{where} from {run.start:g} to {run.stop:g} s ...")
+        how = ""
+        if ros2 is None and safety is not None and safety.guardian:
+            how = " in a guarded process"
+            if safety.by_default:
+                how += ", the default for a lone FMU"
+        console.print(
+            f"running {system.name}{where} from {run.start:g} to {run.stop:g} s{how} ...",
+            soft_wrap=True,  # one line, as greppable as the short one
+        )
     try:
         result = _with_progress(
             run_fn,
@@ -588,6 +602,7 @@ def _run_system(
             also=files,
             checks=checks,
             plot_signals=plot_signals,
+            ahead=ahead,
         )
     if not quiet:
         _summary(console, result, files)

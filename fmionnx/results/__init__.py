@@ -9,10 +9,14 @@ from __future__ import annotations
 
 from collections.abc import Sequence
 from pathlib import Path
+from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.runtime.checks import CheckOutcome
 from fmionnx.runtime.result import RunResult
+
+if TYPE_CHECKING:
+    from fmionnx.results.csvahead import CsvAhead
 
 
 def write_results(
@@ -25,6 +29,7 @@ def write_results(
     checks: Sequence[CheckOutcome] | None = None,
     checkpoint: bool = False,
     plot_signals: bool = False,
+    ahead: CsvAhead | None = None,
 ) -> list[Path]:
     """Write results.csv, the system's plots and run.json into ``out``; returns the files.
 
@@ -38,6 +43,9 @@ def write_results(
     ``plot_signals=True`` (``run --plot``) also draws every recorded signal into
     ``signals.png`` (:mod:`fmionnx.results.signals_plot`).
 
+    ``ahead``: rows of results.csv formatted while a guarded run went on
+    (:mod:`fmionnx.results.csvahead`); the file's bytes are the same without it.
+
     ``run.json`` is written last and lists every file of the run (``also``: files written
     by others, e.g. ``--record`` into ``out``), so the next run into ``out`` knows which
     files were fmionnx's and removes those it does not write again (see ``outdir``).
@@ -50,7 +58,7 @@ def write_results(
 
     out.mkdir(parents=True, exist_ok=True)
     previous = previous_run(out)
-    files = [write_csv(result, out / "results.csv", aliases=aliases)]
+    files = [write_csv(result, out / "results.csv", aliases=aliases, ahead=ahead)]
     if not checkpoint:
         plots = write_plots(result, system, out)
         files.extend(plots)

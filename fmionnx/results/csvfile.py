@@ -10,7 +10,7 @@ the ROS 2 backend both write through :func:`write_csv`, so their files compare b
 from __future__ import annotations
 
 from pathlib import Path
-from typing import IO
+from typing import IO, TYPE_CHECKING
 
 import numpy as np
 import numpy.typing as npt
@@ -18,24 +18,42 @@ import numpy.typing as npt
 from fmionnx.core.safewrite import atomic_text
 from fmionnx.runtime.result import RunResult
 
+if TYPE_CHECKING:
+    from fmionnx.results.csvahead import CsvAhead
+
 #: Rows formatted at a time: bounds the formatting's memory (text and index arrays of a few
 #: megabytes per column) however long the run.
 BLOCK_ROWS = 32_768
 
 
-def write_csv(result: RunResult, path: Path, *, aliases: dict[str, str] | None = None) -> Path:
-    """Write the table; ``aliases`` renames columns (single-FMU runs use variable names)."""
+def write_csv(
+    result: RunResult,
+    path: Path,
+    *,
+    aliases: dict[str, str] | None = None,
+    ahead: CsvAhead | None = None,
+) -> Path:
+    """Write the table; ``aliases`` renames columns (single-FMU runs use variable names).
+
+    ``ahead``: rows formatted while a guarded run went on (:mod:`.csvahead`), used where they
+    hold exactly the result's values; the bytes are the same with or without it.
+    """
     names = list(result.signals)
     header = ["time", *((aliases or {}).get(n, n) for n in names)]
     columns = [result.time, *(result.signals[n] for n in names)]
     table = np.column_stack(columns) if columns else np.zeros((0, 1))
     with atomic_text(path) as stream:  # never half-written, never through a planted link
         stream.write(",".join(_quote(h) for h in header) + "\n")
-        write_rows(stream, table)
+        write_rows(stream, table, ahead=ahead)
     return path
 
 
-def write_rows(stream: IO[str], table: npt.NDArray[np.float64]) -> None:
+def write_rows(
+    stream: IO[str],
+    table: npt.NDArray[np.float64],
+    *,
+    ahead: CsvAhead | None = None,
+) -> None:
     """Write ``table`` as CSV lines, every number as its shortest round-tripping decimal.
 
     The time goes into formatting floats, so no cell is formatted in a Python-level loop:
@@ -44,15 +62,32 @@ def write_rows(stream: IO[str], table: npt.NDArray[np.float64]) -> None:
     third faster than formatting each distinct value with :func:`shortest_decimal` and
     several times faster than ``numpy.savetxt``; the bytes are the same (a test compares
     them over random, special and subnormal values).
+
+    ``ahead`` (rows formatted ahead): its pieces that hold exactly the table's values are
+    written as they are; the rest is formatted here.
     """
     floats = np.asarray(table, dtype=np.float64)
-    for first in range(0, len(floats), BLOCK_ROWS):
-        block = floats[first : first + BLOCK_ROWS]
-        if block.shape[1] == 0:  # no column: empty lines, as many as rows
-            stream.write("\n" * len(block))
-            continue
-        columns = [column_texts(block[:, j]) for j in range(block.shape[1])]
-        stream.write("\n".join(map(",".join, zip(*columns, strict=True))) + "\n")
+    first = 0
+    while first < len(floats):
+        if ahead is not None:
+            done = ahead.text(floats, first)
+            if done is not None:
+                stream.write(done[0])
+                first += done[1]
+                continue
+        last = min(len(floats), first + BLOCK_ROWS)
+        if ahead is not None:
+            last = min(last, ahead.next_start(first) or last)
+        stream.write(format_rows(floats[first:last]))
+        first = last
+
+
+def format_rows(block: npt.NDArray[np.float64]) -> str:
+    """The CSV lines of ``block`` (each ending in a newline); see :func:`write_rows`."""
+    if block.shape[1] == 0:  # no column: empty lines, as many as rows
+        return "\n" * len(block)
+    columns = [column_texts(block[:, j]) for j in range(block.shape[1])]
+    return "\n".join(map(",".join, zip(*columns, strict=True))) + "\n"
 
 
 def column_texts(column: npt.NDArray[np.float64]) -> list[str]:

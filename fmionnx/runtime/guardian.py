@@ -31,7 +31,10 @@ from __future__ import annotations
 import contextlib
 import ctypes
 import dataclasses
+import fcntl
+import gc
 import json
+import logging
 import mmap
 import os
 import pickle
@@ -53,6 +56,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import fault
 from fmionnx.runtime import recorder as recording
+from fmionnx.runtime.published import Follower, Published
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 
 #: The ``--isolate`` word that selects the guardian.
@@ -62,7 +66,17 @@ BACKEND_NAME = "inprocess"
 #: Bytes of the control block at the start of the shared file: cells, then two directory slots.
 CONTROL = 1 << 20  # sparse: pages cost only once written
 # float64 cells of the control block
-_T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY = range(8)
+_T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY, _PHASE, _PHASE_WHO = range(10)
+#: What the child is doing (the ``_PHASE`` cell; ``_PHASE_WHO``: the component's index in the
+#: system): stored around each model's instantiate, setup and terminate calls, once per run.
+#: The loop's steps are told apart by the marker's stores instead (no store more per step).
+_PREPARING, _INSTANTIATE, _SETUP, _LOOP, _TERMINATE, _ENDED = range(6)
+#: The phases a crash is blamed on, labelled as an isolated model's are.
+_PHASE_LABELS = {
+    _INSTANTIATE: "loading and instantiating the model",
+    _SETUP: "initialization",
+    _TERMINATE: "terminate",
+}
 #: Then, per lane of the parallel schedule (a worker thread stepping one component), the
 #: step in flight there: (work index, t, n, place in the order); work index -1: none.
 _LANES = 16
@@ -79,6 +93,7 @@ STOP_GRACE = 5.0
 _RESULT_MESSAGE = 16
 
 RunFunction = Callable[..., RunResult]
+logger = logging.getLogger(__name__)
 
 
 def available() -> str | None:
@@ -92,8 +107,15 @@ class _Shared:
     """The memfd both processes map: control cells, the directory, then the tracks' rows."""
 
     def __init__(self) -> None:
-        self.fd = os.memfd_create("fmionnx-guardian")
+        flags = os.MFD_CLOEXEC | getattr(os, "MFD_ALLOW_SEALING", 0)
+        self.fd = os.memfd_create("fmionnx-guardian", flags)
         os.ftruncate(self.fd, CONTROL)
+        #: Whether the file can never shrink: then this process may read it while the child
+        #: runs (a mapping beyond a truncated end would kill this process with SIGBUS).
+        self.sealed = False
+        with contextlib.suppress(OSError, AttributeError):
+            fcntl.fcntl(self.fd, fcntl.F_ADD_SEALS, fcntl.F_SEAL_SHRINK | fcntl.F_SEAL_SEAL)
+            self.sealed = True
         self.size = CONTROL
         self.control = mmap.mmap(self.fd, CONTROL)
         self.cells = np.frombuffer(self.control, dtype=np.float64, count=_CELLS)
@@ -129,12 +151,19 @@ class _Shared:
         if chosen not in (1, 2):
             return None
         start = _CELLS * 8 + (chosen - 1) * _SLOT
-        length = int.from_bytes(self.control[start : start + 8], "little")
+        length = min(int.from_bytes(self.control[start : start + 8], "little"), _SLOT - 8)
         try:
-            parsed: dict[str, Any] = json.loads(self.control[start + 8 : start + 8 + length])
-        except ValueError:
+            parsed = json.loads(self.control[start + 8 : start + 8 + length])
+        except (ValueError, RecursionError):  # also read while the child runs: torn, or hostile
             return None
-        return parsed
+        return parsed if isinstance(parsed, dict) else None
+
+    def count(self, offset: int, capacity: int) -> int:
+        """The row count of the track region at ``offset`` (0 when outside the file)."""
+        if not CONTROL <= offset <= os.fstat(self.fd).st_size - 8:
+            return 0
+        count = int.from_bytes(os.pread(self.fd, 8, offset), "little", signed=True)
+        return max(0, min(count, capacity))
 
     def rows(self, offset: int, capacity: int, columns: int) -> tuple[int, np.ndarray]:
         """(count, rows) of a track region written by the child, copied out of the file."""
@@ -168,6 +197,9 @@ class _SharedTracks:
         self.works: list[str] = []
         #: Each work's place in the execution order (-1: unknown), parallel to ``works``.
         self.places: list[int] = []
+        #: Each model's function that advances it (``fmi2DoStep``), by component name: a
+        #: crash in the step of a component stepped alone is said to be in it.
+        self.functions: dict[str, str] = {}
         #: Works are registered by the loop's thread and by lanes: one at a time.
         self.lock = threading.RLock()
 
@@ -184,7 +216,10 @@ class _SharedTracks:
             for t in self.tracks
         ]
         order = [name for r in self.recorders for name in r.order]
-        directory = {"tracks": tracks, "order": order, "works": self.works, "places": self.places}
+        directory = {
+            "tracks": tracks, "order": order, "works": self.works, "places": self.places,
+            "functions": self.functions,
+        }  # fmt: skip
         self.shared.publish(directory)
 
 
@@ -224,9 +259,23 @@ class SharedTrack(recording.Track):
             registry.publish()
 
     def sample(self) -> None:
-        """Append the current values as the next row; the count is published after it."""
-        super().sample()  # grows through _grow, into shared memory
-        self._count[0] = self.count
+        """Append the current values as the next row; the count is published after it.
+
+        :meth:`Track.sample`'s body, not a call to it: a ``super()`` call costs a third of
+        the row again, in the loop of every step (it grows through ``_grow``, in shared
+        memory).
+        """
+        count = self.count
+        if count == len(self.rows):
+            self._grow()
+        row = self.rows[count]
+        for view, a, b in self.views:
+            if b - a == 1:
+                row[a] = view[0]
+            else:
+                row[a:b] = view
+        self.count = count = count + 1
+        self._count[0] = count
 
     def truncate(self, count: int) -> None:
         """Keep at most ``count`` rows, here and in the count the guardian reads."""
@@ -355,8 +404,68 @@ def _fresh_streams() -> None:
             setattr(sys, f"__{name}__", stream)
 
 
+def _phased(method: Callable[..., Any], cells: Any, phase: int, then: int, who: int) -> Any:
+    """``method``, storing ``phase`` (and ``who``) before the call and ``then`` after it."""
+
+    def call(*args: Any, **kwargs: Any) -> Any:
+        cells[_PHASE_WHO] = who
+        cells[_PHASE] = phase
+        outcome = method(*args, **kwargs)
+        cells[_PHASE] = then
+        return outcome
+
+    return call
+
+
+def _phased_runners(master_class: type, cells: Any, components: list[str]) -> None:
+    """Every runner the master makes (in this forked child) marks its phases in ``cells``.
+
+    The master's runner factory is wrapped when a master is made, so runners of any factory
+    (isolated components' proxies, a test's wrappers) are covered; a runner's
+    ``instantiate``, ``setup`` and ``terminate`` become instance attributes that store the
+    phase around the call. Only in the child, which ends with the run.
+    """
+    index = {name: i for i, name in enumerate(components)}
+    registry = _REGISTRY[0]
+    made: Callable[..., None] = vars(master_class)["__init__"]  # the master's own
+
+    def init(self: Any, *args: Any, **kwargs: Any) -> None:
+        made(self, *args, **kwargs)
+        make = self.make_runner
+
+        def make_phased(component: Any, wiring: Any) -> Any:
+            who = index.get(component.name, -1)
+            cells[_PHASE_WHO], cells[_PHASE] = who, _INSTANTIATE  # making it may load it
+            runner = make(component, wiring)
+            cells[_PHASE] = _PREPARING
+            phases = (
+                ("instantiate", _INSTANTIATE, _PREPARING), ("setup", _SETUP, _LOOP),
+                ("terminate", _TERMINATE, _ENDED),
+            )  # fmt: skip
+            for name, phase, then in phases:
+                method = getattr(runner, name, None)
+                if callable(method):
+                    with contextlib.suppress(AttributeError, TypeError):  # slots: unmarked
+                        setattr(runner, name, _phased(method, cells, phase, then, who))
+            function = getattr(runner, "advance_function", None)
+            if isinstance(function, str):
+                with registry.lock:
+                    registry.functions[component.name] = function
+                    registry.publish()
+            return runner
+
+        self.make_runner = make_phased
+
+    setattr(master_class, "__init__", init)  # noqa: B010 - a method, rebound in the child only
+
+
 def _child(
-    run_fn: RunFunction, options: RunOptions, shared: _Shared, result_pipe: int, scratch: Path
+    run_fn: RunFunction,
+    options: RunOptions,
+    shared: _Shared,
+    result_pipe: int,
+    scratch: Path,
+    components: list[str],
 ) -> int:
     """Run in the forked child; returns its exit status (the result went down the pipe)."""
     _die_with_parent()
@@ -371,6 +480,7 @@ def _child(
     names = vars(master)  # the master module's globals, rebound in this process only
     names["Recorder"] = SharedRecorder
     names["Marker"] = lambda: SharedMarker(shared.control)
+    _phased_runners(master.Master, shared.cells, components)
     cells = shared.cells
 
     def progress(done: int, total: int, sim: float) -> None:
@@ -406,23 +516,45 @@ def _child(
     return 0
 
 
-def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions) -> RunResult:
-    """``run_fn(options=options)`` in a forked child; a crash of the child is a fault here."""
+def run_guarded(
+    system: CompiledSystem,
+    run_fn: RunFunction,
+    options: RunOptions,
+    follower: Follower | None = None,
+) -> RunResult:
+    """``run_fn(options=options)`` in a forked child; a crash of the child is a fault here.
+
+    ``follower`` puts the rows the child publishes to use while it runs (this process is
+    idle meanwhile): ``results.csv`` formatted ahead, :mod:`fmionnx.results.csvahead`.
+    """
     from fmionnx.core.scratch import make_scratch, remove_scratch
     from fmionnx.runtime.stopping import stop_reason
 
     shared = _Shared()
+    published = None
+    if follower is not None and shared.sealed:
+        published = Published(shared.fd, shared.directory, system.run.steps, sealed=True)
     scratch = make_scratch("guardian")
     read_end, write_end = os.pipe()
     sys.stdout.flush()
     sys.stderr.flush()
     started = time.perf_counter()
-    pid = os.fork()
+    # Objects made so far are left out of the garbage collector's passes, in both processes:
+    # a pass writes to every object it visits, which after the fork copies each page of the
+    # heap once more (0.05 s of CPU for a lone FMU's run; the guardian formats results.csv
+    # meanwhile, which runs the collector).
+    gc.freeze()
+    try:
+        pid = os.fork()
+    except BaseException:
+        gc.unfreeze()
+        raise
     if pid == 0:  # the child: never returns into the caller
         code = 70
         try:
             os.close(read_end)
-            code = _child(run_fn, options, shared, write_end, scratch)
+            components = [c.name for c in system.components]
+            code = _child(run_fn, options, shared, write_end, scratch, components)
         except BaseException:
             with contextlib.suppress(Exception):
                 traceback.print_exc()
@@ -433,7 +565,8 @@ def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions
             os._exit(code)
     os.close(write_end)
     try:
-        data, reason = _wait(pid, read_end, shared, options, stop_reason)
+        following = None if published is None or follower is None else (follower, published)
+        data, reason = _wait(pid, read_end, shared, options, stop_reason, following)
         status = _reap(pid)
         if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results and said so
             # The process ends with status 1 as an abandoned in-process run's does, but
@@ -445,6 +578,9 @@ def run_guarded(system: CompiledSystem, run_fn: RunFunction, options: RunOptions
             result = _salvage(system, shared, status, reason, time.perf_counter() - started)
         return result
     finally:
+        gc.unfreeze()
+        if published is not None:
+            published.close()
         os.close(read_end)
         shared.close()
         remove_scratch(scratch)
@@ -456,8 +592,10 @@ def _wait(
     shared: _Shared,
     options: RunOptions,
     stop_reason: Callable[[BaseException], str],
+    following: tuple[Follower, Published] | None = None,
 ) -> tuple[bytes, str | None]:
-    """Read the child's result until the pipe closes; pass progress and stop signals on.
+    """Read the child's result until the pipe closes; pass progress and stop signals on,
+    and let the follower work while nothing arrives.
 
     The child is killed when it stays silent for :data:`STOP_GRACE` seconds after it was
     asked to stop (stuck in a model) or after its result arrived (stuck on its way out: its
@@ -473,9 +611,10 @@ def _wait(
     seen = 0.0
     cells = shared.cells
     deadline = float("inf")
+    busy = False  # the follower found work last time: look at the pipe without waiting
     while True:
         try:
-            ready, _, _ = select.select([pipe], [], [], 0.1)
+            ready, _, _ = select.select([pipe], [], [], 0.0 if busy else _tick(following))
             if ready:
                 chunk = os.read(pipe, 1 << 20)
                 if not chunk:
@@ -491,6 +630,11 @@ def _wait(
             if options.progress is not None and cells[_PROGRESS] != seen:
                 seen = float(cells[_PROGRESS])
                 options.progress(int(cells[_DONE]), int(cells[_TOTAL]), float(cells[_SIM]))
+            if following is not None and not ready:
+                worked = _follow(*following)
+                if worked is None:  # the follower failed: the run goes on without it
+                    following = None
+                busy = bool(worked)
         except KeyboardInterrupt as exc:  # SIGINT/SIGTERM/SIGHUP here: the child stops too
             if reason is None:
                 reason = stop_reason(exc)
@@ -498,6 +642,23 @@ def _wait(
                 with contextlib.suppress(ProcessLookupError):
                     os.kill(pid, signal.Signals[reason])
     return b"".join(chunks), reason
+
+
+def _tick(following: tuple[Follower, Published] | None) -> float:
+    """Seconds to wait for the child's message: short while a follower keeps up with it."""
+    return 0.1 if following is None else 0.02
+
+
+def _follow(follower: Follower, published: Published) -> bool | None:
+    """One piece of the follower's work; None when it failed (it is then left out: what it
+    does is an optimisation, and a run's results must not depend on it)."""
+    try:
+        return follower.follow(published)
+    except (KeyboardInterrupt, SystemExit):
+        raise
+    except Exception:  # whatever the follower hit, the run goes on
+        logger.debug("guardian: the follower failed; the run goes on without it", exc_info=True)
+        return None
 
 
 def _reap(pid: int) -> int:
@@ -538,11 +699,17 @@ def _how(status: int) -> str:
 def _salvage(
     system: CompiledSystem, shared: _Shared, status: int, reason: str | None, wall: float
 ) -> RunResult:
-    """The result of a child that died: every completed step, a fault naming who was stepping."""
+    """The result of a child that died: every completed step, a fault naming who was stepping
+    (or instantiating, initializing, terminating)."""
     directory = shared.directory() or {"tracks": [], "order": [], "works": []}
     run = system.run
     works: list[str] = directory.get("works", [])
     index, t, steps_done, place = _blamed(shared, directory, system)
+    phase, who = int(shared.cells[_PHASE]), int(shared.cells[_PHASE_WHO])
+    if phase in (_TERMINATE, _ENDED):  # the loop is over: its steps are those recorded
+        recorded = _steps_recorded(shared, directory, run.steps)
+        steps_done, place = (steps_done if recorded is None else recorded), -1
+        t = run.start + steps_done * run.step
     signals = _table(shared, directory, steps_done, place)
     if reason is not None:  # stopped, then killed when it did not stop: interrupted
         return RunResult.after(
@@ -550,17 +717,50 @@ def _salvage(
             interrupted_by=reason,
         )  # fmt: skip
     how = _how(status)
-    if 0 <= index < len(works) and works[index]:
+    guarded = "the run was guarded in a process of its own"
+    names = [c.name for c in system.components]
+    if phase in _PHASE_LABELS and 0 <= who < len(names):
+        when = t if phase == _TERMINATE else run.start
+        label = _PHASE_LABELS[phase]
+        error = fault(names[who], f"the model {how} in {label} ({guarded})", time=when)
+    elif phase == _ENDED:
+        error = RunError(f"the run's process {how} after its models were terminated", time=t)
+    elif 0 <= index < len(works) and works[index]:
         label = works[index]
-        error = fault(
-            label,
-            f"the model {how} during its step (the run was guarded in a process of its own; "
-            "`--isolate` with the component's name tells the FMI function)",
-            time=t,
-        )
+        functions = directory.get("functions")
+        function = functions.get(label) if isinstance(functions, dict) else None
+        if isinstance(function, str):  # a component stepped alone: its step is this call
+            where = (
+                f"during its step, in {function} or the calls that set its inputs and get its "
+                f"outputs ({guarded}; `--isolate {label}` tells the exact FMI function)"
+            )
+        else:
+            where = (
+                f"during its step ({guarded}; `--isolate` with the component's name tells the "
+                "FMI function)"
+            )
+        error = fault(label, f"the model {how} {where}", time=t)
     else:
         error = RunError(f"the run's process {how} while preparing the run", time=run.start)
     return RunResult.after(system, BACKEND_NAME, RunStatus.FAULT, steps_done, wall, signals, error)
+
+
+def _steps_recorded(shared: _Shared, directory: dict[str, Any], steps: int) -> int | None:
+    """Base steps every track has recorded (after the loop: the steps done); None: no track.
+
+    A track of period p with c rows has recorded steps up to (c - 1) p: its first row is
+    the start (outputs) or the step from it (inputs, recorded before the step).
+    """
+    done: int | None = None
+    for entry in directory.get("tracks", []):
+        try:
+            count = shared.count(int(entry["offset"]), int(entry["capacity"]))
+            covered = (count - 1) * int(entry["period"])
+        except (KeyError, TypeError, ValueError):
+            continue
+        if count > 0 and entry.get("columns"):
+            done = covered if done is None else min(done, covered)
+    return None if done is None else max(0, min(steps, done))
 
 
 def _blamed(
@@ -619,11 +819,13 @@ def _table(
     return rebuilt.table(steps_done)
 
 
-def guard(system: CompiledSystem, run_fn: RunFunction) -> RunFunction:
-    """``run_fn`` (``system.run``), run under the guardian."""
+def guard(
+    system: CompiledSystem, run_fn: RunFunction, follower: Follower | None = None
+) -> RunFunction:
+    """``run_fn`` (``system.run``), run under the guardian (``follower``: see run_guarded)."""
 
     def guarded(*, options: RunOptions) -> RunResult:
-        return run_guarded(system, run_fn, options)
+        return run_guarded(system, run_fn, options, follower)
 
     return guarded
 
