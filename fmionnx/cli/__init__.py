@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import sys
 
-from fmionnx.cli import (  # noqa: F401 - importing registers the commands
+from fmionnx.cli import (  # noqa: F401 - importing registers the commands (lean_help aside)
     build_cmd,
     compile_cmd,
     graph_cmd,
     inspect_cmd,
+    lean_help,
     lock_cmd,
     node_cmd,
     ros2_cmd,
@@ -27,6 +28,8 @@ def main() -> None:
     Commands check the paths they are given; this is the net below them, so that a file system
     refusing (a full disk, a path that vanished) ends with one line, not a traceback.
     """
+    if lean_help.wants_help(sys.argv):
+        lean_help.prepare()
     try:
         app()
     except BrokenPipeError:  # `fmionnx graph ... | head`: the reader left; nothing to say

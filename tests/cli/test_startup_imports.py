@@ -37,8 +37,8 @@ except SystemExit as exc:
     code = exc.code
 else:
     code = 0
-print(json.dumps({"code": code, "modules": sorted({m.split(".")[0] for m in sys.modules})}),
-      file=sys.stderr)
+print(json.dumps({"code": code, "modules": sorted({m.split(".")[0] for m in sys.modules}),
+                  "full": sorted(sys.modules)}), file=sys.stderr)
 """
 
 SYSTEM = """\
@@ -63,8 +63,9 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return here
 
 
-def loaded(folder: Path, *args: str) -> set[str]:
-    """Top-level packages in ``sys.modules`` after ``fmionnx ARGS`` (which must succeed)."""
+def loaded(folder: Path, *args: str, full: bool = False) -> set[str]:
+    """Top-level packages in ``sys.modules`` after ``fmionnx ARGS`` (which must succeed);
+    ``full``: every module's full name."""
     done = subprocess.run(
         [sys.executable, "probe.py", *args],
         cwd=folder,
@@ -75,12 +76,25 @@ def loaded(folder: Path, *args: str) -> set[str]:
     )
     report = json.loads(done.stderr.strip().splitlines()[-1])
     assert report["code"] == 0, done.stderr
-    return set(report["modules"])
+    return set(report["full" if full else "modules"])
 
 
 def test_help_loads_no_compile_or_simulation_library(folder: Path) -> None:
     modules = loaded(folder, "--help")
     assert modules & (RUNTIME_EXTRAS | COMPILE_LIBRARIES | {"pydantic"}) == set()
+
+
+#: What typer's help renderer imports at its top but fmionnx never uses: Markdown help texts
+#: (markdown_it, pygments via rich.syntax) and pretty tracebacks (rich.pretty, attrs).
+HELP_UNUSED = frozenset({"rich.markdown", "rich.syntax", "rich.traceback", "rich.pretty"})
+HELP_UNUSED_PACKAGES = frozenset({"markdown_it", "mdurl", "pygments", "attr", "attrs"})
+
+
+@pytest.mark.parametrize("args", [("--help",), ("run", "--help"), ("validate", "-h")])
+def test_help_loads_neither_markdown_nor_tracebacks(folder: Path, args: tuple[str, ...]) -> None:
+    modules = loaded(folder, *args, full=True)
+    assert "typer.rich_utils" in modules  # the help was rendered by typer's rich renderer
+    assert modules & (HELP_UNUSED | HELP_UNUSED_PACKAGES) == set()
 
 
 def test_a_command_s_help_loads_none_either(folder: Path) -> None:
