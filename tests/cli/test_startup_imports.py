@@ -146,3 +146,28 @@ def test_validating_the_reference_scenario_loads_no_runtime_it_does_not_use(
     assert {"mujoco", "onnx"} <= modules  # the probe sees what reading the models loads
     assert modules & (RUNTIME_EXTRAS - {"mujoco", "onnx", "rosbags"}) == set()
     assert "onnxruntime" not in modules
+
+
+#: What a system file needs and a lone model does not: the system-file types (their
+#: ``components`` union of every kind's entry model), the other kinds, the YAML front end
+#: and the compilers of connections, checks, plots, loops and system inputs.
+LONE_MODEL_UNUSED = frozenset(
+    {"fmionnx.spec.model", "fmionnx.spec.yaml", "fmionnx.spec.frontends"}
+    | {"fmionnx.kinds.onnx.kind", "fmionnx.kinds.mujoco.kind", "fmionnx.kinds.signal.kind"}
+    | {"fmionnx.compile.compiler", "fmionnx.compile.checks", "fmionnx.compile.checkparse"}
+    | {"fmionnx.compile.plots", "fmionnx.compile.loops", "fmionnx.compile.sysinputs"}
+)
+
+
+@pytest.mark.parametrize("isolate", ["fmus", "none"])
+def test_running_one_fmu_loads_no_system_file_types(folder: Path, isolate: str) -> None:
+    out = f"out-lone-{isolate}"
+    modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", out, "--isolate", isolate, full=True)  # fmt: skip
+    assert (folder / out / "run.json").exists()
+    assert "fmionnx.kinds.fmu.kind" in modules  # the probe sees what the run does load
+    assert modules & LONE_MODEL_UNUSED == set()
+
+
+def test_a_system_file_still_loads_them(folder: Path) -> None:
+    modules = loaded(folder, "validate", "system.yaml", full=True)
+    assert {"fmionnx.spec.model", "fmionnx.compile.compiler"} <= modules
