@@ -1,8 +1,9 @@
 """Single models as systems: ``fmionnx run model.fmu``, ``fmionnx validate model.fmu`` and
 ``fmionnx.load("model.onnx")``.
 
-A lone model file becomes a one-component system compiled like any other (an in-memory
-system file), so every check and the runtime apply unchanged. Diagnostics about the model
+A lone model file becomes a one-component system, compiled by :mod:`fmionnx.compile.lone`
+into the same system the one-component system file would give (without loading the
+system-file types), so every check and the runtime apply unchanged. Diagnostics about the model
 point at the whole file (``model.fmu: error[...]``): a line and column of a zip or a protobuf
 mean nothing, and a model that cannot be read reports only that, not the run settings it
 would have given.

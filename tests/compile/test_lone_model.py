@@ -158,3 +158,29 @@ def test_an_error_is_reported_alone_as_in_a_system_file(copy_fmu: Callable[[str]
     assert compiled is None
     assert [d.code for d in diagnostics] == ["E041"]
     assert "not a whole multiple of the base step 0.02" in diagnostics[0].message
+
+
+@pytest.mark.parametrize(
+    ("file", "content"),
+    [
+        ("table.csv", "time,a,b\n0,1,2\n0.5,3,4\n1,5,6\n"),
+        ("bad.csv", "time,a\n0,1\n1,x\n"),  # an error at the table's line
+        ("rover.xml", None),  # the fixture MuJoCo scene
+    ],
+)
+def test_other_models_validate_alone_as_in_a_system_file(
+    tmp_path: Path, file: str, content: str | None
+) -> None:
+    """``fmionnx validate`` compiles any model a kind reads: a signal table, a scene."""
+    from fmionnx.kinds.registry import kind_for_path
+    from tests.conftest import REPO
+
+    path = tmp_path / file
+    if content is None:
+        shutil.copy(REPO / "tests" / "fixtures" / "scenes" / file, path)
+    else:
+        path.write_text(content, encoding="utf-8")
+    kind = kind_for_path(path)
+    assert kind is not None
+    spec = kind.spec_model.model_validate({"path": str(path.resolve())})
+    assert_same(path, spec, RunSpec(start=0.0, stop=0.5, step=0.5))
