@@ -149,13 +149,14 @@ def test_validating_the_reference_scenario_loads_no_runtime_it_does_not_use(
 
 
 #: What a system file needs and a lone model does not: the system-file types (their
-#: ``components`` union of every kind's entry model), the other kinds, the YAML front end
-#: and the compilers of connections, checks, plots, loops and system inputs.
+#: ``components`` union of every kind's entry model), the other kinds, the YAML front end,
+#: the compilers of connections, checks, plots, loops and system inputs, and the plot writers.
 LONE_MODEL_UNUSED = frozenset(
     {"fmionnx.spec.model", "fmionnx.spec.yaml", "fmionnx.spec.frontends"}
     | {"fmionnx.kinds.onnx.kind", "fmionnx.kinds.mujoco.kind", "fmionnx.kinds.signal.kind"}
     | {"fmionnx.compile.compiler", "fmionnx.compile.checks", "fmionnx.compile.checkparse"}
     | {"fmionnx.compile.plots", "fmionnx.compile.loops", "fmionnx.compile.sysinputs"}
+    | {"fmionnx.results.plots", "fmionnx.results.scenedraw"}  # nothing to draw
 )
 
 
