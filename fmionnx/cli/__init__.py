@@ -4,11 +4,12 @@ from __future__ import annotations
 
 import sys
 
-from fmionnx.cli import (  # noqa: F401 - importing registers the commands (lean_help aside)
+from fmionnx.cli import (  # noqa: F401 - importing registers the commands (invoked, lean_help aside)
     build_cmd,
     compile_cmd,
     graph_cmd,
     inspect_cmd,
+    invoked,
     lean_help,
     lock_cmd,
     node_cmd,
@@ -28,10 +29,14 @@ def main() -> None:
     Commands check the paths they are given; this is the net below them, so that a file system
     refusing (a full disk, a path that vanished) ends with one line, not a traceback.
     """
-    if lean_help.wants_help(sys.argv):
+    command_line = sys.argv
+    if lean_help.wants_help(command_line):
         lean_help.prepare()
+        chosen = app
+    else:
+        chosen = invoked.narrowed(app, command_line)
     try:
-        app()
+        chosen()
     except BrokenPipeError:  # `fmionnx graph ... | head`: the reader left; nothing to say
         sys.stderr.close()
         sys.exit(ExitCode.PROBLEMS)
