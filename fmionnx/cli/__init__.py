@@ -29,14 +29,10 @@ def main() -> None:
     Commands check the paths they are given; this is the net below them, so that a file system
     refusing (a full disk, a path that vanished) ends with one line, not a traceback.
     """
-    command_line = sys.argv
-    if lean_help.wants_help(command_line):
+    if lean_help.wants_help(sys.argv):
         lean_help.prepare()
-        chosen = app
-    else:
-        chosen = invoked.narrowed(app, command_line)
     try:
-        chosen()
+        invoked.narrowed(app, sys.argv)()
     except BrokenPipeError:  # `fmionnx graph ... | head`: the reader left; nothing to say
         sys.stderr.close()
         sys.exit(ExitCode.PROBLEMS)

@@ -1,5 +1,5 @@
-"""A command line naming a command is parsed by the application narrowed to that command
-(fmionnx/cli/invoked.py): the same parsing and messages as the whole application's."""
+"""A command line is parsed by the application narrowed to what it can reach
+(fmionnx/cli/invoked.py): the same parsing, help and messages as the whole application's."""
 
 from __future__ import annotations
 
@@ -22,11 +22,31 @@ def test_every_command_is_found() -> None:
         assert list(typer.main.get_group(one).commands) == [name]
 
 
-@pytest.mark.parametrize(
-    "argv", [["fmionnx"], ["fmionnx", "--version"], ["fmionnx", "rnu", "x.fmu"], ["fmionnx", "-h"]]
-)
-def test_anything_else_gets_the_whole_application(argv: list[str]) -> None:
+@pytest.mark.parametrize("argv", [["fmionnx", "rnu", "x.fmu"], ["fmionnx", "--out", "run"]])
+def test_a_line_that_names_no_command_gets_the_whole_application(argv: list[str]) -> None:
     assert narrowed(app, argv) is app
+
+
+@pytest.mark.parametrize(
+    "args", [[], ["--help"], ["-h"], ["--version"], ["--no-such-option"], ["--help", "--version"]]
+)
+def test_options_only_read_the_same_with_the_commands_listed_only(args: list[str]) -> None:
+    whole = CliRunner().invoke(app, args, env={"COLUMNS": "100"})
+    listing = narrowed(app, ["fmionnx", *args])
+    assert listing is not app
+    one = CliRunner().invoke(listing, args, env={"COLUMNS": "100"})
+    assert (one.exit_code, one.output) == (whole.exit_code, whole.output)
+    if "-h" in args or "--help" in args or not args:
+        assert all(f" {name} " in whole.output for name in COMMANDS)  # the listing itself
+
+
+@pytest.mark.parametrize("name", COMMANDS)
+def test_a_command_s_help_reads_the_same(name: str) -> None:
+    whole = CliRunner().invoke(app, [name, "--help"], env={"COLUMNS": "100"})
+    one_app = narrowed(app, ["fmionnx", name, "--help"])
+    one = CliRunner().invoke(one_app, [name, "--help"], env={"COLUMNS": "100"})
+    assert whole.exit_code == 0
+    assert one.output == whole.output
 
 
 def test_the_application_itself_is_left_whole() -> None:
