@@ -4,11 +4,13 @@ from __future__ import annotations
 
 import sys
 
-from fmionnx.cli import (  # noqa: F401 - importing registers the commands
+from fmionnx.cli import (  # noqa: F401 - importing registers the commands (invoked, lean_help aside)
     build_cmd,
     compile_cmd,
     graph_cmd,
     inspect_cmd,
+    invoked,
+    lean_help,
     lock_cmd,
     node_cmd,
     ros2_cmd,
@@ -27,8 +29,10 @@ def main() -> None:
     Commands check the paths they are given; this is the net below them, so that a file system
     refusing (a full disk, a path that vanished) ends with one line, not a traceback.
     """
+    if lean_help.wants_help(sys.argv):
+        lean_help.prepare()
     try:
-        app()
+        invoked.narrowed(app, sys.argv)()
     except BrokenPipeError:  # `fmionnx graph ... | head`: the reader left; nothing to say
         sys.stderr.close()
         sys.exit(ExitCode.PROBLEMS)

@@ -11,6 +11,7 @@ from collections import defaultdict
 from dataclasses import dataclass
 
 from fmionnx.compile.checks import compile_checks
+from fmionnx.compile.components import compile_component
 from fmionnx.compile.endpoints import (
     ResolvedEndpoint,
     resolve_endpoint,
@@ -20,13 +21,12 @@ from fmionnx.compile.graph import execution_order, execution_order_with_loops
 from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.compile.loops import compile_loops
 from fmionnx.compile.plots import compile_plots
-from fmionnx.compile.resolve import entry_path, read_interface, resolve_parameters, resolve_run
+from fmionnx.compile.resolve import read_interface, resolve_run
 from fmionnx.compile.sysinputs import compile_inputs
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
 from fmionnx.compile.unitcheck import check_units
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Severity, Span
 from fmionnx.core.sourcetext import source_lines
-from fmionnx.core.steps import count_problem
 from fmionnx.core.types import (
     Causality,
     Component,
@@ -34,10 +34,7 @@ from fmionnx.core.types import (
     Port,
     PortRef,
     flat_index,
-    is_whole_multiple,
 )
-from fmionnx.kinds.base import SIMULATOR
-from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.frontends import SSP_SUFFIXES
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
@@ -63,27 +60,8 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         interface = interfaces[name]
         if interface is None:
             continue
-        parameters = resolve_parameters(name, component_spec, interface, sources, bag)
-        period = component_spec.period if component_spec.period is not None else None
-        steps = 1
-        if run is not None:
-            period = period if period is not None else run.step
-            steps_or_none = _check_period(name, period, run.step, interface, sources, bag)
-            steps = steps_or_none or 1
         components.append(
-            Component(
-                name=name,
-                kind=component_spec.kind,
-                path=entry_path(loaded.path, component_spec),
-                interface=interface,
-                config=COMPONENT_KINDS[component_spec.kind].resolve(component_spec, interface),
-                period=period if period is not None else 0.0,
-                period_steps=steps,
-                parameters=parameters,
-                span=sources.key(("components", name)),
-                external=component_spec.external,
-                declared_path=component_spec.path,
-            )
+            compile_component(name, component_spec, interface, run, loaded.path, sources, bag)
         )
 
     mentioned: set[tuple[str, str]] = set()
@@ -138,43 +116,6 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             return None
         system = dataclasses.replace(system, ros2_plan=plan)
     return system
-
-
-def _check_period(
-    name: str,
-    period: float,
-    step: float,
-    interface: ComponentInterface,
-    sources: SourceMap,
-    bag: DiagnosticBag,
-) -> int | None:
-    span = sources.value(("components", name, "period"))
-    problem = count_problem(period, step, f"component `{name}`: period {period}")
-    if problem is not None:
-        bag.emit("E041", problem, span, hint="a period is at most the length of the run")
-        return None
-    steps = is_whole_multiple(period, step)
-    if steps is None:
-        bag.emit(
-            "E041",
-            f"component `{name}`: period {period} is not a whole multiple of the base step {step}",
-            span,
-            hint=f"use e.g. {max(1, round(period / step)) * step:g}",
-        )
-        return None
-    timestep = interface.fact("timestep")
-    if SIMULATOR in COMPONENT_KINDS[interface.kind].capabilities and timestep is not None:
-        physics = float(timestep)
-        if is_whole_multiple(period, physics) is None:
-            bag.emit(
-                "E041",
-                f"component `{name}`: period {period} is not a whole multiple of the scene's "
-                f"physics timestep {physics}",
-                span,
-                hint="change the period or the scene's `<option timestep=...>`",
-            )
-            return None
-    return steps
 
 
 @dataclass(frozen=True, slots=True)

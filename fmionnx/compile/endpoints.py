@@ -7,7 +7,7 @@ from dataclasses import dataclass
 
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.core.types import ComponentInterface, Port, PortRef
-from fmionnx.spec.model import ENDPOINT_RE
+from fmionnx.spec.runspec import ENDPOINT_RE
 
 
 @dataclass(frozen=True, slots=True)

@@ -21,7 +21,7 @@ from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.core.types import Component, PortRef
 from fmionnx.kinds.base import Repeatable
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.model import AlgebraicLoopsSpec
+from fmionnx.spec.runspec import AlgebraicLoopsSpec
 from fmionnx.spec.sourcemap import SourceMap
 
 #: What E035 suggests besides breaking the loop.

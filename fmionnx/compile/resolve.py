@@ -30,7 +30,7 @@ from fmionnx.core.types import (
     number_text,
 )
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.model import RunSpec
+from fmionnx.spec.runspec import RunSpec
 from fmionnx.spec.sourcemap import SourceMap
 
 #: Variables whose value a system file may set before initialization.

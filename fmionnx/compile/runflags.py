@@ -13,11 +13,14 @@ from __future__ import annotations
 import dataclasses
 import math
 from dataclasses import dataclass
+from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import CompiledSystem, Origin
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.steps import step_problem
-from fmionnx.spec.yaml import LoadedSpec
+
+if TYPE_CHECKING:  # a lone model (`run model.fmu`) never loads a system file's types
+    from fmionnx.spec.yaml import LoadedSpec
 
 
 @dataclass(frozen=True)
@@ -35,6 +38,8 @@ class RunFlags:
 
 def apply_run_flags(loaded: LoadedSpec, flags: RunFlags, bag: DiagnosticBag) -> LoadedSpec:
     """``loaded`` with the flags' run settings; E040 (at the system file) for a bad value."""
+    from fmionnx.spec.yaml import LoadedSpec
+
     spec = loaded.spec
     if spec is None or not flags.keys:
         return loaded

@@ -1,8 +1,9 @@
 """Single models as systems: ``fmionnx run model.fmu``, ``fmionnx validate model.fmu`` and
 ``fmionnx.load("model.onnx")``.
 
-A lone model file becomes a one-component system compiled like any other (an in-memory
-system file), so every check and the runtime apply unchanged. Diagnostics about the model
+A lone model file becomes a one-component system, compiled by :mod:`fmionnx.compile.lone`
+into the same system the one-component system file would give (without loading the
+system-file types), so every check and the runtime apply unchanged. Diagnostics about the model
 point at the whole file (``model.fmu: error[...]``): a line and column of a zip or a protobuf
 mean nothing, and a model that cannot be read reports only that, not the run settings it
 would have given.
@@ -21,7 +22,7 @@ from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Span
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.steps import step_problem
 from fmionnx.core.types import ComponentInterface
-from fmionnx.spec.model import RunSpec
+from fmionnx.spec.runspec import RunSpec
 
 #: Lone-model warnings not worth showing: unconnected inputs and no connections are the
 #: normal state of a model outside a system.
@@ -46,9 +47,6 @@ def compile_single_model(
     An FMU runs from its default experiment (``step``/``interface`` override); an ONNX model
     gets a one-step run of length 1 s, since it has no time of its own.
     """
-    from fmionnx.kinds.fmu.kind import FmuSpec
-    from fmionnx.kinds.onnx.kind import OnnxSpec
-
     problem = step_problem(step) if step is not None else None
     if problem is not None:  # checked here: RunSpec would raise a bare ValidationError
         bag.emit("E040", f"--step {problem}", Span(path))
@@ -57,10 +55,14 @@ def compile_single_model(
         bag.emit("E040", f"--start-time {start} is not a finite number of seconds", Span(path))
         return None
     absolute = str(path.resolve())
-    if path.suffix.lower() == ".onnx":
+    if path.suffix.lower() == ".onnx":  # each kind's module is imported only for its model
+        from fmionnx.kinds.onnx.kind import OnnxSpec
+
         run = RunSpec(start=0.0, stop=1.0, step=1.0)
         spec: ComponentSpecBase = OnnxSpec(path=absolute)
     else:
+        from fmionnx.kinds.fmu.kind import FmuSpec
+
         run = RunSpec(step=step, start=start or 0.0)
         spec = FmuSpec(path=absolute, interface=interface)
     if _read_alone(path, spec, bag) is None:
@@ -138,15 +140,11 @@ def _read_alone(
 def _compile_alone(
     path: Path, spec: ComponentSpecBase, run: RunSpec, bag: DiagnosticBag
 ) -> CompiledSystem | None:
-    from fmionnx.compile.compiler import compile_spec
-    from fmionnx.spec.model import SystemSpec
-    from fmionnx.spec.sourcemap import SourceMap
-    from fmionnx.spec.yaml import LoadedSpec
+    """The one-component system, compiled without the system-file types (:mod:`.lone`)."""
+    from fmionnx.compile.lone import compile_lone
 
-    name = _component_name(path)
-    system = SystemSpec(fmionnx=1, name=name, run=run, components={name: spec})
     scratch = DiagnosticBag()
-    compiled = compile_spec(LoadedSpec(system, SourceMap(path), path), scratch)
+    compiled = compile_lone(_component_name(path), spec, run, path, scratch)
     bag.extend(_whole_file(d, path) for d in scratch if d.code not in _LONE_MODEL_WARNINGS)
     return compiled
 

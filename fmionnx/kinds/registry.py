@@ -6,25 +6,70 @@ module outside a kind's own names it.
 
 from __future__ import annotations
 
-from collections.abc import Mapping
+import importlib
+from collections.abc import Iterator, Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fmionnx.core.types import Component, KindConfig
 from fmionnx.kinds.base import ComponentKind
-from fmionnx.kinds.fmu.kind import FMU_KIND
-from fmionnx.kinds.mujoco.kind import MUJOCO_KIND
-from fmionnx.kinds.onnx.kind import ONNX_KIND
-from fmionnx.kinds.signal.kind import SIGNAL_KIND
 
 if TYPE_CHECKING:
     from fmionnx.core.runner import Runner, Wiring
 
-COMPONENT_KINDS: Mapping[str, ComponentKind] = {
-    FMU_KIND.name: FMU_KIND,
-    ONNX_KIND.name: ONNX_KIND,
-    MUJOCO_KIND.name: MUJOCO_KIND,
-    SIGNAL_KIND.name: SIGNAL_KIND,
+
+class _KindTable(Mapping[str, ComponentKind]):
+    """Kind name -> kind object; a kind's module is imported when the kind is first used.
+
+    A run of one FMU uses one kind: the others' modules (their pydantic entry models,
+    waveform tables, scene types) cost a start that uses none of them (issue #14). Names,
+    ``in`` and ``len`` need no import; ``values()`` and ``items()`` import every kind.
+    """
+
+    def __init__(self, modules: Mapping[str, tuple[str, str]]) -> None:
+        self._modules = dict(modules)
+        self._loaded: dict[str, ComponentKind] = {}
+
+    def __getitem__(self, name: str) -> ComponentKind:
+        kind = self._loaded.get(name)
+        if kind is None:
+            module, attribute = self._modules[name]  # KeyError: not a kind
+            kind = getattr(importlib.import_module(module), attribute)
+            if getattr(kind, "name", None) != name:
+                msg = f"`{module}.{attribute}` is not the component kind `{name}`"
+                raise TypeError(msg)
+            self._loaded[name] = kind
+        return kind
+
+    def __contains__(self, name: object) -> bool:
+        return name in self._modules
+
+    def __iter__(self) -> Iterator[str]:
+        return iter(self._modules)
+
+    def __len__(self) -> int:
+        return len(self._modules)
+
+
+#: Every kind: its name, and the module and object that define it (in this order: the order
+#: of the system-file union, of run.json's library versions and of listings).
+COMPONENT_KINDS: Mapping[str, ComponentKind] = _KindTable(
+    {
+        "fmu": ("fmionnx.kinds.fmu.kind", "FMU_KIND"),
+        "onnx": ("fmionnx.kinds.onnx.kind", "ONNX_KIND"),
+        "mujoco": ("fmionnx.kinds.mujoco.kind", "MUJOCO_KIND"),
+        "signal": ("fmionnx.kinds.signal.kind", "SIGNAL_KIND"),
+    }
+)
+
+#: The libraries each kind runs on (its ``libraries``), known without importing the kinds:
+#: ``run.json`` records their versions for every run. tests/kinds/test_lazy_registry.py keeps
+#: this equal to the kinds' own declarations.
+KIND_LIBRARIES: Mapping[str, tuple[str, ...]] = {
+    "fmu": ("fmpy",),
+    "onnx": ("onnxruntime",),
+    "mujoco": ("mujoco",),
+    "signal": (),
 }
 
 
@@ -58,5 +103,5 @@ def kind_for_path(path: Path) -> ComponentKind | None:
         if kind.suffixes and name.endswith(kind.suffixes):
             return kind
     if path.is_dir() and (path / "modelDescription.xml").is_file():
-        return FMU_KIND
+        return COMPONENT_KINDS["fmu"]  # an unpacked FMU
     return None

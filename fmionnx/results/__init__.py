@@ -52,7 +52,6 @@ def write_results(
     """
     from fmionnx.results.csvfile import write_csv
     from fmionnx.results.outdir import RUN_JSON, previous_run, relative_name, remove_stale
-    from fmionnx.results.plots import write_plots
     from fmionnx.results.runinfo import write_run_json
     from fmionnx.runtime.checks import evaluate_checks
 
@@ -60,7 +59,11 @@ def write_results(
     previous = previous_run(out)
     files = [write_csv(result, out / "results.csv", aliases=aliases, ahead=ahead)]
     if not checkpoint:
-        plots = write_plots(result, system, out)
+        plots: list[Path] = []
+        if system.plots:  # the plotting modules load only for a system that draws (issue #14)
+            from fmionnx.results.plots import write_plots
+
+            plots = write_plots(result, system, out)
         files.extend(plots)
         if plot_signals:
             from fmionnx.results.signals_plot import write_signals_plot

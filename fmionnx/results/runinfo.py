@@ -12,12 +12,12 @@ from typing import Any
 from fmionnx import __version__
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.safewrite import write_text_atomic
-from fmionnx.kinds.registry import COMPONENT_KINDS
+from fmionnx.kinds.registry import KIND_LIBRARIES
 from fmionnx.runtime.checks import CheckOutcome
 from fmionnx.runtime.result import RunResult
 
 #: Distributions whose versions make a run reproducible: each kind's libraries, and numpy.
-VERSIONED = (*(lib for kind in COMPONENT_KINDS.values() for lib in kind.libraries), "numpy")
+VERSIONED = (*(lib for libraries in KIND_LIBRARIES.values() for lib in libraries), "numpy")
 
 
 def versions() -> dict[str, str]:

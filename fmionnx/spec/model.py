@@ -13,8 +13,8 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 from pydantic import Field, field_validator, model_validator
 
 from fmionnx.core.specbase import ComponentSpecBase, StrictModel
-from fmionnx.core.steps import step_problem
 from fmionnx.kinds.registry import COMPONENT_KINDS
+from fmionnx.spec.runspec import RunSpec
 
 #: The format versions this release reads (the ``fmionnx:`` key).
 SUPPORTED_FORMATS = (1,)
@@ -39,85 +39,9 @@ else:
         Field(discriminator="kind"),
     ]
 
-#: ``name.more[3]``: a dotted name with an optional element index (``[0]`` or ``[0,2]``).
-#: Which prefix is the component is decided by the compiler from the known component names
-#: (SSP nested systems give dotted component names; Modelica FMUs give dotted port names).
-ENDPOINT_RE = re.compile(
-    r"^\s*(?P<name>[A-Za-z_][\w:-]*(?:\.[A-Za-z_$][\w:$-]*)+)"
-    r"(?:\[(?P<index>\s*\d+\s*(?:,\s*\d+\s*)*)\])?\s*$"
-)
 ARROW = "->"
 #: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``).
 DOTTED_NAME = re.compile(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*")
-
-
-class AlgebraicLoopsSpec(StrictModel):
-    """Opt-in iteration of algebraic loops (cycles through direct-feedthrough ports).
-
-    Without this key such a loop is error E035; with it, each loop is solved at every
-    communication point where its members are due (``docs/execution.md``).
-    """
-
-    model_config = StrictModel.model_config | {"allow_inf_nan": False}
-
-    solver: Literal["fixed-point", "newton"] = Field(
-        default="fixed-point",
-        description="`fixed-point`: repeat the loop's step with the newest exchanged values "
-        "(relaxed); `newton`: Newton's method on the exchanged values, with a finite-difference "
-        "Jacobian.",
-    )
-    tolerance: float = Field(
-        default=1e-10,
-        gt=0,
-        description="Converged when every exchanged value changes by at most "
-        "tolerance * (1 + |value|) in one iteration.",
-    )
-    max_iterations: int = Field(
-        default=50,
-        ge=1,
-        le=10_000,
-        description="Iterations allowed per communication point; more is a fault naming the loop.",
-    )
-    relaxation: float = Field(
-        default=1.0,
-        gt=0,
-        le=2,
-        description="Step factor: x + relaxation * (update - x). Below 1 damps an oscillating "
-        "or diverging iteration.",
-    )
-
-
-class RunSpec(StrictModel):
-    """When and how finely the system runs. Missing values are resolved by the compiler."""
-
-    model_config = StrictModel.model_config | {"allow_inf_nan": False}
-
-    start: float = Field(default=0.0, description="Start time in seconds.")
-    stop: float | None = Field(default=None, description="Stop time in seconds.")
-    step: float | None = Field(
-        default=None, gt=0, description="Base step in seconds: the fastest component's period."
-    )
-    output_interval: float | None = Field(
-        default=None,
-        gt=0,
-        description="Seconds between two rows of results.csv: a whole multiple of the base "
-        "step (default: every base step). The last point of the run is always written.",
-    )
-    algebraic_loops: AlgebraicLoopsSpec | None = Field(
-        default=None,
-        description="Solve algebraic loops by iteration at each communication point (default: "
-        "an algebraic loop is error E035).",
-    )
-
-    @field_validator("step", "output_interval")
-    @classmethod
-    def _normal_step(cls, value: float | None) -> float | None:
-        # `gt=0` lets a subnormal such as 5e-324 through; it is positive but has no precision.
-        problem = step_problem(value) if value is not None else None
-        if problem is not None:
-            msg = f"the step must be a normal positive float; {problem}"
-            raise ValueError(msg)
-        return value
 
 
 class ConnectionSpec(StrictModel):

@@ -37,8 +37,8 @@ except SystemExit as exc:
     code = exc.code
 else:
     code = 0
-print(json.dumps({"code": code, "modules": sorted({m.split(".")[0] for m in sys.modules})}),
-      file=sys.stderr)
+print(json.dumps({"code": code, "modules": sorted({m.split(".")[0] for m in sys.modules}),
+                  "full": sorted(sys.modules)}), file=sys.stderr)
 """
 
 SYSTEM = """\
@@ -63,8 +63,9 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return here
 
 
-def loaded(folder: Path, *args: str) -> set[str]:
-    """Top-level packages in ``sys.modules`` after ``fmionnx ARGS`` (which must succeed)."""
+def loaded(folder: Path, *args: str, full: bool = False) -> set[str]:
+    """Top-level packages in ``sys.modules`` after ``fmionnx ARGS`` (which must succeed);
+    ``full``: every module's full name."""
     done = subprocess.run(
         [sys.executable, "probe.py", *args],
         cwd=folder,
@@ -75,12 +76,25 @@ def loaded(folder: Path, *args: str) -> set[str]:
     )
     report = json.loads(done.stderr.strip().splitlines()[-1])
     assert report["code"] == 0, done.stderr
-    return set(report["modules"])
+    return set(report["full" if full else "modules"])
 
 
 def test_help_loads_no_compile_or_simulation_library(folder: Path) -> None:
     modules = loaded(folder, "--help")
     assert modules & (RUNTIME_EXTRAS | COMPILE_LIBRARIES | {"pydantic"}) == set()
+
+
+#: What typer's help renderer imports at its top but fmionnx never uses: Markdown help texts
+#: (markdown_it, pygments via rich.syntax) and pretty tracebacks (rich.pretty, attrs).
+HELP_UNUSED = frozenset({"rich.markdown", "rich.syntax", "rich.traceback", "rich.pretty"})
+HELP_UNUSED_PACKAGES = frozenset({"markdown_it", "mdurl", "pygments", "attr", "attrs"})
+
+
+@pytest.mark.parametrize("args", [("--help",), ("run", "--help"), ("validate", "-h")])
+def test_help_loads_neither_markdown_nor_tracebacks(folder: Path, args: tuple[str, ...]) -> None:
+    modules = loaded(folder, *args, full=True)
+    assert "typer.rich_utils" in modules  # the help was rendered by typer's rich renderer
+    assert modules & (HELP_UNUSED | HELP_UNUSED_PACKAGES) == set()
 
 
 def test_a_command_s_help_loads_none_either(folder: Path) -> None:
@@ -132,3 +146,29 @@ def test_validating_the_reference_scenario_loads_no_runtime_it_does_not_use(
     assert {"mujoco", "onnx"} <= modules  # the probe sees what reading the models loads
     assert modules & (RUNTIME_EXTRAS - {"mujoco", "onnx", "rosbags"}) == set()
     assert "onnxruntime" not in modules
+
+
+#: What a system file needs and a lone model does not: the system-file types (their
+#: ``components`` union of every kind's entry model), the other kinds, the YAML front end,
+#: the compilers of connections, checks, plots, loops and system inputs, and the plot writers.
+LONE_MODEL_UNUSED = frozenset(
+    {"fmionnx.spec.model", "fmionnx.spec.yaml", "fmionnx.spec.frontends"}
+    | {"fmionnx.kinds.onnx.kind", "fmionnx.kinds.mujoco.kind", "fmionnx.kinds.signal.kind"}
+    | {"fmionnx.compile.compiler", "fmionnx.compile.checks", "fmionnx.compile.checkparse"}
+    | {"fmionnx.compile.plots", "fmionnx.compile.loops", "fmionnx.compile.sysinputs"}
+    | {"fmionnx.results.plots", "fmionnx.results.scenedraw"}  # nothing to draw
+)
+
+
+@pytest.mark.parametrize("isolate", ["fmus", "none"])
+def test_running_one_fmu_loads_no_system_file_types(folder: Path, isolate: str) -> None:
+    out = f"out-lone-{isolate}"
+    modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", out, "--isolate", isolate, full=True)  # fmt: skip
+    assert (folder / out / "run.json").exists()
+    assert "fmionnx.kinds.fmu.kind" in modules  # the probe sees what the run does load
+    assert modules & LONE_MODEL_UNUSED == set()
+
+
+def test_a_system_file_still_loads_them(folder: Path) -> None:
+    modules = loaded(folder, "validate", "system.yaml", full=True)
+    assert {"fmionnx.spec.model", "fmionnx.compile.compiler"} <= modules
