@@ -63,10 +63,12 @@ def run_sweep(
     keep_results: bool = False,
     force: bool = False,
     progress: SweepProgress | None = None,
+    batch: int | None = None,
 ) -> SweepResult:
     """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
 
     ``force`` replaces the results of a study already in ``out`` (without: refused).
+    ``batch`` fixes the cases per Dask task (1: one each; None: sized from the case times).
     """
     from fmionnx.backends.sweep.engine import open_client
 
@@ -74,7 +76,7 @@ def run_sweep(
         # An existing cluster is reached before the folder is touched: a wrong address or a
         # scheduler that does not answer leaves nothing behind to be --resume'd or --force'd.
         remote = None if scheduler is None else stack.enter_context(open_client(scheduler))
-        return _run(plan, out, remote, workers, resume, keep_results, force, progress)
+        return _run(plan, out, remote, workers, resume, keep_results, force, progress, batch)
 
 
 def _run(
@@ -86,6 +88,7 @@ def _run(
     keep_results: bool,
     force: bool,
     progress: SweepProgress | None,
+    batch: int | None,
 ) -> SweepResult:
     from fmionnx.backends.sweep.case import Job
     from fmionnx.backends.sweep.engine import open_client, run_study
@@ -108,10 +111,10 @@ def _run(
             progress(counts[0], counts[1], len(plan.cases))
 
     if pending and remote is not None:
-        run_study(remote, plan, pending, job, on_done)
+        run_study(remote, plan, pending, job, on_done, batch=batch)
     elif pending:
         with open_client(None, workers) as client:
-            run_study(client, plan, pending, job, on_done)
+            run_study(client, plan, pending, job, on_done, batch=batch)
     table = folder.table()
     files = folder.write_table(table)
     files.extend(write_study_plots(table, plan, out))
