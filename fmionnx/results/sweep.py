@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from fmionnx.backends.sweep.case import CaseOutcome
+    from fmionnx.backends.sweep.engine import StudyRun
 
 #: ``progress(done, failed, total)``: after every finished case (and once before the first).
 SweepProgress = Callable[[int, int, int], None]
@@ -30,13 +31,15 @@ SweepProgress = Callable[[int, int, int], None]
 
 @dataclass(frozen=True)
 class SweepResult:
-    """A finished study: its plan, the table, the files written, the cases skipped (resume)."""
+    """A finished study: its plan, the table, the files written, the cases skipped (resume),
+    and how the cases run this time were cut into Dask tasks (None: none ran)."""
 
     plan: StudyPlan
     table: pd.DataFrame
     files: tuple[Path, ...]
     resumed: int
     warnings: tuple[Diagnostic, ...] = ()
+    tasks: StudyRun | None = None
 
 
 def plan_study(study: str | Path) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
@@ -110,12 +113,13 @@ def _run(
         if progress is not None:
             progress(counts[0], counts[1], len(plan.cases))
 
+    tasks = None
     if pending and remote is not None:
-        run_study(remote, plan, pending, job, on_done, batch=batch)
+        tasks = run_study(remote, plan, pending, job, on_done, batch=batch)
     elif pending:
         with open_client(None, workers) as client:
-            run_study(client, plan, pending, job, on_done, batch=batch)
+            tasks = run_study(client, plan, pending, job, on_done, batch=batch)
     table = folder.table()
     files = folder.write_table(table)
     files.extend(write_study_plots(table, plan, out))
-    return SweepResult(plan, table, tuple(files), len(finished))
+    return SweepResult(plan, table, tuple(files), len(finished), tasks=tasks)

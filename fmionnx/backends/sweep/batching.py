@@ -22,7 +22,6 @@ shorter than :data:`TASK_SECONDS`.
 
 from __future__ import annotations
 
-import math
 from dataclasses import dataclass, field
 
 #: Seconds of work one task aims at: long beside a task's own cost (milliseconds), short
@@ -40,7 +39,7 @@ def batch_size(per_case: float, unfinished: int, threads: int) -> int:
     """Cases for the next task: ``per_case`` seconds each, ``unfinished`` cases not yet
     finished (running or waiting), ``threads`` worker threads."""
     by_time = MAX_BATCH if per_case <= 0 else int(TASK_SECONDS / per_case)
-    by_balance = math.ceil(unfinished / (TASKS_LEFT_PER_THREAD * max(1, threads)))
+    by_balance = unfinished // (TASKS_LEFT_PER_THREAD * max(1, threads))
     return max(1, min(by_time, by_balance, MAX_BATCH))
 
 

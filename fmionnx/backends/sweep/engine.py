@@ -6,9 +6,9 @@ cluster (``tcp://host:8786``). The driver sends the compiled system once as JSON
 model once per worker by content hash (:mod:`.models`), then one small task per case, or per
 batch of short cases (:func:`.case.run_batch`, sized by :mod:`.batching`). Each outcome is
 handed to ``on_done`` on the driver as soon as its task returns, so the caller can record it
-durably before the next one arrives. A worker that dies while running a batch (a model
-crashing a non-isolated component) has the batch's cases run again one task each; a worker
-that dies while running a single case makes that case ``failed``; the study goes on.
+durably before the next one arrives. A worker that dies under a task (a model crashing a
+non-isolated component) has that task's cases run again one at a time, alone on the cluster;
+a case whose worker dies while it runs alone is ``failed``; the study goes on.
 """
 
 from __future__ import annotations
@@ -121,7 +121,7 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
 @dataclass(frozen=True)
 class StudyRun:
     """How a study's cases were sent: the size of every task, in order of submission, and
-    the cases run again one per task after their batch's worker died."""
+    the cases run again alone after a worker died under their task."""
 
     sizes: tuple[int, ...]
     fallbacks: int
@@ -166,23 +166,21 @@ def run_study(
     sizer = BatchSizer(threads, batch)
     waiting = deque(cases)
     unfinished = len(waiting)
-    #: Cases of a batch whose worker died: each runs again as a task of its own, first.
+    #: Cases of a task whose worker died: each runs again alone on the cluster, before the rest.
     alone: deque[Case] = deque()
-    in_flight: dict[str, tuple[Case, ...]] = {}
+    #: Task key -> its cases, and whether it runs alone (then a death is the case's own).
+    in_flight: dict[str, tuple[tuple[Case, ...], bool]] = {}
     sizes: list[int] = []
     fallbacks = 0
     running = as_completed(loop=client.loop)
 
-    def submit(group: tuple[Case, ...]) -> None:
-        key = (
-            f"{prefix}-{group[0].id}"
-            if len(group) == 1
-            else f"{prefix}-{group[0].id}+{len(group) - 1}"
-        )
+    def submit(group: tuple[Case, ...], *, lone: bool = False) -> None:
+        key = f"{prefix}-{group[0].id}" + (f"+{len(group) - 1}" if len(group) > 1 else "")
         future = client.submit(
-            run_batch, text, shared_models, list(group), shared_job, key=key, pure=False
-        )
-        in_flight[future.key] = group
+            run_batch, text, shared_models, list(group), shared_job,
+            key=key + ("-alone" if lone else ""), pure=False,
+        )  # fmt: skip
+        in_flight[future.key] = (group, lone)
         sizes.append(len(group))
         running.add(future)
 
@@ -191,25 +189,26 @@ def run_study(
     window = max(MIN_WINDOW, PER_THREAD * threads)
 
     def refill() -> None:
-        while alone or waiting:
-            if len(in_flight) >= (window if sizer.ready else sizer.probes):
-                return
-            if alone:
-                submit((alone.popleft(),))
-                continue
+        if alone:  # one at a time, nothing beside it: see below
+            if not in_flight:
+                submit((alone.popleft(),), lone=True)
+            return
+        while waiting and len(in_flight) < (window if sizer.ready else sizer.probes):
             size = sizer.size(unfinished)
             submit(tuple(waiting.popleft() for _ in range(min(size, len(waiting)))))
 
     refill()
     for future in running:
-        group = in_flight.pop(future.key)
+        group, lone = in_flight.pop(future.key)
         try:
             outcomes = future.result() if future.status == "finished" else None
         except Exception:  # lost between the two calls: as below
             outcomes = None
-        if outcomes is None and len(group) > 1:
-            # Its worker died (a crash in a component that is not isolated): the batch's
-            # cases run again one per task, so the crash fails only its own case.
+        if outcomes is None and not lone:
+            # Its worker died (a crash in a component that is not isolated). Dask counts a
+            # death against every task assigned to that worker, running or queued, so the
+            # culprit is not known: each of the task's cases runs again alone, with nothing
+            # else on the cluster, and a death then is that case's own.
             alone.extend(group)
             fallbacks += len(group)
             outcomes = []
