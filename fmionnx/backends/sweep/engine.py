@@ -30,8 +30,10 @@ from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
 from fmionnx.core.errors import FmionnxError
 
-#: How often Dask retries a case whose worker died: once (a crash repeats; the study goes on).
-ALLOWED_FAILURES = 1
+#: How often the local cluster's scheduler retries a task whose worker died: never. The driver
+#: does it (:func:`run_study` runs the task's cases again, alone), and Dask would charge the
+#: death to every task queued on that worker, not only to the one that crashed it.
+ALLOWED_FAILURES = 0
 #: Cases in flight: at least this many, or so many per worker thread; the rest wait on the
 #: driver.
 MIN_WINDOW = 16
