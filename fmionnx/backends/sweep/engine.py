@@ -34,7 +34,7 @@ from fmionnx.core.errors import FmionnxError
 #: does it (:func:`run_study` runs the task's cases again, alone), and Dask would charge the
 #: death to every task queued on that worker, not only to the one that crashed it.
 ALLOWED_FAILURES = 0
-#: Cases in flight: at least this many, or so many per worker thread; the rest wait on the
+#: Tasks in flight: at least this many, or so many per worker thread; the rest wait on the
 #: driver.
 MIN_WINDOW = 16
 PER_THREAD = 4
