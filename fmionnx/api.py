@@ -359,13 +359,15 @@ def sweep(
     keep_results: bool = False,
     force: bool = False,
     progress: SweepProgress | None = None,
+    batch: int | None = None,
 ) -> pd.DataFrame:
     """Run a study file's cases (``fmionnx sweep``) and return its table, one row per case.
 
     ``scheduler`` is an existing Dask cluster (``tcp://host:8786``); without it a local
     cluster of ``workers`` processes (default: one per core) runs the cases. Results go to
     ``out`` (docs/sweep.md); ``resume`` finishes an interrupted study there, ``force``
-    replaces an earlier study's results there. Raises
+    replaces an earlier study's results there. ``batch`` fixes the cases per Dask task (1: one
+    each; default: short cases are batched by their measured time). Raises
     DiagnosticError for a study (or system) file with errors, before anything runs.
     """
     from fmionnx.results.sweep import plan_study, run_sweep
@@ -373,6 +375,6 @@ def sweep(
     plan, _ = plan_study(study)
     result = run_sweep(
         plan, Path(out), scheduler=scheduler, workers=workers, resume=resume,
-        keep_results=keep_results, force=force, progress=progress,
+        keep_results=keep_results, force=force, progress=progress, batch=batch,
     )  # fmt: skip
     return result.table

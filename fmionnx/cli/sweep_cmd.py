@@ -52,6 +52,14 @@ def sweep(
     force: Annotated[
         bool, typer.Option("--force", help="Replace the results of a study already in --out.")
     ] = False,
+    batch: Annotated[
+        int | None,
+        typer.Option(
+            "--batch",
+            min=1,
+            help="Cases per Dask task (1: one each; default: short cases batched by their time).",
+        ),
+    ] = None,
     quiet: QuietOption = False,
 ) -> None:
     """Run every case of a study in parallel and write one row per case (cases.parquet/.csv).
@@ -95,7 +103,7 @@ def sweep(
         with _progress(console, quiet=quiet) as update:
             result = run_sweep(
                 plan, out, scheduler=scheduler, workers=workers, resume=resume,
-                keep_results=keep_results, force=force, progress=update,
+                keep_results=keep_results, force=force, progress=update, batch=batch,
             )  # fmt: skip
     except StudyFolderError as exc:
         raise fail(str(exc)) from None

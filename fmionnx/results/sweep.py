@@ -23,6 +23,7 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from fmionnx.backends.sweep.case import CaseOutcome
+    from fmionnx.backends.sweep.engine import StudyRun
 
 #: ``progress(done, failed, total)``: after every finished case (and once before the first).
 SweepProgress = Callable[[int, int, int], None]
@@ -30,13 +31,15 @@ SweepProgress = Callable[[int, int, int], None]
 
 @dataclass(frozen=True)
 class SweepResult:
-    """A finished study: its plan, the table, the files written, the cases skipped (resume)."""
+    """A finished study: its plan, the table, the files written, the cases skipped (resume),
+    and how the cases run this time were cut into Dask tasks (None: none ran)."""
 
     plan: StudyPlan
     table: pd.DataFrame
     files: tuple[Path, ...]
     resumed: int
     warnings: tuple[Diagnostic, ...] = ()
+    tasks: StudyRun | None = None
 
 
 def plan_study(study: str | Path) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
@@ -63,10 +66,12 @@ def run_sweep(
     keep_results: bool = False,
     force: bool = False,
     progress: SweepProgress | None = None,
+    batch: int | None = None,
 ) -> SweepResult:
     """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
 
     ``force`` replaces the results of a study already in ``out`` (without: refused).
+    ``batch`` fixes the cases per Dask task (1: one each; None: sized from the case times).
     """
     from fmionnx.backends.sweep.engine import open_client
 
@@ -74,7 +79,7 @@ def run_sweep(
         # An existing cluster is reached before the folder is touched: a wrong address or a
         # scheduler that does not answer leaves nothing behind to be --resume'd or --force'd.
         remote = None if scheduler is None else stack.enter_context(open_client(scheduler))
-        return _run(plan, out, remote, workers, resume, keep_results, force, progress)
+        return _run(plan, out, remote, workers, resume, keep_results, force, progress, batch)
 
 
 def _run(
@@ -86,6 +91,7 @@ def _run(
     keep_results: bool,
     force: bool,
     progress: SweepProgress | None,
+    batch: int | None,
 ) -> SweepResult:
     from fmionnx.backends.sweep.case import Job
     from fmionnx.backends.sweep.engine import open_client, run_study
@@ -107,12 +113,13 @@ def _run(
         if progress is not None:
             progress(counts[0], counts[1], len(plan.cases))
 
+    tasks = None
     if pending and remote is not None:
-        run_study(remote, plan, pending, job, on_done)
+        tasks = run_study(remote, plan, pending, job, on_done, batch=batch)
     elif pending:
         with open_client(None, workers) as client:
-            run_study(client, plan, pending, job, on_done)
+            tasks = run_study(client, plan, pending, job, on_done, batch=batch)
     table = folder.table()
     files = folder.write_table(table)
     files.extend(write_study_plots(table, plan, out))
-    return SweepResult(plan, table, tuple(files), len(finished))
+    return SweepResult(plan, table, tuple(files), len(finished), tasks=tasks)

@@ -25,7 +25,7 @@ def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:
     text = io.StringIO()
     found = sweep.main(["--quick"], Console(file=text, width=200))
 
-    for study, cases in (("small", 10), ("scenario", 2)):
+    for study, cases in (("small", 10 * 2), ("scenario", 2)):  # the small study twice whole
         rows = found[study]
         assert [row["mode"] for row in rows] == list(sweep.MODES)
         for row in rows:
@@ -33,6 +33,7 @@ def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:
             assert row["failed"] == 0
             assert row["same_metrics"], f"{study}: {row['mode']} differs from the loop"
             assert row["seconds"] > 0
+            assert (row["batch"] is None) == (row["mode"] == sweep.LOOP)
     assert len(found["targets"]) == 3
     output = text.getvalue()
     assert "Sweep: cases per second" in output

@@ -3,33 +3,38 @@
 By default a :class:`distributed.LocalCluster` of worker processes (one per core, one thread
 each: cases are CPU-bound and models are not all thread-safe); with ``scheduler`` an existing
 cluster (``tcp://host:8786``). The driver sends the compiled system once as JSON and each
-model once per worker by content hash (:mod:`.models`), then one small task per case
-(:func:`.case.run_case`). Each outcome is handed to ``on_done`` on the driver as soon as its
-case finishes, so the caller can record it durably before the next one arrives. A worker that
-dies while running a case (a model crashing a non-isolated component) makes that case
-``failed``; the study goes on.
+model once per worker by content hash (:mod:`.models`), then one small task per case, or per
+batch of short cases (:func:`.case.run_batch`, sized by :mod:`.batching`). Each outcome is
+handed to ``on_done`` on the driver as soon as its task returns, so the caller can record it
+durably before the next one arrives. A worker that dies under a task (a model crashing a
+non-isolated component) has that task's cases run again one at a time, alone on the cluster;
+a case whose worker dies while it runs alone is ``failed``; the study goes on.
 """
 
 from __future__ import annotations
 
-import itertools
 import logging
 import os
 import uuid
 import warnings
+from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
+from dataclasses import dataclass
 from typing import Any
 
-from fmionnx.backends.sweep.case import CaseOutcome, Job, run_case
+from fmionnx.backends.sweep.batching import BatchSizer
+from fmionnx.backends.sweep.case import CaseOutcome, Job, run_batch
 from fmionnx.backends.sweep.models import pack_models
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
 from fmionnx.core.errors import FmionnxError
 
-#: How often Dask retries a case whose worker died: once (a crash repeats; the study goes on).
-ALLOWED_FAILURES = 1
-#: Cases in flight: at least this many, or so many per worker thread; the rest wait on the
+#: How often the local cluster's scheduler retries a task whose worker died: never. The driver
+#: does it (:func:`run_study` runs the task's cases again, alone), and Dask would charge the
+#: death to every task queued on that worker, not only to the one that crashed it.
+ALLOWED_FAILURES = 0
+#: Tasks in flight: at least this many, or so many per worker thread; the rest wait on the
 #: driver.
 MIN_WINDOW = 16
 PER_THREAD = 4
@@ -115,6 +120,20 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
         cluster.close()
 
 
+@dataclass(frozen=True)
+class StudyRun:
+    """How a study's cases were sent: the size of every task, in order of submission, and
+    the cases run again alone after a worker died under their task."""
+
+    sizes: tuple[int, ...]
+    fallbacks: int
+
+    @property
+    def tasks(self) -> int:
+        """Tasks submitted."""
+        return len(self.sizes)
+
+
 def run_study(
     client: Any,
     plan: StudyPlan,
@@ -122,10 +141,14 @@ def run_study(
     job: Job,
     on_done: Callable[[CaseOutcome], None],
     models: Mapping[str, bytes] | None = None,
-) -> None:
+    batch: int | None = None,
+) -> StudyRun:
     """Run ``cases`` of ``plan`` on ``client``'s cluster; ``on_done`` gets every outcome.
 
     ``models`` are the packed models (:func:`.models.pack_models`), packed here by default.
+    ``batch`` fixes the cases per task (1: one each); None sizes tasks from the measured case
+    times (:mod:`.batching`). A batch's outcomes reach ``on_done`` when the batch returns,
+    one by one in case order.
     """
     from distributed import as_completed
 
@@ -141,34 +164,65 @@ def run_study(
         for digest, blob in packed.items()
     }
     shared_job = client.submit(_value, job, key=f"{prefix}-job-{int(job.keep_results)}", pure=False)
-    by_key: dict[str, Case] = {}
+    threads = max(1, sum(client.nthreads().values()))
+    sizer = BatchSizer(threads, batch)
+    waiting = deque(cases)
+    unfinished = len(waiting)
+    #: Cases of a task whose worker died: each runs again alone on the cluster, before the rest.
+    alone: deque[Case] = deque()
+    #: Task key -> its cases, and whether it runs alone (then a death is the case's own).
+    in_flight: dict[str, tuple[tuple[Case, ...], bool]] = {}
+    sizes: list[int] = []
+    fallbacks = 0
+    running = as_completed(loop=client.loop)
 
-    def submit(case: Case) -> Any:
+    def submit(group: tuple[Case, ...], *, lone: bool = False) -> None:
+        key = f"{prefix}-{group[0].id}" + (f"+{len(group) - 1}" if len(group) > 1 else "")
         future = client.submit(
-            run_case, text, shared_models, case, shared_job,
-            key=f"{prefix}-{case.id}", pure=False,
+            run_batch, text, shared_models, list(group), shared_job,
+            key=key + ("-alone" if lone else ""), pure=False,
         )  # fmt: skip
-        by_key[future.key] = case
-        return future
+        in_flight[future.key] = (group, lone)
+        sizes.append(len(group))
+        running.add(future)
 
-    # A window of cases in flight, not the whole study: a study of 10^5 cases does not become
-    # 10^5 tasks on the scheduler at once; the window is refilled as cases finish.
-    window = max(MIN_WINDOW, PER_THREAD * sum(client.nthreads().values()))
-    waiting = iter(cases)
-    running = as_completed([submit(c) for c in itertools.islice(waiting, window)], loop=client.loop)
+    # A window of tasks in flight, not the whole study: a study of 10^5 cases does not become
+    # 10^5 tasks on the scheduler at once; the window is refilled as tasks finish.
+    window = max(MIN_WINDOW, PER_THREAD * threads)
+
+    def refill() -> None:
+        if alone:  # one at a time, nothing beside it: see below
+            if not in_flight:
+                submit((alone.popleft(),), lone=True)
+            return
+        while waiting and len(in_flight) < (window if sizer.ready else sizer.probes):
+            size = sizer.size(unfinished)
+            submit(tuple(waiting.popleft() for _ in range(min(size, len(waiting)))))
+
+    refill()
     for future in running:
-        case = by_key.pop(future.key)
+        group, lone = in_flight.pop(future.key)
         try:
-            outcome = future.result() if future.status == "finished" else None
+            outcomes = future.result() if future.status == "finished" else None
         except Exception:  # lost between the two calls: as below
-            outcome = None
-        if outcome is None:
-            outcome = CaseOutcome(case.id, "failed", _died(future))
+            outcomes = None
+        if outcomes is None and not lone:
+            # Its worker died (a crash in a component that is not isolated). Dask counts a
+            # death against every task assigned to that worker, running or queued, so the
+            # culprit is not known: each of the task's cases runs again alone, with nothing
+            # else on the cluster, and a death then is that case's own.
+            alone.extend(group)
+            fallbacks += len(group)
+            outcomes = []
+        elif outcomes is None:
+            outcomes = [CaseOutcome(group[0].id, "failed", _died(future))]
         future.release()
-        on_done(outcome)
-        following = next(waiting, None)
-        if following is not None:
-            running.add(submit(following))
+        for outcome in outcomes:
+            sizer.observe(outcome.worker, outcome.wall_time)
+            unfinished -= 1
+            on_done(outcome)
+        refill()
+    return StudyRun(tuple(sizes), fallbacks)
 
 
 def _value(value: object) -> object:
