@@ -2,10 +2,13 @@
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
+
+from fmionnx.runtime import guardian
+from fmionnx.runtime.guardian import _Shared, _SharedTracks
 
 SystemWriter = Callable[[str], Path]
 
@@ -20,3 +23,15 @@ def write_system(tmp_path: Path) -> SystemWriter:
         return path
 
     return write
+
+
+@pytest.fixture
+def shared() -> Iterator[_Shared]:
+    """The guardian's shared memory, registered as in the forked child (closed afterwards)."""
+    memory = _Shared()
+    guardian._REGISTRY[:] = [_SharedTracks(memory)]  # as in the forked child
+    try:
+        yield memory
+    finally:
+        guardian._REGISTRY[:] = []
+        memory.close()

@@ -9,26 +9,14 @@ beyond a region, or a file truncated under it (the file is sealed against shrink
 from __future__ import annotations
 
 import os
-from collections.abc import Iterator
 from typing import Any
 
 import numpy as np
 import pytest
 
 from fmionnx.runtime import guardian, recorder
-from fmionnx.runtime.guardian import SharedRecorder, _Shared, _SharedTracks
+from fmionnx.runtime.guardian import SharedRecorder, _Shared
 from fmionnx.runtime.published import Published
-
-
-@pytest.fixture
-def shared() -> Iterator[_Shared]:
-    memory = _Shared()
-    guardian._REGISTRY[:] = [_SharedTracks(memory)]  # as in the forked child
-    try:
-        yield memory
-    finally:
-        guardian._REGISTRY[:] = []
-        memory.close()
 
 
 def _reader(memory: _Shared, steps: int = 1_000_000) -> Published:

@@ -3,24 +3,9 @@ child's, including after the parallel master took rows back (``Track.truncate``)
 
 from __future__ import annotations
 
-from collections.abc import Iterator
-
 import numpy as np
-import pytest
 
-from fmionnx.runtime import guardian
-from fmionnx.runtime.guardian import SharedRecorder, _Shared, _SharedTracks
-
-
-@pytest.fixture
-def shared() -> Iterator[_Shared]:
-    memory = _Shared()
-    guardian._REGISTRY[:] = [_SharedTracks(memory)]  # as in the forked child
-    try:
-        yield memory
-    finally:
-        guardian._REGISTRY[:] = []
-        memory.close()
+from fmionnx.runtime.guardian import SharedRecorder, _Shared
 
 
 def _seen_by_the_guardian(memory: _Shared) -> tuple[int, np.ndarray]:
