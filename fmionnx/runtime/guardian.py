@@ -776,20 +776,33 @@ def _blamed(
     run = system.run
     places: list[int] = directory.get("places", [])
     marks: list[tuple[int, int, int, float]] = []  # (n, place, work index, t)
-    index = int(cells[_WORK])
-    if index >= 0:
-        t = float(cells[_T])
-        n = round((t - run.start) / run.step)
-        marks.append((n, places[index] if index < len(places) else -1, index, t))
     for base in range(_LANES, _CELLS, _LANE_CELLS):
         lane = int(cells[base + _LANE_WORK])
         if lane >= 0:
             n, place = int(cells[base + _LANE_N]), int(cells[base + _LANE_PLACE])
             marks.append((n, place, lane, float(cells[base + _LANE_T])))
+    index = int(cells[_WORK])
+    if index >= 0:
+        t = float(cells[_T])
+        n = round((t - run.start) / run.step)
+        loop = (n, places[index] if index < len(places) else -1, index, t)
+        if not _stale(loop, marks):
+            marks.append(loop)
     if not marks:
         return -1, run.start, 0, -1
     n, place, index, t = min(marks)
     return index, t, max(0, min(run.steps, n)), place
+
+
+def _stale(loop: tuple[int, int, int, float], lanes: list[tuple[int, int, int, float]]) -> bool:
+    """Whether the loop's mark is a step it had finished: the loop never clears its mark (a
+    store per step), but it hands steps to lanes in the sequential order, after its own
+    earlier work is done; so a lane step in flight later in that order than the loop's mark
+    proves the marked step complete."""
+    n, place = loop[0], loop[1]
+    return place >= 0 and any(
+        lane_place >= 0 and (lane_n, lane_place) > (n, place) for lane_n, lane_place, _, _ in lanes
+    )
 
 
 def _table(
