@@ -21,7 +21,7 @@ Phase = tuple[str, Callable[[float, float], None]]
 #: (see :class:`~.channel.Spinner`; the figures behind the choice: docs/performance.md). The
 #: child spins *politely* (yielding its core at every turn): between two of its steps the
 #: master may be stepping other isolated models, whose processes need the cores more.
-SPIN_NS = 60_000
+SPIN_NS = 300_000
 
 
 class Child:
