@@ -137,7 +137,7 @@ class Spinner:
         self.max_backoff = max_backoff
         self._backoff = 0
         self._skip = 0
-        #: Waits that spun, and those whose counter moved within the budget (for benchmarks).
+        #: Waits that spun, and those whose counter moved within the budget (tests read them).
         self.spins = 0
         self.hits = 0
 
