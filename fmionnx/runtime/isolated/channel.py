@@ -12,6 +12,15 @@ the supervisor run code (a pickle could) or read outside the block (see :func:`p
 The control block also holds the *phase* the child is in (an index into the labels it
 reported), written before every part of a step, so that when the model kills its process the
 supervisor can say which FMI function it died in.
+
+And two sequence counters, one per direction, for the *hybrid wait* (:class:`Spinner`): a side
+that has written a whole message to its pipe then stores how many it has written so far; the
+other side spins briefly on that counter before it blocks on the pipe. On an idle machine a
+process blocked in the kernel costs a wake-up of tens of microseconds each time (the core went
+to sleep); spinning keeps it awake for the round trips that come back quickly. The counters
+are only ever a hint ("maybe ready"): the model can write any value there, so the reader never
+trusts one for more than ending its spin early; it then waits on the pipe exactly as it would
+have without a counter (with the step timeout's ``poll`` on the supervisor's side).
 """
 
 from __future__ import annotations
@@ -22,6 +31,7 @@ import mmap
 import os
 import pickle
 import struct
+import time
 from dataclasses import dataclass
 from typing import Any
 
@@ -54,6 +64,10 @@ FIXED_PHASES = (
 
 _LENGTH = struct.Struct("<I")
 _PHASE_OFFSET = 16
+_REQUESTS_OFFSET = 24
+_REPLIES_OFFSET = 28
+#: Counters are stored modulo 2**32 (a run may step more often than that).
+COUNTER_MASK = 0xFFFFFFFF
 
 #: The largest reply the supervisor reads (a layout of thousands of ports fits easily).
 MAX_REPLY_BYTES = 1 << 20
@@ -88,11 +102,65 @@ class Layout:
 
 
 class Control:
-    """Typed views of the control block: the step's ``t``/``h`` and the child's phase."""
+    """Typed views of the control block: the step's ``t``/``h``, the child's phase, and the
+    commands written by the supervisor (``requests``) and replies written by the child
+    (``replies``) so far, modulo 2**32; each counter is written by one side only."""
 
     def __init__(self, block: mmap.mmap) -> None:
         self.times: npt.NDArray[np.float64] = np.ndarray((2,), np.float64, buffer=block)
         self.phase = ctypes.c_int32.from_buffer(block, _PHASE_OFFSET)
+        self.requests = ctypes.c_uint32.from_buffer(block, _REQUESTS_OFFSET)
+        self.replies = ctypes.c_uint32.from_buffer(block, _REPLIES_OFFSET)
+
+
+def _nothing() -> None:
+    """A spin's pause when it need not give way."""
+
+
+class Spinner:
+    """The first half of a hybrid wait: spin on a counter for at most ``budget_ns``.
+
+    :meth:`wait` returns as soon as the counter differs from the value the waiting side has
+    consumed (the message is probably in the pipe: reading it will not sleep), or when the
+    budget is spent; the caller then reads or polls its pipe as it always did. Spinning pays
+    only when answers come back within the budget, so a miss doubles the number of waits that
+    skip the spin and block at once (up to ``2**max_backoff - 1``) and a hit resets it: a model
+    whose steps are slow, or a child whose next command comes late because the master steps
+    others in between, costs a wasted spin once in many waits, not a core.
+    """
+
+    __slots__ = ("_backoff", "_skip", "budget_ns", "hits", "max_backoff", "polite", "spins")
+
+    def __init__(self, budget_ns: int, max_backoff: int = 6, *, polite: bool = False) -> None:
+        self.budget_ns = budget_ns
+        self.polite = polite
+        self.max_backoff = max_backoff
+        self._backoff = 0
+        self._skip = 0
+        #: Waits that spun, and those whose counter moved within the budget (tests read them).
+        self.spins = 0
+        self.hits = 0
+
+    def wait(self, counter: ctypes.c_uint32, seen: int) -> bool:
+        """Spin while ``counter`` equals ``seen``; True if it moved within the budget."""
+        if self.budget_ns <= 0:
+            return False
+        if self._skip:
+            self._skip -= 1
+            return False
+        self.spins += 1
+        clock = time.perf_counter_ns
+        deadline = clock() + self.budget_ns
+        pause = os.sched_yield if self.polite else _nothing
+        while counter.value == seen:
+            pause()
+            if clock() >= deadline:
+                self._backoff = min(self._backoff + 1, self.max_backoff)
+                self._skip = (1 << self._backoff) - 1
+                return False
+        self._backoff = 0
+        self.hits += 1
+        return True
 
 
 def view(block: mmap.mmap, slot: Slot) -> npt.NDArray[np.generic]:

@@ -25,6 +25,7 @@ import signal
 import subprocess
 import sys
 import tempfile
+import threading
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -44,6 +45,11 @@ TERMINATE_GRACE = 5.0
 #: Seconds added to the step timeout for the first answer: it includes starting the child's
 #: Python interpreter, which is not the model's time and takes seconds on a loaded machine.
 PROCESS_START_ALLOWANCE = 10.0
+#: The thread whose waits may spin (see :meth:`IsolatedRunner.step`).
+_MAIN_THREAD = threading.main_thread().ident
+#: How long the supervisor spins on the child's reply counter before it blocks on the pipe
+#: (see :class:`~.channel.Spinner`; the figures behind the choice: docs/performance.md).
+SPIN_NS = 60_000
 
 
 @dataclass(frozen=True)
@@ -90,6 +96,9 @@ class IsolatedRunner:
         self._times = np.zeros(2)
         #: Replies still to read, oldest first: True for a request (its reply has a payload).
         self._pending: deque[bool] = deque()
+        #: Commands written and replies read so far (the control block's counters' partners).
+        self._sent = self._answered = 0
+        self._spinner = channel.Spinner(SPIN_NS)
         self._tmp: Path | None = None
         self._time = 0.0
         self._dead = False
@@ -173,6 +182,12 @@ class IsolatedRunner:
         times[1] = h
         self._pending.append(False)
         channel.write_all(self._commands, channel.STEP)
+        self._sent_one()
+        control = self._control
+        if control is not None and threading.get_ident() == _MAIN_THREAD:
+            # A hint only: _await polls and reads as without it. Only on the main thread: a
+            # spin holds the GIL, which a worker lane's wait must leave to the loop.
+            self._spinner.wait(control.replies, self._answered & channel.COUNTER_MASK)
         self._await(t, h)
 
     def produce(self, port: str) -> None:
@@ -220,6 +235,13 @@ class IsolatedRunner:
             channel.send(self._commands, channel.CALL, (name, args))
         except BrokenPipeError:
             self._died(self._time, 0.0)
+        self._sent_one()
+
+    def _sent_one(self) -> None:
+        """A whole command is in the pipe: say so in the counter the child may spin on."""
+        self._sent += 1
+        if self._control is not None:
+            self._control.requests.value = self._sent & channel.COUNTER_MASK
 
     def _await_answer(self) -> object:
         return self._await(self._time, 0.0)
@@ -232,6 +254,7 @@ class IsolatedRunner:
         tag = channel.read_exact(self._replies, 1)
         if tag is None:
             self._died(t, h)
+        self._answered += 1
         is_request = self._pending.popleft()
         if tag not in (channel.OK, channel.ERROR):
             self._malformed(f"an unknown reply {tag!r}")

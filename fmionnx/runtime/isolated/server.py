@@ -17,6 +17,12 @@ from fmionnx.runtime.isolated.channel import Control, Layout, Slot
 
 Phase = tuple[str, Callable[[float, float], None]]
 
+#: How long the child spins on the supervisor's command counter before it blocks on the pipe
+#: (see :class:`~.channel.Spinner`; the figures behind the choice: docs/performance.md). The
+#: child spins *politely* (yielding its core at every turn): between two of its steps the
+#: master may be stepping other isolated models, whose processes need the cores more.
+SPIN_NS = 300_000
+
 
 class Child:
     """One runner behind the pipes; the buffers it copies between the runner and shared memory."""
@@ -33,19 +39,26 @@ class Child:
         self.outputs: list[tuple[Buffer, Buffer]] = []
         self.produced: dict[str, tuple[Buffer, Buffer]] = {}
         self.phases: tuple[Phase, ...] = ()
+        #: Commands read and replies written so far (the control block's counters' partners).
+        self.consumed = self.written = 0
+        self.spinner = channel.Spinner(SPIN_NS, polite=True)
 
     # -- the loop ------------------------------------------------------------------------------
 
     def serve(self) -> None:
         """Answer commands until terminate, or until the command pipe closes."""
+        control = self.control
         while True:
+            self.spinner.wait(control.requests, self.consumed & channel.COUNTER_MASK)
             op = channel.read_exact(self.commands, 1)
             if op is None:
                 return
+            self.consumed += 1
             try:
                 if op == channel.STEP:
                     self.step()
                     channel.write_all(self.replies, channel.OK)
+                    self._replied()
                     continue
                 request = channel.receive_payload(self.commands)
                 if request is None:
@@ -55,13 +68,21 @@ class Child:
                 if isinstance(answer, Layout):
                     answer = channel.layout_document(answer)
                 channel.reply(self.replies, channel.OK, answer)
+                self._replied()
                 if name == "terminate":
                     return
             except RunError as exc:
                 channel.reply(self.replies, channel.ERROR, channel.error_document(exc))
+                self._replied()
             except Exception as exc:
                 detail = f"{type(exc).__name__}: {exc}"
                 channel.reply(self.replies, channel.ERROR, [detail, None, None])
+                self._replied()
+
+    def _replied(self) -> None:
+        """A whole reply is in the pipe: say so in the counter the supervisor may spin on."""
+        self.written += 1
+        self.control.replies.value = self.written & channel.COUNTER_MASK
 
     def step(self) -> None:
         t, h = float(self.control.times[0]), float(self.control.times[1])

@@ -1,0 +1,214 @@
+"""The hybrid wait of isolated components: spin on a counter, then block on the pipe.
+
+Each side of an isolated model's pipes stores how many messages it has written in the shared
+control block; the other side spins on that counter for a bounded time before it blocks on its
+pipe as it always did (``fmionnx.runtime.isolated.channel.Spinner``). The counters are only a
+hint: a model can write anything into the shared block, so a forged counter must at worst make
+the supervisor fall back to its blocking wait, with the step timeout as before. The forging
+here is done by a thread of the test writing the very memory the child writes (one shared
+mapping), while a real child process steps a real FMU.
+"""
+
+from __future__ import annotations
+
+import ctypes
+import os
+import random
+import signal
+import threading
+import time
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fmionnx
+from fmionnx.core.errors import RunError
+from fmionnx.core.runner import Wiring
+from fmionnx.runtime.isolated import channel, proxy
+from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
+from fmionnx.runtime.result import RunOptions, RunStatus
+
+HANG = 6
+
+
+# -- the spinner alone -----------------------------------------------------------------------
+
+
+def test_the_spin_ends_as_soon_as_the_counter_moves() -> None:
+    counter = ctypes.c_uint32(7)
+    spinner = channel.Spinner(10_000_000_000)  # 10 s: only the counter can end it quickly
+    threading.Timer(0.01, lambda: setattr(counter, "value", 8)).start()
+    started = time.perf_counter()
+    assert spinner.wait(counter, 7)
+    assert time.perf_counter() - started < 5.0
+    assert (spinner.spins, spinner.hits) == (1, 1)
+
+
+def test_a_missed_spin_backs_off_and_a_hit_resets_it() -> None:
+    counter = ctypes.c_uint32(0)
+    spinner = channel.Spinner(1_000_000, max_backoff=2)  # 1 ms
+    assert not spinner.wait(counter, 0)  # miss: the next wait skips its spin
+    assert not spinner.wait(counter, 0)
+    assert spinner.spins == 1
+    assert not spinner.wait(counter, 0)  # second miss: three skipped (2**2 - 1) ...
+    assert [spinner.wait(counter, 0) for _ in range(3)] == [False] * 3
+    assert spinner.spins == 2
+    counter.value = 1  # ... then it spins again and a hit ends the backoff
+    assert spinner.wait(counter, 0)
+    assert spinner.wait(counter, 0)
+    assert (spinner.spins, spinner.hits) == (4, 2)
+
+
+def test_a_spinner_without_budget_never_spins() -> None:
+    spinner = channel.Spinner(0)
+    assert not spinner.wait(ctypes.c_uint32(1), 0)
+    assert spinner.spins == 0
+
+
+# -- a real child process ----------------------------------------------------------------------
+
+
+def _component(fixture_fmu, write_system, name: str, parameters: str = "") -> object:
+    system = fmionnx.load(
+        write_system(
+            f"""
+fmionnx: 1
+name: spin
+run: {{stop: 1.0, step: 0.01}}
+components:
+  m: {{kind: fmu, path: {fixture_fmu(name)}{parameters}}}
+"""
+        )
+    )
+    (component,) = system.compiled.components
+    return component
+
+
+@contextmanager
+def _runner(component: object, timeout: float | None) -> Iterator[IsolatedRunner]:
+    runner = IsolatedRunner(
+        component,  # type: ignore[arg-type]
+        Wiring(driven=frozenset({"u"})),
+        IsolationSettings(step_timeout=timeout),
+    )
+    try:
+        runner.instantiate()
+        runner.setup(0.0, 1.0)
+        yield runner
+    finally:
+        runner.terminate()
+
+
+def _child_pid(runner: IsolatedRunner) -> int:
+    assert runner._process is not None
+    return runner._process.pid
+
+
+@pytest.mark.parametrize("timeout", [30.0, None])
+def test_a_step_slower_than_the_spin_still_answers(fixture_fmu, write_system, timeout) -> None:
+    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    with _runner(component, timeout) as runner:
+        u, y = runner.input_buffer("u"), runner.output_buffer("y")
+        u[0] = 1.0
+        runner.step(0.0, 0.01)
+        assert y[0] == 3.0
+        pid = _child_pid(runner)
+        late = proxy.SPIN_NS * 20e-9  # the child answers 20x later than the spin lasts
+        os.kill(pid, signal.SIGSTOP)
+        threading.Timer(late, os.kill, (pid, signal.SIGCONT)).start()
+        u[0] = 2.0
+        started = time.perf_counter()
+        runner.step(0.01, 0.01)
+        assert time.perf_counter() - started >= late  # the answer came after the spin ran out
+        assert y[0] == 6.0
+        for k in range(2, 50):  # and the waits go on answering, spinning again or not
+            u[0] = float(k)
+            runner.step(k * 0.01, 0.01)
+            assert y[0] == 3.0 * k
+
+
+@contextmanager
+def _forger(runner: IsolatedRunner) -> Iterator[None]:
+    """A thread writing random values into the reply counter, as a hostile model could."""
+    assert runner._control is not None
+    counter = runner._control.replies
+    stop = threading.Event()
+    rng = random.Random(14)
+
+    def forge() -> None:
+        while not stop.is_set():
+            counter.value = rng.getrandbits(32)
+            time.sleep(0)
+
+    thread = threading.Thread(target=forge, daemon=True)
+    thread.start()
+    try:
+        yield
+    finally:
+        stop.set()
+        thread.join()
+
+
+def test_a_forged_reply_counter_cannot_make_the_supervisor_read_early(
+    fixture_fmu, write_system
+) -> None:
+    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 0.5}")
+    with _runner(component, 30.0) as runner, _forger(runner):
+        u, y = runner.input_buffer("u"), runner.output_buffer("y")
+        pid = _child_pid(runner)
+        for k in range(200):
+            if k % 50 == 0:  # now and then the child is late, while the counter says ready
+                os.kill(pid, signal.SIGSTOP)
+                threading.Timer(0.02, os.kill, (pid, signal.SIGCONT)).start()
+            u[0] = float(k)
+            runner.step(k * 0.01, 0.01)
+            assert y[0] == 0.5 * k
+
+
+def test_a_forged_reply_counter_cannot_hide_a_hang(fixture_fmu, write_system) -> None:
+    component = _component(
+        fixture_fmu, write_system, "Faulty", f", parameters: {{mode: {HANG}, failAt: 0.02}}"
+    )
+    with _runner(component, 1.0) as runner, _forger(runner):
+        runner.step(0.0, 0.01)
+        runner.step(0.01, 0.01)
+        started = time.perf_counter()
+        with pytest.raises(RunError, match="did not return within 1 s"):
+            runner.step(0.02, 0.01)  # the model hangs from failAt on
+        assert time.perf_counter() - started < 30.0
+        assert runner._process is None or runner._process.poll() is not None
+
+
+def test_spinning_leaves_a_multi_fmu_system_byte_identical(
+    fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    system = fmionnx.load(
+        write_system(
+            f"""
+fmionnx: 1
+name: chain
+run: {{stop: 1.0, step: 0.001}}
+components:
+  a: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: 0.5}}}}
+  b: {{kind: fmu, path: {fixture_fmu("Integrator")}, interface: me}}
+  c: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: -1.5}}}}
+connections:
+  - a.y -> b.u
+  - b.x -> a.u
+  - b.x -> c.u
+"""
+        )
+    )
+    everything = RunOptions(isolate=frozenset({"a", "b", "c"}))
+    spinning = system.run(options=everything)
+    monkeypatch.setattr(proxy, "SPIN_NS", 0)  # the supervisor's waits as before the counters
+    blocking = system.run(options=everything)
+    plain = system.run()
+    for result in (spinning, blocking):
+        assert result.status is RunStatus.COMPLETED
+        assert list(result.signals) == list(plain.signals)
+        for name, values in plain.signals.items():
+            assert np.asarray(values).tobytes() == np.asarray(result.signals[name]).tobytes()
