@@ -65,6 +65,7 @@ examples: models
 
 lint: $(TEST_STAMP)
 	$(VENV)/bin/ruff check fmionnx tests models benchmarks examples
+	$(VENV)/bin/ruff format --check fmionnx tests models benchmarks examples
 	$(VENV)/bin/mypy
 	$(VENV)/bin/mypy examples
 

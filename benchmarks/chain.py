@@ -270,7 +270,16 @@ def prepare_ctypes_floor(chain: Chain) -> RunOnce | str:
             set_args = (instance, (ctypes.c_uint * 1)(vr_u), 1, u)
             get_args = (instance, (ctypes.c_uint * 1)(vr_y), 1, y)
             calls.append(
-                (source, u, dll.fmi2SetReal, set_args, dll.fmi2DoStep, instance, dll.fmi2GetReal, get_args)
+                (
+                    source,
+                    u,
+                    dll.fmi2SetReal,
+                    set_args,
+                    dll.fmi2DoStep,
+                    instance,
+                    dll.fmi2GetReal,
+                    get_args,
+                )
             )
             source = y
         h, steps = chain.step, chain.steps
@@ -354,7 +363,9 @@ def prepare_libcosim(chain: Chain) -> RunOnce | str:
 
     def build() -> tuple[Any, list[int], list[Any]]:
         execution = CosimExecution.from_step_size(step_size=nanos)
-        slaves = [CosimLocalSlave(fmu_path=str(chain.fmu), instance_name=f"g{i}") for i in range(chain.n)]
+        slaves = [
+            CosimLocalSlave(fmu_path=str(chain.fmu), instance_name=f"g{i}") for i in range(chain.n)
+        ]
         indices = [execution.add_local_slave(local_slave=s) for s in slaves]
         for a, b in itertools.pairwise(indices):
             if execution.connect_real_variables(a, vr_y, b, vr_u) != 0:  # C status, 0 = success

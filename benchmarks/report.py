@@ -155,7 +155,12 @@ CHAIN_COLUMNS = (
     ("correct", "tail = 2^N"),
     ("skipped", "not run because"),
 )
-TARGET_COLUMNS = (("target", "target"), ("value", "measured ratio"), ("limit", "goal"), ("met", "met"))
+TARGET_COLUMNS = (
+    ("target", "target"),
+    ("value", "measured ratio"),
+    ("limit", "goal"),
+    ("met", "met"),
+)
 SCENARIO_COLUMNS = (
     ("implementation", "implementation"),
     ("simulated_s", "simulated s"),

@@ -133,8 +133,12 @@ def run_scenario(
     }
     rtf = scenario_rows[0]["real_time_factor"]
     targets.append(
-        {"target": "reference scenario real-time factor", "value": rtf, "limit": "> 1",
-         "met": rtf > 1.0}
+        {
+            "target": "reference scenario real-time factor",
+            "value": rtf,
+            "limit": "> 1",
+            "met": rtf > 1.0,
+        }
     )
     report.print_table(
         console,

@@ -222,9 +222,7 @@ def soak(stop_time: float, every: float, warmup: float) -> dict[str, Any]:
     # Samples of the stepping loop only: once the simulated time reaches the stop time the
     # run builds its results table (hundreds of MB for an hour) and frees the models, which a
     # sample may still see in the "loop" phase; the table is reported apart ("after run").
-    in_loop = [
-        s for s in sampler.samples if s.phase == "loop" and 0.0 < s.simulated_s < stop_time
-    ]
+    in_loop = [s for s in sampler.samples if s.phase == "loop" and 0.0 < s.simulated_s < stop_time]
     after_run = sampler.sample("after run")  # the results table is in memory now
     signals = list(result.signals)
     steps_done = int(result.steps_done)

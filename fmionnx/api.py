@@ -70,8 +70,6 @@ MODEL_SUFFIXES = (".fmu", ".onnx")
 COMPILED_SUFFIX = ".fmionnx.json"
 
 
-
-
 @dataclass(frozen=True)
 class System:
     """A compiled system ready to run; immutable (overrides make a new one)."""
@@ -124,7 +122,9 @@ class System:
 
         chosen = options or RunOptions()
         if record is not None or self.record is not None:
-            chosen = dataclasses.replace(chosen, record=record if record is not None else self.record)
+            chosen = dataclasses.replace(
+                chosen, record=record if record is not None else self.record
+            )
         if progress is not None:
             chosen = dataclasses.replace(chosen, progress=progress)
         result = backend.run(system.compiled, chosen)

@@ -101,6 +101,7 @@ def test_ci_runs_make_test_only() -> None:
 def test_test_lints_and_runs_the_examples_before_the_suite(tree: Path) -> None:
     lines = make(tree, "test")
     assert "ruff check fmionnx tests models benchmarks examples" in lines
+    assert "ruff format --check fmionnx tests models benchmarks examples" in lines
     assert "mypy examples" in lines
     assert lines.index("python examples/run_all.py") < lines.index("pytest -q -p no:cacheprovider")
 

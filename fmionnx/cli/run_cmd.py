@@ -274,8 +274,10 @@ def run(
     if interface is not None and suffix != ".fmu":
         raise fail("--interface applies to a single .fmu only")
     if suffix == ".onnx" and (step, start_time, output_interval) != (None, None, None):
-        raise fail("--step, --start-time and --output-interval apply to systems and FMUs, not to "
-                   "a single ONNX model's inference")
+        raise fail(
+            "--step, --start-time and --output-interval apply to systems and FMUs, not to "
+            "a single ONNX model's inference"
+        )
     if inputs and suffix != ".onnx":
         raise fail("--input applies to a single .onnx model only")
     if out is not None and no_out:
@@ -681,8 +683,11 @@ def _summary(console: Any, result: Any, files: list[Path]) -> None:
     table.add_column()
     colour = {"completed": "green", "fault": "red", "interrupted": "yellow"}[result.status.value]
     table.add_row("status", f"[{colour}]{result.status.value}[/]")
-    table.add_row("simulated", f"{result.start:g} .. {result.start + result.simulated_time:g} s "
-                  f"({result.steps_done} steps of {result.step:g} s)")
+    table.add_row(
+        "simulated",
+        f"{result.start:g} .. {result.start + result.simulated_time:g} s "
+        f"({result.steps_done} steps of {result.step:g} s)",
+    )
     table.add_row("wall time", f"{result.wall_time:.3f} s")
     table.add_row("real-time factor", f"{result.real_time_factor:.2f}x")
     table.add_row("signals", str(len(result.signals)))

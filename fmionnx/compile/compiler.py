@@ -73,9 +73,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     mentioned |= {(t.ref.component, t.ref.port) for i in inputs for t in i.targets}
     _check_unconnected(components, mentioned, spec, sources, bag)
     usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
-    loops = compile_loops(
-        components, usable, spec.run.algebraic_loops, loaded.path, sources, bag
-    )
+    loops = compile_loops(components, usable, spec.run.algebraic_loops, loaded.path, sources, bag)
     record = _refs(spec.record or [], "record", by_name, sources, bag)
     plots = compile_plots(spec, by_name, sources, bag)
     checks = compile_checks(spec.checks, by_name, sources, bag)

@@ -195,9 +195,7 @@ def execution_order_with_loops(
             if (a, b) in delayed:
                 graph.remove_edge(a, b)
     if nx.is_directed_acyclic_graph(graph):
-        nodes = list(
-            nx.lexicographical_topological_sort(graph, key=lambda n: f"{position[n]:08d}")
-        )
+        nodes = list(nx.lexicographical_topological_sort(graph, key=lambda n: f"{position[n]:08d}"))
     else:  # a component-level cycle that is no port-level loop: declaration order
         nodes = sorted(graph.nodes, key=position.__getitem__)
     order: list[str] = []

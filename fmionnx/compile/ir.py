@@ -33,7 +33,6 @@ if TYPE_CHECKING:
     from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 
 
-
 @dataclass(frozen=True, slots=True)
 class InputTarget:
     """A settable port a system input reaches: ``value * factor + offset`` is set on it."""
@@ -277,12 +276,9 @@ class CompiledSystem:
         }
         if self.inputs:  # absent when empty: the hashes of systems without inputs stay as they were
             payload["inputs"] = [
-                [i.name, [[str(t.ref), t.factor, t.offset] for t in i.targets]]
-                for i in self.inputs
+                [i.name, [[str(t.ref), t.factor, t.offset] for t in i.targets]] for i in self.inputs
             ]
         if self.loops:  # only then: the hashes of systems without loops stay as they were
             payload["loops"] = [dataclasses.asdict(loop) for loop in self.loops]
         text = json.dumps(payload, sort_keys=True, default=str)
         return hashlib.sha256(text.encode()).hexdigest()
-
-

@@ -37,7 +37,6 @@ from fmionnx.spec.sourcemap import SourceMap
 SETTABLE = (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER, Causality.INPUT)
 
 
-
 def model_path(base: Path, text: str) -> Path:
     """A component path relative to the system file's folder (absolute paths kept)."""
     path = Path(text).expanduser()
@@ -129,8 +128,8 @@ def resolve_parameters(
             bag.emit(
                 "E044",
                 f"`{name}.{key}` is an {port.causality.value} and cannot be set"
-            if port.causality.value[0] in "aeiou"
-            else f"`{name}.{key}` is a {port.causality.value} and cannot be set",
+                if port.causality.value[0] in "aeiou"
+                else f"`{name}.{key}` is a {port.causality.value} and cannot be set",
                 span,
                 hint="only parameters and inputs (start values) can be set",
                 notes=declared_note(port),

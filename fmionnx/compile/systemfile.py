@@ -119,7 +119,10 @@ def _decode(hint: Any, data: Any, where: str) -> Any:
             return tuple(_decode(args[0], item, f"{where}[{i}]") for i, item in enumerate(data))
         if len(args) != len(data):
             raise _bad(where, f"{len(args)} items", data)
-        return tuple(_decode(a, item, f"{where}[{i}]") for i, (a, item) in enumerate(zip(args, data, strict=True)))
+        return tuple(
+            _decode(a, item, f"{where}[{i}]")
+            for i, (a, item) in enumerate(zip(args, data, strict=True))
+        )
     if isinstance(hint, type):
         return _decode_class(hint, data, where)
     msg = f"{where}: unsupported type {hint!r} in the compiled system"

@@ -358,9 +358,7 @@ CODES: dict[str, ErrorCode] = _codes(
         "System connectors that cannot be flattened (driven twice, or in a cycle).",
     ),
     ErrorCode("W070", "ssp-ignored", _W, "ssp", "An SSP element that fmionnx reads but ignores."),
-    ErrorCode(
-        "I070", "ssp-layout", _I, "ssp", "The SSP diagram layout (geometry) is not used."
-    ),
+    ErrorCode("I070", "ssp-layout", _I, "ssp", "The SSP diagram layout (geometry) is not used."),
     # --- interface lock (issue: CI)
     ErrorCode(
         "E080",
@@ -393,7 +391,11 @@ CODES: dict[str, ErrorCode] = _codes(
     # --- studies (issue #15): `fmionnx sweep`
     ErrorCode("E100", "study-file", _E, "study", "A study file that is missing or not a study."),
     ErrorCode(
-        "E101", "study-system", _E, "study", "The study's system file is missing or does not compile."
+        "E101",
+        "study-system",
+        _E,
+        "study",
+        "The study's system file is missing or does not compile.",
     ),
     ErrorCode(
         "E102",
@@ -405,7 +407,9 @@ CODES: dict[str, ErrorCode] = _codes(
     ErrorCode(
         "E103", "study-values", _E, "study", "Values that do not fit their target, or no sampling."
     ),
-    ErrorCode("E104", "study-metric", _E, "study", "A metric named like one of the system's checks."),
+    ErrorCode(
+        "E104", "study-metric", _E, "study", "A metric named like one of the system's checks."
+    ),
     ErrorCode("E105", "study-objective", _E, "study", "An objective that names no metric."),
     ErrorCode("E106", "study-size", _E, "study", "A study of more than a million cases."),
     ErrorCode(

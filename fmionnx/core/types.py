@@ -269,7 +269,6 @@ class Component:
         return port
 
 
-
 def is_whole_multiple(period: float, step: float, *, rel: float = 1e-9) -> int | None:
     """``period / step`` when it is a positive whole number (within ``rel``), else None."""
     ratio = period / step

@@ -102,9 +102,7 @@ def conversion(source: Unit, target: Unit, *, relative: bool = False) -> UnitCon
     return UnitConversion(source.name, target.name, factor, offset)
 
 
-def compose(
-    first: tuple[float, float], then: tuple[float, float]
-) -> tuple[float, float]:
+def compose(first: tuple[float, float], then: tuple[float, float]) -> tuple[float, float]:
     """``(factor, offset)`` of applying ``first`` and then ``then`` (both ``y = a*x + b``)."""
     return then[0] * first[0], then[0] * first[1] + then[1]
 

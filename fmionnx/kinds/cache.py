@@ -21,7 +21,6 @@ from fmionnx.core.types import ComponentInterface
 MAX_ENTRIES = 256
 
 
-
 K = TypeVar("K", bound=Hashable)
 V = TypeVar("V")
 

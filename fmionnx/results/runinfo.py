@@ -55,9 +55,7 @@ def run_info(
         "steps": result.steps_done,
         "simulated_time": result.simulated_time,
         "wall_time": round(result.wall_time, 6),
-        "real_time_factor": round(result.real_time_factor, 3)
-        if result.wall_time > 0
-        else None,
+        "real_time_factor": round(result.real_time_factor, 3) if result.wall_time > 0 else None,
         "settings_origin": {key: origin.value for key, origin in system.run.origins},
         "error": None
         if error is None

@@ -257,9 +257,7 @@ def _component(
     return entry
 
 
-def _inputs(
-    flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag
-) -> dict[str, Any]:
+def _inputs(flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag) -> dict[str, Any]:
     """Open system connectors as ``inputs:`` entries, named ``conn`` or ``sub.conn``."""
     result: dict[str, Any] = {}
     for name, item in flat.inputs.items():

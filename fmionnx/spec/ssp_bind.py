@@ -86,9 +86,7 @@ def _assign(
     return pin
 
 
-def _resolve(
-    graph: SystemGraph, path: tuple[str, ...], name: str
-) -> tuple[Pin, bool] | None:
+def _resolve(graph: SystemGraph, path: tuple[str, ...], name: str) -> tuple[Pin, bool] | None:
     """The pin ``name`` means on the system at ``path`` and whether it is a system connector.
 
     The system's own connector first; then the element inside it with the longest dotted

@@ -122,9 +122,7 @@ def _flatten_connections(graph: SystemGraph, flat: FlatSystem) -> set[Pin]:
 
 def _open_connectors(graph: SystemGraph, covered: set[Pin], flat: FlatSystem) -> None:
     """Open settable system connectors become system inputs; other loose ends a W070."""
-    heads = [
-        pin for pin in graph.edges if graph.is_system_pin(pin) and pin not in graph.into
-    ]
+    heads = [pin for pin in graph.edges if graph.is_system_pin(pin) and pin not in graph.into]
     for pin in heads:
         if pin in covered or graph.broken:
             continue
@@ -143,8 +141,7 @@ def _open_connectors(graph: SystemGraph, covered: set[Pin], flat: FlatSystem) ->
             message = f"{where} leads to no component connector; it is not used"
         else:
             message = (
-                f"{where} is driven by no component; the inputs it feeds keep their start "
-                "values"
+                f"{where} is driven by no component; the inputs it feeds keep their start values"
             )
         graph.bag.emit("W070", message, graph.span(first.line))
 

@@ -135,8 +135,7 @@ class SystemGraph:
             if pin[0] not in self.components and pin not in self.connectors:
                 self.bag.emit(
                     "E072",
-                    f"system `{'.'.join(pin[0]) or self.root_name}` has no connector "
-                    f"`{pin[1]}`",
+                    f"system `{'.'.join(pin[0]) or self.root_name}` has no connector `{pin[1]}`",
                     self.span(connection.line),
                 )
                 return None

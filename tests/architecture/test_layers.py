@@ -43,7 +43,16 @@ ALLOWED = {
     "compile": {"core", "kinds", "spec"},
     "runtime": {"core", "kinds", "compiled system"},
     "backends": {"core", "kinds", "runtime", "compiled system"},
-    "surface": {"core", "kinds", "spec", "compile", "compiled system", "runtime", "backends", "surface"},
+    "surface": {
+        "core",
+        "kinds",
+        "spec",
+        "compile",
+        "compiled system",
+        "runtime",
+        "backends",
+        "surface",
+    },
 }
 
 #: The compiled system and what it is made of: usable by the runtime and the backends. The rest
@@ -72,7 +81,11 @@ def _type_checking_only(tree: ast.Module) -> set[int]:
     """Nodes inside ``if TYPE_CHECKING:`` blocks (annotations only: nothing is imported)."""
     inside: set[int] = set()
     for node in ast.walk(tree):
-        if isinstance(node, ast.If) and isinstance(node.test, ast.Name) and node.test.id == "TYPE_CHECKING":
+        if (
+            isinstance(node, ast.If)
+            and isinstance(node.test, ast.Name)
+            and node.test.id == "TYPE_CHECKING"
+        ):
             for child in node.body:
                 inside.update(id(n) for n in ast.walk(child))
     return inside
@@ -174,7 +187,8 @@ def test_the_compiled_system_imports_no_front_end() -> None:
     broken = [
         f"{here} imports {target}"
         for here, target in _edges()
-        if _layer(here) == "compiled system" and target.startswith(("fmionnx.spec", "fmionnx.compile.compiler"))
+        if _layer(here) == "compiled system"
+        and target.startswith(("fmionnx.spec", "fmionnx.compile.compiler"))
     ]
     assert broken == []
 

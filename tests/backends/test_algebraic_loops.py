@@ -131,9 +131,7 @@ def test_a_loop_that_does_not_converge_is_a_fault_naming_it(
 
 def test_a_singular_newton_jacobian_is_a_fault(fixture_fmu, write_system: SystemWriter) -> None:
     # k1*k2 = -1: u1 = r + u1 has no solution; F(x) = r is constant, its Jacobian zero
-    result = fmionnx.load(
-        write_system(_gain_loop(fixture_fmu("Gain"), 1.0, -1.0, "newton"))
-    ).run()
+    result = fmionnx.load(write_system(_gain_loop(fixture_fmu("Gain"), 1.0, -1.0, "newton"))).run()
     assert result.status is RunStatus.FAULT
     assert "the Jacobian of its tear values is singular" in str(result.error)
 

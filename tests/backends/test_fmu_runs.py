@@ -41,9 +41,7 @@ def test_single_fmi2_fmu_matches_fmpy_simulate(fixture_fmu, interface: str) -> N
 
 def test_fmi3_array_fmu_matches_fmpy_simulate(fixture_fmu) -> None:
     fmu = fixture_fmu("Vector3")
-    ours = fmionnx.load(fmu, step=0.1).run(
-        stop_time=1.0, params={"u": [1.0, -2.0, 3.0], "k": 1.5}
-    )
+    ours = fmionnx.load(fmu, step=0.1).run(stop_time=1.0, params={"u": [1.0, -2.0, 3.0], "k": 1.5})
     theirs = simulate_fmu(
         str(fmu),
         stop_time=1.0,

@@ -101,7 +101,9 @@ def test_isolated_model_that_kills_its_process_is_a_fault_with_results(
     assert list(tmp.iterdir()) == []  # extraction folders and the child's folder are gone
 
 
-def test_flooding_model_log_is_cut_in_the_fault_message(fixture_fmu, write_system, tmp_path) -> None:
+def test_flooding_model_log_is_cut_in_the_fault_message(
+    fixture_fmu, write_system, tmp_path
+) -> None:
     system = _system(fixture_fmu, write_system, FLOOD)
     result = fmionnx.load(system).run(options=RunOptions(isolate=frozenset({"bad"})))
     assert result.status is RunStatus.FAULT
@@ -210,7 +212,9 @@ connections:
 
 def test_isolate_names_must_exist(fixture_fmu, write_system, tmp_path) -> None:
     system = _system(fixture_fmu, write_system, 0)
-    code, output = _finish(_cli(["run", str(system), "--no-out", "--isolate", "bad,nope"], tmp_path / "t"))
+    code, output = _finish(
+        _cli(["run", str(system), "--no-out", "--isolate", "bad,nope"], tmp_path / "t")
+    )
     assert code == 2
     assert "--isolate: no component named `nope`" in output
 
@@ -271,7 +275,9 @@ def test_sandboxed_models_give_the_same_results(fixture_fmu, write_system, tmp_p
     runs = {}
     for name, extra in {"plain": ["--isolate", "none"], "sandboxed": ["--sandbox"]}.items():
         out = tmp_path / name
-        code, output = _finish(_cli(["run", str(system), "--out", str(out), *extra], tmp_path / "t"))
+        code, output = _finish(
+            _cli(["run", str(system), "--out", str(out), *extra], tmp_path / "t")
+        )
         assert code == 0, output
         runs[name] = (out / "results.csv").read_bytes()
     assert runs["plain"] == runs["sandboxed"]

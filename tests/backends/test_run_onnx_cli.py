@@ -25,7 +25,14 @@ def test_one_inference_prints_and_saves_the_outputs(frame: Path, tmp_path: Path)
     out = tmp_path / "out"
     result = CliRunner().invoke(
         app,
-        ["run", str(built_model("sign_detector.onnx")), "--input", f"image={frame}", "--out", str(out)],
+        [
+            "run",
+            str(built_model("sign_detector.onnx")),
+            "--input",
+            f"image={frame}",
+            "--out",
+            str(out),
+        ],
         catch_exceptions=False,
     )
     assert result.exit_code == 0, result.output
@@ -48,7 +55,8 @@ def test_an_unknown_input_name_is_an_error_with_a_suggestion(frame: Path) -> Non
 
 def test_an_unreadable_input_file_is_an_error(tmp_path: Path) -> None:
     result = CliRunner().invoke(
-        app, ["run", str(built_model("sign_detector.onnx")), "--input", f"image={tmp_path / 'no.npy'}"]
+        app,
+        ["run", str(built_model("sign_detector.onnx")), "--input", f"image={tmp_path / 'no.npy'}"],
     )
     assert result.exit_code != 0
     assert "cannot read" in result.output

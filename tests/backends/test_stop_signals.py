@@ -36,8 +36,17 @@ def _started_run(tmp_path: Path) -> subprocess.Popen[str]:
         encoding="utf-8",
     )
     process = subprocess.Popen(
-        [sys.executable, "-m", "fmionnx", "run", str(system), "--out", str(tmp_path / "out"),
-         "--checkpoint-every", "0"],
+        [
+            sys.executable,
+            "-m",
+            "fmionnx",
+            "run",
+            str(system),
+            "--out",
+            str(tmp_path / "out"),
+            "--checkpoint-every",
+            "0",
+        ],
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,

@@ -148,7 +148,9 @@ def test_isolation_benchmark_runs_both_modes_to_the_same_results_and_prints_the_
         ("~", "<built-in method math.isnan>", None),
     ],
 )
-def test_profiled_functions_fall_into_categories(filename: str, name: str, category: str | None) -> None:
+def test_profiled_functions_fall_into_categories(
+    filename: str, name: str, category: str | None
+) -> None:
     assert scenario.categorize(filename, name) == category
 
 

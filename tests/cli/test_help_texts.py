@@ -43,8 +43,7 @@ def help_text(*command: str) -> str:
         "With --backend ros2 --sync free: simulator pace",
         "Seconds one step of a component may take before the run stops with a fault",
         "`fmus` (every FMU), `all`, `none`, or component names",
-        "Default: `guardian` for a lone FMU (on Linux, without --sandbox or --record), else "
-        "`fmus`",
+        "Default: `guardian` for a lone FMU (on Linux, without --sandbox or --record), else `fmus`",
         "Write into a results folder (--out or the default)",
         "fmionnx run model.fmu -p k=2",
     ],

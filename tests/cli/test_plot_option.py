@@ -54,7 +54,9 @@ def test_without_plot_no_signals_png(gain: Path, tmp_path: Path) -> None:
 
 
 @pytest.mark.parametrize("extra", [["--no-out"], []])
-def test_plot_needs_a_results_folder_of_signals(gain: Path, tmp_path: Path, extra: list[str]) -> None:
+def test_plot_needs_a_results_folder_of_signals(
+    gain: Path, tmp_path: Path, extra: list[str]
+) -> None:
     target = str(gain) if extra else str(tmp_path / "model.onnx")
     code, output = run(target, "--plot", *extra)
     assert code == 2

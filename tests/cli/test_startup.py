@@ -13,9 +13,7 @@ def test_importing_the_cli_loads_no_simulation_library() -> None:
         "heavy = [m for m in ('numpy', 'fmpy', 'onnxruntime', 'mujoco') if m in sys.modules]\n"
         "print(','.join(heavy))\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
-    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout.strip() == ""
 
 
@@ -35,9 +33,7 @@ def test_version_comes_from_the_package_metadata_without_simulation_libraries() 
         "heavy = [m for m in ('numpy', 'fmpy', 'onnxruntime', 'mujoco') if m in sys.modules]\n"
         "print(f'exit={code} heavy={\",\".join(heavy)}', file=sys.stderr)\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=True
-    )
+    done = subprocess.run([sys.executable, "-c", code], capture_output=True, text=True, check=True)
     assert done.stdout == f"fmionnx {version('fmionnx')}\n"
     assert done.stderr.strip() == "exit=0 heavy="
     assert version("fmionnx") == fmionnx.__version__  # pyproject.toml and the package agree

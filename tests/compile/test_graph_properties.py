@@ -28,9 +28,7 @@ def _component(name: str, feedthrough: bool) -> Component:
         Port("y", Causality.OUTPUT, DType.FLOAT64, depends_on=("u",) if feedthrough else ()),
     )
     interface = ComponentInterface("fmu", Path(f"{name}.fmu"), ports)
-    return Component(
-        name, "fmu", Path(f"{name}.fmu"), interface, FmuConfig(), 0.1, 1
-    )
+    return Component(name, "fmu", Path(f"{name}.fmu"), interface, FmuConfig(), 0.1, 1)
 
 
 def _connect(a: Component, b: Component) -> Connection:

@@ -69,9 +69,7 @@ def fmu_spec(path: Path, **fields: Any) -> ComponentSpecBase:
 
 
 @pytest.fixture
-def copy_fmu(
-    tmp_path: Path, fixture_fmu: Callable[[str], Path]
-) -> Callable[[str], Path]:
+def copy_fmu(tmp_path: Path, fixture_fmu: Callable[[str], Path]) -> Callable[[str], Path]:
     def copy(name: str) -> Path:
         target = tmp_path / f"{name}.fmu"
         shutil.copy(fixture_fmu(name), target)
@@ -120,9 +118,7 @@ def test_an_onnx_model_compiles_alone_as_in_a_system_file(tmp_path: Path) -> Non
     assert assert_same(path, spec, RunSpec(start=0.0, stop=1.0, step=1.0)) is not None
 
 
-def test_results_and_run_json_are_the_same(
-    tmp_path: Path, copy_fmu: Callable[[str], Path]
-) -> None:
+def test_results_and_run_json_are_the_same(tmp_path: Path, copy_fmu: Callable[[str], Path]) -> None:
     from fmionnx.api import System, fmu_aliases
     from fmionnx.core.types import Causality, PortRef
     from fmionnx.results import write_results

@@ -74,7 +74,9 @@ plots:
 """
 
 
-def _compile(tmp_path: Path, plots: str, scene: Path = SCENE) -> tuple[CompiledSystem | None, list[Diagnostic]]:
+def _compile(
+    tmp_path: Path, plots: str, scene: Path = SCENE
+) -> tuple[CompiledSystem | None, list[Diagnostic]]:
     path = tmp_path / "plotted.yaml"
     text = SYSTEM.format(gain=build_fixture_fmu("Gain"), scene=scene, plots=plots)
     path.write_text(text, encoding="utf-8")
@@ -128,9 +130,15 @@ def test_over_the_map_alone_draws_no_path(tmp_path: Path) -> None:
     ("entry", "message"),
     [
         ("{xy: [gain.y, gain.u], over: gain.map}", "component `gain` (fmu) has no map"),
-        ("{xy: [gain.y, gain.u], over: world.path}", "`path` is neither the expected path nor the map"),
+        (
+            "{xy: [gain.y, gain.u], over: world.path}",
+            "`path` is neither the expected path nor the map",
+        ),
         ("{y: [gain.y], over: world.map}", "`over` draws under an xy plot"),
-        ("{y: [gain.y], file: same.png}\n  - {y: [gain.u], file: same}", "written by an earlier plot"),
+        (
+            "{y: [gain.y], file: same.png}\n  - {y: [gain.u], file: same}",
+            "written by an earlier plot",
+        ),
     ],
 )
 def test_a_reference_or_file_that_cannot_be_drawn_is_e045(
@@ -147,7 +155,9 @@ def test_a_reference_or_file_that_cannot_be_drawn_is_e045(
 def test_a_scene_without_an_expected_path_is_e045_at_over(tmp_path: Path) -> None:
     scene = tmp_path / "bare.xml"
     scene.write_text("<mujoco><worldbody><site name='A'/></worldbody></mujoco>", encoding="utf-8")
-    system, errors = _compile(tmp_path, "  - {xy: [gain.y, gain.u], over: world.expected_path}", scene)
+    system, errors = _compile(
+        tmp_path, "  - {xy: [gain.y, gain.u], over: world.expected_path}", scene
+    )
     assert system is None
     assert [d.code for d in errors] == ["E045"]
     assert "`bare.path.csv` is not next to `bare.xml`" in errors[0].message

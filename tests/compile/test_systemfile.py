@@ -75,7 +75,10 @@ def test_the_file_holds_no_front_end_type(reference: CompiledSystem) -> None:
         (lambda d: d.update(format="x"), "not a compiled-system file"),
         (lambda d: d["system"].update(name="other"), "does not match its content hash"),
         (lambda d: d["system"]["run"].update(step="fast"), "system.run.step: expected a number"),
-        (lambda d: d["system"]["run"].update(speed=2), "system.run.speed: unknown field of RunSettings"),
+        (
+            lambda d: d["system"]["run"].update(speed=2),
+            "system.run.speed: unknown field of RunSettings",
+        ),
         (
             lambda d: d["system"]["components"][0]["config"].update(kind="nope"),
             "system.components[0].config.kind",
@@ -104,7 +107,9 @@ def test_models_placed_by_hash_run_to_the_same_results(
     """An empty folder with the file and a model store runs as the original does."""
     store = tmp_path / "models"
     placed = place_models(reference, store)
-    assert {p.parent.name for p in placed} == {c.interface.content_hash for c in reference.components}
+    assert {p.parent.name for p in placed} == {
+        c.interface.content_hash for c in reference.components
+    }
     write_compiled(reference, tmp_path / "system.fmionnx.json")
     moved = read_compiled(tmp_path / "system.fmionnx.json", models=store)
     assert all(c.path.is_relative_to(store) for c in moved.components)

@@ -121,14 +121,18 @@ def test_content_hash_follows_included_files(tmp_path: Path) -> None:
 
     part = tmp_path / "part.xml"
     scene = tmp_path / "scene.xml"
-    part.write_text('<mujocoinclude><geom name="box" type="box" size="0.1 0.1 0.1"/></mujocoinclude>')
+    part.write_text(
+        '<mujocoinclude><geom name="box" type="box" size="0.1 0.1 0.1"/></mujocoinclude>'
+    )
     scene.write_text('<mujoco><worldbody><include file="part.xml"/></worldbody></mujoco>')
     first = read_mujoco_interface(scene, None).content_hash
     (tmp_path / "copy").mkdir()
     for file in (part, scene):
         (tmp_path / "copy" / file.name).write_text(file.read_text())
     assert read_mujoco_interface(tmp_path / "copy" / "scene.xml", None).content_hash == first
-    (tmp_path / "copy" / "part.xml").write_text(part.read_text().replace("0.1 0.1 0.1", "0.2 0.1 0.1"))
+    (tmp_path / "copy" / "part.xml").write_text(
+        part.read_text().replace("0.1 0.1 0.1", "0.2 0.1 0.1")
+    )
     (tmp_path / "copy" / "scene.xml").touch()
     changed = read_mujoco_interface(tmp_path / "copy" / "scene.xml", None).content_hash
     assert changed != first

@@ -20,9 +20,7 @@ KIND_MODULES += ("fmionnx.kinds.signal.kind",)
 def loaded_after(code: str) -> list[str]:
     """The kind modules imported after running ``code`` in a fresh interpreter."""
     probe = (
-        "import sys\n"
-        f"{code}\n"
-        f"print(','.join(m for m in {KIND_MODULES!r} if m in sys.modules))\n"
+        f"import sys\n{code}\nprint(','.join(m for m in {KIND_MODULES!r} if m in sys.modules))\n"
     )
     done = subprocess.run(
         [sys.executable, "-c", probe], capture_output=True, text=True, check=True, timeout=60

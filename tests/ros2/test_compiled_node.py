@@ -95,8 +95,17 @@ def test_a_node_from_the_compiled_system_in_an_empty_folder_publishes_what_a_nod
     )
     shutil.rmtree(source)  # the system file and its model are gone: only the bundle is left
     from_compiled = _published(
-        fmionnx("node", "ramp.fmionnx.json", "integ", "--sync", "free", "--models", "models",
-                "--ros-distro", "humble"),
+        fmionnx(
+            "node",
+            "ramp.fmionnx.json",
+            "integ",
+            "--sync",
+            "free",
+            "--models",
+            "models",
+            "--ros-distro",
+            "humble",
+        ),
         bundle,
         run,
     )

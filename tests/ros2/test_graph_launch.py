@@ -24,8 +24,17 @@ pytestmark = pytest.mark.ros2
 
 def _graph(system: Path, timeout: float) -> tuple[int, dict[str, object]]:
     done = subprocess.run(
-        fmionnx("ros2", "graph", system, "--format", "json", "--timeout", timeout,
-                "--ros-distro", "humble"),
+        fmionnx(
+            "ros2",
+            "graph",
+            system,
+            "--format",
+            "json",
+            "--timeout",
+            timeout,
+            "--ros-distro",
+            "humble",
+        ),
         capture_output=True,
         text=True,
         timeout=60,
@@ -47,8 +56,19 @@ def test_graph_shows_running_nodes_and_flags_a_foreign_reader_as_extra(
     system = loop_system(tmp_path, 10000.0)
     out = tmp_path / "out"
     run = subprocess.Popen(
-        fmionnx("run", system, "-q", "--backend", "ros2", "--sync", "free", "--out", out,
-                "--ros-distro", "humble"),
+        fmionnx(
+            "run",
+            system,
+            "-q",
+            "--backend",
+            "ros2",
+            "--sync",
+            "free",
+            "--out",
+            out,
+            "--ros-distro",
+            "humble",
+        ),
         stdout=subprocess.DEVNULL,
         stderr=subprocess.DEVNULL,
     )

@@ -204,16 +204,16 @@ def test_middleware_rclpy_with_an_rmw_implementation_that_is_not_installed_is_a_
 ) -> None:
     # rcl itself would end the process with status 102 while loading; fmionnx says why first.
     monkeypatch.setenv("RMW_IMPLEMENTATION", "rmw_nowhere_cpp")
-    argv = (
-        ["run", SYSTEM, "--backend", "ros2"] if command == "run" else ["node", SYSTEM, "tracker"]
-    )
+    argv = ["run", SYSTEM, "--backend", "ros2"] if command == "run" else ["node", SYSTEM, "tracker"]
     done = subprocess.run(
         fmionnx(*argv, "--ros-distro", "jazzy", "--middleware", "rclpy"),
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert done.returncode == (2 if command == "run" else 1), done.stderr  # usage / problem
     text = " ".join(done.stderr.split())
-    assert "RMW_IMPLEMENTATION=rmw_nowhere_cpp names a ROS 2 middleware that is not installed" in text
+    assert (
+        "RMW_IMPLEMENTATION=rmw_nowhere_cpp names a ROS 2 middleware that is not installed" in text
+    )
     assert "Traceback" not in done.stderr
 
 
@@ -224,4 +224,6 @@ def test_middleware_rclpy_asks_for_the_distribution_of_the_rclpy_found(rclpy_env
         capture_output=True, text=True, timeout=120, check=False,
     )  # fmt: skip
     assert done.returncode == 2
-    assert "the rclpy here is ROS 2 jazzy: add `--ros-distro jazzy`" in " ".join(done.stderr.split())
+    assert "the rclpy here is ROS 2 jazzy: add `--ros-distro jazzy`" in " ".join(
+        done.stderr.split()
+    )

@@ -53,8 +53,19 @@ def test_lockstep_reference_run_equals_inprocess_and_feeds_an_independent_cmd_ve
         assert json.loads(subscriber.stdout.readline()) == {"ready": True}
         out = tmp_path / "ros2"
         done = subprocess.run(
-            fmionnx("run", SYSTEM, "-q", "--backend", "ros2", "--sync", "lockstep", "--out", out,
-                    "--ros-distro", "humble"),  # the peer's Cyclone settings are Humble's
+            fmionnx(
+                "run",
+                SYSTEM,
+                "-q",
+                "--backend",
+                "ros2",
+                "--sync",
+                "lockstep",
+                "--out",
+                out,
+                "--ros-distro",
+                "humble",
+            ),  # the peer's Cyclone settings are Humble's
             capture_output=True,
             text=True,
             timeout=240,
@@ -110,7 +121,9 @@ def test_outside_images_on_camera_image_raw_drive_the_detector_when_the_world_is
     blobs = participant.reader("rt/onnx_blobSize", blob_type, PROFILES["default"])
     image_codec = TopicCodec(image_type, (PortField("front", (WHOLE,), (480, 640, 3), "uint8"),),
                              RosDistro.HUMBLE)  # fmt: skip
-    blob_codec = TopicCodec(blob_type, (PortField("blobSize", ("data",), (1, 3)),), RosDistro.HUMBLE)
+    blob_codec = TopicCodec(
+        blob_type, (PortField("blobSize", ("data",), (1, 3)),), RosDistro.HUMBLE
+    )
     frame = np.full((480, 640, 3), 128, dtype=np.uint8)
     frame[100:300, 200:400] = (220, 20, 20)  # a red board
     run = subprocess.Popen(

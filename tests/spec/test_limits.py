@@ -78,9 +78,7 @@ def where(diagnostic: Diagnostic) -> tuple[int, int]:
 def bomb(levels: int, width: int = 10) -> str:
     """A "billion laughs" document: ``width**levels`` strings once the aliases expand."""
     lines = ["a0: &a0 [" + ", ".join(["lol"] * width) + "]"]
-    lines += [
-        f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * width) + "]" for i in range(1, levels)
-    ]
+    lines += [f"a{i}: &a{i} [" + ", ".join([f"*a{i - 1}"] * width) + "]" for i in range(1, levels)]
     return "\n".join(lines) + "\n"
 
 

@@ -35,7 +35,9 @@ FRAGMENTS = [
 
 
 @given(st.lists(st.sampled_from(FRAGMENTS), max_size=12), st.binary(max_size=40))
-@settings(max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture])
+@settings(
+    max_examples=150, deadline=None, suppress_health_check=[HealthCheck.function_scoped_fixture]
+)
 def test_compile_never_raises(tmp_path: Path, fragments: list[str], noise: bytes) -> None:
     path = tmp_path / "system.yaml"
     path.write_bytes("".join(fragments).encode("utf-8") + noise)

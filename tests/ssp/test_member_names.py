@@ -26,7 +26,12 @@ def test_a_broken_connection_in_an_ssp_is_reported_as_archive_member(
         encoding="utf-8",
     )
     runner = CliRunner()
-    assert runner.invoke(app, ["export", "chain.yaml", "-o", "good.ssp"], catch_exceptions=False).exit_code == 0
+    assert (
+        runner.invoke(
+            app, ["export", "chain.yaml", "-o", "good.ssp"], catch_exceptions=False
+        ).exit_code
+        == 0
+    )
     with zipfile.ZipFile("good.ssp") as source, zipfile.ZipFile("bad.ssp", "w") as target:
         for item in source.infolist():
             data = source.read(item)

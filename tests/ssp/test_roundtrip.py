@@ -65,8 +65,7 @@ def fingerprint(system: CompiledSystem) -> dict[str, Any]:
         "order": system.order,
         "record": [str(r) for r in system.record],
         "plots": [
-            (p.xy, p.y, p.refs, p.series, p.title, p.file, p.path, p.scene)
-            for p in system.plots
+            (p.xy, p.y, p.refs, p.series, p.title, p.file, p.path, p.scene) for p in system.plots
         ],
         "checks": [
             (c.name, c.expression, c.measure, c.comparison, c.bound, c.refs) for c in system.checks

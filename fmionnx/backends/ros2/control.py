@@ -33,9 +33,7 @@ DONE_TYPE = "std_msgs/msg/Header"
 
 #: Writers keep a few samples; readers keep everything until taken (nothing may be lost).
 CONTROL_WRITER_QOS = QosProfile(Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, 64)
-CONTROL_READER_QOS = QosProfile(
-    Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, 64, keep_all=True
-)
+CONTROL_READER_QOS = QosProfile(Reliability.RELIABLE, Durability.TRANSIENT_LOCAL, 64, keep_all=True)
 
 CLOCK_DDS = dds_topic(CLOCK_TOPIC)
 READY_DDS = dds_topic(READY_TOPIC)

@@ -432,8 +432,12 @@ class Node:
     def _readers_matched(self) -> None:
         for box in self.outboxes:
             if not box.writer.wait_for_readers(box.readers, MATCH_TIMEOUT):
-                log.warning("topic %s: only %d of %d readers matched", box.topic.name,
-                            box.writer.matched(), box.readers)
+                log.warning(
+                    "topic %s: only %d of %d readers matched",
+                    box.topic.name,
+                    box.writer.matched(),
+                    box.readers,
+                )
 
     # -- stepping ------------------------------------------------------------------------------
 
@@ -536,7 +540,9 @@ class Node:
                     if now >= total:
                         return
                     continue
-                log.info("every input arrived; stepping from t=%g s", self.system.run.time_at(next_n))
+                log.info(
+                    "every input arrived; stepping from t=%g s", self.system.run.time_at(next_n)
+                )
             while next_n < min(now, total):
                 self._step(runner, next_n, exact=False)
                 next_n += period
@@ -603,8 +609,13 @@ class Node:
                 ready.wait_for_readers(1, MATCH_TIMEOUT)
                 done.wait_for_readers(1, MATCH_TIMEOUT)
                 ready.write(encode_ready(self.component.name, self.plan.distro))
-            log.info("node %s (%s) ready, sync %s, ROS 2 %s", self.node_plan.fqn,
-                     self.component.name, opts.sync.value, self.plan.distro.value)
+            log.info(
+                "node %s (%s) ready, sync %s, ROS 2 %s",
+                self.node_plan.fqn,
+                self.component.name,
+                opts.sync.value,
+                self.plan.distro.value,
+            )
             if opts.sync is SyncMode.LOCKSTEP:
                 self._lockstep(runner, clock_in, done)
             elif clock_out is not None:

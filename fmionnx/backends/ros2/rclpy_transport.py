@@ -154,9 +154,7 @@ class RclpyParticipant:
                 args=_RCL_ARGS, context=self.context, domain_id=env.domain_id,
                 signal_handler_options=options,
             )  # fmt: skip
-            self.node = rclpy.create_node(
-                name, namespace=namespace or "/", context=self.context
-            )
+            self.node = rclpy.create_node(name, namespace=namespace or "/", context=self.context)
         except Exception as exc:  # rclpy raises its own RCLError types for a refused init
             self.context.try_shutdown()
             msg = f"rclpy cannot start node {namespace.rstrip('/')}/{name}: {exc}"
@@ -167,9 +165,7 @@ class RclpyParticipant:
 
     def writer(self, dds_name: str, msgtype: str, qos: QosProfile) -> RclpyWriter:
         """A publisher on DDS topic ``dds_name`` (``rt/...``) taking serialised samples."""
-        publisher = self.node.create_publisher(
-            _message_class(msgtype), _topic(dds_name), _qos(qos)
-        )
+        publisher = self.node.create_publisher(_message_class(msgtype), _topic(dds_name), _qos(qos))
         return RclpyWriter(publisher, dds_name, msgtype)
 
     def reader(self, dds_name: str, msgtype: str, qos: QosProfile) -> RclpyReader:

@@ -73,7 +73,9 @@ def node_recording(
             continue
         is_output = port.causality is Causality.OUTPUT
         try:
-            buffer = runner.output_buffer(port.name) if is_output else runner.input_buffer(port.name)
+            buffer = (
+                runner.output_buffer(port.name) if is_output else runner.input_buffer(port.name)
+            )
         except KeyError:
             continue
         seen.update(names)

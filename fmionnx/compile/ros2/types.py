@@ -112,5 +112,3 @@ class Ros2Plan:
             if node.component == component:
                 return node
         raise KeyError(component)
-
-

@@ -69,6 +69,7 @@ FACT_KEYS = (
 #: The binary folders an FMU needs to run on this machine (FMI 2 and FMI 3 names).
 PLATFORM_FOLDERS = ("linux64", "x86_64-linux")
 
+
 class FmuSpec(ComponentSpecBase):
     """System-file keys of an ``fmu`` component."""
 
@@ -228,9 +229,7 @@ def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindP
     return [
         KindProblem(
             "E024",
-            describe_missing(
-                missing, library, function_prefix(interface.path, major, identifier)
-            ),
+            describe_missing(missing, library, function_prefix(interface.path, major, identifier)),
             "path",
             "rebuild the FMU (`fmionnx build-fmu` if it ships sources); a shared library "
             "exports the unprefixed FMI names",

@@ -75,7 +75,11 @@ class ModelExchange:
         fmu.enterContinuousTimeMode()
         self._solver_name = config.solver
         tolerance = config.tolerance
-        if tolerance is None and md.defaultExperiment is not None and md.defaultExperiment.tolerance:
+        if (
+            tolerance is None
+            and md.defaultExperiment is not None
+            and md.defaultExperiment.tolerance
+        ):
             tolerance = float(md.defaultExperiment.tolerance)
         self._tolerance = tolerance or 1e-5
         get_dx = calls.get_derivatives

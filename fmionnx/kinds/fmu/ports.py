@@ -359,9 +359,7 @@ def _port(
         start=start,
         variability=first.variable.variability,
         description=(
-            first.description
-            if first.description is not None
-            else first.variable.description or ""
+            first.description if first.description is not None else first.variable.description or ""
         ),
         depends_on=depends_on,
         vrs=tuple(itertools.chain.from_iterable(m.vrs for m in members)),

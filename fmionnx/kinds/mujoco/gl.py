@@ -14,7 +14,7 @@ import sys
 
 _PROBE = (
     "import mujoco\n"
-    "m = mujoco.MjModel.from_xml_string('<mujoco><worldbody><geom size=\"1\"/></worldbody>"
+    'm = mujoco.MjModel.from_xml_string(\'<mujoco><worldbody><geom size="1"/></worldbody>'
     "</mujoco>')\n"
     "r = mujoco.Renderer(m, 8, 8)\n"
     "d = mujoco.MjData(m); mujoco.mj_forward(m, d); r.update_scene(d); r.render()\n"

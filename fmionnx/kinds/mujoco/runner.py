@@ -89,7 +89,9 @@ class MujocoRunner:
         for port in self.component.interface.with_causality(Causality.INPUT):
             actuator = mj.mj_name2id(model, mj.mjtObj.mjOBJ_ACTUATOR, port.name)
             if actuator < 0:
-                raise fault(name, "no actuator of this name in the scene", time=start, port=port.name)
+                raise fault(
+                    name, "no actuator of this name in the scene", time=start, port=port.name
+                )
             buffer = np.zeros(1, dtype=np.float64)
             value = explicit.get(port.name, port.start)
             if value is not None:
@@ -108,7 +110,9 @@ class MujocoRunner:
                     continue
             sensor = mj.mj_name2id(model, mj.mjtObj.mjOBJ_SENSOR, port.name)
             if sensor < 0:
-                raise fault(name, "no sensor, site or camera of this name", time=start, port=port.name)
+                raise fault(
+                    name, "no sensor, site or camera of this name", time=start, port=port.name
+                )
             adr, dim = int(model.sensor_adr[sensor]), int(model.sensor_dim[sensor])
             self._outputs[port.name] = data.sensordata[adr : adr + dim]
         self._apply_ctrl()
@@ -126,7 +130,9 @@ class MujocoRunner:
         try:
             renderer = mj.Renderer(model, height, width)
         except Exception as exc:
-            raise fault(self.component.name, f"offscreen rendering failed: {exc}", time=start, port=port) from None
+            raise fault(
+                self.component.name, f"offscreen rendering failed: {exc}", time=start, port=port
+            ) from None
         self._renderers[port] = renderer
         frame = np.zeros((height, width, 3), dtype=np.uint8)
         self._frames[port] = frame

@@ -1,6 +1,5 @@
 """Which components run isolated (``--isolate`` words) and the runner factory that does it."""
 
-
 from __future__ import annotations
 
 from collections.abc import Iterable
@@ -30,7 +29,9 @@ def isolating_factory(
     return make
 
 
-def isolation_targets(system: CompiledSystem, words: Iterable[str]) -> tuple[frozenset[str], list[str]]:
+def isolation_targets(
+    system: CompiledSystem, words: Iterable[str]
+) -> tuple[frozenset[str], list[str]]:
     """The components ``--isolate`` words select, and the words that name nothing.
 
     ``fmus`` selects every FMU, ``all`` every component, ``none`` nothing; any other word is a

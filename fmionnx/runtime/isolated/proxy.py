@@ -323,8 +323,7 @@ class IsolatedRunner:
             self._process.wait()
         raise fault(
             self.component.name,
-            f"{label} did not return within {limit:g} s (the step timeout); its process was "
-            "killed",
+            f"{label} did not return within {limit:g} s (the step timeout); its process was killed",
             time=self._time_of_phase(t, h),
         )
 

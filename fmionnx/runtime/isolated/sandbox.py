@@ -108,7 +108,9 @@ def _landlock(abi: int, writable: Path, readable: list[Path], *, net: bool) -> N
         if libc.prctl(_PR_SET_NO_NEW_PRIVS, 1, 0, 0, 0) != 0:
             raise SandboxUnavailableError("prctl(PR_SET_NO_NEW_PRIVS) failed")
         if libc.syscall(_SYS_RESTRICT_SELF, ruleset, 0) != 0:
-            raise SandboxUnavailableError(f"landlock_restrict_self: {os.strerror(ctypes.get_errno())}")
+            raise SandboxUnavailableError(
+                f"landlock_restrict_self: {os.strerror(ctypes.get_errno())}"
+            )
     finally:
         os.close(ruleset)
 

@@ -180,8 +180,8 @@ class Child:
         for port in runner.component.interface.ports:
             is_input = port.causality is not Causality.OUTPUT
             try:
-                buffer = runner.input_buffer(port.name) if is_input else runner.output_buffer(
-                    port.name
+                buffer = (
+                    runner.input_buffer(port.name) if is_input else runner.output_buffer(port.name)
                 )
             except KeyError:
                 continue
