@@ -16,6 +16,7 @@ import subprocess
 import sys
 import threading
 import time
+from collections.abc import Callable
 from pathlib import Path
 from types import FrameType, SimpleNamespace
 from typing import Any
@@ -111,22 +112,29 @@ print("salvaged", result.status.value, result.steps_done, result.error.component
 """
 
 
-def test_a_child_dying_while_writing_abandoned_results_is_salvaged(
-    fixture_fmu, write_system, tmp_path: Path
-) -> None:
+def _hanging_run_script(
+    script: str, fixture_fmu: Callable[[str], Path], write_system: Callable[[str], Path]
+) -> subprocess.CompletedProcess[str]:
+    """``script`` run by a fresh interpreter on a system whose `bad` model hangs at 0.3 s."""
     path = write_system(
         SYSTEM.format(
             faulty=fixture_fmu("Faulty"), gain=fixture_fmu("Gain"), mode=HANG, stop=1.0,
             step=0.01, fail_at=0.3,
         )
     )  # fmt: skip
-    process = subprocess.run(
-        [sys.executable, "-c", ABANDON_DIES, str(path)],
+    return subprocess.run(
+        [sys.executable, "-c", script, str(path)],
         check=False,
         capture_output=True,
         text=True,
         timeout=60,
     )
+
+
+def test_a_child_dying_while_writing_abandoned_results_is_salvaged(
+    fixture_fmu, write_system, tmp_path: Path
+) -> None:
+    process = _hanging_run_script(ABANDON_DIES, fixture_fmu, write_system)
     # the guardian did not take "abandoned" for "written": it wrote the salvaged run itself
     assert process.returncode == 0, process.stderr
     assert process.stdout.split() == ["salvaged", "fault", "30", "bad+gain"], process.stdout
@@ -162,19 +170,7 @@ except SystemExit as exc:
 def test_an_abandoned_run_ends_the_guardian_through_its_callers_clean_up(
     fixture_fmu, write_system
 ) -> None:
-    path = write_system(
-        SYSTEM.format(
-            faulty=fixture_fmu("Faulty"), gain=fixture_fmu("Gain"), mode=HANG, stop=1.0,
-            step=0.01, fail_at=0.3,
-        )
-    )  # fmt: skip
-    process = subprocess.run(
-        [sys.executable, "-c", ABANDON_WRITES, str(path)],
-        check=False,
-        capture_output=True,
-        text=True,
-        timeout=60,
-    )
+    process = _hanging_run_script(ABANDON_WRITES, fixture_fmu, write_system)
     assert process.returncode == 0, process.stderr
     assert process.stdout.splitlines() == [
         "written by the child bad+gain",
