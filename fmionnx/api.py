@@ -323,17 +323,13 @@ def check_model(path: str | Path) -> CompileResult:
 def is_study_file(path: str | Path) -> bool:
     """True for a YAML file that is a study (it names a ``system:`` to vary and has no
     ``components:``): ``validate`` checks it as ``fmionnx sweep`` would compile it."""
-    from fmionnx.spec.sourcemap import SourceMap
-    from fmionnx.spec.yaml import is_study_document, parse_yaml, read_text
+    from fmionnx.spec.yaml import is_study_text, read_text
 
     target = Path(path)
     if target.suffix.lower() not in {".yaml", ".yml"} or not target.is_file():
         return False
-    quiet = DiagnosticBag()  # a file that does not parse is the system compiler's to report
-    text = read_text(target, quiet)
-    return text is not None and is_study_document(
-        parse_yaml(text, target, SourceMap(target), quiet)
-    )
+    text = read_text(target, DiagnosticBag())  # an unreadable file is the compiler's to report
+    return text is not None and is_study_text(text, target)
 
 
 def check_study(path: str | Path) -> CompileResult:
