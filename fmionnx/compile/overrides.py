@@ -243,7 +243,7 @@ def kind_settings(component: Component) -> tuple[str, ...]:
         return ()
 
 
-def apply_kind_setting(
+def apply_component_setting(
     system: CompiledSystem, component: Component, name: str, value: Scalar | tuple[Scalar, ...]
 ) -> CompiledSystem:
     """``system`` with ``component``'s kind setting ``name`` at ``value``: its config replaced by
@@ -271,7 +271,7 @@ def _override_setting(
     from fmionnx.kinds.base import SettingError
 
     try:
-        return apply_kind_setting(
+        return apply_component_setting(
             system, component, name, tuple(value) if isinstance(value, list) else value
         )
     except SettingError as exc:

@@ -21,9 +21,11 @@ from typing import Literal
 from fmionnx.compile.checkir import Expr
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.overrides import (
-    apply_kind_setting as apply_component_setting,
+    apply_component_setting,
+    override_output_interval,
+    override_parameter,
+    override_stop,
 )
-from fmionnx.compile.overrides import override_output_interval, override_parameter, override_stop
 from fmionnx.core.types import PortRef, Scalar
 
 #: What a setting changes: a parameter (or system input), the stop time, the output interval,
@@ -145,7 +147,7 @@ def owner(system: CompiledSystem, target: str) -> tuple[str, str] | None:
 
 def apply_kind_setting(system: CompiledSystem, target: str, value: SettingValue) -> CompiledSystem:
     """``system`` with the kind setting ``component.name`` at ``value`` (SettingError when the
-    kind refuses it): see :func:`fmionnx.compile.overrides.apply_kind_setting`."""
+    kind refuses it): see :func:`fmionnx.compile.overrides.apply_component_setting`."""
     from fmionnx.kinds.base import SettingError
 
     found = owner(system, target)
