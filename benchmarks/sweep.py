@@ -14,8 +14,9 @@ Two studies, each run three ways side by side in one run (so machine load hits a
 for every case in this process: no Dask. *1 worker* / *2 workers* are a local Dask cluster of
 that many processes, started for each round of its mode and closed after it, so that only the
 cluster under test is alive while it is timed (an idle second cluster's scheduler and workers
-take CPU from a busy one on two cores); the cluster's start and a warm-up case per worker
-(models shipped, caches filled) are timed apart from the study (the mean per round). The modes are interleaved: every round runs in the
+take CPU from a busy one on two cores); the cluster's start and a warm-up (models shipped,
+caches filled: a case per worker, for the small study a batched study of 8 cases) are timed
+apart from the study (the mean per round). The modes are interleaved: every round runs in the
 three modes, each round starting with another one, so that drifting machine load hits all
 alike; a round of the small study is the whole 200-case study (repeated ``--rounds`` times),
 a round of the reference scenario a slice of its cases (2 rounds by default: 10 of the 20
@@ -60,6 +61,9 @@ MODES = (LOOP, "1 worker", "2 workers")
 #: Worker processes of each mode (the loop is this one process).
 WORKERS = dict(zip(MODES, (1, 1, 2), strict=True))
 SPEEDUP_TARGET = 1.8
+#: Cases of the warm-up study run on each new cluster before the small study is timed (the
+#: reference scenario's warm-up is one case per worker: its cases take seconds).
+WARM_UP = 8
 OVERHEAD_TARGET = 0.10
 
 SMALL_SYSTEM = """\
@@ -142,14 +146,20 @@ def _cluster_cases(
 
 
 def measure(
-    plan: Any, rounds: int, batch: int | None = None, *, whole: bool = False
+    plan: Any,
+    rounds: int,
+    batch: int | None = None,
+    *,
+    whole: bool = False,
+    warm_up: int | None = None,
 ) -> list[Timing]:
     """The three modes on the same cases, interleaved: the cases are cut into ``rounds``
     slices and each slice runs in every mode (starting with another mode each round), so
     drifting machine load hits all modes alike. The clusters start once, timed apart.
 
     ``whole``: every round runs the whole study instead of a slice (a short study repeated,
-    so that each run is the study the issue names, not a quarter of it)."""
+    so that each run is the study the issue names, not a quarter of it). ``warm_up``: cases
+    run on each new cluster before it is timed (None: one per worker)."""
     from fmionnx.backends.sweep.engine import open_client
     from fmionnx.backends.sweep.models import pack_models
     from fmionnx.compile.systemfile import to_json
@@ -177,8 +187,10 @@ def measure(
             began = time.perf_counter()
             with open_client(workers=workers) as client:
                 client.wait_for_workers(workers)
-                warm = [dataclasses.replace(c, id=f"warm-up-{c.id}") for c in cases[:workers]]
-                _cluster_cases(client, plan, warm, 1, [])  # models shipped, caches filled
+                # Models shipped, caches filled (and for short cases, a batched study run once).
+                count = workers if warm_up is None else warm_up
+                warm = [dataclasses.replace(c, id=f"warm-up-{c.id}") for c in cases[:count]]
+                _cluster_cases(client, plan, warm, batch, [])
                 startup[mode] += (time.perf_counter() - began) / len(slices)
                 began = time.perf_counter()
                 done = _cluster_cases(client, plan, part, batch, sizes[mode])
@@ -293,7 +305,8 @@ def targets(small: list[dict[str, Any]], scenario: list[dict[str, Any]]) -> list
 def _study_rows(
     name: str, study: Path, args: argparse.Namespace, *, whole: bool = False
 ) -> list[dict[str, Any]]:
-    return rows(name, measure(_plan(study), args.rounds, args.batch, whole=whole))
+    warm_up = WARM_UP if whole else None
+    return rows(name, measure(_plan(study), args.rounds, args.batch, whole=whole, warm_up=warm_up))
 
 
 def main(argv: list[str] | None = None, console: Console | None = None) -> dict[str, Any]:

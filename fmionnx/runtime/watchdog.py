@@ -10,10 +10,16 @@ and then ends the process. That is the only way out of a model that never return
 The loop pays one store per step for this: it writes the work it is about to do into a
 :class:`Marker`; the watchdog looks at it a few times a second and fires when the same work
 has been under way for longer than the timeout. No step is wrapped or timed on the hot path.
+
+One thread per process does the looking for every run of that process (:class:`_Watcher`),
+started with the first run and kept: a sweep worker runs cases of a millisecond one after the
+other, and a thread started and ended per run cost it more than the case itself when another
+worker kept the other core busy (``Thread.start`` waits until the new thread has run).
 """
 
 from __future__ import annotations
 
+import os
 import threading
 import time
 from collections.abc import Callable, Collection
@@ -60,31 +66,98 @@ class Watchdog:
         on_expiry: Callable[[object, float], None],
     ) -> None:
         self.timeout = timeout
+        #: Seconds between looks.
+        self.interval = min(POLL, timeout / 4)
         self._marker = marker
         self._watched = {id(work) for work in watched}
         self._on_expiry = on_expiry
-        self._stopped = threading.Event()
-        self._thread = threading.Thread(target=self._watch, name="fmionnx-watchdog", daemon=True)
+        self._seen: tuple[int, float] | None = None
+        self._since = 0.0
+        #: When this watchdog looks next (monotonic seconds).
+        self.due = 0.0
+        self._overrun: tuple[object, float] | None = None
 
     def start(self) -> None:
-        """Start watching (a daemon thread: it never keeps the process alive)."""
-        self._thread.start()
+        """Start watching, on this process's watch thread (a daemon: it never keeps the
+        process alive)."""
+        self._seen = None
+        self._since = time.monotonic()
+        self.due = self._since + self.interval
+        _watcher().add(self)
 
     def stop(self) -> None:
-        """Stop watching; the thread ends within one poll."""
-        self._stopped.set()
+        """Stop watching: :meth:`look` is not called again once this returns."""
+        _watcher().discard(self)
+
+    def look(self, now: float) -> bool:
+        """One look at the marker at ``now``; True when the work has overrun (fire)."""
+        self.due = now + self.interval
+        work, t = self._marker.work, self._marker.t
+        if (id(work), t) != self._seen:
+            self._seen, self._since = (id(work), t), now
+            return False
+        if id(work) in self._watched and now - self._since > self.timeout:
+            self._overrun = (work, t)
+            return True
+        return False
+
+    def fire(self) -> None:
+        """Report the overrun :meth:`look` saw (the master's handler ends the process)."""
+        assert self._overrun is not None
+        self._on_expiry(*self._overrun)
+
+
+class _Watcher:
+    """The one thread of a process that looks at every running :class:`Watchdog`."""
+
+    def __init__(self) -> None:
+        self._active: list[Watchdog] = []
+        self._changed = threading.Condition()
+        self._thread = threading.Thread(target=self._watch, name="fmionnx-watchdog", daemon=True)
+        self._thread.start()
+
+    def add(self, watchdog: Watchdog) -> None:
+        with self._changed:
+            self._active.append(watchdog)
+            self._changed.notify()
+
+    def discard(self, watchdog: Watchdog) -> None:
+        # Under the lock: a look in progress finishes first, and none starts after this.
+        with self._changed:
+            if watchdog in self._active:
+                self._active.remove(watchdog)
 
     def _watch(self) -> None:
-        interval = min(POLL, self.timeout / 4)
-        seen: tuple[int, float] | None = None
-        since = time.monotonic()
-        while not self._stopped.wait(interval):
-            marker = self._marker
-            work, t = marker.work, marker.t
-            now = time.monotonic()
-            if (id(work), t) != seen:
-                seen, since = (id(work), t), now
-                continue
-            if id(work) in self._watched and now - since > self.timeout:
-                self._on_expiry(work, t)
-                return
+        with self._changed:
+            while True:
+                if not self._active:
+                    self._changed.wait()
+                    continue
+                now = time.monotonic()
+                soonest = min(w.due for w in self._active)
+                if soonest > now:
+                    self._changed.wait(soonest - now)
+                    continue
+                for watchdog in [w for w in self._active if w.due <= now]:
+                    if watchdog not in self._active:  # stopped while a handler ran unlocked
+                        continue
+                    if watchdog.look(now):
+                        self._active.remove(watchdog)
+                        self._changed.release()  # the handler may take long or never return
+                        try:
+                            watchdog.fire()
+                        finally:
+                            self._changed.acquire()
+
+
+#: This process's watch thread and the process it belongs to (a forked child has none).
+_WATCHER: list[tuple[int, _Watcher]] = []
+_WATCHER_LOCK = threading.Lock()
+
+
+def _watcher() -> _Watcher:
+    pid = os.getpid()
+    with _WATCHER_LOCK:
+        if not _WATCHER or _WATCHER[0][0] != pid:
+            _WATCHER[:] = [(pid, _Watcher())]
+        return _WATCHER[0][1]

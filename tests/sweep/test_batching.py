@@ -11,9 +11,11 @@ from pathlib import Path
 
 import pytest
 
+from fmionnx.backends.sweep import batching
 from fmionnx.backends.sweep.batching import (
     MAX_BATCH,
-    TASKS_LEFT_PER_THREAD,
+    MIN_TASK_SECONDS,
+    TASK_SECONDS,
     BatchSizer,
     batch_size,
 )
@@ -50,31 +52,62 @@ def _stable_csv(path: Path) -> list[list[str]]:
 # -- the sizing rule ----------------------------------------------------------------------------
 
 
-def test_short_cases_fill_half_a_second_and_the_rest_keeps_every_worker_busy() -> None:
-    assert batch_size(0.005, 10_000, 2) == 100  # 0.5 s of 5 ms cases
-    assert batch_size(0.005, 200, 2) == 25  # 200 left: at least 4 tasks per thread
-    assert batch_size(0.005, 8, 2) == 1  # the last tasks are single cases
-    assert batch_size(3.0, 10_000, 2) == 1  # cases of seconds: one per task, as before
-    assert batch_size(0.0, 10**6, 1) == MAX_BATCH
-    left = 200
-    while left:  # the cases still unfinished always make >= 4 tasks per thread, or are singles
-        size = batch_size(0.001, left, 2)
-        assert size == 1 or left / size >= TASKS_LEFT_PER_THREAD * 2
+def test_each_task_takes_a_share_of_what_is_left_so_the_last_tasks_are_small() -> None:
+    assert batch_size(200, 2) == 50  # a quarter: two tasks per thread
+    assert batch_size(150, 2) == 38
+    assert batch_size(3, 2) == 1  # the last tasks are single cases ...
+    assert batch_size(3, 2, per_case=0.001) == 3  # ... unless they are tiny: >= 50 ms of work
+    assert batch_size(10**6, 1) == MAX_BATCH
+    assert batch_size(20, 2, per_case=30.0) == 5  # long cases too: the budget cuts the task
+    sizes, left = [], 200
+    while left:
+        size = batch_size(left, 2)
+        sizes.append(size)
         left -= size
+    assert sum(sizes) == 200
+    assert sizes == sorted(sizes, reverse=True)  # shrinking: the workers finish together
+    assert sizes[0] == 50
 
 
-def test_the_sizer_probes_first_and_leaves_each_workers_first_case_out() -> None:
+def test_once_case_times_are_known_tasks_are_worth_their_cost_and_the_last_ones_even() -> None:
     sizer = BatchSizer(threads=2)
-    assert not sizer.ready
-    assert sizer.size(1000) == 1
-    sizer.observe("tcp://a", 2.0)  # the first case on a worker: models received, not typical
-    sizer.observe("tcp://b", 2.0)
-    assert not sizer.ready
-    sizer.observe("tcp://a", 0.01)
-    sizer.observe("tcp://b", 0.03)
-    assert sizer.per_case == pytest.approx(0.02)
-    assert sizer.size(1000) == 25
-    assert BatchSizer(threads=2, fixed=7).size(3) == 7  # fixed: as asked (the engine clips it)
+    assert sizer.per_case is None
+    assert sizer.budget == TASK_SECONDS
+    assert sizer.size(8) == 2  # nothing known: a quarter
+    for wall_time in (0.4, 0.001, 0.001, 0.001):  # a first case pays for loading: an outlier
+        sizer.observe(wall_time)
+    assert sizer.per_case == pytest.approx(0.001)
+    least = round(MIN_TASK_SECONDS / 0.001)
+    assert sizer.size(1000) == 250  # a quarter is more than the least
+    assert sizer.size(400) == max(100, least)
+    # Fewer cases left than a least-sized task per thread: one equal share per thread, so
+    # that no thread waits for another's last task, and the share holds to the end.
+    assert sizer.size(2 * least) == least
+    assert sizer.size(least) == least
+    assert sizer.size(3) == 3
+    fixed = BatchSizer(threads=2, fixed=7)
+    assert fixed.size(30) == 7
+    assert fixed.size(3) == 3
+    assert fixed.budget is None  # a fixed size runs every case it was given
+
+
+def test_a_task_with_a_budget_stops_after_the_case_that_used_it_up(
+    write_study: WriteStudy,
+) -> None:
+    from fmionnx.backends.sweep.case import Job, run_batch
+    from fmionnx.backends.sweep.models import pack_models
+    from fmionnx.compile.systemfile import to_json
+    from fmionnx.kinds.fmu.libraries import stop_keeping_libraries
+
+    plan = plan_study(write_study(GRID))[0]
+    job = Job(plan.metrics, plan.isolate, plan.timeout)
+    text, models, cases = to_json(plan.system), pack_models(plan.system), plan.cases[:5]
+    try:
+        assert [o.id for o in run_batch(text, models, cases, job, budget=0.0)] == [cases[0].id]
+        assert len(run_batch(text, models, cases, job, budget=60.0)) == 5
+        assert len(run_batch(text, models, cases, job)) == 5
+    finally:
+        stop_keeping_libraries()  # what a worker keeps, this test process does not
 
 
 # -- on a real cluster ----------------------------------------------------------------------------
@@ -93,6 +126,7 @@ def test_batches_give_the_same_table_as_one_case_per_task(
     assert single.tasks.sizes == (1,) * 12
     assert batched.tasks.sizes == (5, 5, 2)
     assert sum(adaptive.tasks.sizes) == 12
+    assert adaptive.tasks.sizes[0] == 3  # 12 cases on 2 threads: a quarter first
     expected = _stable_csv(tmp_path / "single" / "cases.csv")
     assert len(expected) == 13
     assert _stable_csv(tmp_path / "batched" / "cases.csv") == expected
@@ -103,6 +137,22 @@ def test_batches_give_the_same_table_as_one_case_per_task(
     assert (table["status"] == "ok").all()
     assert (table["wall_time"] > 0).all()  # each case's own time, not its batch's
     assert table["worker"].str.startswith("tcp://").all()
+
+
+def test_cases_a_task_left_for_lack_of_time_run_in_later_tasks(
+    write_study: WriteStudy, tmp_path: Path, cluster: str, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    plan = plan_study(write_study(GRID))[0]
+    single = run_sweep(plan, tmp_path / "single", scheduler=cluster, batch=1)
+    monkeypatch.setattr(batching, "TASK_SECONDS", 0.0)  # every task stops after its first case
+    cut = run_sweep(plan, tmp_path / "cut", scheduler=cluster)
+    assert single.tasks is not None
+    assert cut.tasks is not None
+    assert cut.tasks.sizes == (1,) * 12  # what each task ran: the rest went to later tasks
+    assert cut.tasks.fallbacks == 0
+    assert _stable_csv(tmp_path / "cut" / "cases.csv") == _stable_csv(
+        tmp_path / "single" / "cases.csv"
+    )
 
 
 @pytest.fixture

@@ -1,46 +1,67 @@
-"""How many cases one Dask task runs: batches of short cases, sized from measured case times.
+"""How many cases one Dask task runs: batches of short cases, shrinking as the study drains,
+each cut short on the worker once it has run for half a second.
 
 A task costs the study a few milliseconds whatever it runs (the scheduler's round trip, the
 transfer of its arguments and outcome, the driver's bookkeeping), and on a small machine the
-driver and the scheduler take that time from the same cores as the workers. A case of a few
-milliseconds sent as a task of its own is mostly that cost; sent with others in one task, the
-cost is shared. So the engine sizes its tasks:
+driver and the scheduler take that time from the same cores as the workers. A case of a
+millisecond sent as a task of its own is mostly that cost; sent with others in one task, the
+cost is shared. So the engine batches:
 
-* **Fixed** when asked (``--batch N``; ``--batch 1`` is one case per task, no batching).
-* **Adaptive** otherwise. The first cases run one per task (a few per worker thread: the
-  *probe*). A worker's first case is left out of the estimate, since it also pays for
-  receiving the models and reading the compiled system. From the others' mean wall time
-  (measured on the workers), a task gets as many cases as fill :data:`TASK_SECONDS`, at
-  least 1 and at most :data:`MAX_BATCH` -- and never so many that the cases not yet finished
-  would make fewer than :data:`TASKS_LEFT_PER_THREAD` tasks per worker thread. That last bound
-  shrinks the tasks as the study drains, so the last tasks are small and every worker stays
-  busy to the end instead of one waiting for the other's long last batch.
+* **Fixed** when asked (``--batch N``; ``--batch 1`` is one case per task, no batching): every
+  task runs its N cases.
+* **Adaptive** otherwise, with nothing to measure first. Each new task takes a share of the
+  cases not yet handed out -- ``1 / (TASKS_PER_THREAD x worker threads)`` of them, at most
+  :data:`MAX_BATCH` -- so the first tasks are large and the last ones small, and the workers
+  finish together instead of one waiting for the other's long last batch (guided
+  self-scheduling). Once case times are known, a task is never less than
+  :data:`MIN_TASK_SECONDS` of work: on a machine whose cores all run workers, every task also
+  costs the workers time in the driver and scheduler, more than tiny tasks at the end would
+  gain in balance. When fewer cases are left than such a task per thread, they go out as one
+  equal share per thread.
+  Case times differ (a case of seconds, the reference scenario), so a task also carries a
+  **budget** (:data:`TASK_SECONDS`): the worker runs its cases in order and stops after the
+  first one that ends past the budget, returning what it ran; the driver hands the rest out
+  again. Long cases thus end up one per task, as they ran before batching, and short ones fill
+  about half a second at most.
 
-Cases of seconds (the reference scenario) stay one per task: the rule only ever groups cases
-shorter than :data:`TASK_SECONDS`.
+Earlier versions ran a few single-case *probe* tasks first and sized batches from their times.
+On a small machine every probe is a round trip of 5-10 ms through Dask's batched messages, and
+waiting for them left the workers idle for much of a short study.
 """
 
 from __future__ import annotations
 
+import math
+import statistics
+from collections import deque
 from dataclasses import dataclass, field
 
-#: Seconds of work one task aims at: long beside a task's own cost (milliseconds), short
-#: enough that an interruption loses little and the last tasks balance well.
+#: Seconds of work after which a task stops taking its next case: long beside a task's own
+#: cost (milliseconds), short enough that an interruption loses little and the progress shown
+#: moves.
 TASK_SECONDS = 0.5
-#: The cases not yet finished always make at least this many tasks per worker thread.
-TASKS_LEFT_PER_THREAD = 4
+#: Each new task takes ``1 / (TASKS_PER_THREAD x threads)`` of the cases not yet handed out.
+TASKS_PER_THREAD = 2
 #: The most cases in one task, whatever their time.
 MAX_BATCH = 500
-#: Single-case tasks in flight per worker thread while no case time is known yet.
-PROBES_PER_THREAD = 2
+#: Once case times are known, the least work one task gets (unless fewer cases are left).
+#: Measured per task on two busy cores: a few milliseconds of the driver's and the
+#: scheduler's time, which the workers lose; 50 ms keeps that near a tenth at most.
+MIN_TASK_SECONDS = 0.05
+#: Case times the estimate keeps (the most recent ones).
+KEPT_TIMES = 101
 
 
-def batch_size(per_case: float, unfinished: int, threads: int) -> int:
-    """Cases for the next task: ``per_case`` seconds each, ``unfinished`` cases not yet
-    finished (running or waiting), ``threads`` worker threads."""
-    by_time = MAX_BATCH if per_case <= 0 else int(TASK_SECONDS / per_case)
-    by_balance = unfinished // (TASKS_LEFT_PER_THREAD * max(1, threads))
-    return max(1, min(by_time, by_balance, MAX_BATCH))
+def batch_size(waiting: int, threads: int, per_case: float | None = None) -> int:
+    """Cases for the next task: ``waiting`` cases not yet handed out, ``threads`` worker
+    threads, ``per_case`` the typical seconds of a case (None: not known yet)."""
+    guided = math.ceil(waiting / (TASKS_PER_THREAD * max(1, threads)))
+    return max(1, min(max(guided, least_cases(per_case)), MAX_BATCH, waiting))
+
+
+def least_cases(per_case: float | None) -> int:
+    """The fewest cases a task gets: :data:`MIN_TASK_SECONDS` of them (1 while unknown)."""
+    return 1 if not per_case or per_case <= 0 else math.ceil(MIN_TASK_SECONDS / per_case)
 
 
 @dataclass
@@ -50,38 +71,36 @@ class BatchSizer:
     threads: int
     #: A size the user fixed (None: adaptive).
     fixed: int | None = None
-    _workers: set[str] = field(default_factory=set)
-    _seconds: float = 0.0
-    _counted: int = 0
+    _times: deque[float] = field(default_factory=lambda: deque(maxlen=KEPT_TIMES))
+    #: Once the cases left are fewer than a least-sized task per thread: their equal share.
+    _tail: int | None = None
 
     @property
-    def ready(self) -> bool:
-        """Whether sizes are known (fixed, or at least one case time measured)."""
-        return self.fixed is not None or self._counted > 0
-
-    @property
-    def probes(self) -> int:
-        """Tasks in flight while probing."""
-        return PROBES_PER_THREAD * max(1, self.threads)
+    def budget(self) -> float | None:
+        """Seconds after which a task stops taking cases (None: it runs all it was given)."""
+        return None if self.fixed is not None else TASK_SECONDS
 
     @property
     def per_case(self) -> float | None:
-        """Mean wall time of a case (a worker's first case left out), None before one."""
-        return self._seconds / self._counted if self._counted else None
+        """Median wall time of the recent cases (None before one finished). A worker's first
+        case also pays for reading the system and loading the models; the median leaves
+        such outliers out once a few cases are known, and until then only keeps tasks small."""
+        return statistics.median(self._times) if self._times else None
 
-    def observe(self, worker: str, wall_time: float) -> None:
-        """A case finished on ``worker`` in ``wall_time`` seconds."""
-        if worker not in self._workers:  # its first case: paid for the models, not typical
-            self._workers.add(worker)
-            return
-        self._seconds += wall_time
-        self._counted += 1
+    def observe(self, wall_time: float) -> None:
+        """A case finished in ``wall_time`` seconds."""
+        self._times.append(wall_time)
 
-    def size(self, unfinished: int) -> int:
-        """Cases for the next task."""
+    def size(self, waiting: int) -> int:
+        """Cases for the next task, ``waiting`` cases not yet handed out."""
         if self.fixed is not None:
-            return max(1, self.fixed)
+            return max(1, min(self.fixed, waiting))
         per_case = self.per_case
-        if per_case is None:
-            return 1
-        return batch_size(per_case, unfinished, self.threads)
+        threads = max(1, self.threads)
+        if self._tail is None and per_case and waiting <= threads * least_cases(per_case):
+            # The last cases: one equal task per thread, not one large task for a single
+            # thread while the others wait (nor ever smaller pieces of it).
+            self._tail = math.ceil(waiting / threads)
+        if self._tail is not None:
+            return max(1, min(self._tail, waiting))
+        return batch_size(waiting, self.threads, per_case)

@@ -134,7 +134,11 @@ def run_case(text: str, models: Mapping[str, bytes], case: Case, job: Job) -> Ca
 
 
 def run_batch(
-    text: str, models: Mapping[str, bytes], cases: Sequence[Case], job: Job
+    text: str,
+    models: Mapping[str, bytes],
+    cases: Sequence[Case],
+    job: Job,
+    budget: float | None = None,
 ) -> list[CaseOutcome]:
     """Run ``cases`` one after the other here, each exactly as it would run alone; never raises.
 
@@ -144,17 +148,26 @@ def run_batch(
     isolated processes, so a case that faults or times out ends only itself; the batch-mates
     after it still run. Only the death of this process (a crash of a component that is not
     isolated) loses the batch, and the driver then runs its cases again alone (:mod:`.engine`).
+
+    With a ``budget`` (seconds), no case starts once the batch has run that long: the outcomes
+    returned are those of the first cases, at least one, and the driver hands out the rest
+    again (:mod:`.batching`).
     """
+    from fmionnx.kinds.fmu.libraries import keep_libraries
+
+    keep_libraries()  # an FMU's unpacked files and loaded library serve this worker's next cases
     worker = _worker_name()
-    began = time.perf_counter()
+    began = started = time.perf_counter()
     try:
         system: CompiledSystem | None = base_system(text, models, worker_store())
         problem = ""
     except Exception as exc:
         system, problem = None, f"{type(exc).__name__}: {exc}"
     setup = time.perf_counter() - began  # paid by the first case, as when it runs alone
-    outcomes = []
+    outcomes: list[CaseOutcome] = []
     for case in cases:
+        if outcomes and budget is not None and time.perf_counter() - started > budget:
+            break
         began = time.perf_counter()
         try:
             if system is None:
@@ -207,6 +220,7 @@ def _run(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
         progress_every=20,
         isolate=isolate,
         step_timeout=job.step_timeout if job.step_timeout is not None else job.timeout,
+        schedule="sequential",
     )
     result = Master(system, options).run()  # the in-process backend's master
     status: CaseStatus = "ok"

@@ -34,10 +34,18 @@ from fmionnx.core.errors import FmionnxError
 #: does it (:func:`run_study` runs the task's cases again, alone), and Dask would charge the
 #: death to every task queued on that worker, not only to the one that crashed it.
 ALLOWED_FAILURES = 0
-#: Tasks in flight: at least this many, or so many per worker thread; the rest wait on the
-#: driver.
-MIN_WINDOW = 16
-PER_THREAD = 4
+#: Dask settings of the local cluster (its workers take them too).
+LOCAL_CONFIG = {
+    "distributed.scheduler.allowed-failures": ALLOWED_FAILURES,
+    # The statistical profiler samples every worker's stack 100 times a second, taking the
+    # GIL from the case: a cost per case, for a profile nobody reads (no dashboard).
+    "distributed.worker.profile.enabled": False,
+}
+#: Tasks in flight: at least this many, or so many per worker thread (one running, one queued
+#: on its worker, one on its way); the rest wait on the driver, where later tasks are sized
+#: from the case times measured by then.
+MIN_WINDOW = 3
+PER_THREAD = 3
 #: Seconds to wait for an existing cluster's scheduler to answer.
 CONNECT_TIMEOUT = 20
 #: Address schemes of a Dask scheduler that a study can reach.
@@ -99,7 +107,7 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
             yield client
         return
     with (
-        dask.config.set({"distributed.scheduler.allowed-failures": ALLOWED_FAILURES}),
+        dask.config.set(LOCAL_CONFIG),
         warnings.catch_warnings(),
     ):
         # The scheduler serves its health routes on 8787 even without a dashboard and warns
@@ -122,8 +130,9 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
 
 @dataclass(frozen=True)
 class StudyRun:
-    """How a study's cases were sent: the size of every task, in order of submission, and
-    the cases run again alone after a worker died under their task."""
+    """How a study's cases were sent: the cases every task ran (in order of submission; a task
+    cut short by its budget counts the cases it ran, a task whose worker died those it was
+    given), and the cases run again alone after a worker died under their task."""
 
     sizes: tuple[int, ...]
     fallbacks: int
@@ -167,22 +176,25 @@ def run_study(
     threads = max(1, sum(client.nthreads().values()))
     sizer = BatchSizer(threads, batch)
     waiting = deque(cases)
-    unfinished = len(waiting)
     #: Cases of a task whose worker died: each runs again alone on the cluster, before the rest.
     alone: deque[Case] = deque()
-    #: Task key -> its cases, and whether it runs alone (then a death is the case's own).
-    in_flight: dict[str, tuple[tuple[Case, ...], bool]] = {}
+    #: Task key -> its cases, whether it runs alone (then a death is the case's own), and its
+    #: place in ``sizes``.
+    in_flight: dict[str, tuple[tuple[Case, ...], bool, int]] = {}
     sizes: list[int] = []
     fallbacks = 0
-    running = as_completed(loop=client.loop)
+    running = as_completed(loop=client.loop, with_results=True, raise_errors=False)
 
     def submit(group: tuple[Case, ...], *, lone: bool = False) -> None:
         key = f"{prefix}-{group[0].id}" + (f"+{len(group) - 1}" if len(group) > 1 else "")
+        budget = sizer.budget if len(group) > 1 else None
+        # Submission order is the order to run in (large tasks first, the small ones last):
+        # tasks that become ready together would otherwise start in any order.
         future = client.submit(
-            run_batch, text, shared_models, list(group), shared_job,
-            key=key + ("-alone" if lone else ""), pure=False,
+            run_batch, text, shared_models, list(group), shared_job, budget,
+            key=key + ("-alone" if lone else ""), pure=False, priority=-len(sizes),
         )  # fmt: skip
-        in_flight[future.key] = (group, lone)
+        in_flight[future.key] = (group, lone, len(sizes))
         sizes.append(len(group))
         running.add(future)
 
@@ -195,17 +207,14 @@ def run_study(
             if not in_flight:
                 submit((alone.popleft(),), lone=True)
             return
-        while waiting and len(in_flight) < (window if sizer.ready else sizer.probes):
-            size = sizer.size(unfinished)
-            submit(tuple(waiting.popleft() for _ in range(min(size, len(waiting)))))
+        while waiting and len(in_flight) < window:
+            size = sizer.size(len(waiting))
+            submit(tuple(waiting.popleft() for _ in range(size)))
 
     refill()
-    for future in running:
-        group, lone = in_flight.pop(future.key)
-        try:
-            outcomes = future.result() if future.status == "finished" else None
-        except Exception:  # lost between the two calls: as below
-            outcomes = None
+    for future, result in running:
+        group, lone, place = in_flight.pop(future.key)
+        outcomes: list[CaseOutcome] | None = result if future.status == "finished" else None
         if outcomes is None and not lone:
             # Its worker died (a crash in a component that is not isolated). Dask counts a
             # death against every task assigned to that worker, running or queued, so the
@@ -216,10 +225,14 @@ def run_study(
             outcomes = []
         elif outcomes is None:
             outcomes = [CaseOutcome(group[0].id, "failed", _died(future))]
+        else:
+            # A task that used up its budget ran only its first cases: the rest are handed
+            # out again, first.
+            waiting.extendleft(reversed(group[len(outcomes) :]))
+            sizes[place] = len(outcomes)
         future.release()
         for outcome in outcomes:
-            sizer.observe(outcome.worker, outcome.wall_time)
-            unfinished -= 1
+            sizer.observe(outcome.wall_time)
             on_done(outcome)
         refill()
     return StudyRun(tuple(sizes), fallbacks)

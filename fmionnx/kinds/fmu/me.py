@@ -134,6 +134,7 @@ class ModelExchange:
         except FMICallException as exc:
             raise self._runner.fault_for(exc.function, exc.status, t) from None
         except RuntimeError as exc:  # CVode failures
+            self._runner.faulted = True
             raise fault(self._runner.component.name, str(exc), time=t) from None
 
     def advance(self, t: float, h: float) -> None:

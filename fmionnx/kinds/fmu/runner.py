@@ -36,6 +36,13 @@ from fmionnx.kinds.fmu.aliases import settable_inputs
 from fmionnx.kinds.fmu.description import component_description
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, contained_library
 from fmionnx.kinds.fmu.kind import FmuConfig
+from fmionnx.kinds.fmu.libraries import (
+    LibraryKey,
+    LoadedFmu,
+    active_pool,
+    library_key,
+    shareable,
+)
 from fmionnx.kinds.fmu.values import (
     RawCall,
     ValueFunctions,
@@ -128,6 +135,10 @@ class FmuRunner(ABC):
         #: A termination request of the last advance, raised once its outputs are got.
         self._ending: ModelTerminated | None = None
         self._terminated = False
+        #: Whether a call of this instance failed (then its library is not kept: :mod:`.libraries`).
+        self.faulted = False
+        #: The pool key of this FMU in a process that keeps libraries.
+        self._library_key: LibraryKey | None = None
         self._time = 0.0
         assert isinstance(component.config, FmuConfig)
         self.config = component.config
@@ -135,7 +146,24 @@ class FmuRunner(ABC):
     # -- life cycle ---------------------------------------------------------------------------
 
     def instantiate(self) -> None:
-        """Unpack the FMU safely, load its library and create the instance."""
+        """Unpack the FMU safely, load its library and create the instance.
+
+        In a process that keeps libraries (:mod:`.libraries`) the unpacked, loaded FMU of an
+        earlier clean run of the same file is taken instead, when there is one.
+        """
+        pool = active_pool()
+        if pool is not None:
+            self._library_key = library_key(self.component.path, type(self))
+        loaded = pool.take(self._library_key) if pool and self._library_key else None
+        if loaded is not None:
+            self._tmp, self._md, self._fmu = loaded.scratch, loaded.md, loaded.fmu
+            self._fmu.instanceName = self.component.name
+        else:
+            self._load()
+        self._instantiate_fmu()
+        self._instance = ctypes.c_void_p(self._fmu.component)
+
+    def _load(self) -> None:
         path = self.component.path
         if path.is_dir():
             root = path
@@ -147,8 +175,6 @@ class FmuRunner(ABC):
                 raise fault(self.component.name, str(exc), time=0.0) from None
         self._md = component_description(self.component, (root / MODEL_DESCRIPTION).read_bytes)
         self._fmu = self._new_fmu(self._md, root)
-        self._instantiate_fmu()
-        self._instance = ctypes.c_void_p(self._fmu.component)
 
     def setup(self, start: float, stop: float) -> None:
         """Parameters and start values, then the version's initialization, then the stepper."""
@@ -304,22 +330,47 @@ class FmuRunner(ABC):
         """FMU outputs are refreshed every step; nothing is lazy."""
 
     def terminate(self) -> None:
-        """Terminate (when initialized and not faulted) and free the instance and library."""
+        """Terminate (when initialized and not faulted) and free the instance and library.
+
+        In a process that keeps libraries, an FMU that ended cleanly and allows several
+        instances per process keeps its library loaded and its folder for the next run.
+        """
         if self._terminated:
             return
         self._terminated = True
         fmu = self._fmu
+        kept = False
         try:
             if fmu is not None and fmu.component:
                 try:
                     fmu.terminate()
                 except Exception:
                     self._log.append("terminate refused")
-                fmu.freeInstance()
+                    self.faulted = True
+                kept = self._keep_library(fmu)
+                if not kept:
+                    fmu.freeInstance()
         finally:
             self._advance = _not_set_up  # drops the stepper (a model-exchange integrator ...)
-            if self._tmp is not None:
+            if self._tmp is not None and not kept:
                 remove_scratch(self._tmp)
+
+    def _keep_library(self, fmu: Any) -> bool:
+        """Free only the instance and hand the loaded FMU to this process's pool, when it
+        keeps libraries and this one may be shared; False (nothing done) otherwise."""
+        pool = active_pool()
+        key = self._library_key
+        if pool is None or key is None or self.faulted or not shareable(self._interface_md()):
+            return False
+        getattr(fmu, f"{self.values.prefix}FreeInstance")(fmu.component)
+        fmu.component = None
+        pool.give(LoadedFmu(key, self._md, fmu, self._tmp))
+        return True
+
+    def _interface_md(self) -> Any:
+        """The model description's element of the interface type in use."""
+        md = self._md
+        return md.coSimulation if self.config.interface == "cs" else md.modelExchange
 
     # -- errors ---------------------------------------------------------------------------------
 
@@ -336,6 +387,7 @@ class FmuRunner(ABC):
         self, function: str, status: int, t: float, *, port: str | None = None
     ) -> RunError:
         """RunError for an FMI call that returned ``status``, with the last log lines."""
+        self.faulted = True
         message = f"{function} returned {status_label(status)}"
         if self._log:
             log = " | ".join(self._log)
@@ -352,6 +404,7 @@ class FmuRunner(ABC):
         except FMICallException as exc:
             raise self.fault_for(exc.function, exc.status, self._time) from None
         except Exception as exc:
+            self.faulted = True
             raise fault(self.component.name, f"{function} failed: {exc}", time=self._time) from None
 
 
