@@ -155,6 +155,21 @@ def test_cases_a_task_left_for_lack_of_time_run_in_later_tasks(
     )
 
 
+def test_a_worker_exempts_what_it_holds_after_its_first_batch_from_the_collector(
+    write_study: WriteStudy, tmp_path: Path, cluster: str
+) -> None:
+    import gc
+
+    from distributed import Client
+
+    plan = plan_study(write_study(GRID))[0]
+    run_sweep(plan, tmp_path / "out", scheduler=cluster, batch=6)
+    with Client(cluster, set_as_default=False) as client:
+        frozen = client.run(gc.get_freeze_count)
+    assert len(frozen) == 2
+    assert all(count > 1000 for count in frozen.values())  # imports, system, models: frozen
+
+
 @pytest.fixture
 def faulty(tmp_path: Path, fixture_fmu: Callable[[str], Path]) -> Path:
     for name in ("Faulty", "Gain"):
