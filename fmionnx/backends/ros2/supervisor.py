@@ -150,6 +150,17 @@ def exit_text(code: int) -> str:
     return f"exited with status {code}"
 
 
+#: Seconds every node has, once the clock reached the stop time, to end by itself.
+FINISH_SECONDS = 60.0
+
+
+def not_ended_message(components: list[str]) -> str:
+    """Why a run faulted when nodes did not end after the stop time, naming them (a node that
+    logged "finished" and still did not exit hung in its own shutdown: its log says which)."""
+    named = ", ".join(f"`{c}` (logs/{c}.log)" for c in components) or "none named"
+    return f"nodes did not end within {FINISH_SECONDS:g} s after the stop time: {named}"
+
+
 def tail(path: Path, lines: int = TAIL_LINES) -> str:
     """The last ``lines`` lines of a log file (empty when unreadable)."""
     try:
@@ -185,6 +196,10 @@ class Children:
             code = proc.poll()
             if code is not None:
                 raise NodeEnded(component, code)
+
+    def running(self) -> list[str]:
+        """The components whose node process has not ended, in start order."""
+        return [component for component, proc in self.procs.items() if proc.poll() is None]
 
     def ended_cleanly(self, records: Path) -> bool:
         """True when every child ended after completing; NodeEnded for any other ending."""
@@ -452,9 +467,8 @@ class Supervisor:
 
     def _finish(self) -> None:
         """Every node must end by itself, cleanly, once the clock reached the stop time."""
-        if not self.children.wait_all(60.0):
-            msg = "nodes did not end within 60 s after the stop time"
-            raise SupervisorError(msg)
+        if not self.children.wait_all(FINISH_SECONDS):
+            raise SupervisorError(not_ended_message(self.children.running()))
         self.children.ended_cleanly(self.records)
 
     def _node_ended(
