@@ -19,10 +19,11 @@ worker kept the other core busy (``Thread.start`` waits until the new thread has
 
 from __future__ import annotations
 
-import os
 import threading
 import time
 from collections.abc import Callable, Collection
+
+from fmionnx.core.processlocal import ProcessLocal
 
 #: How often the watchdog looks, at most (seconds).
 POLL = 0.25
@@ -150,14 +151,9 @@ class _Watcher:
                             self._changed.acquire()
 
 
-#: This process's watch thread and the process it belongs to (a forked child has none).
-_WATCHER: list[tuple[int, _Watcher]] = []
-_WATCHER_LOCK = threading.Lock()
+#: This process's watch thread (a forked child starts its own).
+_WATCHER: ProcessLocal[_Watcher] = ProcessLocal()
 
 
 def _watcher() -> _Watcher:
-    pid = os.getpid()
-    with _WATCHER_LOCK:
-        if not _WATCHER or _WATCHER[0][0] != pid:
-            _WATCHER[:] = [(pid, _Watcher())]
-        return _WATCHER[0][1]
+    return _WATCHER.get_or_make(_Watcher)

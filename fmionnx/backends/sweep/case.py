@@ -16,7 +16,6 @@ from __future__ import annotations
 import dataclasses
 import hashlib
 import math
-import os
 import threading
 import time
 from collections.abc import Mapping, Sequence
@@ -30,6 +29,7 @@ import numpy.typing as npt
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.studyir import Case, Metric, apply_case
 from fmionnx.compile.systemfile import from_json, relocate
+from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.types import PortRef
 
 #: How a case ended. ``ok``: the run completed (its checks may still fail); ``fault``: a model
@@ -83,8 +83,8 @@ class _Deadline(KeyboardInterrupt):
 #: Base systems this worker has read, by the sha256 of their JSON, with models relocated into its store.
 _SYSTEMS: dict[str, CompiledSystem] = {}
 _SYSTEMS_LOCK = threading.Lock()
-#: The id of the process whose heap :func:`freeze_once` froze.
-_FROZEN: list[int] = []
+#: Whether :func:`freeze_once` froze this process's heap (a forked child's is its own).
+_FROZEN: ProcessLocal[bool] = ProcessLocal()
 #: What ``worker`` says of a case run outside a Dask worker.
 LOCAL = "local"
 #: The model store of a process that is not a Dask worker (made on first use).
@@ -201,12 +201,11 @@ def freeze_once() -> None:
     """
     import gc
 
-    pid = os.getpid()
-    if _FROZEN and _FROZEN[0] == pid:
+    if _FROZEN.get():
         return
     gc.collect()
     gc.freeze()
-    _FROZEN[:] = [pid]
+    _FROZEN.get_or_make(lambda: True)
 
 
 def record_refs(system: CompiledSystem, job: Job) -> tuple[PortRef, ...]:

@@ -26,13 +26,13 @@ those of a run alone (``tests/sweep`` compares every case with a direct run).
 
 from __future__ import annotations
 
-import os
 import threading
 from collections import OrderedDict
 from dataclasses import dataclass
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.scratch import remove_scratch
 
 #: Unused loaded FMUs one process keeps at most; the least recently used one is unloaded first.
@@ -109,31 +109,25 @@ class LibraryPool:
             loaded.unload()
 
 
-#: This process's pool and the id of the process that made it (a forked child has another).
-_POOL: list[tuple[int, LibraryPool]] = []
+#: This process's pool (a forked child has none of its own until it asks).
+_POOL: ProcessLocal[LibraryPool] = ProcessLocal()
 
 
 def keep_libraries() -> LibraryPool:
     """Keep cleanly ended FMUs loaded for the next runs of this process (idempotent)."""
-    pid = os.getpid()
-    if not _POOL or _POOL[0][0] != pid:
-        _POOL[:] = [(pid, LibraryPool())]
-    return _POOL[0][1]
+    return _POOL.get_or_make(LibraryPool)
 
 
 def stop_keeping_libraries() -> None:
     """Unload what this process keeps and go back to one library per run (tests, embedders)."""
-    pool = active_pool()
-    _POOL.clear()
+    pool = _POOL.clear()
     if pool is not None:
         pool.clear()
 
 
 def active_pool() -> LibraryPool | None:
     """The pool of this very process, or None when it keeps no libraries."""
-    if _POOL and _POOL[0][0] == os.getpid():
-        return _POOL[0][1]
-    return None
+    return _POOL.get()
 
 
 def library_key(path: Path, runner: type) -> LibraryKey | None:
