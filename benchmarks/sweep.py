@@ -123,7 +123,7 @@ def _plan(study: Path) -> Any:
 def _job(plan: Any) -> Any:
     from fmionnx.backends.sweep.case import Job
 
-    return Job(plan.metrics, plan.isolate, plan.timeout, step_timeout=plan.step_timeout)
+    return Job.of(plan)
 
 
 def _loop_cases(plan: Any, cases: Sequence[Any], shared: tuple[str, Any]) -> list[Any]:

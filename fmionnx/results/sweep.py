@@ -101,7 +101,7 @@ def _run(
     folder = StudyFolder(out, plan)
     finished = folder.prepare(resume=resume, force=force)
     pending = [c for c in plan.cases if c.id not in finished]
-    job = Job(plan.metrics, plan.isolate, plan.timeout, keep_results, plan.step_timeout)
+    job = Job.of(plan, keep_results=keep_results)
     counts = [len(finished), 0]
     if progress is not None:
         progress(counts[0], counts[1], len(plan.cases))

@@ -63,7 +63,7 @@ def _cases(folder: Path, system: str, study: str) -> list[CaseOutcome]:
     (folder / "system.yaml").write_text(system, encoding="utf-8")
     (folder / "study.yaml").write_text(study, encoding="utf-8")
     plan = plan_study(folder / "study.yaml")[0]
-    job = Job(plan.metrics, plan.isolate, plan.timeout)
+    job = Job.of(plan)
     return run_batch(to_json(plan.system), pack_models(plan.system), plan.cases, job)
 
 
@@ -110,7 +110,7 @@ def _run_without_pool(folder: Path, index: int) -> dict[str, float | None]:
     from fmionnx.compile.studyir import apply_case
 
     plan = plan_study(folder / "study.yaml")[0]
-    job = Job(plan.metrics, plan.isolate, plan.timeout)
+    job = Job.of(plan)
     case = plan.cases[index]
     assert active_pool() is None
     return _run(apply_case(plan.system, case), case, job).metrics

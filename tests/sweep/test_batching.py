@@ -100,7 +100,7 @@ def test_a_task_with_a_budget_stops_after_the_case_that_used_it_up(
     from fmionnx.kinds.fmu.libraries import stop_keeping_libraries
 
     plan = plan_study(write_study(GRID))[0]
-    job = Job(plan.metrics, plan.isolate, plan.timeout)
+    job = Job.of(plan)
     text, models, cases = to_json(plan.system), pack_models(plan.system), plan.cases[:5]
     try:
         assert [o.id for o in run_batch(text, models, cases, job, budget=0.0)] == [cases[0].id]

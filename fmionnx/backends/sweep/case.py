@@ -27,7 +27,7 @@ import numpy as np
 import numpy.typing as npt
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.studyir import Case, Metric, apply_case
+from fmionnx.compile.studyir import Case, Metric, StudyPlan, apply_case
 from fmionnx.compile.systemfile import from_json, relocate
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.types import PortRef
@@ -48,6 +48,11 @@ class Job:
     keep_results: bool = False
     #: Seconds one step may take (None: ``timeout``).
     step_timeout: float | None = None
+
+    @classmethod
+    def of(cls, plan: StudyPlan, *, keep_results: bool = False) -> Job:
+        """The job of a compiled study: its metrics, isolation and timeouts."""
+        return cls(plan.metrics, plan.isolate, plan.timeout, keep_results, plan.step_timeout)
 
 
 @dataclass
