@@ -45,6 +45,14 @@ def _run(
     )  # fmt: skip
 
 
+def _prints_ok(code: str) -> None:
+    """Run ``code`` in a fresh interpreter, which must print ``ok`` (its asserts passed)."""
+    done = subprocess.run(
+        [sys.executable, "-c", code], capture_output=True, text=True, check=False, timeout=60
+    )
+    assert done.stdout.strip() == "ok", done.stderr
+
+
 @pytest.mark.parametrize(
     ("args", "color"),
     [((), False), (("--help",), False), (("run", "--help"), False), (("run", "-h"), True)],
@@ -80,10 +88,7 @@ def test_deferred_names_are_the_real_classes_once_used(tmp_path: Path) -> None:
         "assert rich.traceback.Traceback.__module__ == 'rich.traceback'\n"
         "print('ok')\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=False, timeout=60
-    )
-    assert done.stdout.strip() == "ok", done.stderr
+    _prints_ok(code)
 
 
 def test_a_typer_that_uses_the_modules_at_import_falls_back_to_importing_them(
@@ -101,10 +106,7 @@ def test_a_typer_that_uses_the_modules_at_import_falls_back_to_importing_them(
         "assert not isinstance(sys.modules['rich.traceback'], lean_help._StandIn)\n"
         "print('ok')\n"
     )
-    done = subprocess.run(
-        [sys.executable, "-c", code], capture_output=True, text=True, check=False, timeout=60
-    )
-    assert done.stdout.strip() == "ok", done.stderr
+    _prints_ok(code)
 
 
 @pytest.mark.parametrize(

@@ -20,7 +20,7 @@ from fmionnx.backends.sweep.batching import (
     batch_size,
 )
 from fmionnx.results.study import VOLATILE
-from fmionnx.results.sweep import plan_study, run_sweep
+from fmionnx.results.sweep import SweepResult, plan_study, run_sweep
 from tests.sweep.conftest import WriteStudy
 from tests.sweep.test_failures import SYSTEM as FAULTY_SYSTEM
 
@@ -178,14 +178,25 @@ def faulty(tmp_path: Path, fixture_fmu: Callable[[str], Path]) -> Path:
     return tmp_path
 
 
-def test_a_crash_or_hang_inside_a_batch_ends_only_its_own_case(faulty: Path, cluster: str) -> None:
-    (faulty / "study.yaml").write_text(
-        "fmionnx: 1\nsystem: system.yaml\ntimeout: 60\nstep_timeout: 4\n"
-        "parameters:\n  bad.mode: [3, 6, 0]\n  bad.failAt: [0.3, 5]\n"
-        "metrics:\n  y_end: final(gain.y)\n"
+def _faulty_sweep(faulty: Path, cluster: str, settings: str, *, batch: int) -> SweepResult:
+    """The study ``settings`` (options and parameters) over the faulty system, measuring
+    ``gain.y`` at the end, run on ``cluster`` in batches of ``batch``."""
+    study = faulty / "study.yaml"
+    study.write_text(
+        f"fmionnx: 1\nsystem: system.yaml\n{settings}metrics:\n  y_end: final(gain.y)\n",
+        encoding="utf-8",
     )
-    result = run_sweep(plan_study(faulty / "study.yaml")[0], faulty / "out", scheduler=cluster,
-                       batch=6)  # fmt: skip
+    return run_sweep(plan_study(study)[0], faulty / "out", scheduler=cluster, batch=batch)
+
+
+def test_a_crash_or_hang_inside_a_batch_ends_only_its_own_case(faulty: Path, cluster: str) -> None:
+    result = _faulty_sweep(
+        faulty,
+        cluster,
+        "timeout: 60\nstep_timeout: 4\n"
+        "parameters:\n  bad.mode: [3, 6, 0]\n  bad.failAt: [0.3, 5]\n",
+        batch=6,
+    )
     assert result.tasks is not None
     assert result.tasks.sizes == (6,)
     assert result.tasks.fallbacks == 0
@@ -202,13 +213,12 @@ def test_a_crash_or_hang_inside_a_batch_ends_only_its_own_case(faulty: Path, clu
 def test_a_batch_whose_worker_dies_runs_its_cases_again_one_task_each(
     faulty: Path, cluster: str
 ) -> None:
-    (faulty / "study.yaml").write_text(
-        "fmionnx: 1\nsystem: system.yaml\nisolate: [none]\n"
-        "parameters:\n  bad.failAt: [5, 0.3]\n  gain.k: [1, 2]\n  bad.mode: [3]\n"
-        "metrics:\n  y_end: final(gain.y)\n"
+    result = _faulty_sweep(
+        faulty,
+        cluster,
+        "isolate: [none]\nparameters:\n  bad.failAt: [5, 0.3]\n  gain.k: [1, 2]\n  bad.mode: [3]\n",
+        batch=4,
     )
-    result = run_sweep(plan_study(faulty / "study.yaml")[0], faulty / "out", scheduler=cluster,
-                       batch=4)  # fmt: skip
     assert result.tasks is not None
     assert result.tasks.sizes == (4, 1, 1, 1, 1)  # the batch, then each of its cases alone
     assert result.tasks.fallbacks == 4
