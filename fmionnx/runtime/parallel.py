@@ -38,6 +38,19 @@ from dataclasses import dataclass
 from fmionnx.runtime.stopping import shield_begin, shield_end
 from fmionnx.runtime.watchdog import Marker
 
+#: Set on a lane's thread: see :func:`on_lane`.
+_this_thread = threading.local()
+
+
+def on_lane() -> bool:
+    """Whether the calling thread is a :class:`Lane`'s worker.
+
+    A wait that could spin (an isolated component's round trip) must not on a lane: a spin
+    holds the GIL, which the loop's thread needs meanwhile. Any other thread runs a loop of its
+    own -- ``fmionnx run``'s main thread, a sweep worker's task thread, a node -- and may.
+    """
+    return getattr(_this_thread, "lane", False)
+
 
 @dataclass(frozen=True, slots=True)
 class Footprint:
@@ -140,6 +153,7 @@ class Lane:
             self._thread = None
 
     def _serve(self) -> None:
+        _this_thread.lane = True
         inbox, marker = self._inbox, self._marker
         while True:
             job = inbox.get()

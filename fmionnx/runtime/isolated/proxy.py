@@ -25,7 +25,6 @@ import signal
 import subprocess
 import sys
 import tempfile
-import threading
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -39,14 +38,13 @@ from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Component
 from fmionnx.runtime.isolated import channel
 from fmionnx.runtime.isolated.channel import Control
+from fmionnx.runtime.parallel import on_lane
 
 #: Seconds a child gets to terminate its model and exit before it is killed.
 TERMINATE_GRACE = 5.0
 #: Seconds added to the step timeout for the first answer: it includes starting the child's
 #: Python interpreter, which is not the model's time and takes seconds on a loaded machine.
 PROCESS_START_ALLOWANCE = 10.0
-#: The thread whose waits may spin (see :meth:`IsolatedRunner.step`).
-_MAIN_THREAD = threading.main_thread().ident
 #: How long the supervisor spins on the child's reply counter before it blocks on the pipe
 #: (see :class:`~.channel.Spinner`; the figures behind the choice: docs/performance.md).
 SPIN_NS = 60_000
@@ -184,9 +182,9 @@ class IsolatedRunner:
         channel.write_all(self._commands, channel.STEP)
         self._sent_one()
         control = self._control
-        if control is not None and threading.get_ident() == _MAIN_THREAD:
-            # A hint only: _await polls and reads as without it. Only on the main thread: a
-            # spin holds the GIL, which a worker lane's wait must leave to the loop.
+        if control is not None and not on_lane():
+            # A hint only: _await polls and reads as without it. Not on a lane: a spin holds
+            # the GIL, which a lane's wait must leave to the loop's thread.
             self._spinner.wait(control.replies, self._answered & channel.COUNTER_MASK)
         self._await(t, h)
 
