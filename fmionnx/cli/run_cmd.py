@@ -324,7 +324,8 @@ def run(
         if suffix == ".onnx":
             _run_onnx(target, parse_pairs(inputs or [], "--input"), out, quiet=quiet)
             return
-        with stop_on_signals():  # SIGTERM/SIGHUP stop like Ctrl-C: the results are written
+        # SIGTERM/SIGHUP stop like Ctrl-C: the results are written
+        with stop_on_signals(process_ends=True):
             code = _run_system(
                 target,
                 out=out,

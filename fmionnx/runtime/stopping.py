@@ -75,9 +75,14 @@ def shield_end() -> None:
 
 
 @contextlib.contextmanager
-def stop_on_signals() -> Iterator[list[int]]:
+def stop_on_signals(*, process_ends: bool = False) -> Iterator[list[int]]:
     """Turn the first stop signal into :class:`StopRequested`; ignore later ones until the
-    block ends (it yields the list of signals received). Off the main thread, a no-op."""
+    block ends (it yields the list of signals received). Off the main thread, a no-op.
+
+    ``process_ends``: the process exits after the block (a command): once a stop signal came,
+    later ones stay ignored after it too, so that a second ``SIGTERM`` arriving while the
+    process reports and exits cannot kill it before its exit status says how it ended.
+    """
     received: list[int] = []
 
     def handler(signum: int, frame: FrameType | None) -> None:
@@ -101,4 +106,4 @@ def stop_on_signals() -> Iterator[list[int]]:
         yield received
     finally:
         for signum, old in previous.items():
-            signal.signal(signum, old)
+            signal.signal(signum, signal.SIG_IGN if received and process_ends else old)

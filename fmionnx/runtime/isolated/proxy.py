@@ -23,7 +23,6 @@ import os
 import select
 import signal
 import subprocess
-import sys
 import tempfile
 from collections import deque
 from dataclasses import dataclass
@@ -36,8 +35,9 @@ from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, Wiring, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Component
-from fmionnx.runtime.isolated import channel
+from fmionnx.runtime.isolated import channel, launcher
 from fmionnx.runtime.isolated.channel import Control
+from fmionnx.runtime.isolated.launcher import ChildProcess
 from fmionnx.runtime.parallel import on_lane
 
 #: Seconds a child gets to terminate its model and exit before it is killed.
@@ -84,7 +84,7 @@ class IsolatedRunner:
         self.lazy_outputs: frozenset[str] = frozenset()
         self._wiring = wiring
         self._settings = settings
-        self._process: subprocess.Popen[bytes] | None = None
+        self._process: ChildProcess | None = None
         self._commands = self._replies = self._shared = -1
         self._control: Control | None = None
         self._block: mmap.mmap | None = None
@@ -114,17 +114,11 @@ class IsolatedRunner:
         self._shared = _memory_file(name)
         self._tmp = make_scratch(f"isolated-{name}")
         env = dict(os.environ, TMPDIR=str(self._tmp))
-        argv = [sys.executable, "-m", "fmionnx.runtime.isolated.child"]
-        argv += [str(command_read), str(reply_write), str(self._shared)]
+        argv = []
         if self._settings.sandbox:
             argv += ["--sandbox", str(self._tmp), str(self.component.path)]
         try:
-            self._process = subprocess.Popen(
-                argv,
-                pass_fds=(command_read, reply_write, self._shared),
-                stdin=subprocess.DEVNULL,
-                env=env,
-            )
+            self._process = launcher.launch((command_read, reply_write, self._shared), argv, env)
         except OSError as exc:  # no process to be had (limits, memory): a fault, not a crash
             self._dead = True
             raise fault(name, f"could not start its isolated process: {exc}", time=0.0) from None

@@ -1,0 +1,260 @@
+"""Isolated children forked by the zygote (``fmionnx/runtime/isolated/zygote.py``).
+
+A process's first isolated component starts a zygote that imports what a child needs once;
+every child after that is a fork of it. Whatever happens to the zygote, a run must neither
+change its results nor depend on it: a child started as a new interpreter is the fallback.
+The models are the real test FMUs, the children real processes.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import os
+import signal
+import socket
+import stat
+from collections.abc import Iterator
+from contextlib import contextmanager
+from pathlib import Path
+
+import numpy as np
+import pytest
+
+import fmionnx
+from fmionnx.core.errors import RunError
+from fmionnx.core.runner import Wiring
+from fmionnx.runtime.isolated import launcher
+from fmionnx.runtime.isolated.launcher import ForkedChild, SpawnedChild, Zygote, ZygoteError
+from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
+from fmionnx.runtime.result import RunOptions, RunStatus
+
+HANG = 6
+SEGFAULT = 3
+
+
+def _component(fixture_fmu, write_system, name: str, parameters: str = "") -> object:
+    system = fmionnx.load(
+        write_system(
+            f"""
+fmionnx: 1
+name: zygote
+run: {{stop: 1.0, step: 0.01}}
+components:
+  m: {{kind: fmu, path: {fixture_fmu(name)}{parameters}}}
+"""
+        )
+    )
+    (component,) = system.compiled.components
+    return component
+
+
+@contextmanager
+def _runner(component: object, timeout: float | None = 30.0) -> Iterator[IsolatedRunner]:
+    runner = IsolatedRunner(
+        component,  # type: ignore[arg-type]
+        Wiring(driven=frozenset({"u"})),
+        IsolationSettings(step_timeout=timeout),
+    )
+    try:
+        runner.instantiate()
+        runner.setup(0.0, 1.0)
+        yield runner
+    finally:
+        runner.terminate()
+
+
+def _zygote_pid() -> int:
+    zygote = launcher._zygote.get()
+    assert zygote is not None
+    return zygote._process.pid
+
+
+@pytest.fixture
+def fresh_zygote() -> Iterator[None]:
+    """Each test starts with no zygote in this process and leaves none behind."""
+
+    def drop() -> None:
+        zygote = launcher._zygote.clear()
+        if zygote is not None:
+            zygote.close()
+        launcher._no_zygote.clear()
+
+    drop()
+    yield
+    drop()
+
+
+def _gain_steps(runner: IsolatedRunner, gain: float, steps: int = 5) -> None:
+    u, y = runner.input_buffer("u"), runner.output_buffer("y")
+    for k in range(steps):
+        u[0] = float(k)
+        runner.step(k * 0.01, 0.01)
+        assert y[0] == gain * k
+
+
+def test_children_are_forked_by_one_zygote_that_outlives_them(
+    fixture_fmu, write_system, fresh_zygote
+) -> None:
+    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 2.0}")
+    with _runner(component) as first, _runner(component) as second:
+        assert isinstance(first._process, ForkedChild)
+        assert isinstance(second._process, ForkedChild)
+        zygote = _zygote_pid()
+        for runner in (first, second):  # the zygote is the children's parent
+            status = Path(f"/proc/{runner._process.pid}/status").read_text()
+            assert f"PPid:\t{zygote}\n" in status
+            _gain_steps(runner, 2.0)
+    with _runner(component) as third:
+        assert _zygote_pid() == zygote
+        _gain_steps(third, 2.0)
+
+
+def test_a_forked_child_holds_only_its_own_descriptors(
+    fixture_fmu, write_system, fresh_zygote, tmp_path: Path
+) -> None:
+    """Not the zygote's socket, nor a sibling's pipes: a model could otherwise forge another
+    child's exit status or keep the zygote's socket open after the supervisor is gone."""
+    component = _component(fixture_fmu, write_system, "Gain")
+    os.chdir(tmp_path)  # the child works in the supervisor's folder of the moment
+    with _runner(component), _runner(component) as runner:  # a sibling alive meanwhile
+        pid = runner._process.pid
+        assert Path(f"/proc/{pid}/cwd").resolve() == tmp_path.resolve()
+        kinds = []
+        for entry in Path(f"/proc/{pid}/fd").iterdir():
+            with contextlib.suppress(OSError):  # closed while it was listed
+                kinds.append(stat.S_IFMT(entry.stat().st_mode))
+        assert stat.S_IFSOCK not in kinds
+        pipes = sum(kind == stat.S_IFIFO for kind in kinds)
+        assert pipes <= 2  # its command and reply pipes (stdio may be pipes too under pytest)
+
+
+def test_a_crash_in_a_forked_child_is_reported_with_its_signal(
+    fixture_fmu, write_system, fresh_zygote
+) -> None:
+    component = _component(
+        fixture_fmu, write_system, "Faulty", f", parameters: {{mode: {SEGFAULT}, failAt: 0.02}}"
+    )
+    with _runner(component) as runner:
+        assert isinstance(runner._process, ForkedChild)
+        runner.step(0.0, 0.01)
+        runner.step(0.01, 0.01)
+        with pytest.raises(RunError, match="crashed with SIGSEGV"):
+            runner.step(0.02, 0.01)
+
+
+def test_a_hung_forked_child_is_killed_through_its_pidfd(
+    fixture_fmu, write_system, fresh_zygote
+) -> None:
+    component = _component(
+        fixture_fmu, write_system, "Faulty", f", parameters: {{mode: {HANG}, failAt: 0.01}}"
+    )
+    with _runner(component, timeout=1.0) as runner:
+        process = runner._process
+        assert isinstance(process, ForkedChild)
+        runner.step(0.0, 0.01)
+        with pytest.raises(RunError, match="did not return within 1 s"):
+            runner.step(0.01, 0.01)
+        assert process.returncode == -signal.SIGKILL  # reported by the zygote, its parent
+
+
+def test_a_killed_zygote_takes_its_children_and_the_next_child_gets_a_new_one(
+    fixture_fmu, write_system, fresh_zygote
+) -> None:
+    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    with _runner(component) as runner:
+        zygote = _zygote_pid()
+        os.kill(zygote, signal.SIGKILL)
+        with pytest.raises(RunError, match="crashed with SIGKILL"):
+            _gain_steps(runner, 3.0, steps=1000)  # its child died with it (PDEATHSIG)
+    with _runner(component) as runner:  # the dead zygote is noticed, a new one forks
+        _gain_steps(runner, 3.0)
+        assert isinstance(runner._process, ForkedChild)
+        assert _zygote_pid() != zygote
+
+
+def test_without_a_zygote_children_start_as_new_interpreters(
+    fixture_fmu, write_system, fresh_zygote, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    starts = []
+
+    def failing() -> Zygote:
+        starts.append(1)
+        raise ZygoteError("did not get ready")
+
+    monkeypatch.setattr(launcher, "Zygote", failing)
+    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 4.0}")
+    for _ in range(2):
+        with _runner(component) as runner:
+            assert isinstance(runner._process, SpawnedChild)
+            _gain_steps(runner, 4.0)
+    assert starts == [1]  # one failed start: the process does not try at every child
+
+
+def test_a_zygote_that_does_not_answer_is_replaced(
+    fixture_fmu, write_system, fresh_zygote, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 5.0}")
+    with _runner(component):
+        pass
+    deaf = _zygote_pid()
+    os.kill(deaf, signal.SIGSTOP)  # alive, but deaf
+    monkeypatch.setattr(launcher, "ZYGOTE_ANSWER_TIMEOUT", 0.5)
+    monkeypatch.setattr(launcher, "ZYGOTE_EXIT_TIMEOUT", 0.5)
+    try:
+        with _runner(component) as runner:
+            assert isinstance(runner._process, ForkedChild)
+            _gain_steps(runner, 5.0)
+            assert _zygote_pid() != deaf
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(deaf, signal.SIGCONT)
+    assert not Path(f"/proc/{deaf}").exists()  # the deaf one was killed and reaped
+
+
+def test_when_zygotes_keep_failing_a_child_starts_as_a_new_interpreter(
+    fixture_fmu, write_system, fresh_zygote, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def deaf(self: Zygote, *args: object) -> ForkedChild:
+        raise ZygoteError("did not answer")
+
+    monkeypatch.setattr(Zygote, "launch", deaf)
+    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 6.0}")
+    with _runner(component) as runner:
+        assert isinstance(runner._process, SpawnedChild)
+        _gain_steps(runner, 6.0)
+
+
+def test_results_are_the_same_with_and_without_the_zygote(
+    fixture_fmu, write_system, fresh_zygote, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    system = fmionnx.load(
+        write_system(
+            f"""
+fmionnx: 1
+name: chain
+run: {{stop: 0.5, step: 0.001}}
+components:
+  a: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: 0.5}}}}
+  b: {{kind: fmu, path: {fixture_fmu("Integrator")}, interface: me}}
+connections:
+  - a.y -> b.u
+  - b.x -> a.u
+"""
+        )
+    )
+    isolated = RunOptions(isolate=frozenset({"a", "b"}))
+    forked = system.run(options=isolated)
+    monkeypatch.setattr(launcher, "zygote_wanted", lambda: False)
+    spawned = system.run(options=isolated)
+    for result in (forked, spawned):
+        assert result.status is RunStatus.COMPLETED
+    assert list(forked.signals) == list(spawned.signals)
+    for name, values in forked.signals.items():
+        assert np.asarray(values).tobytes() == np.asarray(spawned.signals[name]).tobytes()
+
+
+def test_the_zygote_ends_when_its_supervisor_closes_the_socket(fresh_zygote) -> None:
+    zygote = Zygote()
+    zygote._socket.shutdown(socket.SHUT_RDWR)
+    assert zygote._process.wait(30) == 0
+    zygote.close()
