@@ -27,7 +27,7 @@ import pytest
 import fmionnx
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Wiring
-from fmionnx.runtime.isolated import channel, proxy
+from fmionnx.runtime.isolated import channel, launcher, proxy
 from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
 from fmionnx.runtime.parallel import Job, Lane
 from fmionnx.runtime.result import RunOptions, RunStatus
@@ -245,3 +245,32 @@ connections:
         assert list(result.signals) == list(plain.signals)
         for name, values in plain.signals.items():
             assert np.asarray(values).tobytes() == np.asarray(result.signals[name]).tobytes()
+
+
+@pytest.mark.parametrize(("spin", "flag"), [(True, []), (False, ["--no-spin"])])
+def test_a_child_is_told_not_to_spin_once_cases_have_one_core_each(
+    fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch, spin: bool, flag: list[str]
+) -> None:
+    seen: list[list[str]] = []
+    launch = launcher.launch
+
+    def recording(fds: tuple[int, int, int], argv: list[str], env: dict[str, str]) -> object:
+        seen.append(list(argv))
+        return launch(fds, argv, env)
+
+    monkeypatch.setattr(launcher, "launch", recording)
+    monkeypatch.setattr(proxy, "_children_spin", [spin])
+    system = fmionnx.load(
+        write_system(
+            f"""
+fmionnx: 1
+name: one
+run: {{stop: 0.1, step: 0.01}}
+components:
+  g: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: 2.0}}}}
+"""
+        )
+    )
+    result = system.run(options=RunOptions(isolate=frozenset({"g"})))
+    assert result.status is RunStatus.COMPLETED
+    assert seen == [flag]

@@ -17,6 +17,19 @@ from fmionnx.core.runner import Buffer, OutputCopies, fault
 from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.onnx.kind import OnnxConfig
 
+#: Intra-op threads of a session whose component does not say (None: onnxruntime's default,
+#: one per core); see :func:`one_thread_each`.
+_default_threads: list[int | None] = [None]
+
+
+def one_thread_each() -> None:
+    """From now on, sessions in this process whose component sets no ``threads`` use one.
+
+    onnxruntime's default pool has a spinning thread per core: where every core already runs
+    a case of a sweep, those threads take other cases' cores (see docs/sweep.md).
+    """
+    _default_threads[0] = 1
+
 
 def concrete_shape(port: Port, size: int | None) -> tuple[int, ...]:
     """The tensor shape used at run time: symbolic dims are 1, or fill ``size`` when one is."""
@@ -67,7 +80,7 @@ class OnnxRunner:
         config = self.component.config
         assert isinstance(config, OnnxConfig)
         options = ort.SessionOptions()
-        threads = config.threads
+        threads = config.threads if config.threads is not None else _default_threads[0]
         if threads is not None:
             options.intra_op_num_threads = threads
             options.inter_op_num_threads = 1

@@ -26,25 +26,30 @@ def _die_with_parent() -> None:
 
 
 def main(argv: list[str]) -> int:
-    """``child COMMANDS REPLIES SHARED [--sandbox WRITABLE MODEL]`` (inherited descriptors)."""
+    """``child COMMANDS REPLIES SHARED [--no-spin] [--sandbox WRITABLE MODEL]`` (inherited
+    descriptors; ``--no-spin``: block on the command pipe at once, see ``server.SPIN_NS``)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the supervisor's to handle
     _die_with_parent()
     commands, replies, shared = (int(a) for a in argv[:3])
+    options = argv[3:]
+    spin = options[:1] != ["--no-spin"]
+    if not spin:
+        options = options[1:]
     refusal = None
-    if argv[3:4] == ["--sandbox"]:  # first: a process with threads cannot enter namespaces
+    if options[:1] == ["--sandbox"]:  # first: a process with threads cannot enter namespaces
         from pathlib import Path
 
         from fmionnx.runtime.isolated.sandbox import SandboxUnavailableError, confine
 
         try:
-            missing = confine(Path(argv[4]), Path(argv[5]))
+            missing = confine(Path(options[1]), Path(options[2]))
         except SandboxUnavailableError as exc:
             missing = [str(exc)]
         if missing:
             refusal = "this system cannot confine the model: it lacks " + "; ".join(missing)
     from fmionnx.runtime.isolated.server import Child
 
-    Child(commands, replies, shared, refusal).serve()
+    Child(commands, replies, shared, refusal, spin=spin).serve()
     return 0
 
 

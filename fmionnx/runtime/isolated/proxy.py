@@ -50,6 +50,25 @@ PROCESS_START_ALLOWANCE = 10.0
 SPIN_NS = 60_000
 
 
+#: Whether children started from now on in this process spin before they block (see
+#: :func:`one_core_each`).
+_children_spin = [True]
+
+
+def children_spin() -> bool:
+    """Whether an isolated child spins on its command counter before it blocks."""
+    return _children_spin[0]
+
+
+def one_core_each() -> None:
+    """From now on, this process's isolated children block on their pipe at once.
+
+    A child's spin (``server.SPIN_NS``) buys latency with a second core; where every core
+    already runs a case of a sweep, that core belongs to another case (see docs/sweep.md).
+    """
+    _children_spin[0] = False
+
+
 @dataclass(frozen=True)
 class IsolationSettings:
     """How isolated components run: a step timeout (None: wait for ever) and confinement."""
@@ -114,7 +133,7 @@ class IsolatedRunner:
         self._shared = _memory_file(name)
         self._tmp = make_scratch(f"isolated-{name}")
         env = dict(os.environ, TMPDIR=str(self._tmp))
-        argv = []
+        argv = [] if children_spin() else ["--no-spin"]
         if self._settings.sandbox:
             argv += ["--sandbox", str(self._tmp), str(self.component.path)]
         try:

@@ -27,7 +27,9 @@ SPIN_NS = 300_000
 class Child:
     """One runner behind the pipes; the buffers it copies between the runner and shared memory."""
 
-    def __init__(self, commands: int, replies: int, shared: int, refusal: str | None) -> None:
+    def __init__(
+        self, commands: int, replies: int, shared: int, refusal: str | None, *, spin: bool = True
+    ) -> None:
         self.commands, self.replies, self.shared = commands, replies, shared
         #: Why the model must not be loaded (the sandbox asked for could not be set up).
         self.refusal = refusal
@@ -41,7 +43,7 @@ class Child:
         self.phases: tuple[Phase, ...] = ()
         #: Commands read and replies written so far (the control block's counters' partners).
         self.consumed = self.written = 0
-        self.spinner = channel.Spinner(SPIN_NS, polite=True)
+        self.spinner = channel.Spinner(SPIN_NS if spin else 0, polite=True)
 
     # -- the loop ------------------------------------------------------------------------------
 
