@@ -26,11 +26,11 @@ import pytest
 
 import fmionnx
 from fmionnx.core.errors import RunError
-from fmionnx.core.runner import Wiring
 from fmionnx.runtime.isolated import channel, launcher, proxy
-from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
+from fmionnx.runtime.isolated.proxy import IsolatedRunner
 from fmionnx.runtime.parallel import Job, Lane
 from fmionnx.runtime.result import RunOptions, RunStatus
+from tests.backends.isolated_runner import isolated, lone_component
 
 HANG = 6
 
@@ -72,37 +72,6 @@ def test_a_spinner_without_budget_never_spins() -> None:
 # -- a real child process ----------------------------------------------------------------------
 
 
-def _component(fixture_fmu, write_system, name: str, parameters: str = "") -> object:
-    system = fmionnx.load(
-        write_system(
-            f"""
-fmionnx: 1
-name: spin
-run: {{stop: 1.0, step: 0.01}}
-components:
-  m: {{kind: fmu, path: {fixture_fmu(name)}{parameters}}}
-"""
-        )
-    )
-    (component,) = system.compiled.components
-    return component
-
-
-@contextmanager
-def _runner(component: object, timeout: float | None) -> Iterator[IsolatedRunner]:
-    runner = IsolatedRunner(
-        component,  # type: ignore[arg-type]
-        Wiring(driven=frozenset({"u"})),
-        IsolationSettings(step_timeout=timeout),
-    )
-    try:
-        runner.instantiate()
-        runner.setup(0.0, 1.0)
-        yield runner
-    finally:
-        runner.terminate()
-
-
 def _child_pid(runner: IsolatedRunner) -> int:
     assert runner._process is not None
     return runner._process.pid
@@ -110,8 +79,8 @@ def _child_pid(runner: IsolatedRunner) -> int:
 
 @pytest.mark.parametrize("timeout", [30.0, None])
 def test_a_step_slower_than_the_spin_still_answers(fixture_fmu, write_system, timeout) -> None:
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
-    with _runner(component, timeout) as runner:
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    with isolated(component, timeout) as runner:
         u, y = runner.input_buffer("u"), runner.output_buffer("y")
         u[0] = 1.0
         runner.step(0.0, 0.01)
@@ -179,8 +148,8 @@ def test_the_supervisor_spins_on_any_thread_but_a_lane(
     """A sweep runs its cases on a Dask worker's task thread: its waits spin as the main
     thread's do (they did not, and a sweep's case took 12 % longer than in a plain loop); a
     lane leaves the GIL to the loop's thread."""
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 2.0}")
-    with _runner(component, 30.0) as runner:
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 2.0}")
+    with isolated(component, 30.0) as runner:
         _steps_on(thread_kind, runner)
         assert (runner._spinner.spins > 0) is spins
 
@@ -188,8 +157,8 @@ def test_the_supervisor_spins_on_any_thread_but_a_lane(
 def test_a_forged_reply_counter_cannot_make_the_supervisor_read_early(
     fixture_fmu, write_system
 ) -> None:
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 0.5}")
-    with _runner(component, 30.0) as runner, _forger(runner):
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 0.5}")
+    with isolated(component, 30.0) as runner, _forger(runner):
         u, y = runner.input_buffer("u"), runner.output_buffer("y")
         pid = _child_pid(runner)
         for k in range(200):
@@ -202,10 +171,10 @@ def test_a_forged_reply_counter_cannot_make_the_supervisor_read_early(
 
 
 def test_a_forged_reply_counter_cannot_hide_a_hang(fixture_fmu, write_system) -> None:
-    component = _component(
+    component = lone_component(
         fixture_fmu, write_system, "Faulty", f", parameters: {{mode: {HANG}, failAt: 0.02}}"
     )
-    with _runner(component, 1.0) as runner, _forger(runner):
+    with isolated(component, 1.0) as runner, _forger(runner):
         runner.step(0.0, 0.01)
         runner.step(0.01, 0.01)
         started = time.perf_counter()

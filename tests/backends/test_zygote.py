@@ -14,7 +14,6 @@ import signal
 import socket
 import stat
 from collections.abc import Iterator
-from contextlib import contextmanager
 from pathlib import Path
 
 import numpy as np
@@ -22,45 +21,14 @@ import pytest
 
 import fmionnx
 from fmionnx.core.errors import RunError
-from fmionnx.core.runner import Wiring
 from fmionnx.runtime.isolated import launcher
 from fmionnx.runtime.isolated.launcher import ForkedChild, SpawnedChild, Zygote, ZygoteError
-from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
+from fmionnx.runtime.isolated.proxy import IsolatedRunner
 from fmionnx.runtime.result import RunOptions, RunStatus
+from tests.backends.isolated_runner import isolated, lone_component
 
 HANG = 6
 SEGFAULT = 3
-
-
-def _component(fixture_fmu, write_system, name: str, parameters: str = "") -> object:
-    system = fmionnx.load(
-        write_system(
-            f"""
-fmionnx: 1
-name: zygote
-run: {{stop: 1.0, step: 0.01}}
-components:
-  m: {{kind: fmu, path: {fixture_fmu(name)}{parameters}}}
-"""
-        )
-    )
-    (component,) = system.compiled.components
-    return component
-
-
-@contextmanager
-def _runner(component: object, timeout: float | None = 30.0) -> Iterator[IsolatedRunner]:
-    runner = IsolatedRunner(
-        component,  # type: ignore[arg-type]
-        Wiring(driven=frozenset({"u"})),
-        IsolationSettings(step_timeout=timeout),
-    )
-    try:
-        runner.instantiate()
-        runner.setup(0.0, 1.0)
-        yield runner
-    finally:
-        runner.terminate()
 
 
 def _zygote_pid() -> int:
@@ -95,8 +63,8 @@ def _gain_steps(runner: IsolatedRunner, gain: float, steps: int = 5) -> None:
 def test_children_are_forked_by_one_zygote_that_outlives_them(
     fixture_fmu, write_system, fresh_zygote
 ) -> None:
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 2.0}")
-    with _runner(component) as first, _runner(component) as second:
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 2.0}")
+    with isolated(component) as first, isolated(component) as second:
         assert isinstance(first._process, ForkedChild)
         assert isinstance(second._process, ForkedChild)
         zygote = _zygote_pid()
@@ -104,7 +72,7 @@ def test_children_are_forked_by_one_zygote_that_outlives_them(
             status = Path(f"/proc/{runner._process.pid}/status").read_text()
             assert f"PPid:\t{zygote}\n" in status
             _gain_steps(runner, 2.0)
-    with _runner(component) as third:
+    with isolated(component) as third:
         assert _zygote_pid() == zygote
         _gain_steps(third, 2.0)
 
@@ -114,9 +82,9 @@ def test_a_forked_child_holds_only_its_own_descriptors(
 ) -> None:
     """Not the zygote's socket, nor a sibling's pipes: a model could otherwise forge another
     child's exit status or keep the zygote's socket open after the supervisor is gone."""
-    component = _component(fixture_fmu, write_system, "Gain")
+    component = lone_component(fixture_fmu, write_system, "Gain")
     os.chdir(tmp_path)  # the child works in the supervisor's folder of the moment
-    with _runner(component), _runner(component) as runner:  # a sibling alive meanwhile
+    with isolated(component), isolated(component) as runner:  # a sibling alive meanwhile
         pid = runner._process.pid
         assert Path(f"/proc/{pid}/cwd").resolve() == tmp_path.resolve()
         kinds = []
@@ -131,10 +99,10 @@ def test_a_forked_child_holds_only_its_own_descriptors(
 def test_a_crash_in_a_forked_child_is_reported_with_its_signal(
     fixture_fmu, write_system, fresh_zygote
 ) -> None:
-    component = _component(
+    component = lone_component(
         fixture_fmu, write_system, "Faulty", f", parameters: {{mode: {SEGFAULT}, failAt: 0.02}}"
     )
-    with _runner(component) as runner:
+    with isolated(component) as runner:
         assert isinstance(runner._process, ForkedChild)
         runner.step(0.0, 0.01)
         runner.step(0.01, 0.01)
@@ -145,10 +113,10 @@ def test_a_crash_in_a_forked_child_is_reported_with_its_signal(
 def test_a_hung_forked_child_is_killed_through_its_pidfd(
     fixture_fmu, write_system, fresh_zygote
 ) -> None:
-    component = _component(
+    component = lone_component(
         fixture_fmu, write_system, "Faulty", f", parameters: {{mode: {HANG}, failAt: 0.01}}"
     )
-    with _runner(component, timeout=1.0) as runner:
+    with isolated(component, timeout=1.0) as runner:
         process = runner._process
         assert isinstance(process, ForkedChild)
         runner.step(0.0, 0.01)
@@ -160,13 +128,13 @@ def test_a_hung_forked_child_is_killed_through_its_pidfd(
 def test_a_killed_zygote_takes_its_children_and_the_next_child_gets_a_new_one(
     fixture_fmu, write_system, fresh_zygote
 ) -> None:
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
-    with _runner(component) as runner:
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    with isolated(component) as runner:
         zygote = _zygote_pid()
         os.kill(zygote, signal.SIGKILL)
         with pytest.raises(RunError, match="crashed with SIGKILL"):
             _gain_steps(runner, 3.0, steps=1000)  # its child died with it (PDEATHSIG)
-    with _runner(component) as runner:  # the dead zygote is noticed, a new one forks
+    with isolated(component) as runner:  # the dead zygote is noticed, a new one forks
         _gain_steps(runner, 3.0)
         assert isinstance(runner._process, ForkedChild)
         assert _zygote_pid() != zygote
@@ -182,9 +150,9 @@ def test_without_a_zygote_children_start_as_new_interpreters(
         raise ZygoteError("did not get ready")
 
     monkeypatch.setattr(launcher, "Zygote", failing)
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 4.0}")
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 4.0}")
     for _ in range(2):
-        with _runner(component) as runner:
+        with isolated(component) as runner:
             assert isinstance(runner._process, SpawnedChild)
             _gain_steps(runner, 4.0)
     assert starts == [1]  # one failed start: the process does not try at every child
@@ -193,15 +161,15 @@ def test_without_a_zygote_children_start_as_new_interpreters(
 def test_a_zygote_that_does_not_answer_is_replaced(
     fixture_fmu, write_system, fresh_zygote, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 5.0}")
-    with _runner(component):
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 5.0}")
+    with isolated(component):
         pass
     deaf = _zygote_pid()
     os.kill(deaf, signal.SIGSTOP)  # alive, but deaf
     monkeypatch.setattr(launcher, "ZYGOTE_ANSWER_TIMEOUT", 0.5)
     monkeypatch.setattr(launcher, "ZYGOTE_EXIT_TIMEOUT", 0.5)
     try:
-        with _runner(component) as runner:
+        with isolated(component) as runner:
             assert isinstance(runner._process, ForkedChild)
             _gain_steps(runner, 5.0)
             assert _zygote_pid() != deaf
@@ -218,8 +186,8 @@ def test_when_zygotes_keep_failing_a_child_starts_as_a_new_interpreter(
         raise ZygoteError("did not answer")
 
     monkeypatch.setattr(Zygote, "launch", deaf)
-    component = _component(fixture_fmu, write_system, "Gain", ", parameters: {k: 6.0}")
-    with _runner(component) as runner:
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 6.0}")
+    with isolated(component) as runner:
         assert isinstance(runner._process, SpawnedChild)
         _gain_steps(runner, 6.0)
 
