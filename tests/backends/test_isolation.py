@@ -36,6 +36,7 @@ connections:
 """
 
 SEGFAULT, ABORT, EXIT, HANG, FLOOD = 3, 4, 5, 6, 7
+PRINT = 11
 
 
 def _system(fixture_fmu, write_system, mode: int, *, stop=1.0, step=0.01, fail_at=0.3) -> Path:
@@ -222,7 +223,10 @@ def test_isolate_names_must_exist(fixture_fmu, write_system, tmp_path) -> None:
 WRITE_PROBE, CONNECT_PROBE = 8, 9
 
 
-def _probe_run(fixture_fmu, write_system, tmp_path, mode: int, env: dict[str, str], *extra: str):
+def _probe_run(
+    fixture_fmu, write_system, tmp_path, mode: int, env: dict[str, str], *extra: str,
+    cwd: Path | None = None,
+):  # fmt: skip
     system = write_system(
         SYSTEM.format(
             faulty=fixture_fmu("Faulty"), gain=fixture_fmu("Gain"), mode=mode, stop=0.05,
@@ -237,6 +241,7 @@ def _probe_run(fixture_fmu, write_system, tmp_path, mode: int, env: dict[str, st
         env=dict(os.environ, COLUMNS="300", **env),
         timeout=60,
         check=False,
+        cwd=cwd,
     )
 
 
@@ -268,6 +273,18 @@ def test_sandbox_keeps_a_model_off_the_network(fixture_fmu, write_system, tmp_pa
         confined = _probe_run(fixture_fmu, write_system, tmp_path, CONNECT_PROBE, env, "--sandbox")
     assert confined.returncode == 1
     assert "Faulty: cannot connect" in confined.stderr
+
+
+def test_a_sandboxed_model_loads_whatever_the_working_folder(
+    fixture_fmu, write_system, tmp_path
+) -> None:
+    """The confined child may read fmionnx's own files wherever they are installed: from a
+    source checkout (an editable install), they were readable only when the run started in
+    that checkout, the one folder of ``sys.path`` that held them."""
+    elsewhere = tmp_path / "elsewhere"
+    elsewhere.mkdir()
+    done = _probe_run(fixture_fmu, write_system, tmp_path, PRINT, {}, "--sandbox", cwd=elsewhere)
+    assert done.returncode == 0, done.stderr
 
 
 def test_sandboxed_models_give_the_same_results(fixture_fmu, write_system, tmp_path) -> None:

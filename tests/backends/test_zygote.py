@@ -13,6 +13,8 @@ import os
 import signal
 import socket
 import stat
+import subprocess
+import sys
 from collections.abc import Iterator
 from pathlib import Path
 
@@ -78,12 +80,12 @@ def test_children_are_forked_by_one_zygote_that_outlives_them(
 
 
 def test_a_forked_child_holds_only_its_own_descriptors(
-    fixture_fmu, write_system, fresh_zygote, tmp_path: Path
+    fixture_fmu, write_system, fresh_zygote, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     """Not the zygote's socket, nor a sibling's pipes: a model could otherwise forge another
     child's exit status or keep the zygote's socket open after the supervisor is gone."""
     component = lone_component(fixture_fmu, write_system, "Gain")
-    os.chdir(tmp_path)  # the child works in the supervisor's folder of the moment
+    monkeypatch.chdir(tmp_path)  # the child works in the supervisor's folder of the moment
     with isolated(component), isolated(component) as runner:  # a sibling alive meanwhile
         pid = runner._process.pid
         assert Path(f"/proc/{pid}/cwd").resolve() == tmp_path.resolve()
@@ -226,3 +228,32 @@ def test_the_zygote_ends_when_its_supervisor_closes_the_socket(fresh_zygote) -> 
     zygote._socket.shutdown(socket.SHUT_RDWR)
     assert zygote._process.wait(30) == 0
     zygote.close()
+
+
+PRINT = 11
+
+
+def test_what_an_isolated_model_printed_reaches_the_output_when_its_child_ends(
+    fixture_fmu, write_system, tmp_path: Path
+) -> None:
+    """A forked child keeps the run's standard output (not closed with the zygote's other
+    descriptors), and what a model printed there survives the child's ``os._exit`` (which
+    skips a normal exit's flush; the child flushes Python's and C's streams first)."""
+    system = write_system(
+        f"""
+fmionnx: 1
+name: talker
+run: {{stop: 0.05, step: 0.01}}
+components:
+  m: {{kind: fmu, path: {fixture_fmu("Faulty")}, parameters: {{mode: {PRINT}, failAt: 0.0}}}}
+"""
+    )
+    code = "import sys; from fmionnx.cli import main; sys.argv[0] = 'fmionnx'; main()"
+    done = subprocess.run(
+        [sys.executable, "-c", code, "run", str(system), "--out", str(tmp_path / "out"),
+         "--isolate", "fmus", "--quiet"],
+        capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    printed = [line for line in done.stdout.splitlines() if line.startswith("Faulty: a line")]
+    assert len(printed) == 5, done.stdout

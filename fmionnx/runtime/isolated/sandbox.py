@@ -72,6 +72,9 @@ def readable_roots(model: Path) -> list[Path]:
     roots = [Path(p) for p in SYSTEM_READABLE]
     roots += [Path(p) for p in (sys.prefix, sys.base_prefix, sys.exec_prefix)]
     roots += [Path(p) for p in sys.path if p]
+    # fmionnx itself: an editable install maps it from its source folder, which is on
+    # sys.path only when that folder happens to be the working folder.
+    roots.append(Path(__file__).resolve().parents[2])
     roots.append(model)
     return [p for p in dict.fromkeys(roots) if p.exists()]
 

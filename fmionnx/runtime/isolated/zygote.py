@@ -25,6 +25,7 @@ as a directly started child does). It never runs a model itself.
 from __future__ import annotations
 
 import contextlib
+import ctypes
 import json
 import os
 import select
@@ -74,6 +75,16 @@ def _be_child(request: dict[str, Any], fds: list[int]) -> int:
     return child.main([*(str(fd) for fd in fds), *request["argv"]])
 
 
+def _flush_all() -> None:
+    """What a normal exit would flush before ``os._exit``: Python's streams, and C's (a model
+    that ``printf``s to a pipe or file has its lines in the C library's buffer)."""
+    for stream in (sys.stdout, sys.stderr):
+        with contextlib.suppress(Exception):
+            stream.flush()
+    with contextlib.suppress(OSError, AttributeError):
+        ctypes.CDLL(None).fflush(None)
+
+
 def _spawn(server: socket.socket, request: dict[str, Any], fds: list[int]) -> tuple[int, int]:
     """Fork a child for ``request``; answer its pid, pidfd and status pipe. Returns the pid
     and the status pipe's write end."""
@@ -88,6 +99,7 @@ def _spawn(server: socket.socket, request: dict[str, Any], fds: list[int]) -> tu
         except BaseException:
             traceback.print_exc()
         finally:
+            _flush_all()
             os._exit(code)
     for fd in fds:
         os.close(fd)
