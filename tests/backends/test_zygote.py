@@ -23,9 +23,10 @@ import pytest
 
 import fmionnx
 from fmionnx.core.errors import RunError
+from fmionnx.core.runner import Wiring
 from fmionnx.runtime.isolated import launcher
 from fmionnx.runtime.isolated.launcher import ForkedChild, SpawnedChild, Zygote, ZygoteError
-from fmionnx.runtime.isolated.proxy import IsolatedRunner
+from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
 from fmionnx.runtime.result import RunOptions, RunStatus
 from tests.backends.isolated_runner import isolated, lone_component
 
@@ -257,3 +258,60 @@ components:
     assert done.returncode == 0, done.stderr
     printed = [line for line in done.stdout.splitlines() if line.startswith("Faulty: a line")]
     assert len(printed) == 5, done.stdout
+
+
+def test_a_supervisor_whose_working_folder_was_removed_starts_a_new_interpreter(
+    fixture_fmu, write_system, fresh_zygote, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The zygote would have no folder to put the child in: the child starts as a new
+    interpreter, inheriting the removed folder as it did before the zygote (where fmpy's
+    own ``os.getcwd`` then fails the model's load: a fault of the component, not a crash)."""
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 7.0}")
+    gone = tmp_path / "gone"
+    gone.mkdir()
+    monkeypatch.chdir(gone)
+    gone.rmdir()
+    runner = IsolatedRunner(
+        component,  # type: ignore[arg-type]
+        Wiring(driven=frozenset({"u"})),
+        IsolationSettings(step_timeout=30.0),
+    )
+    try:
+        runner.instantiate()
+        assert isinstance(runner._process, SpawnedChild)
+        with pytest.raises(RunError, match="FileNotFoundError"):
+            runner.setup(0.0, 1.0)
+    finally:
+        runner.terminate()
+
+
+def test_no_zygote_where_the_kernel_has_no_pidfds(monkeypatch: pytest.MonkeyPatch) -> None:
+    """Python may offer ``os.pidfd_open`` on a kernel older than 5.3: one is opened to know."""
+
+    def missing(pid: int) -> int:
+        raise OSError(38, "Function not implemented")
+
+    launcher.zygote_wanted.cache_clear()
+    try:
+        assert launcher.zygote_wanted()
+        launcher.zygote_wanted.cache_clear()
+        monkeypatch.setattr(os, "pidfd_open", missing)
+        assert not launcher.zygote_wanted()
+    finally:
+        launcher.zygote_wanted.cache_clear()
+
+
+def test_a_child_killed_between_two_steps_is_a_fault_of_the_next_step(
+    fixture_fmu, write_system, fresh_zygote
+) -> None:
+    """The next step's command meets a closed pipe: a fault saying how the child ended, not
+    a ``BrokenPipeError`` (seen when the zygote, and with it its child, was killed)."""
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 2.0}")
+    with isolated(component) as runner:
+        _gain_steps(runner, 2.0)
+        process = runner._process
+        assert process is not None
+        os.kill(process.pid, signal.SIGKILL)
+        assert process.wait(30) == -signal.SIGKILL
+        with pytest.raises(RunError, match="crashed with SIGKILL"):
+            runner.step(0.05, 0.01)

@@ -13,6 +13,7 @@ from __future__ import annotations
 
 import atexit
 import contextlib
+import functools
 import json
 import os
 import select
@@ -191,7 +192,11 @@ class Zygote:
     ) -> ForkedChild:
         """Fork a child that serves on ``fds`` (command pipe, reply pipe, shared memory),
         in this process's working folder, with ``env`` as its environment."""
-        request = {"argv": argv, "cwd": str(Path.cwd()), "env": env}
+        try:
+            folder = str(Path.cwd())
+        except OSError as exc:  # removed meanwhile: a new interpreter inherits it as it is
+            raise ZygoteError(f"no working folder to give the child: {exc}") from exc
+        request = {"argv": argv, "cwd": folder, "env": env}
         with self._lock:
             try:
                 socket.send_fds(self._socket, [json.dumps(request).encode()], list(fds))
@@ -236,9 +241,17 @@ def _close_zygote() -> None:
         zygote.close()
 
 
+@functools.cache
 def zygote_wanted() -> bool:
-    """Whether children may be forked by a zygote here (needs pidfds, Linux 5.3+)."""
-    return hasattr(os, "pidfd_open") and hasattr(signal, "pidfd_send_signal")
+    """Whether children may be forked by a zygote here: it needs pidfds (Linux 5.3+), which
+    Python may offer on a kernel that lacks them, so one is opened to find out."""
+    if not (hasattr(os, "pidfd_open") and hasattr(signal, "pidfd_send_signal")):
+        return False
+    try:
+        os.close(os.pidfd_open(os.getpid()))
+    except OSError:
+        return False
+    return True
 
 
 def launch(fds: tuple[int, int, int], argv: list[str], env: dict[str, str]) -> ChildProcess:

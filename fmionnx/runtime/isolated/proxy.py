@@ -192,7 +192,10 @@ class IsolatedRunner:
         times[0] = t
         times[1] = h
         self._pending.append(False)
-        channel.write_all(self._commands, channel.STEP)
+        try:
+            channel.write_all(self._commands, channel.STEP)
+        except BrokenPipeError:  # the child is gone (killed from outside between two steps)
+            self._died(t, h)
         self._sent_one()
         control = self._control
         if control is not None and not on_lane():
