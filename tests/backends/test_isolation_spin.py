@@ -21,7 +21,6 @@ from collections.abc import Iterator
 from contextlib import contextmanager
 from pathlib import Path
 
-import numpy as np
 import pytest
 
 import fmionnx
@@ -30,7 +29,12 @@ from fmionnx.runtime.isolated import channel, launcher, proxy
 from fmionnx.runtime.isolated.proxy import IsolatedRunner
 from fmionnx.runtime.parallel import Job, Lane
 from fmionnx.runtime.result import RunOptions, RunStatus
-from tests.backends.isolated_runner import isolated, lone_component
+from tests.backends.isolated_runner import (
+    assert_completed_alike,
+    isolated,
+    isolated_chain,
+    lone_component,
+)
 
 HANG = 6
 
@@ -187,33 +191,13 @@ def test_a_forged_reply_counter_cannot_hide_a_hang(fixture_fmu, write_system) ->
 def test_spinning_leaves_a_multi_fmu_system_byte_identical(
     fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch, tmp_path: Path
 ) -> None:
-    system = fmionnx.load(
-        write_system(
-            f"""
-fmionnx: 1
-name: chain
-run: {{stop: 1.0, step: 0.001}}
-components:
-  a: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: 0.5}}}}
-  b: {{kind: fmu, path: {fixture_fmu("Integrator")}, interface: me}}
-  c: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: -1.5}}}}
-connections:
-  - a.y -> b.u
-  - b.x -> a.u
-  - b.x -> c.u
-"""
-        )
-    )
-    everything = RunOptions(isolate=frozenset({"a", "b", "c"}))
+    system, everything = isolated_chain(fixture_fmu, write_system)
     spinning = system.run(options=everything)
     monkeypatch.setattr(proxy, "SPIN_NS", 0)  # the supervisor's waits as before the counters
     blocking = system.run(options=everything)
     plain = system.run()
     for result in (spinning, blocking):
-        assert result.status is RunStatus.COMPLETED
-        assert list(result.signals) == list(plain.signals)
-        for name, values in plain.signals.items():
-            assert np.asarray(values).tobytes() == np.asarray(result.signals[name]).tobytes()
+        assert_completed_alike(plain, result)
 
 
 @pytest.mark.parametrize(("spin", "flag"), [(True, []), (False, ["--no-spin"])])

@@ -18,17 +18,20 @@ import sys
 from collections.abc import Iterator
 from pathlib import Path
 
-import numpy as np
 import pytest
 
-import fmionnx
 from fmionnx.core.errors import RunError
-from fmionnx.core.runner import Wiring
 from fmionnx.runtime.isolated import launcher
 from fmionnx.runtime.isolated.launcher import ForkedChild, SpawnedChild, Zygote, ZygoteError
-from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
-from fmionnx.runtime.result import RunOptions, RunStatus
-from tests.backends.isolated_runner import isolated, lone_component
+from fmionnx.runtime.isolated.proxy import IsolatedRunner
+from fmionnx.runtime.result import RunStatus
+from tests.backends.isolated_runner import (
+    assert_completed_alike,
+    isolated,
+    isolated_chain,
+    lone_component,
+    unstarted,
+)
 
 HANG = 6
 SEGFAULT = 3
@@ -198,30 +201,11 @@ def test_when_zygotes_keep_failing_a_child_starts_as_a_new_interpreter(
 def test_results_are_the_same_with_and_without_the_zygote(
     fixture_fmu, write_system, fresh_zygote, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    system = fmionnx.load(
-        write_system(
-            f"""
-fmionnx: 1
-name: chain
-run: {{stop: 0.5, step: 0.001}}
-components:
-  a: {{kind: fmu, path: {fixture_fmu("Gain")}, parameters: {{k: 0.5}}}}
-  b: {{kind: fmu, path: {fixture_fmu("Integrator")}, interface: me}}
-connections:
-  - a.y -> b.u
-  - b.x -> a.u
-"""
-        )
-    )
-    isolated = RunOptions(isolate=frozenset({"a", "b"}))
-    forked = system.run(options=isolated)
+    system, everything = isolated_chain(fixture_fmu, write_system)
+    forked = system.run(options=everything)
+    assert forked.status is RunStatus.COMPLETED
     monkeypatch.setattr(launcher, "zygote_wanted", lambda: False)
-    spawned = system.run(options=isolated)
-    for result in (forked, spawned):
-        assert result.status is RunStatus.COMPLETED
-    assert list(forked.signals) == list(spawned.signals)
-    for name, values in forked.signals.items():
-        assert np.asarray(values).tobytes() == np.asarray(spawned.signals[name]).tobytes()
+    assert_completed_alike(forked, system.run(options=everything))
 
 
 def test_the_zygote_ends_when_its_supervisor_closes_the_socket(fresh_zygote) -> None:
@@ -271,11 +255,7 @@ def test_a_supervisor_whose_working_folder_was_removed_starts_a_new_interpreter(
     gone.mkdir()
     monkeypatch.chdir(gone)
     gone.rmdir()
-    runner = IsolatedRunner(
-        component,  # type: ignore[arg-type]
-        Wiring(driven=frozenset({"u"})),
-        IsolationSettings(step_timeout=30.0),
-    )
+    runner = unstarted(component)
     try:
         runner.instantiate()
         assert isinstance(runner._process, SpawnedChild)

@@ -30,6 +30,7 @@ import json
 import mmap
 import os
 import pickle
+import select
 import struct
 import time
 from dataclasses import dataclass
@@ -166,6 +167,14 @@ class Spinner:
 def view(block: mmap.mmap, slot: Slot) -> npt.NDArray[np.generic]:
     """The flat array of ``slot`` in a mapped data block."""
     return np.ndarray((slot.count,), np.dtype(slot.dtype), buffer=block, offset=slot.offset)
+
+
+def readable(fd: int, timeout: float | None) -> bool:
+    """Whether ``fd`` has something to read, or its other end closed, within ``timeout``
+    seconds (None: wait for ever)."""
+    poller = select.poll()
+    poller.register(fd, select.POLLIN | select.POLLHUP)
+    return bool(poller.poll(None if timeout is None else max(timeout, 0.0) * 1000.0))
 
 
 def write_all(fd: int, data: bytes) -> None:

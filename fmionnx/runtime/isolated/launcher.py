@@ -16,7 +16,6 @@ import contextlib
 import functools
 import json
 import os
-import select
 import signal
 import socket
 import subprocess
@@ -27,6 +26,7 @@ from typing import Protocol
 
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.runtime.isolated import zygote
+from fmionnx.runtime.isolated.channel import readable
 
 #: Seconds the zygote may take to import what children need (a loaded machine is slow).
 ZYGOTE_START_TIMEOUT = 30.0
@@ -56,12 +56,6 @@ class ChildProcess(Protocol):
         """``SIGKILL`` the child (nothing if it has ended)."""
 
 
-def _readable(fd: int, timeout: float | None) -> bool:
-    poller = select.poll()
-    poller.register(fd, select.POLLIN | select.POLLHUP)
-    return bool(poller.poll(None if timeout is None else max(timeout, 0.0) * 1000.0))
-
-
 class SpawnedChild:
     """A child started as a new interpreter: ``Popen``, with waits on a pidfd."""
 
@@ -85,7 +79,7 @@ class SpawnedChild:
             timeout is not None
             and self._pidfd >= 0
             and self._process.returncode is None
-            and not _readable(self._pidfd, timeout)
+            and not readable(self._pidfd, timeout)
         ):
             raise subprocess.TimeoutExpired(self._process.args, timeout)
         code = self._process.wait(timeout)
@@ -119,13 +113,13 @@ class ForkedChild:
         return self._pid
 
     def poll(self) -> int | None:
-        if self.returncode is None and _readable(self._status, 0.0):
+        if self.returncode is None and readable(self._status, 0.0):
             self._collect()
         return self.returncode
 
     def wait(self, timeout: float | None = None) -> int:
         if self.returncode is None:
-            if not _readable(self._status, timeout):
+            if not readable(self._status, timeout):
                 raise subprocess.TimeoutExpired(f"isolated child {self._pid}", timeout or 0.0)
             self._collect()
         assert self.returncode is not None
@@ -144,7 +138,7 @@ class ForkedChild:
             self.returncode = zygote.STATUS.unpack(data)[0]
         else:
             # The zygote died before it could report: its children die with it (SIGKILL).
-            _readable(self._pidfd, None)
+            readable(self._pidfd, None)
             self.returncode = -int(signal.SIGKILL)
         self._release()
 
@@ -221,7 +215,7 @@ class Zygote:
             self._process.wait()
 
     def _receive(self, timeout: float) -> tuple[bytes, list[int]]:
-        if not _readable(self._socket.fileno(), timeout):
+        if not readable(self._socket.fileno(), timeout):
             return b"", []
         message, fds, _, _ = socket.recv_fds(self._socket, zygote.MAX_REQUEST, 2)
         return message, fds

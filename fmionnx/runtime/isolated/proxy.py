@@ -20,7 +20,6 @@ import contextlib
 import fcntl
 import mmap
 import os
-import select
 import signal
 import subprocess
 import tempfile
@@ -263,7 +262,7 @@ class IsolatedRunner:
     def _await(self, t: float, h: float, timeout: float | None = None) -> object:
         """The child's reply to the oldest pending command; faults become RunErrors."""
         limit = self._settings.step_timeout if timeout is None else timeout
-        if limit is not None and not self._ready(limit):
+        if limit is not None and not channel.readable(self._replies, limit):
             self._kill_hung(t, h, limit)
         tag = channel.read_exact(self._replies, 1)
         if tag is None:
@@ -291,11 +290,6 @@ class IsolatedRunner:
             f"its process sent {problem} in {self._phase_label()}; the process was stopped",
             time=self._time,
         )
-
-    def _ready(self, seconds: float) -> bool:
-        poller = select.poll()
-        poller.register(self._replies, select.POLLIN | select.POLLHUP)
-        return bool(poller.poll(seconds * 1000.0))
 
     def _phase(self) -> int:
         return self._control.phase.value if self._control is not None else 0
