@@ -686,14 +686,21 @@ def _unpickle(data: bytes, shared: _Shared) -> RunResult | None:
     return result if isinstance(result, RunResult) else None
 
 
-def _how(status: int) -> str:
+def _how(status: int, *, of_process: bool = False) -> str:
+    """How the child ended, said of the model that ended it, or ``of_process``: of the run's
+    process itself (the sentence's subject)."""
     if os.WIFSIGNALED(status):
         number = os.WTERMSIG(status)
         try:
             return f"crashed with {signal.Signals(number).name}"
         except ValueError:
             return f"was killed by signal {number}"
-    return f"ended the run's process with exit status {os.waitstatus_to_exitcode(status)}"
+    code = os.waitstatus_to_exitcode(status)
+    return (
+        f"ended with exit status {code}"
+        if of_process
+        else (f"ended the run's process with exit status {code}")
+    )
 
 
 def _salvage(
@@ -724,6 +731,7 @@ def _salvage(
         label = _PHASE_LABELS[phase]
         error = fault(names[who], f"the model {how} in {label} ({guarded})", time=when)
     elif phase == _ENDED:
+        how = _how(status, of_process=True)
         error = RunError(f"the run's process {how} after its models were terminated", time=t)
     elif 0 <= index < len(works) and works[index]:
         label = works[index]
@@ -741,6 +749,7 @@ def _salvage(
             )
         error = fault(label, f"the model {how} {where}", time=t)
     else:
+        how = _how(status, of_process=True)
         error = RunError(f"the run's process {how} while preparing the run", time=run.start)
     return RunResult.after(system, BACKEND_NAME, RunStatus.FAULT, steps_done, wall, signals, error)
 

@@ -116,3 +116,24 @@ def test_a_crash_in_a_step_of_a_lone_fmu_names_its_fmi_function(fixture_fmu) -> 
     assert "crashed with SIGSEGV during its step, in fmi2DoStep or the calls" in str(result.error)
     assert result.error.time == pytest.approx(0.2)
     assert result.steps_done == 20
+
+
+def test_a_process_ending_after_the_run_says_so_once(tmp_path: Path, fixture_fmu) -> None:
+    """The run's process itself is the sentence's subject: said once, how it ended after."""
+    path = tmp_path / "two.yaml"
+    path.write_text(
+        TWO.format(gain=fixture_fmu("Gain"), integrator=fixture_fmu("Integrator")),
+        encoding="utf-8",
+    )
+    compiled = fmionnx.load(path).compiled
+
+    def run_fn(*, options: RunOptions) -> RunResult:
+        Master(compiled, options).run()
+        os._exit(9)
+
+    result = run_guarded(compiled, run_fn, RunOptions())
+    assert result.status is RunStatus.FAULT
+    assert str(result.error) == (
+        "the run's process ended with exit status 9 after its models were terminated"
+    )
+    assert result.steps_done == 50

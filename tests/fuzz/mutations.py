@@ -545,9 +545,12 @@ HOSTILE_MEMBER_NAMES: tuple[str, ...] = (
 )
 
 
-@dataclass(frozen=True)
+@dataclass(frozen=True, repr=False)
 class ZipLayout:
-    """Where things are in a zip: each member's local header and data, the central directory."""
+    """Where things are in a zip: each member's local header and data, the central directory.
+
+    Its repr is short: it is an argument of the mutation strategies, and hypothesis warns (an
+    error under pytest) when a strategy's repr, its arguments' included, runs to tens of kB."""
 
     data: bytes
     names: tuple[str, ...]
@@ -584,6 +587,14 @@ class ZipLayout:
             tuple(offsets),
             eocd,
         )
+
+    def __repr__(self) -> str:
+        digest = hashlib.sha256(self.data).hexdigest()[:12]
+        return f"ZipLayout({len(self.data)} bytes, sha256 {digest}..., members {self.names})"
+
+    def _repr_pretty_(self, printer: Any, cycle: bool) -> None:
+        """What hypothesis's printer asks first (it prints a dataclass field by field)."""
+        printer.text(repr(self))
 
     def members(self) -> list[tuple[zipfile.ZipInfo, bytes]]:
         """(info, content) of every member, for rebuilding the archive."""

@@ -43,6 +43,7 @@ from fmionnx.kinds.fmu.libraries import (
     library_key,
     shareable,
 )
+from fmionnx.kinds.fmu.loading import load_library
 from fmionnx.kinds.fmu.values import (
     RawCall,
     ValueFunctions,
@@ -174,7 +175,8 @@ class FmuRunner(ABC):
             except ModelError as exc:  # damaged since it was compiled (or only in its binary)
                 raise fault(self.component.name, str(exc), time=0.0) from None
         self._md = component_description(self.component, (root / MODEL_DESCRIPTION).read_bytes)
-        self._fmu = self._new_fmu(self._md, root)
+        md = self._md
+        self._fmu = load_library(self.component.name, root, lambda: self._new_fmu(md, root))
 
     def setup(self, start: float, stop: float) -> None:
         """Parameters and start values, then the version's initialization, then the stepper."""
