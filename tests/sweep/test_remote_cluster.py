@@ -68,8 +68,10 @@ def _stop(process: subprocess.Popen[bytes]) -> None:
 
 
 @pytest.fixture
-def remote(tmp_path: Path) -> Iterator[tuple[str, Path]]:
-    """The scheduler's address and the worker's working folder (far from the study)."""
+def remote(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[str, Path]]:
+    """The scheduler's address and the worker's working folder (far from the study); the
+    worker runs one thread unless the test is parametrized indirectly with another count."""
+    threads = getattr(request, "param", 1)
     home = tmp_path / "worker-home"
     home.mkdir()
     port = _free_port()
@@ -86,7 +88,7 @@ def remote(tmp_path: Path) -> Iterator[tuple[str, Path]]:
         processes.append(
             _start(
                 [
-                    "worker", address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", "1",
+                    "worker", address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", str(threads),
                     "--no-dashboard", "--local-directory", str(home / "local"),
                 ],
                 home,
@@ -140,3 +142,37 @@ def test_models_travel_to_a_remote_worker_by_hash(
     table = fmionnx.sweep(study, out=tmp_path / "out", scheduler=address)
     assert list(table["status"]) == ["ok"] * 4
     assert list(table["y_end"]) == pytest.approx([1, 1.5, 2, 3])
+
+
+MANY = """\
+fmionnx: 1
+system: system.yaml
+isolate: [{isolate}]
+parameters:
+  gain.k: {{range: {{start: 0.5, stop: 2, num: 6}}}}
+  integ.x0: [0, 0.25, 0.5, 1]
+metrics:
+  y_end: final(gain.y)
+"""
+
+
+@pytest.mark.parametrize("remote", [4], indirect=True)
+@pytest.mark.parametrize("isolate", ["none", "fmus"])
+def test_a_worker_of_several_threads_runs_its_cases_side_by_side_alike(
+    write_study: WriteStudy, remote: tuple[str, Path], isolate: str
+) -> None:
+    """``dask worker`` runs as many threads as cores unless told otherwise: cases then run side
+    by side in one process (FMU libraries loaded at once, isolated children forked at once)."""
+    address, _ = remote
+    study = write_study(MANY.format(isolate=isolate))
+    plan, _ = plan_study(study)
+    outcomes: list[CaseOutcome] = []
+    with open_client(address) as client:
+        run_study(client, plan, plan.cases, Job.of(plan), outcomes.append, batch=1)
+    assert len(outcomes) == 24
+    for case in plan.cases:
+        outcome = next(o for o in outcomes if o.id == case.id)
+        assert outcome.status == "ok", outcome.message
+        values = case.values()
+        expected = float(values["gain.k"]) * (float(values["integ.x0"]) + 1)
+        assert outcome.metrics["y_end"] == pytest.approx(expected), case
