@@ -696,11 +696,8 @@ def _how(status: int, *, of_process: bool = False) -> str:
         except ValueError:
             return f"was killed by signal {number}"
     code = os.waitstatus_to_exitcode(status)
-    return (
-        f"ended with exit status {code}"
-        if of_process
-        else (f"ended the run's process with exit status {code}")
-    )
+    ended = "ended" if of_process else "ended the run's process"
+    return f"{ended} with exit status {code}"
 
 
 def _salvage(

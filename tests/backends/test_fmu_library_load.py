@@ -4,6 +4,7 @@ place in the FMU; loading never moves the process's working folder (fmionnx.kind
 from __future__ import annotations
 
 import os
+import signal
 import subprocess
 import sys
 import threading
@@ -154,3 +155,27 @@ def test_a_removed_working_folder_is_said_so(tmp_path: Path, monkeypatch) -> Non
     gone.rmdir()
     with pytest.raises(RunError, match="this process's working folder was removed"):
         load_library("c", tmp_path, lambda: None)
+
+
+def test_a_child_forked_while_a_thread_loads_can_load(tmp_path: Path) -> None:
+    """The guardian forks the run: another thread of the parent may be inside a load then."""
+    inside, release = threading.Event(), threading.Event()
+
+    def slow() -> None:
+        inside.set()
+        release.wait(30)
+
+    loader = threading.Thread(target=load_library, args=("c", tmp_path, slow))
+    loader.start()
+    try:
+        assert inside.wait(30)
+        pid = os.fork()
+        if pid == 0:  # the child: its load must not wait for the parent's thread
+            signal.alarm(10)
+            load_library("c", tmp_path, lambda: None)
+            os._exit(0)
+        _, status = os.waitpid(pid, 0)
+    finally:
+        release.set()
+        loader.join()
+    assert os.waitstatus_to_exitcode(status) == 0

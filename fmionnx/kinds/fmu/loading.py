@@ -26,18 +26,21 @@ from pathlib import Path
 from typing import TypeVar
 
 from fmionnx.core.errors import FmionnxError
+from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.runner import fault
 
 T = TypeVar("T")
 
-#: Held while fmpy loads a library: the working folder is the whole process's.
-_LOADING = threading.Lock()
+#: Held while fmpy loads a library: the working folder is the whole process's. One per
+#: process: a child forked while another thread of its parent held it (the guardian's, in a
+#: program that loads FMUs in threads) would otherwise wait for it forever.
+_LOADING: ProcessLocal[threading.Lock] = ProcessLocal()
 
 
 def load_library(component: str, root: Path, load: Callable[[], T]) -> T:
     """``load()`` -- fmpy making its object for the FMU unpacked at ``root`` -- with the
     process's working folder restored after it; a failure is a fault of ``component``."""
-    with _LOADING:
+    with _LOADING.get_or_make(threading.Lock):
         try:
             before = Path.cwd()
         except FileNotFoundError:  # fmpy reads it first, and would fail with a bare errno
