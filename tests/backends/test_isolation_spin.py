@@ -92,9 +92,11 @@ def test_a_step_slower_than_the_spin_still_answers(fixture_fmu, write_system, ti
         pid = _child_pid(runner)
         late = proxy.SPIN_NS * 20e-9  # the child answers 20x later than the spin lasts
         os.kill(pid, signal.SIGSTOP)
+        # Timed from before the timer starts: this thread may lose its core between the two
+        # (a loaded machine), and the answer is only sure to come `late` after the timer's start.
+        started = time.perf_counter()
         threading.Timer(late, os.kill, (pid, signal.SIGCONT)).start()
         u[0] = 2.0
-        started = time.perf_counter()
         runner.step(0.01, 0.01)
         assert time.perf_counter() - started >= late  # the answer came after the spin ran out
         assert y[0] == 6.0
