@@ -67,12 +67,22 @@ def _file(prefix: str, name: str) -> str:
     return f"{prefix}-{slug}.png"
 
 
+def completed(table: pd.DataFrame, metric: str) -> pd.Series:
+    """``metric`` where the case completed, NaN elsewhere: a fault's or a timeout's value is
+    measured on what was recorded up to then, not on the run the study asked for."""
+    return table[metric].where(table["status"] == "ok")
+
+
 def _heatmap(table: pd.DataFrame, targets: list[str], metric: str, out: Path) -> Path:
-    grid = table.pivot_table(
+    from matplotlib import colormaps
+
+    shown = table.assign(**{metric: completed(table, metric)})
+    grid = shown.pivot_table(
         index=targets[1], columns=targets[0], values=metric, aggfunc="mean", dropna=False
     )
     figure, axes = new_figure_plain()
-    image = axes.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap="viridis")
+    palette = colormaps["viridis"].with_extremes(bad="lightgrey")
+    image = axes.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap=palette)
     _ticks(axes, grid)
     axes.set_xlabel(targets[0])
     axes.set_ylabel(targets[1])
@@ -83,6 +93,10 @@ def _heatmap(table: pd.DataFrame, targets: list[str], metric: str, out: Path) ->
         bright = high > low and (value - low) / (high - low) > 0.6  # viridis is light up there
         colour = "black" if bright else "white"
         axes.text(col, row, f"{value:.3g}", ha="center", va="center", color=colour, fontsize=8)
+    columns, rows = list(grid.columns), list(grid.index)
+    for _, case in table[table["status"] != "ok"].iterrows():  # the grey cells say why
+        col, row = columns.index(case[targets[0]]), rows.index(case[targets[1]])
+        axes.text(col, row, case["status"], ha="center", va="center", color="tab:red", fontsize=8)
     return save_figure(figure, out / _file("heatmap", metric))
 
 
@@ -106,10 +120,18 @@ def _ticks(axes: Any, grid: pd.DataFrame) -> None:
 def _against(table: pd.DataFrame, targets: list[str], metric: str, out: Path) -> Path:
     figure, axes = new_figure_plain(ncols=len(targets))
     panels = axes if len(targets) > 1 else [axes]
+    shown = table.assign(**{metric: completed(table, metric)})
+    incomplete = table[table["status"] != "ok"]
     for panel, target in zip(panels, targets, strict=True):
-        ordered = table.sort_values(target, kind="stable")
+        ordered = shown.sort_values(target, kind="stable")
         style = "o-" if len(targets) == 1 else "o"
         panel.plot(ordered[target], ordered[metric], style)
+        if not incomplete.empty:  # a cross at the panel's foot, where no value is drawn
+            panel.plot(
+                incomplete[target], [0.03] * len(incomplete), "x", color="tab:red",
+                transform=panel.get_xaxis_transform(), label="did not complete",
+            )  # fmt: skip
+            panel.legend(loc="best")
         panel.set_xlabel(target)
         panel.set_ylabel(metric)
         panel.grid(visible=True, alpha=0.3)

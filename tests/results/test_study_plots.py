@@ -1,0 +1,75 @@
+"""A study's summary plots draw a case that did not complete as missing, never as a value: a
+fault's or a timeout's metric is measured on what was recorded before it ended."""
+
+from __future__ import annotations
+
+import math
+from pathlib import Path
+from typing import Any
+
+import numpy as np
+import pandas as pd
+import pytest
+
+from fmionnx.results import study_plots
+
+#: Two targets on a 2 x 2 grid; one case faulted at load (its metric measured at t = 0).
+GRID = pd.DataFrame(
+    {
+        "k": [1.0, 2.0, 1.0, 2.0],
+        "x0": [0.0, 0.0, 0.5, 0.5],
+        "y_end": [1.0, 2.0, 0.0, 3.0],
+        "status": ["ok", "ok", "fault", "ok"],
+    }
+)
+
+
+@pytest.fixture
+def drawn(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
+    """The figures the plots would save (matplotlib draws them for real; the file is left)."""
+    figures: list[Any] = []
+
+    def keep(figure: Any, path: Path) -> Path:
+        figures.append(figure)
+        return path
+
+    monkeypatch.setattr(study_plots, "save_figure", keep)
+    return figures
+
+
+def test_a_heat_map_leaves_a_case_that_did_not_complete_grey_and_says_why(
+    drawn: list[Any], tmp_path: Path
+) -> None:
+    study_plots._heatmap(GRID, ["k", "x0"], "y_end", tmp_path)
+    axes = drawn[0].axes[0]
+    cells = axes.images[0].get_array()
+    assert cells[0].tolist() == [1.0, 2.0]  # x0 = 0: both completed
+    assert np.ma.is_masked(cells[1, 0]) or math.isnan(float(cells[1, 0]))  # the fault
+    assert cells[1, 1] == 3.0
+    texts = {(t.get_position(), t.get_text()) for t in axes.texts}
+    assert ((0, 1), "fault") in texts
+    assert ((0, 1), "0") not in texts  # its recorded value is not shown as the case's
+    assert axes.images[0].get_clim() == (1.0, 3.0)
+
+
+def test_a_metric_against_a_target_marks_a_case_that_did_not_complete_at_the_foot(
+    drawn: list[Any], tmp_path: Path
+) -> None:
+    table = GRID[GRID["x0"] == 0.5].reset_index(drop=True)  # k = 1 faulted, k = 2 completed
+    study_plots._against(table, ["k"], "y_end", tmp_path)
+    axes = drawn[0].axes[0]
+    values, crosses = axes.lines
+    assert values.get_xdata().tolist() == [1.0, 2.0]
+    assert math.isnan(values.get_ydata()[0])
+    assert values.get_ydata()[1] == 3.0
+    assert crosses.get_xdata().tolist() == [1.0]
+    assert crosses.get_label() == "did not complete"
+
+
+def test_completed_cases_only_draw_as_before(drawn: list[Any], tmp_path: Path) -> None:
+    table = GRID.assign(status="ok")
+    study_plots._against(table, ["k", "x0"], "y_end", tmp_path)
+    for axes in drawn[0].axes:
+        assert len(axes.lines) == 1  # no crosses, no legend
+        assert axes.get_legend() is None
+    assert sorted(drawn[0].axes[0].lines[0].get_ydata().tolist()) == [0.0, 1.0, 2.0, 3.0]
