@@ -21,6 +21,7 @@ from typing import Literal
 from fmionnx.compile.checkir import Expr
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.overrides import (
+    OverrideError,
     apply_component_setting,
     override_output_interval,
     override_parameter,
@@ -125,15 +126,22 @@ def _plain(value: SettingValue) -> object:
 def apply_setting(system: CompiledSystem, setting: Setting) -> CompiledSystem:
     """``system`` with one setting applied (OverrideError when the value does not fit)."""
     if setting.kind == "stop":
-        assert isinstance(setting.value, int | float)
-        return override_stop(system, float(setting.value))
+        return override_stop(system, _seconds(setting.value, "--stop-time"))
     if setting.kind == "output_interval":
-        assert isinstance(setting.value, int | float)
-        return override_output_interval(system, float(setting.value))
+        return override_output_interval(system, _seconds(setting.value, "--output-interval"))
     if setting.kind == "setting":
         return apply_kind_setting(system, setting.target, setting.value)
     value = list(setting.value) if isinstance(setting.value, tuple) else setting.value
     return override_parameter(system, setting.target, value)
+
+
+def _seconds(value: SettingValue, flag: str) -> float:
+    """A run setting's value, which the study file may give as anything YAML holds."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        shown = json.dumps(_plain(value))
+        msg = f"{flag} {shown} must be a finite number of seconds"
+        raise OverrideError(msg)
+    return float(value)
 
 
 def owner(system: CompiledSystem, target: str) -> tuple[str, str] | None:

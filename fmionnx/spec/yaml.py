@@ -175,6 +175,16 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
             hint="keys of a system file are plain names",
         )
         return None
+    except (AttributeError, ValueError, KeyError, IndexError):
+        # ruamel builds some tagged nodes without checking that the tag fits the node
+        # (`!!set fmionnx: 1`: a set tag on a scalar), and fails inside its constructor.
+        bag.emit(
+            "E001",
+            "invalid YAML: a tag does not fit the value it is put on",
+            _first_tag(text, path),
+            hint="system and study files hold plain maps, lists, strings and numbers, no tags",
+        )
+        return None
     except DuplicateKeyError as exc:
         _report_marked(exc, path, bag, "E007")
         return None
@@ -203,6 +213,18 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
     except _StructureError as exc:
         bag.emit("E003", exc.message, sources.value(exc.path), hint=exc.hint)
         return None
+
+
+def _first_tag(text: str, path: Path) -> Span:
+    """Where the document's first tag (``!name``, ``!!name``) starts; its start when none."""
+    import re
+
+    found = re.search(r"(?:^|(?<=[\s\[{,:-]))!", text, flags=re.MULTILINE)
+    if found is None:
+        return Span(path, 1, 1)
+    line = text.count("\n", 0, found.start()) + 1
+    column = found.start() - (text.rfind("\n", 0, found.start()) + 1) + 1
+    return Span(path, line, column)
 
 
 def _report_marked(

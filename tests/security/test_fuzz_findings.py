@@ -33,6 +33,9 @@ def _yaml_problems(text: str, tmp_path: Path) -> list[tuple[str, str]]:
         ("&a [*a]\n", "E003", "contains itself"),
         ("&m {a: *m}\n", "E003", "contains itself"),
         ("? b: {c: 1}\n: x\n", "E001", "key is itself a mapping"),
+        # found by fuzzing study files: ruamel's set constructor fails on a scalar
+        ("!!set fmionnx: 1\nname: x\n", "E001", "a tag does not fit"),
+        ("fmionnx: 1\nrun: {stop: !!set 1}\n", "E001", "a tag does not fit"),
     ],
 )
 def test_yaml_structures_a_system_file_cannot_hold_are_diagnostics(
@@ -42,6 +45,15 @@ def test_yaml_structures_a_system_file_cannot_hold_are_diagnostics(
     assert len(problems) == 1
     assert problems[0][0] == code
     assert words in problems[0][1]
+
+
+def test_a_tag_that_does_not_fit_is_shown_where_it_is(tmp_path: Path) -> None:
+    path = tmp_path / "system.yaml"
+    bag = DiagnosticBag()
+    parse_yaml("fmionnx: 1\nrun: {stop: !!set 1}\n", path, SourceMap(path), bag)
+    [problem] = bag.sorted()
+    assert problem.span is not None
+    assert (problem.span.line, problem.span.col) == (2, 13)
 
 
 def _damaged(tmp_path: Path, damage: str) -> Path:

@@ -78,6 +78,16 @@ def test_every_mistake_is_reported_at_its_place(write_study: WriteStudy, tmp_pat
             "study.yaml:4:13: error[E103 study-values]: `run.stop`: run.stop 0.123 is not a whole "
             "number of base steps (0.01 s) after the start",
         ),
+        (  # found by fuzzing: an assertion error (a traceback) in `fmionnx validate`
+            "fmionnx: 1\nsystem: system.yaml\nparameters:\n  run.output_interval: [0.02, [1, 0]]\n",
+            "study.yaml:4:24: error[E103 study-values]: `run.output_interval`: run.output_interval "
+            "[1, 0] must be a finite number of seconds",
+        ),
+        (
+            "fmionnx: 1\nsystem: system.yaml\nparameters:\n  run.stop: [true]\n",
+            "study.yaml:4:13: error[E103 study-values]: `run.stop`: run.stop true must be a finite "
+            "number of seconds",
+        ),
         (
             "fmionnx: 1\nsystem: system.yaml\nparameters:\n  gain.k: {random: {low: 0, high: 1}}\n",
             "study.yaml:4:11: error[E103 study-values]: `gain.k` is sampled, but the study has no "
