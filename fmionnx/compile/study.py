@@ -61,10 +61,14 @@ def compile_study(loaded: LoadedStudy, bag: DiagnosticBag) -> StudyPlan | None:
         return None
     sources = loaded.sources
     system_path = loaded.path.parent / spec.system
-    if not system_path.is_file():
+    try:
+        problem = None if system_path.is_file() else "does not exist"
+    except OSError as exc:  # a name too long, a loop of links: the file cannot be looked at
+        problem = f"cannot be read: {exc.strerror}"
+    if problem is not None:
         bag.emit(
             "E101",
-            f"the study's system file `{spec.system}` does not exist",
+            f"the study's system file `{spec.system}` {problem}",
             sources.value(("system",)),
             hint="`system:` is relative to the study file",
         )

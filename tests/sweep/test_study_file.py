@@ -99,6 +99,11 @@ def test_every_mistake_is_reported_at_its_place(write_study: WriteStudy, tmp_pat
             "study.yaml:4:20: error[E003 invalid-value]: `parameters.gain.k.random`: `high` (0) "
             "must be greater than `low` (1) ...",
         ),
+        (  # found by fuzzing: an OSError traceback
+            f"fmionnx: 1\nsystem: {'9' * 300}.yaml\nparameters:\n  gain.k: [1]\n",
+            f"study.yaml:2:9: error[E101 study-system]: the study's system file `{'9' * 300}.yaml` "
+            "cannot be read: File name too long",
+        ),
         (
             "fmionnx: 1\nsystem: nowhere.yaml\nparameters:\n  gain.k: [1]\n",
             "study.yaml:2:9: error[E101 study-system]: the study's system file `nowhere.yaml` does "
