@@ -224,7 +224,10 @@ def _check_values(
     bag: DiagnosticBag,
 ) -> bool:
     """Apply every value alone to the base system: a value that does not fit is E103."""
-    for value in dict.fromkeys(_frozen(v) for v in values):
+    # Each distinct value once; `true` and `1` are equal in Python (and in a dict's keys), not
+    # to a model: both are tried (found by fuzzing: `[0.5, 1, true]` passed, its case failed).
+    distinct = {_typed(_frozen(v)): _frozen(v) for v in values}
+    for value in distinct.values():
         try:
             apply_setting(system, Setting(target, kind, value))
         except SettingError as exc:
@@ -250,6 +253,13 @@ def _check_values(
 
 def _frozen(value: SettingValue | StudyValue) -> SettingValue:
     return tuple(value) if isinstance(value, list | tuple) else value
+
+
+def _typed(value: object) -> object:
+    """``value`` with the type of every scalar in it: a key under which `true` is not `1`."""
+    if isinstance(value, list | tuple):
+        return tuple(_typed(v) for v in value)
+    return (type(value).__name__, value)
 
 
 def _tidy(value: float) -> float:

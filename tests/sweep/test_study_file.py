@@ -78,6 +78,11 @@ def test_every_mistake_is_reported_at_its_place(write_study: WriteStudy, tmp_pat
             "study.yaml:4:13: error[E103 study-values]: `run.stop`: run.stop 0.123 is not a whole "
             "number of base steps (0.01 s) after the start",
         ),
+        (  # found by fuzzing: `true` was taken for the `1` before it and never checked
+            "fmionnx: 1\nsystem: system.yaml\nparameters:\n  gain.k: [0.5, 1, true]\n",
+            "study.yaml:4:11: error[E103 study-values]: `gain.k`: expected 1 value(s) of type "
+            "float64 (shape scalar), got `True`",
+        ),
         (  # found by fuzzing: an assertion error (a traceback) in `fmionnx validate`
             "fmionnx: 1\nsystem: system.yaml\nparameters:\n  run.output_interval: [0.02, [1, 0]]\n",
             "study.yaml:4:24: error[E103 study-values]: `run.output_interval`: run.output_interval "
