@@ -175,15 +175,25 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
             hint="keys of a system file are plain names",
         )
         return None
-    except (AttributeError, ValueError, KeyError, IndexError):
-        # ruamel builds some tagged nodes without checking that the tag fits the node
-        # (`!!set fmionnx: 1`: a set tag on a scalar), and fails inside its constructor.
-        bag.emit(
-            "E001",
-            "invalid YAML: a tag does not fit the value it is put on",
-            _first_tag(text, path),
-            hint="system and study files hold plain maps, lists, strings and numbers, no tags",
-        )
+    except (AttributeError, ValueError, KeyError, IndexError) as exc:
+        # ruamel builds some nodes without checking them first and fails inside its
+        # constructor: a tag on a value it does not fit (`!!set fmionnx: 1`), a date that
+        # does not exist (`2020-02-30`, read as a timestamp).
+        tag = _first_tag(text, path)
+        if tag is not None:
+            bag.emit(
+                "E001",
+                "invalid YAML: a tag does not fit the value it is put on",
+                tag,
+                hint="system and study files hold plain maps, lists, strings and numbers, no tags",
+            )
+        else:
+            bag.emit(
+                "E001",
+                f"invalid YAML: a value the YAML reader cannot build: {exc}",
+                Span(path, 1, 1),
+                hint='quote a value meant as text (`"2020-02-30"`): YAML reads some as dates',
+            )
         return None
     except DuplicateKeyError as exc:
         _report_marked(exc, path, bag, "E007")
@@ -215,13 +225,13 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
         return None
 
 
-def _first_tag(text: str, path: Path) -> Span:
-    """Where the document's first tag (``!name``, ``!!name``) starts; its start when none."""
+def _first_tag(text: str, path: Path) -> Span | None:
+    """Where the document's first tag (``!name``, ``!!name``) starts; None without one."""
     import re
 
     found = re.search(r"(?:^|(?<=[\s\[{,:-]))!", text, flags=re.MULTILINE)
     if found is None:
-        return Span(path, 1, 1)
+        return None
     line = text.count("\n", 0, found.start()) + 1
     column = found.start() - (text.rfind("\n", 0, found.start()) + 1) + 1
     return Span(path, line, column)

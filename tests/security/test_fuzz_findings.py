@@ -36,6 +36,7 @@ def _yaml_problems(text: str, tmp_path: Path) -> list[tuple[str, str]]:
         # found by fuzzing study files: ruamel's set constructor fails on a scalar
         ("!!set fmionnx: 1\nname: x\n", "E001", "a tag does not fit"),
         ("fmionnx: 1\nrun: {stop: !!set 1}\n", "E001", "a tag does not fit"),
+        ("fmionnx: 1\ndescription: 2020-02-30\n", "E001", "cannot build: day is out of range"),
     ],
 )
 def test_yaml_structures_a_system_file_cannot_hold_are_diagnostics(
