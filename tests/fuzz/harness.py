@@ -103,6 +103,15 @@ def time_limit(seconds: float = EXAMPLE_TIMEOUT) -> Iterator[None]:
         signal.signal(signal.SIGALRM, previous)
 
 
+def write_input(path: Path, data: bytes | str) -> Path:
+    """Write a mutated input (text as UTF-8, bytes as they are) to ``path``; returns it."""
+    if isinstance(data, str):
+        path.write_text(data, encoding="utf-8")
+    else:
+        path.write_bytes(data)
+    return path
+
+
 def shown(data: bytes | str) -> str:
     """The failing input as the failure message shows it (repr, cut at ``SHOWN`` chars).
     Archives pass the description of their mutation instead of their bytes."""

@@ -22,7 +22,7 @@ from fmionnx import api
 from fmionnx.compile.studyir import apply_case
 from fmionnx.results.sweep import plan_study
 from tests.conftest import build_fixture_fmu
-from tests.fuzz.harness import check_diagnostics, fuzz_settings, guarded, record
+from tests.fuzz.harness import check_diagnostics, fuzz_settings, guarded, record, write_input
 from tests.fuzz.mutations import YAML_TOKENS, load_yaml, mutated_bytes, mutated_yaml
 
 SYSTEM = """\
@@ -98,12 +98,8 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 
 def write(folder: Path, data: bytes | str) -> Path:
-    path = folder / "study.yaml"
-    if isinstance(data, str):
-        path.write_text(data, encoding="utf-8")
-    else:
-        path.write_bytes(data)
-    return path
+    """The mutated study file, beside the system it varies."""
+    return write_input(folder / "study.yaml", data)
 
 
 def check_study(path: Path, data: bytes | str) -> None:

@@ -26,7 +26,14 @@ from fmionnx.reporters import REPORTER_BY_NAME
 from fmionnx.runtime.result import RunResult
 from tests.cases.conftest import make_case_models
 from tests.conftest import REPO
-from tests.fuzz.harness import fuzz_settings, guarded, record, shown, validate_in_process
+from tests.fuzz.harness import (
+    fuzz_settings,
+    guarded,
+    record,
+    shown,
+    validate_in_process,
+    write_input,
+)
 from tests.fuzz.mutations import (
     YAML_TOKENS,
     load_yaml,
@@ -70,12 +77,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def write(folder: Path, data: bytes | str) -> Path:
     """The mutated system file (always the same name: nothing is cached by system path)."""
-    path = folder / "system.yaml"
-    if isinstance(data, str):
-        path.write_text(data, encoding="utf-8")
-    else:
-        path.write_bytes(data)
-    return path
+    return write_input(folder / "system.yaml", data)
 
 
 def test_every_seed_compiles_cleanly(folder: Path) -> None:
