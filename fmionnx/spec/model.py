@@ -151,7 +151,7 @@ class TopicSpec(StrictModel):
 
     topic: str
     type: str | None = Field(default=None, description="e.g. `geometry_msgs/msg/Twist`.")
-    field: str | list[str] | None = Field(
+    field: str | Annotated[list[str], Field(min_length=1)] | None = Field(
         default=None,
         description="Field path inside the message, or one path per element of an array port "
         "(e.g. `[pose.pose.orientation.w, pose.pose.orientation.x, ...]`).",

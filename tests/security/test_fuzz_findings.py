@@ -10,6 +10,7 @@ from pathlib import Path
 import pytest
 
 import fmionnx
+from fmionnx import api
 from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.core.errors import DiagnosticError, ModelError
 from fmionnx.kinds.fmu.kind import FMU_KIND
@@ -140,3 +141,18 @@ def test_an_fmu_whose_library_cannot_be_unpacked_is_a_fault_naming_it(
     assert "component `locked` at t=0 s:" in result.output
     assert "encrypted" in result.output
     assert "Traceback" not in result.output
+
+
+def test_a_ros2_field_list_must_name_a_field(tmp_path: Path) -> None:
+    """``field: []`` reached the ROS 2 plan and failed there with an IndexError."""
+    system = tmp_path / "system.yaml"
+    system.write_text(
+        f"fmionnx: 1\nname: x\ncomponents:\n  g: {{kind: fmu, path: {build_fixture_fmu('Gain')}}}\n"
+        "ros2:\n  topics:\n    g.y: {topic: /y, type: std_msgs/msg/Float64MultiArray, field: []}\n",
+        encoding="utf-8",
+    )
+    result = api.compile_system(system)
+    [problem] = [d for d in result.diagnostics if d.code == "E003"]
+    assert "`ros2.topics.g.y.field`: List should have at least 1 item" in problem.message
+    assert problem.span is not None
+    assert problem.span.line == 7
