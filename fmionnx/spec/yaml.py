@@ -9,6 +9,7 @@ lists, scalars): any explicit tag is rejected, so no object is ever built from t
 from __future__ import annotations
 
 import datetime as dt
+import warnings
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -161,12 +162,16 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
     # compiled through the spec types of this module but reads no YAML.
     from ruamel.yaml import YAML
     from ruamel.yaml.constructor import DuplicateKeyError
-    from ruamel.yaml.error import MarkedYAMLError, YAMLError
+    from ruamel.yaml.error import MarkedYAMLError, ReusedAnchorWarning, YAMLError
 
     yaml = YAML(typ="rt")
     yaml.allow_duplicate_keys = False
     try:
-        node = yaml.load(text)
+        with warnings.catch_warnings():
+            # YAML lets a later anchor of the same name replace an earlier one; ruamel warns
+            # about it on stderr, with its own source line: not something to show a user.
+            warnings.simplefilter("ignore", ReusedAnchorWarning)
+            node = yaml.load(text)
     except TypeError:  # ruamel hashes every key: a mapping or list as a key cannot be
         bag.emit(
             "E001",

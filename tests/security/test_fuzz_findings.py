@@ -156,3 +156,13 @@ def test_a_ros2_field_list_must_name_a_field(tmp_path: Path) -> None:
     assert "`ros2.topics.g.y.field`: List should have at least 1 item" in problem.message
     assert problem.span is not None
     assert problem.span.line == 7
+
+
+def test_a_reused_anchor_is_read_without_a_library_warning(tmp_path: Path) -> None:
+    """YAML lets a later anchor replace an earlier one; ruamel printed a Python warning with
+    its own source line on stderr (an error under this suite's warning filter)."""
+    path = tmp_path / "system.yaml"
+    bag = DiagnosticBag()
+    data = parse_yaml("fmionnx: 1\nx: [&a [1], &a [2], *a]\n", path, SourceMap(path), bag)
+    assert data == {"fmionnx": 1, "x": [[1], [2], [2]]}
+    assert not bag.sorted()
