@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import math
 from pathlib import Path
 
@@ -38,8 +39,11 @@ SETTABLE = (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER, Causality.INPUT
 
 
 def model_path(base: Path, text: str) -> Path:
-    """A component path relative to the system file's folder (absolute paths kept)."""
-    path = Path(text).expanduser()
+    """A component path relative to the system file's folder (absolute paths kept; ``~`` and
+    ``~user`` expanded when there is such a home folder)."""
+    path = Path(text)
+    with contextlib.suppress(RuntimeError):  # `~name` of no user: kept as written (E010)
+        path = path.expanduser()
     return path if path.is_absolute() else base / path
 
 

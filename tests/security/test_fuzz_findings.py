@@ -166,3 +166,15 @@ def test_a_reused_anchor_is_read_without_a_library_warning(tmp_path: Path) -> No
     data = parse_yaml("fmionnx: 1\nx: [&a [1], &a [2], *a]\n", path, SourceMap(path), bag)
     assert data == {"fmionnx": 1, "x": [[1], [2], [2]]}
     assert not bag.sorted()
+
+
+def test_a_model_path_of_no_users_home_is_not_found(tmp_path: Path) -> None:
+    """``~name/...`` expands to that user's home; of no user, Python raised RuntimeError."""
+    system = tmp_path / "system.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: x\ncomponents:\n  g: {kind: fmu, path: ~no-such-user-here/Gain.fmu}\n",
+        encoding="utf-8",
+    )
+    result = api.compile_system(system)
+    [problem] = [d for d in result.diagnostics if d.code == "E010"]
+    assert problem.message.endswith("/~no-such-user-here/Gain.fmu` does not exist")
