@@ -38,8 +38,7 @@ def test_every_case_matches_a_direct_run(
 ) -> None:
     from fmionnx.backends.sweep import engine
 
-    monkeypatch.setattr(engine, "MIN_WINDOW", 1)  # 2 cases in flight: the window is refilled
-    monkeypatch.setattr(engine, "PER_THREAD", 1)
+    monkeypatch.setattr(engine, "DEPTH", 1)  # a task in hand per worker: tasks are refilled
     study = write_study(GRID)
     out = tmp_path / "out"
     table = fmionnx.sweep(study, out=out, workers=2)

@@ -17,6 +17,7 @@ from pathlib import Path
 import pytest
 
 import fmionnx
+from fmionnx.backends.sweep import engine
 from fmionnx.backends.sweep.case import CaseOutcome, Job
 from fmionnx.backends.sweep.engine import open_client, run_study
 from fmionnx.backends.sweep.models import STORE_NAME, pack_models
@@ -112,9 +113,17 @@ def remote(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[str
             _stop(process)
 
 
+@pytest.mark.parametrize("inline_bytes", [engine.INLINE_BYTES, 0], ids=["inside", "as-tasks"])
 def test_models_travel_to_a_remote_worker_by_hash(
-    write_study: WriteStudy, remote: tuple[str, Path], tmp_path: Path
+    write_study: WriteStudy,
+    remote: tuple[str, Path],
+    tmp_path: Path,
+    monkeypatch: pytest.MonkeyPatch,
+    inline_bytes: int,
 ) -> None:
+    """Small models travel inside every task, larger ones as tasks of their own (once per
+    worker): either way the worker finds them by hash in its own store."""
+    monkeypatch.setattr(engine, "INLINE_BYTES", inline_bytes)
     address, home = remote
     study = write_study(STUDY)
     plan, _ = plan_study(study)

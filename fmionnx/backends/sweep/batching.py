@@ -13,7 +13,9 @@ cost is shared. So the engine batches:
   cases not yet handed out -- ``1 / (TASKS_PER_THREAD x worker threads)`` of them, at most
   :data:`MAX_BATCH` -- so the first tasks are large and the last ones small, and the workers
   finish together instead of one waiting for the other's long last batch (guided
-  self-scheduling). Once case times are known, a task is never less than
+  self-scheduling). The tasks the engine sends in one message, the study's first, are all cut
+  to the size of the first: the scheduler picks their workers, and equal tasks keep the
+  workers' shares equal. Once case times are known, a task is never less than
   :data:`MIN_TASK_SECONDS` of work: on a machine whose cores all run workers, every task also
   costs the workers time in the driver and scheduler, more than tiny tasks at the end would
   gain in balance. When fewer cases are left than such a task per thread, they go out as one

@@ -2,10 +2,11 @@
 
 The driver packs every model the compiled system needs (one archive per content hash, made
 from the same model-store layout as ``fmionnx compile --models``: ``<sha256>/<file>``, a scene
-with its folder); Dask sends each archive to a worker once (as the result of a task keyed by
-its content, which the scheduler can recompute if the worker holding it dies; a very large
-model therefore travels through the scheduler once per worker) and the worker unpacks it into its own store unless that hash is
-already there. Nothing assumes a shared file system: a worker on another host needs only
+with its folder). Small archives travel inside every task; larger ones reach a worker once, as
+the result of a task keyed by their content, which the scheduler can recompute if the worker
+holding it dies (a very large model therefore travels through the scheduler once per worker;
+see :func:`.engine._shared`). The worker unpacks an archive into its own store unless that
+hash is already there. Nothing assumes a shared file system: a worker on another host needs only
 fmionnx installed. The store's hash check is :func:`~fmionnx.compile.systemfile.relocate`:
 a model is used only after its interface, read again from the unpacked file, has the hash the
 compiled system names.
