@@ -35,7 +35,7 @@ metrics:
 
 
 class _Where(SchedulerPlugin):
-    """Each study task's worker restrictions (when it was assigned) and the worker it ran on."""
+    """Each study task's worker restrictions and the worker it was first assigned to."""
 
     def __init__(self, scheduler: Any) -> None:
         self.restricted: dict[str, set[str]] = {}
@@ -48,7 +48,7 @@ class _Where(SchedulerPlugin):
         if "-case-" not in name:
             return
         state = self._scheduler.tasks.get(key)
-        if finish == "processing" and state is not None:
+        if finish == "processing" and state is not None and name not in self.restricted:
             self.order.append(name)
             self.restricted[name] = set(state.worker_restrictions or ())
             self.ran_on[name] = state.processing_on.address

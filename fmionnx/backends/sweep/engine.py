@@ -46,7 +46,7 @@ LOCAL_CONFIG = {
 }
 #: Tasks in hand per worker thread: one running, one queued on its worker to start the moment
 #: the first returns. The rest wait on the driver, where later tasks are sized from the case
-#: times measured by then.
+#: times measured by then (and a study of 10^5 cases never is 10^5 tasks on the scheduler).
 DEPTH = 2
 #: Seconds between two questions to the scheduler about its workers during a study.
 REFRESH_SECONDS = 2.0
@@ -304,8 +304,8 @@ class _Cluster:
     next one goes to that worker (a loose restriction: anywhere if it is gone). Left to
     itself, the scheduler assigns a ready task at once to the worker it judges least busy and
     moves it only by work stealing, once a second: on a short study the last tasks queued up
-    behind one busy worker while another sat idle (measured: 2 workers 1.47-1.56x one, 1.64-
-    1.75x handed out here). Workers that join during a study are found by asking again every
+    behind one busy worker while another sat idle (docs/sweep.md, "Performance", has the
+    measurements). Workers that join during a study are found by asking again every
     :data:`REFRESH_SECONDS` and get tasks from then on.
     """
 
