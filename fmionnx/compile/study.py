@@ -226,7 +226,7 @@ def _check_values(
     """Apply every value alone to the base system: a value that does not fit is E103."""
     # Each distinct value once; `true` and `1` are equal in Python (and in a dict's keys), not
     # to a model: both are tried (found by fuzzing: `[0.5, 1, true]` passed, its case failed).
-    distinct = {_typed(_frozen(v)): _frozen(v) for v in values}
+    distinct = {_typed(frozen): frozen for frozen in map(_frozen, values)}
     for value in distinct.values():
         try:
             apply_setting(system, Setting(target, kind, value))
