@@ -18,7 +18,7 @@ import pytest
 
 import fmionnx
 from fmionnx.results import write_results
-from fmionnx.runtime.native import kernel, runbuild
+from fmionnx.runtime.native import kernel, manifest, runbuild
 from fmionnx.runtime.native.manifest import LIBRARY_NAME, MANIFEST_NAME, sha256_of
 from fmionnx.runtime.result import RunStatus
 
@@ -100,6 +100,32 @@ def test_tampered_library_is_refused(tmp_path: Path) -> None:
     reason = kernel.load_library(folder, "installed")
     assert isinstance(reason, str)
     assert re.search(r"is not the library its build recorded .*refusing to load it", reason)
+
+
+def test_a_verified_library_is_hashed_again_only_once_a_file_changes(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A sweep's worker checks the kernel at every case: it hashes once per process, and a
+    source edited in place afterwards (an editable install) is still refused."""
+    folder = _installed_copy(tmp_path / "copy")
+    source = tmp_path / "fmi2_group.c"
+    source.write_text(SOURCE_TEXT, encoding="utf-8")
+    hashed: list[Path] = []
+    real = manifest.sha256_of
+
+    def counted(path: Path) -> str:
+        hashed.append(path)
+        return real(path)
+
+    monkeypatch.setattr(manifest, "sha256_of", counted)
+    for _ in range(3):
+        assert isinstance(kernel.load_library(folder, "installed", source=source), kernel.Kernel)
+    assert len(hashed) == 2  # the library and the source, the first time only
+    with source.open("a", encoding="utf-8") as stream:
+        stream.write("/* edited */\n")
+    reason = kernel.load_library(folder, "installed", source=source)
+    assert isinstance(reason, str)
+    assert "was built from another fmi2_group.c" in reason
 
 
 def test_library_without_manifest_is_refused(tmp_path: Path) -> None:

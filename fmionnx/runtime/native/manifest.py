@@ -77,9 +77,43 @@ class Verified(NamedTuple):
     built_by: str
 
 
+#: A file as :func:`os.stat` last saw it: device, inode, size, modification and change times.
+Signature = tuple[int, int, int, int, int]
+
+#: Libraries this process verified, by folder and source, with the signatures of the library,
+#: its manifest and the source when they were hashed.
+_VERIFIED: dict[tuple[Path, Path], tuple[tuple[Signature, ...], Verified]] = {}
+
+
 def check_built(folder: Path, source: Path) -> Verified | str:
     """``folder``'s library when it is the one its manifest records and was built from
-    ``source``; else why it must not be loaded."""
+    ``source``; else why it must not be loaded.
+
+    Every run checks its kernel, and a sweep's worker starts a run each millisecond: hashing
+    the library and the source each time was a tenth of such a run. So a library this process
+    verified is not hashed again while the three files keep the signature they had then (a
+    file written or replaced since changes it, and is checked again).
+    """
+    signatures = _signatures(folder / LIBRARY_NAME, folder / MANIFEST_NAME, source)
+    known = _VERIFIED.get((folder, source))
+    if signatures is not None and known is not None and known[0] == signatures:
+        return known[1]
+    verdict = _check_built(folder, source)
+    if signatures is not None and isinstance(verdict, Verified):
+        _VERIFIED[(folder, source)] = (signatures, verdict)
+    return verdict
+
+
+def _signatures(*paths: Path) -> tuple[Signature, ...] | None:
+    """The files' signatures, taken before they are read (None: one cannot be seen)."""
+    try:
+        found = [path.stat() for path in paths]
+    except OSError:
+        return None
+    return tuple((st.st_dev, st.st_ino, st.st_size, st.st_mtime_ns, st.st_ctime_ns) for st in found)
+
+
+def _check_built(folder: Path, source: Path) -> Verified | str:
     library = folder / LIBRARY_NAME
     if not library.is_file():
         return f"{library} does not exist"
