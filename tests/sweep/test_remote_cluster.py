@@ -12,6 +12,7 @@ import subprocess
 import sys
 import time
 from collections.abc import Iterator
+from contextlib import contextmanager
 from pathlib import Path
 
 import pytest
@@ -72,7 +73,15 @@ def _stop(process: subprocess.Popen[bytes]) -> None:
 def remote(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[str, Path]]:
     """The scheduler's address and the worker's working folder (far from the study); the
     worker runs one thread unless the test is parametrized indirectly with another count."""
-    threads = getattr(request, "param", 1)
+    with _cluster(
+        tmp_path, ["--host", "127.0.0.1", "--nthreads", str(getattr(request, "param", 1))]
+    ) as found:
+        yield found
+
+
+@contextmanager
+def _cluster(tmp_path: Path, worker_args: list[str]) -> Iterator[tuple[str, Path]]:
+    """A scheduler and one worker started with ``worker_args``, as :func:`remote` gives them."""
     home = tmp_path / "worker-home"
     home.mkdir()
     port = _free_port()
@@ -89,7 +98,7 @@ def remote(request: pytest.FixtureRequest, tmp_path: Path) -> Iterator[tuple[str
         processes.append(
             _start(
                 [
-                    "worker", address, "--host", "127.0.0.1", "--nworkers", "1", "--nthreads", str(threads),
+                    "worker", address, *worker_args, "--nworkers", "1",
                     "--no-dashboard", "--local-directory", str(home / "local"),
                 ],
                 home,
@@ -185,3 +194,27 @@ def test_a_worker_of_several_threads_runs_its_cases_side_by_side_alike(
         values = case.values()
         expected = float(values["gain.k"]) * (float(values["integ.x0"]) + 1)
         assert outcome.metrics["y_end"] == pytest.approx(expected), case
+
+
+def test_a_worker_with_a_host_name_for_contact_address_still_gets_its_next_tasks(
+    write_study: WriteStudy, tmp_path: Path
+) -> None:
+    """A worker behind NAT or in a container listens on one address and is reached at another
+    (``--contact-address``), often a host name. The scheduler knows it by the resolved IP
+    address, while a case names its worker as the worker calls itself (the table's column):
+    the engine must map that to the scheduler's address before pinning the worker's next
+    task to it (a restriction to the host name would name no worker)."""
+    port = _free_port()
+    contact = f"tcp://localhost:{port}"
+    worker_args = ["--listen-address", f"tcp://0.0.0.0:{port}", "--contact-address", contact]
+    study = write_study(MANY.format(isolate="none"))
+    plan, _ = plan_study(study)
+    outcomes: list[CaseOutcome] = []
+    with _cluster(tmp_path, worker_args) as (address, _), open_client(address) as client:
+        known = set(client.scheduler_info()["workers"])
+        run_study(client, plan, plan.cases, Job.of(plan), outcomes.append, batch=1)
+        cluster = engine._Cluster(client)
+    assert known == {f"tcp://127.0.0.1:{port}"}
+    assert len(outcomes) == 24
+    assert {o.worker for o in outcomes} == {contact}
+    assert {cluster.address_of(o.worker) for o in outcomes} == known

@@ -229,7 +229,8 @@ def run_study(
         if not waiting or free <= 0:
             return
         if free == 1 and finished_on is not None:
-            submit([tuple(waiting.popleft() for _ in range(sizer.size(len(waiting))))], finished_on)
+            group = tuple(waiting.popleft() for _ in range(sizer.size(len(waiting))))
+            submit([group], cluster.address_of(finished_on))
             return
         # Several at once (the study's first tasks, or workers that joined): the scheduler, not
         # the driver, picks their workers, so they are cut equal -- the workers' shares are then
@@ -307,12 +308,21 @@ class _Cluster:
     behind one busy worker while another sat idle (docs/sweep.md, "Performance", has the
     measurements). Workers that join during a study are found by asking again every
     :data:`REFRESH_SECONDS` and get tasks from then on.
+
+    A case names its worker by the address the worker calls itself (``get_worker().address``),
+    which is not always the scheduler's name for it: a worker given a host name as its contact
+    address (``--contact-address tcp://node-3:8788``, usual behind NAT or in containers) is
+    known to the scheduler by the resolved IP address, and a restriction to the host name
+    would name no worker. Such a worker's own address is its Dask *name* unless it was given
+    one, so names are mapped to the scheduler's addresses too (:meth:`address_of`).
     """
 
     def __init__(self, client: Any) -> None:
         self._client = client
         self._asked = -math.inf
         self._threads = 1
+        #: The scheduler's address of each worker, by that address and by the worker's name.
+        self._addresses: dict[str, str] = {}
         self.refresh()
 
     @property
@@ -325,7 +335,15 @@ class _Cluster:
         now = time.monotonic()
         if now - self._asked >= REFRESH_SECONDS:
             self._asked = now
-            self._threads = max(1, sum(int(n) for n in self._client.nthreads().values()))
+            workers: dict[str, Any] = self._client.scheduler_info(n_workers=-1)["workers"]
+            self._threads = max(1, sum(int(w.get("nthreads", 0)) for w in workers.values()))
+            names = {str(w.get("name")): address for address, w in workers.items()}
+            self._addresses = names | {address: address for address in workers}
+
+    def address_of(self, worker: str) -> str | None:
+        """The scheduler's address of the worker that calls itself ``worker`` (None: unknown,
+        the scheduler then picks where the next task runs)."""
+        return self._addresses.get(worker)
 
     def changed(self) -> None:
         """A worker may have died: ask again at the next refill."""
