@@ -151,6 +151,9 @@ def _system_data(
         run["step"] = document.root.step
     extra_run = annotation.pop("run", {})
     sources.record(("run",), annotation_span if extra_run else top, top)
+    if document.root.step is not None and "step" not in extra_run:
+        step_span = Span(ssd, document.root.step_line)
+        sources.record(("run", "step"), step_span, step_span)
     if document.root.description:
         data_description = {"description": document.root.description}
         sources.record(("description",), Span(ssd, document.root.line))

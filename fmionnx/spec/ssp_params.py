@@ -16,7 +16,7 @@ from urllib.parse import unquote, urlparse
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.specbase import ScalarLiteral
 from fmionnx.spec.ssp_tree import Binding, Transformation
-from fmionnx.spec.ssp_xml import parse_xml, tag, validate
+from fmionnx.spec.ssp_xml import parse_xml, tag, validate, validate_inline
 
 
 @dataclass(frozen=True, slots=True)
@@ -175,6 +175,8 @@ def binding_values(
     base = ssd.parent
     values: list[BoundValue] = []
     if binding.inline is not None:
+        if not validate_inline(binding.inline, "ssv", ssd, bag):
+            return []
         values = read_parameter_set(binding.inline, ssd, bag)
     elif binding.source is not None:
         loaded = _load(binding.source, base, root, "ssv", span, bag)
@@ -183,6 +185,8 @@ def binding_values(
         values = read_parameter_set(loaded[0], loaded[1], bag)
     mapping: dict[str, list[_Entry]] = {}
     if binding.inline_mapping is not None:
+        if not validate_inline(binding.inline_mapping, "ssm", ssd, bag):
+            return []
         mapping = read_mapping(binding.inline_mapping, ssd, bag)
     elif binding.mapping_source is not None:
         loaded = _load(binding.mapping_source, base, root, "ssm", span, bag)

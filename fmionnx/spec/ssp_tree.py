@@ -90,7 +90,10 @@ class Element:
     annotation: Annotation | None = None
     children: list[Element] = field(default_factory=list)
     connections: list[Connection] = field(default_factory=list)
-    step: float | None = None
+    #: OMSimulator's fixed step as written (a text that is not a number is kept, for the
+    #: spec check to report) and the line of its annotation.
+    step: float | str | None = None
+    step_line: int = 0
 
 
 @dataclass(frozen=True, slots=True)
@@ -141,10 +144,15 @@ def _connectors(element: Any) -> list[Connector]:
     return result
 
 
-def _annotation(element: Any, path: str) -> tuple[Annotation | None, float | None]:
-    """Our annotation under ``path`` and an OMSimulator fixed step, if any."""
+def _annotation(element: Any, path: str) -> tuple[Annotation | None, float | str | None, int]:
+    """Our annotation under ``path``, an OMSimulator fixed step if any, and the step's line.
+
+    Other tools' annotations are not covered by the SSD's schema: a step that is not a number
+    is kept as written, and the system's schema check reports it at its line.
+    """
     ours: Annotation | None = None
-    step: float | None = None
+    step: float | str | None = None
+    line = 0
     for node in element.iterfind(path + "/ssc:Annotation", namespaces=_NS):
         kind = node.get("type")
         if kind == FMIONNX_ANNOTATION:
@@ -154,8 +162,15 @@ def _annotation(element: Any, path: str) -> tuple[Annotation | None, float | Non
             for master in node.iter("{*}FixedStepMaster"):
                 size = master.get("stepSize")
                 if size is not None:
-                    step = float(size)
-    return ours, step
+                    step, line = _number(size), master.sourceline
+    return ours, step, line
+
+
+def _number(text: str) -> float | str:
+    try:
+        return float(text)
+    except ValueError:
+        return text
 
 
 def _bindings(element: Any) -> list[Binding]:
@@ -206,7 +221,7 @@ def read_element(node: Any) -> Element:
     )
     element.connectors = _connectors(node)
     element.bindings = _bindings(node)
-    element.annotation, element.step = _annotation(node, "ssd:Annotations")
+    element.annotation, element.step, element.step_line = _annotation(node, "ssd:Annotations")
     if not is_system:
         element.type = node.get("type") or "application/x-fmu-sharedlibrary"
         element.source = node.get("source")
@@ -237,8 +252,8 @@ def read_document(tree: Any) -> Document:
     if experiment is not None:
         start = float(experiment.get("startTime")) if experiment.get("startTime") else None
         stop = float(experiment.get("stopTime")) if experiment.get("stopTime") else None
-        experiment_annotation, _ = _annotation(experiment, "ssd:Annotations")
-    annotation, _ = _annotation(root, "ssd:Annotations")
+        experiment_annotation, _, _ = _annotation(experiment, "ssd:Annotations")
+    annotation, _, _ = _annotation(root, "ssd:Annotations")
     system = read_element(root.find(tag("ssd", "System")))
     return Document(
         name=root.get("name"),

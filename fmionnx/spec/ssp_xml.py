@@ -122,10 +122,26 @@ def validate(tree: Any, kind: str, path: Path, bag: DiagnosticBag) -> bool:
     """Validate a parsed file against its version's XSD; each error becomes E070."""
     root = tree.getroot()
     major = major_version(root, path, bag)
-    if major is None:
-        return False
+    return major is not None and _valid(tree, kind, major, path, bag)
+
+
+def validate_inline(element: Any, kind: str, path: Path, bag: DiagnosticBag) -> bool:
+    """Validate a parameter set (``ssv``) or mapping (``ssm``) written inside the SSD ``path``
+    against its own XSD; each error becomes E070 at its line.
+
+    The SSD's schema leaves their content to any namespace, unchecked (``xs:any``, lax), so
+    without this a name, source or factor missing or malformed inside an SSD reached the
+    reader unchecked, where the same in a ``.ssv`` or ``.ssm`` file is refused. An element
+    without its own ``version`` is checked by the SSD's.
+    """
+    owner = element.getroottree().getroot()
+    major = major_version(element if element.get("version") else owner, path, bag)
+    return major is not None and _valid(element, kind, major, path, bag)
+
+
+def _valid(node: Any, kind: str, major: str, path: Path, bag: DiagnosticBag) -> bool:
     xsd = schema(kind, major)
-    if xsd.validate(tree):
+    if xsd.validate(node):
         return True
     for entry in xsd.error_log:
         bag.emit(

@@ -313,6 +313,76 @@ def test_outer_binding_overrides_inner_binding(loose) -> None:
     assert spec.components["a"].parameters == {"k": 7.0}
 
 
+#: A binding of an inline parameter set and an inline mapping onto component ``a``; line 5 of
+#: the SSD holds the parameter, line 7 the mapping entry.
+INLINE = (
+    "<ssd:ParameterBindings><ssd:ParameterBinding><ssd:ParameterValues>"
+    '<ssv:ParameterSet version="1.0" name="p"><ssv:Parameters>\n'
+    '<ssv:Parameter {name}><ssv:Real value="5"/></ssv:Parameter>\n'
+    "</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues>"
+    '<ssd:ParameterMapping><ssm:ParameterMapping version="1.0">\n'
+    '<ssm:MappingEntry source="gainK" target="a.k"><ssc:LinearTransformation {factor}/>'
+    "</ssm:MappingEntry>\n</ssm:ParameterMapping></ssd:ParameterMapping>"
+    f"</ssd:ParameterBinding></ssd:ParameterBindings><ssd:Elements>{gain('a')}</ssd:Elements>"
+)
+
+
+def test_an_inline_parameter_set_and_mapping_set_their_parameter(loose) -> None:
+    spec, found = load(loose(ssd(INLINE.format(name='name="gainK"', factor='factor="2"'))))
+    assert spec is not None, found
+    assert spec.components["a"].parameters == {"k": 10.0}
+
+
+@pytest.mark.parametrize(
+    ("name", "factor", "line", "message"),
+    [
+        # the fuzzer's finding: a byte-order mark glued to `name` makes another attribute
+        ('\ufeffname="gainK"', 'factor="2"', 5, "The attribute 'name' is required but missing"),
+        ('name="gainK"', 'factor="twice"', 7, "'twice' is not a valid value"),
+    ],
+)
+def test_inline_parameter_sets_and_mappings_follow_their_schema(
+    loose, name: str, factor: str, line: int, message: str
+) -> None:
+    """The SSD's own schema leaves inline sets and mappings unchecked; a missing name was a
+    TypeError and a factor that is not a number a ValueError, both tracebacks."""
+    spec, found = load(loose(ssd(INLINE.format(name=name, factor=factor))))
+    assert spec is None
+    assert any(code == "E070" and at == line and message in text for code, at, text in found), found
+
+
+@pytest.mark.parametrize(
+    ("size", "message"),
+    [
+        ("0.01", None),
+        ("fast", "Input should be a valid number, unable to parse string as a number"),
+        ("nan", "Input should be a finite number"),
+        ("-1", "Input should be greater than 0"),
+    ],
+)
+def test_omsimulator_step_is_checked_at_its_annotation(
+    loose, size: str, message: str | None
+) -> None:
+    """OMSimulator's fixed step lies in its own annotation, which no schema covers: a step
+    that is not a number was a ValueError traceback, and the others were reported at the
+    SSD's root element."""
+    annotation = (
+        '<ssd:Annotations><ssc:Annotation type="org.openmodelica"><oms:Annotations>'
+        "<oms:SimulationInformation>\n"
+        f'<oms:FixedStepMaster description="oms-ma" stepSize="{size}"/>\n'
+        "</oms:SimulationInformation></oms:Annotations></ssc:Annotation></ssd:Annotations>"
+    )
+    spec, found = load(loose(ssd(f"<ssd:Elements>{gain('a')}</ssd:Elements>{annotation}")))
+    if message is None:
+        assert spec is not None, found
+        assert spec.run.step == 0.01
+        return
+    assert spec is None
+    assert [(code, line) for code, line, _ in found] == [("E003", 5)]
+    assert "`run.step`" in found[0][2]
+    assert message in found[0][2]
+
+
 def test_validate_and_graph_commands_read_ssp(foreign_ssp: Path) -> None:
     from typer.testing import CliRunner
 
