@@ -151,7 +151,8 @@ def _system_data(
         run["step"] = document.root.step
     extra_run = annotation.pop("run", {})
     sources.record(("run",), annotation_span if extra_run else top, top)
-    if document.root.step is not None and "step" not in extra_run:
+    overridden = isinstance(extra_run, dict) and "step" in extra_run
+    if document.root.step is not None and not overridden:
         step_span = Span(ssd, document.root.step_line)
         sources.record(("run", "step"), step_span, step_span)
     if document.root.description:

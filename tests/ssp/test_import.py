@@ -383,6 +383,25 @@ def test_omsimulator_step_is_checked_at_its_annotation(
     assert message in found[0][2]
 
 
+def test_a_run_annotation_that_is_not_a_mapping_beside_an_omsimulator_step_is_e003(
+    loose,
+) -> None:
+    step = (
+        '<ssd:Annotations><ssc:Annotation type="org.openmodelica"><oms:Annotations>'
+        '<oms:SimulationInformation><oms:FixedStepMaster stepSize="0.01"/>'
+        "</oms:SimulationInformation></oms:Annotations></ssc:Annotation></ssd:Annotations>"
+    )
+    ours = (
+        '<ssd:Annotations><ssc:Annotation type="org.fmionnx">'
+        '<fx:Options xmlns:fx="https://fmionnx.dev/ssp/1">{"run": 5}</fx:Options>'
+        "</ssc:Annotation></ssd:Annotations>\n"
+    )
+    spec, found = load(loose(ssd(f"<ssd:Elements>{gain('a')}</ssd:Elements>{step}", after=ours)))
+    assert spec is None
+    assert [(code, line) for code, line, _ in found] == [("E003", 6)]
+    assert "`run`: Input should be a valid dictionary" in found[0][2]
+
+
 def test_validate_and_graph_commands_read_ssp(foreign_ssp: Path) -> None:
     from typer.testing import CliRunner
 
