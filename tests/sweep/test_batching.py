@@ -91,6 +91,16 @@ def test_once_case_times_are_known_tasks_are_worth_their_cost_and_the_last_ones_
     assert fixed.budget is None  # a fixed size runs every case it was given
 
 
+def test_the_first_message_splits_the_cases_evenly_over_the_threads() -> None:
+    sizer = BatchSizer(threads=2)
+    assert sizer.first_size(200) == 100  # one task per thread carries the whole study
+    assert sizer.first_size(7) == 4  # 4 and 3
+    assert sizer.first_size(1) == 1
+    assert sizer.first_size(10**6) == MAX_BATCH  # then as many as the threads hold
+    assert BatchSizer(threads=3).first_size(200) == 67
+    assert BatchSizer(threads=2, fixed=7).first_size(200) == 7  # a fixed size is the size
+
+
 def test_a_task_with_a_budget_stops_after_the_case_that_used_it_up(
     write_study: WriteStudy,
 ) -> None:
@@ -126,7 +136,7 @@ def test_batches_give_the_same_table_as_one_case_per_task(
     assert single.tasks.sizes == (1,) * 12
     assert batched.tasks.sizes == (5, 5, 2)
     assert sum(adaptive.tasks.sizes) == 12
-    assert adaptive.tasks.sizes[0] == 3  # 12 cases on 2 threads: a quarter first
+    assert adaptive.tasks.sizes == (6, 6)  # 12 cases on 2 threads: one task each
     expected = _stable_csv(tmp_path / "single" / "cases.csv")
     assert len(expected) == 13
     assert _stable_csv(tmp_path / "batched" / "cases.csv") == expected

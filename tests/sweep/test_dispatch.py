@@ -1,6 +1,7 @@
 """How the engine hands tasks to a real local cluster's workers: the first tasks in one message,
-cut equal; every later task to the worker that returned one; workers that join get tasks; the
-system and models inside the tasks or as tasks of their own, with the same outcomes.
+one per thread, cut equal; every later task to the worker that returned one; workers that join
+get tasks; the system and models inside the tasks or as tasks of their own, with the same
+outcomes.
 
 The scheduler is watched by a plugin added to it directly (a local cluster's scheduler lives in
 this process): it records, for every task of the study, the workers it was restricted to and
@@ -89,16 +90,19 @@ def test_tasks_after_the_first_go_to_the_worker_that_returned_one(
     assert len(set(where.ran_on.values())) == 2  # both workers ran cases
 
 
-def test_the_first_tasks_are_cut_equal(
+def test_the_first_message_is_one_equal_task_per_thread(
     write_study: WriteStudy, watched: tuple[Any, _Where]
 ) -> None:
-    """Guided sizes would shrink (6, 5, 4, 3 for 24 cases on 2 threads); the scheduler picks
-    which worker runs which of the first tasks, so they are cut equal."""
-    client, _ = watched
+    """The scheduler assigns tasks sent together at once, and picks which worker runs which:
+    the first message is one task per thread, cut equal (guided sizes would shrink: 6, 5, 4,
+    3 for 24 cases on 2 threads; two tasks per thread, 6 each, cost twice the tasks)."""
+    client, where = watched
     outcomes, run = _run(client, write_study(STUDY.format(num=24)))
 
     assert sorted(o.status for o in outcomes) == ["ok"] * 24
-    assert run.sizes[: engine.DEPTH * 2] == (6, 6, 6, 6)
+    assert run.sizes == (12, 12)
+    assert all(not workers for workers in where.restricted.values())
+    assert len(set(where.ran_on.values())) == 2  # one task for each worker
 
 
 def test_a_worker_that_joins_during_a_study_gets_tasks(

@@ -94,3 +94,22 @@ def test_a_local_worker_allocates_memory_as_the_driver_does(
     assert "OMP_NUM_THREADS" not in os.environ
     assert os.environ["PYTHONHASHSEED"] == "12"
     assert os.environ.get("MALLOC_TRIM_THRESHOLD_") == driver
+
+
+def test_a_local_cluster_that_fails_to_start_leaves_the_environment_as_it_was(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
+    import os
+
+    from fmionnx.backends.sweep import engine
+
+    monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
+
+    def nanny_fails(workers: int) -> object:
+        os.environ["OMP_NUM_THREADS"] = "1"  # what the nanny writes before it spawns a worker
+        raise RuntimeError("Nanny failed to start.")
+
+    monkeypatch.setattr(engine, "_local_cluster", nanny_fails)
+    with pytest.raises(RuntimeError, match="Nanny"), engine.open_client(workers=1):
+        pass
+    assert "OMP_NUM_THREADS" not in os.environ

@@ -13,10 +13,16 @@ cost is shared. So the engine batches:
   cases not yet handed out -- ``1 / (TASKS_PER_THREAD x worker threads)`` of them, at most
   :data:`MAX_BATCH` -- so the first tasks are large and the last ones small, and the workers
   finish together instead of one waiting for the other's long last batch (guided
-  self-scheduling). The tasks the engine sends in one message, the study's first, are all cut
-  to the size of the first: the scheduler picks their workers, and equal tasks keep the
-  workers' shares equal. Once case times are known, a task is never less than
-  :data:`MIN_TASK_SECONDS` of work: on a machine whose cores all run workers, every task also
+  self-scheduling). The study's first message is **one task per thread**, the cases split
+  evenly between them (at most :data:`MAX_BATCH` each; above that, as many such tasks as
+  the threads hold): the scheduler assigns tasks sent together at once, so a second task per
+  thread in that message would be queued behind the first with nothing left to balance, and
+  would only add a task's cost on the driver, the scheduler and the worker (about 3 ms of
+  the driver's CPU and 5 ms of the worker's per task on the 2-core benchmark machine,
+  docs/sweep.md). Equal tasks keep the workers' shares equal whichever worker the scheduler
+  gives each. A task cut short by its budget hands its rest back, and later tasks are sized
+  as above. Once case times are known, a task is never less than :data:`MIN_TASK_SECONDS`
+  of work: on a machine whose cores all run workers, every task also
   costs the workers time in the driver and scheduler, more than tiny tasks at the end would
   gain in balance. When fewer cases are left than such a task per thread, they go out as one
   equal share per thread.
@@ -106,3 +112,10 @@ class BatchSizer:
         if self._tail is not None:
             return max(1, min(self._tail, waiting))
         return batch_size(waiting, self.threads, per_case)
+
+    def first_size(self, waiting: int) -> int:
+        """Cases for each task of the study's first message, ``waiting`` cases in all: an even
+        share per thread (see the module's docstring)."""
+        if self.fixed is not None:
+            return self.size(waiting)
+        return max(1, min(math.ceil(waiting / max(1, self.threads)), MAX_BATCH))

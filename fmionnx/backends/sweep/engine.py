@@ -5,10 +5,10 @@ each: cases are CPU-bound and models are not all thread-safe); with ``scheduler`
 cluster (``tcp://host:8786``). The driver sends the compiled system as JSON and the models by
 content hash (:mod:`.models`): inside every task when they are small, else once per worker as
 tasks of their own. Cases go out one per task, or per batch of short cases
-(:func:`.case.run_batch`, sized by :mod:`.batching`), two tasks in hand per worker thread; a
-worker that returns a task is handed the next one. Each outcome is handed to ``on_done`` on
-the driver as soon as its task returns, so the caller can record it durably before the next
-one arrives. A worker that dies under a task (a model crashing a non-isolated component) has
+(:func:`.case.run_batch`, sized by :mod:`.batching`: one task per worker thread to start),
+then up to two tasks in hand per thread; a worker that returns a task is handed the next
+one. Each outcome is handed to ``on_done`` on the driver as soon as its task returns, so the
+caller can record it durably before the next one arrives. A worker that dies under a task (a model crashing a non-isolated component) has
 that task's cases run again one at a time, alone on the cluster; a case whose worker dies
 while it runs alone is ``failed``; the study goes on."""
 
@@ -51,8 +51,8 @@ LOCAL_CONFIG = {
     # it): a worker allocates as any process does.
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
 }
-#: Tasks in hand per worker thread: one running, one queued on its worker to start the moment
-#: the first returns. The rest wait on the driver, where later tasks are sized from the case
+#: Tasks in hand per worker thread once the study's first tasks (one per thread) return: one
+#: running, one queued on its worker to start the moment the first returns. The rest wait on the driver, where later tasks are sized from the case
 #: times measured by then (and a study of 10^5 cases never is 10^5 tasks on the scheduler).
 DEPTH = 2
 #: Seconds between two questions to the scheduler about its workers during a study.
@@ -104,8 +104,7 @@ def default_workers() -> int:
 def open_client(scheduler: str | None = None, workers: int | None = None) -> Iterator[Any]:
     """A Dask client: of the cluster at ``scheduler``, else of a new local cluster of
     ``workers`` processes (default: one per core) that is closed with the block."""
-    import dask
-    from distributed import Client, LocalCluster
+    from distributed import Client
 
     if scheduler is not None:
         problem = scheduler_problem(scheduler)
@@ -120,27 +119,34 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
             yield client
         return
     before = {key: os.environ.get(key) for key in _NANNY_VARIABLES}
-    with (
-        dask.config.set(LOCAL_CONFIG),
-        warnings.catch_warnings(),
-    ):
+    try:
+        cluster = _local_cluster(workers or default_workers())
+        try:
+            with Client(cluster, set_as_default=False) as client:
+                yield client
+        finally:
+            cluster.close()
+    finally:
+        _restore(before)
+
+
+def _local_cluster(workers: int) -> Any:
+    """A new local cluster of ``workers`` one-thread processes, with :data:`LOCAL_CONFIG`."""
+    import dask
+    from distributed import LocalCluster
+
+    with dask.config.set(LOCAL_CONFIG), warnings.catch_warnings():
         # The scheduler serves its health routes on 8787 even without a dashboard and warns
         # when another cluster on this host has the port; it takes a free one: nothing to say.
         warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
-        cluster = LocalCluster(
-            n_workers=workers or default_workers(),
+        return LocalCluster(
+            n_workers=workers,
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
             silence_logs=logging.ERROR,
             memory_limit=0,
         )
-    try:
-        with Client(cluster, set_as_default=False) as client:
-            yield client
-    finally:
-        cluster.close()
-        _restore(before)
 
 
 #: What Dask's nanny writes into the environment of the process that starts it (its
@@ -267,7 +273,8 @@ def run_study(
         # the driver, picks their workers, so they are cut equal -- the workers' shares are then
         # equal whichever tasks each gets (guided sizes, largest first, gave one worker of two
         # the first and third tasks: 78 cases against 59, and it ended 20 ms after the other).
-        size = sizer.size(len(waiting))
+        # The first message is one task per thread (:mod:`.batching`).
+        size = sizer.size(len(waiting)) if sizes else sizer.first_size(len(waiting))
         groups = [
             tuple(waiting.popleft() for _ in range(min(size, len(waiting))))
             for _ in range(min(free, math.ceil(len(waiting) / size)))
