@@ -365,9 +365,13 @@ def sweep(
     replaces an earlier study's results there. ``batch`` fixes the cases per Dask task (1: one
     each; default: short cases are batched by their measured time). Raises
     DiagnosticError for a study (or system) file with errors, before anything runs.
+    A script calling it must do so under ``if __name__ == "__main__":``: the local cluster's
+    workers import the script again (called from one of them, it raises ClusterStartError).
     """
+    from fmionnx.backends.sweep.engine import refuse_in_starting_worker
     from fmionnx.results.sweep import plan_study, run_sweep
 
+    refuse_in_starting_worker()
     plan, _ = plan_study(study)
     result = run_sweep(
         plan, Path(out), scheduler=scheduler, workers=workers, resume=resume,

@@ -89,7 +89,7 @@ def sweep(
     warnings = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
     if warnings and not quiet:
         TextReporter().render([FileResult(study, warnings)], sys.stderr, color=sys.stderr.isatty())
-    from fmionnx.backends.sweep.engine import SchedulerError, scheduler_problem
+    from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError, scheduler_problem
 
     problem = None if scheduler is None else scheduler_problem(scheduler)
     if problem is not None:
@@ -107,7 +107,7 @@ def sweep(
             )  # fmt: skip
     except StudyFolderError as exc:
         raise fail(str(exc)) from None
-    except SchedulerError as exc:
+    except (SchedulerError, ClusterStartError) as exc:
         if made_out:  # made just now and still empty: no trace of a study that never started
             with contextlib.suppress(OSError):
                 out.rmdir()

@@ -58,41 +58,50 @@ class StudyFolder:
     def prepare(self, *, resume: bool, force: bool = False) -> set[str]:
         """Create the folder (or check it, with ``resume``); returns the finished cases' ids.
 
-        A folder holding another study's records is refused (resuming would mix two plans);
-        without ``resume`` a folder that already holds a study is refused too, so finished
-        results are never overwritten by accident -- unless ``force`` says to start afresh
-        (then what a study writes is removed, nothing else).
+        Refused as :meth:`problem` says; with ``force`` what an earlier study wrote is removed
+        first (nothing else).
         """
+        problem = self.problem(resume=resume, force=force)
+        if problem is not None:
+            raise StudyFolderError(problem)
         marker = self.out / "study.json"
-        cleared = marker.exists() and force and not resume
-        if cleared:
+        if marker.exists() and force and not resume:
             self._clear()
-        if marker.exists():
-            try:
-                previous = json.loads(marker.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
-                previous = {}
-            if not resume:
-                msg = (
-                    f"`{self.out}` already holds a study's results: --resume finishes it, "
-                    "--force starts afresh"
-                )
-                raise StudyFolderError(msg)
-            if previous.get("fingerprint") != self.plan.fingerprint:
-                msg = (
-                    f"`{self.out}` holds the results of another study (or of this one before it "
-                    "changed): --resume continues only the same study"
-                )
-                raise StudyFolderError(msg)
-        elif not cleared and self.out.exists() and any(self.out.iterdir()):
-            msg = f"`{self.out}` is not empty and holds no study: choose a new or empty folder"
-            raise StudyFolderError(msg)
         self.records.mkdir(parents=True, exist_ok=True)
         if not marker.exists():
             with atomic_text(marker) as stream:
                 json.dump(self.description(), stream, indent=2)
                 stream.write("\n")
         return self.finished()
+
+    def problem(self, *, resume: bool, force: bool = False) -> str | None:
+        """Why the folder cannot take this study (None: it can), touching nothing.
+
+        A folder holding another study's records is refused (resuming would mix two plans);
+        without ``resume`` a folder that already holds a study is refused too, so finished
+        results are never overwritten by accident -- unless ``force`` says to start afresh.
+        """
+        marker = self.out / "study.json"
+        if marker.exists() and force and not resume:
+            return None
+        if marker.exists():
+            if not resume:
+                return (
+                    f"`{self.out}` already holds a study's results: --resume finishes it, "
+                    "--force starts afresh"
+                )
+            try:
+                previous = json.loads(marker.read_text(encoding="utf-8"))
+            except (OSError, ValueError):
+                previous = {}
+            if previous.get("fingerprint") != self.plan.fingerprint:
+                return (
+                    f"`{self.out}` holds the results of another study (or of this one before it "
+                    "changed): --resume continues only the same study"
+                )
+        elif self.out.exists() and any(self.out.iterdir()):
+            return f"`{self.out}` is not empty and holds no study: choose a new or empty folder"
+        return None
 
     def _clear(self) -> None:
         """Remove what a study writes in ``out`` (records, kept results, table, plots)."""

@@ -73,19 +73,28 @@ def run_sweep(
     ``force`` replaces the results of a study already in ``out`` (without: refused).
     ``batch`` fixes the cases per Dask task (1: one each; None: sized from the case times).
     """
-    from fmionnx.backends.sweep.engine import open_client
+    from fmionnx.backends.sweep.engine import open_client, refuse_in_starting_worker
+    from fmionnx.results.study import StudyFolder, StudyFolderError
 
+    refuse_in_starting_worker()  # before the folder is touched
+    problem = StudyFolder(out, plan).problem(resume=resume, force=force)
+    if problem is not None:  # said at once, not after starting a cluster
+        raise StudyFolderError(problem)
     with contextlib.ExitStack() as stack:
-        # An existing cluster is reached before the folder is touched: a wrong address or a
-        # scheduler that does not answer leaves nothing behind to be --resume'd or --force'd.
-        remote = None if scheduler is None else stack.enter_context(open_client(scheduler))
-        return _run(plan, out, remote, workers, resume, keep_results, force, progress, batch)
+        # The cluster is reached (an existing one) or started (a local one) before the folder
+        # is touched: a wrong address, a scheduler that does not answer or workers that cannot
+        # start leave nothing behind to be --resume'd, and --force has removed nothing. A
+        # resumed study, which removes nothing, starts a local cluster only if cases are left.
+        client = None
+        if scheduler is not None or not resume:
+            client = stack.enter_context(open_client(scheduler, workers))
+        return _run(plan, out, client, workers, resume, keep_results, force, progress, batch)
 
 
 def _run(
     plan: StudyPlan,
     out: Path,
-    remote: Any,
+    client: Any,
     workers: int | None,
     resume: bool,
     keep_results: bool,
@@ -114,11 +123,11 @@ def _run(
             progress(counts[0], counts[1], len(plan.cases))
 
     tasks = None
-    if pending and remote is not None:
-        tasks = run_study(remote, plan, pending, job, on_done, batch=batch)
-    elif pending:
-        with open_client(None, workers) as client:
-            tasks = run_study(client, plan, pending, job, on_done, batch=batch)
+    if pending and client is not None:
+        tasks = run_study(client, plan, pending, job, on_done, batch=batch)
+    elif pending:  # a resumed study with cases left
+        with open_client(None, workers) as started:
+            tasks = run_study(started, plan, pending, job, on_done, batch=batch)
     table = folder.table()
     files = folder.write_table(table)
     files.extend(write_study_plots(table, plan, out))

@@ -110,6 +110,6 @@ def test_a_local_cluster_that_fails_to_start_leaves_the_environment_as_it_was(
         raise RuntimeError("Nanny failed to start.")
 
     monkeypatch.setattr(engine, "_local_cluster", nanny_fails)
-    with pytest.raises(RuntimeError, match="Nanny"), engine.open_client(workers=1):
+    with pytest.raises(engine.ClusterStartError, match="Nanny"), engine.open_client(workers=1):
         pass
     assert "OMP_NUM_THREADS" not in os.environ

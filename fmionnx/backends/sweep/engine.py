@@ -69,6 +69,34 @@ class SchedulerError(FmionnxError):
     """An existing cluster's scheduler that cannot be used: a malformed address or no answer."""
 
 
+class ClusterStartError(FmionnxError):
+    """The local cluster could not start, or a study was started inside a starting worker."""
+
+
+#: How to call ``fmionnx.sweep`` from a script: each local worker imports the script again.
+SCRIPT_GUARD = (
+    'the call must be under `if __name__ == "__main__":` '
+    "(each local worker process imports the calling script again as it starts)"
+)
+
+
+def refuse_in_starting_worker() -> None:
+    """Raise :class:`ClusterStartError` in a worker process that is still starting.
+
+    The local cluster's workers are started with ``spawn``: each runs the main script of the
+    process that started it before it becomes a worker. A script that calls ``fmionnx.sweep``
+    at its top level thus calls it again in every worker, which would prepare -- with
+    ``force``, wipe -- the same results folder while the real study writes it. Multiprocessing
+    marks such a process while it imports the script (``_inheriting``, which its own check
+    for this mistake reads), so the call is refused before anything is touched.
+    """
+    import multiprocessing
+
+    if getattr(multiprocessing.current_process(), "_inheriting", False):
+        msg = f"fmionnx.sweep was called while a worker process was starting: {SCRIPT_GUARD}"
+        raise ClusterStartError(msg)
+
+
 def scheduler_problem(address: str) -> str | None:
     """What is wrong with a scheduler address, or None; checked before anything is written.
 
@@ -120,7 +148,14 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
         return
     before = {key: os.environ.get(key) for key in _NANNY_VARIABLES}
     try:
-        cluster = _local_cluster(workers or default_workers())
+        try:
+            cluster = _local_cluster(workers or default_workers())
+        except (RuntimeError, OSError, TimeoutError) as exc:
+            msg = (
+                f"the local Dask cluster could not start its workers ({exc}); "
+                f"if a script calls fmionnx.sweep, {SCRIPT_GUARD}"
+            )
+            raise ClusterStartError(msg) from None
         try:
             with Client(cluster, set_as_default=False) as client:
                 yield client
