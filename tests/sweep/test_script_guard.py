@@ -62,6 +62,22 @@ def test_the_same_script_with_the_guard_runs(write_study: WriteStudy) -> None:
     assert (folder / "results" / "cases.csv").is_file()
 
 
+def _nanny_fails(workers: int) -> object:
+    """Dask's local cluster failing to start its workers (the part that fails is Dask's)."""
+    raise RuntimeError("Nanny failed to start.")
+
+
+@pytest.fixture
+def finished(write_study: WriteStudy, tmp_path: Path) -> tuple[Path, Path]:
+    """A study and the results folder of a finished run of it."""
+    import fmionnx
+
+    study = write_study(STUDY)
+    out = tmp_path / "out"
+    fmionnx.sweep(study, out=out, workers=1)
+    return study, out
+
+
 def test_the_command_reports_a_local_cluster_that_cannot_start(
     write_study: WriteStudy, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
@@ -70,10 +86,7 @@ def test_the_command_reports_a_local_cluster_that_cannot_start(
     from fmionnx.backends.sweep import engine
     from fmionnx.cli import app
 
-    def nanny_fails(workers: int) -> object:
-        raise RuntimeError("Nanny failed to start.")
-
-    monkeypatch.setattr(engine, "_local_cluster", nanny_fails)  # Dask's failure, not ours
+    monkeypatch.setattr(engine, "_local_cluster", _nanny_fails)
     result = CliRunner().invoke(
         app,
         ["sweep", str(write_study(STUDY)), "--out", str(tmp_path / "out")],
@@ -88,35 +101,27 @@ def test_the_command_reports_a_local_cluster_that_cannot_start(
 
 
 def test_force_removes_nothing_when_the_local_cluster_cannot_start(
-    write_study: WriteStudy, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    finished: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import fmionnx
     from fmionnx.backends.sweep import engine
 
-    study = write_study(STUDY)
-    out = tmp_path / "out"
-    fmionnx.sweep(study, out=out, workers=1)
+    study, out = finished
     before = sorted(p.relative_to(out) for p in out.rglob("*"))
-
-    def nanny_fails(workers: int) -> object:
-        raise RuntimeError("Nanny failed to start.")
-
-    monkeypatch.setattr(engine, "_local_cluster", nanny_fails)
+    monkeypatch.setattr(engine, "_local_cluster", _nanny_fails)
     with pytest.raises(engine.ClusterStartError):
         fmionnx.sweep(study, out=out, workers=1, force=True)
     assert sorted(p.relative_to(out) for p in out.rglob("*")) == before
 
 
 def test_a_folder_that_cannot_take_the_study_is_said_before_any_cluster_starts(
-    write_study: WriteStudy, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+    finished: tuple[Path, Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     import fmionnx
     from fmionnx.backends.sweep import engine
     from fmionnx.results.study import StudyFolderError
 
-    study = write_study(STUDY)
-    out = tmp_path / "out"
-    fmionnx.sweep(study, out=out, workers=1)
+    study, out = finished
 
     def no_cluster_expected(workers: int) -> object:
         raise AssertionError("a cluster was started before the folder was checked")
