@@ -8,9 +8,10 @@ tasks of their own. Cases go out one per task, or per batch of short cases
 (:func:`.case.run_batch`, sized by :mod:`.batching`: one task per worker thread to start),
 then up to two tasks in hand per thread; a worker that returns a task is handed the next
 one. Each outcome is handed to ``on_done`` on the driver as soon as its task returns, so the
-caller can record it durably before the next one arrives. A worker that dies under a task (a model crashing a non-isolated component) has
-that task's cases run again one at a time, alone on the cluster; a case whose worker dies
-while it runs alone is ``failed``; the study goes on."""
+caller can record it durably before the next one arrives. A worker that dies under a task (a
+model crashing a non-isolated component) has that task's cases run again one at a time, alone
+on the cluster; a case whose worker dies while it runs alone is ``failed``; the study goes
+on."""
 
 from __future__ import annotations
 
@@ -52,8 +53,9 @@ LOCAL_CONFIG = {
     "distributed.nanny.pre-spawn-environ.MALLOC_TRIM_THRESHOLD_": None,
 }
 #: Tasks in hand per worker thread once the study's first tasks (one per thread) return: one
-#: running, one queued on its worker to start the moment the first returns. The rest wait on the driver, where later tasks are sized from the case
-#: times measured by then (and a study of 10^5 cases never is 10^5 tasks on the scheduler).
+#: running, one queued on its worker to start the moment the first returns. The rest wait on
+#: the driver, where later tasks are sized from the case times measured by then (and a study
+#: of 10^5 cases never is 10^5 tasks on the scheduler).
 DEPTH = 2
 #: Seconds between two questions to the scheduler about its workers during a study.
 REFRESH_SECONDS = 2.0
@@ -146,7 +148,7 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
         with client:
             yield client
         return
-    before = {key: os.environ.get(key) for key in _NANNY_VARIABLES}
+    before = {key: os.environ.get(key) for key in _nanny_variables()}
     try:
         try:
             cluster = _local_cluster(workers or default_workers())
@@ -184,16 +186,14 @@ def _local_cluster(workers: int) -> Any:
         )
 
 
-#: What Dask's nanny writes into the environment of the process that starts it (its
-#: ``pre-spawn-environ``, set before it spawns a worker, and a fixed hash seed), and never
-#: takes back.
-_NANNY_VARIABLES = (
-    "MALLOC_TRIM_THRESHOLD_",
-    "OMP_NUM_THREADS",
-    "MKL_NUM_THREADS",
-    "OPENBLAS_NUM_THREADS",
-    "PYTHONHASHSEED",
-)
+def _nanny_variables() -> tuple[str, ...]:
+    """What Dask's nanny writes into the environment of the process that starts it, and never
+    takes back: its ``pre-spawn-environ`` (Dask's defaults or the user's Dask configuration),
+    set before it spawns a worker, and a fixed hash seed."""
+    import dask
+    import distributed  # noqa: F401 - loads Dask's distributed configuration
+
+    return (*dask.config.get("distributed.nanny.pre-spawn-environ"), "PYTHONHASHSEED")
 
 
 def _restore(before: Mapping[str, str | None]) -> None:
