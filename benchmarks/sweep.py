@@ -1,7 +1,8 @@
 """What ``fmionnx sweep`` costs and gains: cases per second on 1 and 2 Dask workers, against the
-same cases run one after the other in a plain loop in this process.
+same cases run one after the other in a plain loop in this process, and in two plain processes
+side by side (what this machine gives two processes at all).
 
-Two studies, each run three ways side by side in one run (so machine load hits all alike):
+Two studies, each run four ways side by side in one run (so machine load hits all alike):
 
 1. **Small FMU system**: a ``signal`` into one ``Gain`` FMU, 100 base steps, 200 cases
    (``gain.k`` over a grid), nothing isolated: almost all of a case is the sweep's own
@@ -11,13 +12,17 @@ Two studies, each run three ways side by side in one run (so machine load hits a
    isolated as ``fmionnx run`` does by default.
 
 *loop* is :func:`fmionnx.backends.sweep.case.run_case` (what a worker runs for a case) called
-for every case in this process: no Dask. *1 worker* / *2 workers* are a local Dask cluster of
+for every case in this process: no Dask. *2 processes* is the same loop in two plain processes
+(spawned once, each given half of a round's cases, both at once), timed right after or before
+one of them runs all of the round's cases alone: no Dask either, and the ratio of the two is
+the machine's own ceiling for 2 workers -- on a shared virtual machine two processes do not
+always get two cores' worth. *1 worker* / *2 workers* are a local Dask cluster of
 that many processes, started for each round of its mode and closed after it, so that only the
 cluster under test is alive while it is timed (an idle second cluster's scheduler and workers
 take CPU from a busy one on two cores); the cluster's start and a warm-up (models shipped,
 caches filled: a case per worker, for the small study a batched study of 8 cases) are timed
 apart from the study (the mean per round). The modes are interleaved: every round runs in the
-three modes, each round starting with another one, so that drifting machine load hits all
+four modes, each round starting with another one, so that drifting machine load hits all
 alike; a round of the small study is the whole 200-case study (repeated ``--rounds`` times),
 a round of the reference scenario a slice of its cases (2 rounds by default: 10 of the 20
 cases each, an even number, since an odd slice leaves one worker idle for a whole case at its
@@ -26,9 +31,15 @@ per case. The table shows how the engine cut the cases into Dask tasks (adaptive
 default, ``--batch N`` to fix the size, ``--batch 1`` for one case per task) and the
 *time in cases*: the cases' wall times summed, over the mode's seconds times its workers --
 near 100 % when the workers spend their time in cases rather than waiting for tasks (a
-shortfall of speed-up then comes from the cores being shared, not from the sweep). Targets
-(reported, never asserted): 2 workers >= 1.8x the cases/s of 1 worker; the sweep's overhead
-(1 worker against the loop) <= 10 % of the loop on the reference scenario.
+shortfall of speed-up then comes from the cores being shared, not from the sweep). For the
+small study each cluster also runs studies of one case per worker after its timed study: their
+median time is the *latency* of a study (what it costs besides its cases: packing and sending
+the tasks, the first case starting, the last result coming back). Targets (reported, never
+asserted): 2 workers >= 1.8x the cases/s of 1 worker; the sweep's overhead (1 worker against
+the loop) <= 10 % of the loop on the reference scenario. Reported beside them: the machine's
+ceiling (2 plain processes against 1) and, for the small study, the ratio 2 workers would
+reach if a study cost only its measured latency besides its cases, the cases running as fast
+as in 1 plain process (1 worker) and as in 2 (2 workers).
 
 Run: ``python benchmarks/sweep.py`` (a few minutes on 2 cores), ``--quick`` for a smoke run.
 """
@@ -36,13 +47,17 @@ Run: ``python benchmarks/sweep.py`` (a few minutes on 2 cores), ``--quick`` for 
 from __future__ import annotations
 
 import argparse
+import contextlib
 import dataclasses
+import multiprocessing
 import os
+import statistics
 import sys
 import tempfile
 import time
 from collections.abc import Sequence
 from dataclasses import dataclass
+from multiprocessing.connection import Connection
 from pathlib import Path
 from typing import Any
 
@@ -57,9 +72,17 @@ from rich.console import Console  # noqa: E402
 from benchmarks import chain, machine, report  # noqa: E402
 
 LOOP = "loop"
-MODES = (LOOP, "1 worker", "2 workers")
-#: Worker processes of each mode (the loop is this one process).
-WORKERS = dict(zip(MODES, (1, 1, 2), strict=True))
+PROCESSES = "2 processes"
+MODES = (LOOP, PROCESSES, "1 worker", "2 workers")
+#: Processes running cases in each mode (the loop is this one process).
+WORKERS = dict(zip(MODES, (1, 2, 1, 2), strict=True))
+#: Studies of one case per worker run on each cluster after its timed study (small study only),
+#: whose median time is the study's latency.
+LATENCY_STUDIES = 5
+#: Seconds the client is left idle before each timed study. `fmionnx sweep` submits a study on a
+#: client that has sent nothing for a while; right after the warm-up study the first tasks
+#: would wait out Dask's 10-ms batching of the client's messages (6-7 ms more per study).
+IDLE_BEFORE_STUDY = 0.05
 SPEEDUP_TARGET = 1.8
 #: Cases of the warm-up study run on each new cluster before the small study is timed (the
 #: reference scenario's warm-up is one case per worker: its cases take seconds).
@@ -110,8 +133,13 @@ class Timing:
     cases: int = 0
     #: Seconds spent inside the cases (each case's wall time, summed).
     inside: float = 0.0
-    #: Cases per Dask task, every task of the study's rounds (empty for the loop).
+    #: Cases per Dask task, every task of the study's rounds (empty without Dask).
     sizes: tuple[int, ...] = ()
+    #: Median seconds of a study of one case per worker on this mode's cluster (None: not
+    #: measured, or no cluster).
+    latency: float | None = None
+    #: *2 processes* only: seconds of one of the processes running the same cases alone.
+    alone: float = 0.0
 
 
 def _plan(study: Path) -> Any:
@@ -135,6 +163,63 @@ def _loop_cases(plan: Any, cases: Sequence[Any], shared: tuple[str, Any]) -> lis
     return [run_case(text, packed, case, job) for case in cases]
 
 
+def _side(study: str, conn: Connection) -> None:
+    """One process of the *2 processes* mode: runs the cases it is sent (their places in the
+    study) as the loop does, until sent None."""
+    from fmionnx.backends.sweep.models import pack_models
+    from fmionnx.compile.systemfile import to_json
+
+    plan = _plan(Path(study))
+    shared = (to_json(plan.system), pack_models(plan.system))
+    cases = list(plan.cases)
+    _loop_cases(plan, cases[:1], shared)  # warm, as the loop is
+    conn.send(None)
+    while (places := conn.recv()) is not None:
+        conn.send(_loop_cases(plan, [cases[i] for i in places], shared))
+
+
+class _Pair:
+    """Two plain processes side by side, started once for all rounds: between rounds they wait
+    on their pipes and take no CPU from the other modes."""
+
+    def __init__(self, study: Path) -> None:
+        context = multiprocessing.get_context("spawn")  # as Dask starts its workers
+        self._pipes: list[Connection] = []
+        self._processes: list[Any] = []
+        for _ in range(2):
+            ours, theirs = context.Pipe()
+            process = context.Process(target=_side, args=(str(study), theirs), daemon=True)
+            process.start()
+            theirs.close()
+            self._pipes.append(ours)
+            self._processes.append(process)
+        for pipe in self._pipes:
+            pipe.recv()
+
+    def run(self, places: Sequence[int]) -> list[Any]:
+        """The cases at ``places``, the first half in one process and the rest in the other."""
+        half = (len(places) + 1) // 2
+        for pipe, part in zip(self._pipes, (places[:half], places[half:]), strict=True):
+            pipe.send(list(part))
+        return [outcome for pipe in self._pipes for outcome in pipe.recv()]
+
+    def run_alone(self, places: Sequence[int], which: int) -> list[Any]:
+        """The cases at ``places`` in process ``which`` (0 or 1), the other one idle."""
+        self._pipes[which].send(list(places))
+        outcomes: list[Any] = self._pipes[which].recv()
+        return outcomes
+
+    def close(self) -> None:
+        for pipe in self._pipes:
+            # A process already gone: the error that ended the rounds is the one to see.
+            with contextlib.suppress(OSError):
+                pipe.send(None)
+        for process in self._processes:
+            process.join(timeout=30)
+            if process.is_alive():
+                process.kill()
+
+
 def _cluster_cases(
     client: Any, plan: Any, cases: Sequence[Any], batch: int | None, sizes: list[int]
 ) -> list[Any]:
@@ -146,56 +231,85 @@ def _cluster_cases(
 
 
 def measure(
-    plan: Any,
+    study: Path,
     rounds: int,
     batch: int | None = None,
     *,
     whole: bool = False,
     warm_up: int | None = None,
 ) -> list[Timing]:
-    """The three modes on the same cases, interleaved: the cases are cut into ``rounds``
+    """The four modes on the same cases, interleaved: the cases are cut into ``rounds``
     slices and each slice runs in every mode (starting with another mode each round), so
     drifting machine load hits all modes alike. The clusters start once, timed apart.
 
     ``whole``: every round runs the whole study instead of a slice (a short study repeated,
-    so that each run is the study the issue names, not a quarter of it). ``warm_up``: cases
-    run on each new cluster before it is timed (None: one per worker)."""
+    so that each run is the study the issue names, not a quarter of it), and each cluster's
+    latency is measured. ``warm_up``: cases run on each new cluster before it is timed (None:
+    one per worker)."""
     from fmionnx.backends.sweep.engine import open_client
     from fmionnx.backends.sweep.models import pack_models
     from fmionnx.compile.systemfile import to_json
 
+    plan = _plan(study)
     shared = (to_json(plan.system), pack_models(plan.system))
     cases = list(plan.cases)
-    slices = [cases] * rounds if whole else [cases[i::rounds] for i in range(rounds)]
+    places = list(range(len(cases)))
+    slices = [places] * rounds if whole else [places[i::rounds] for i in range(rounds)]
     seconds = dict.fromkeys(MODES, 0.0)
     outcomes: dict[str, list[Any]] = {mode: [] for mode in MODES}
     startup: dict[str, float] = dict.fromkeys(MODES, 0.0)
     sizes: dict[str, list[int]] = {mode: [] for mode in MODES}
+    latencies: dict[str, list[float]] = {mode: [] for mode in MODES}
+    alone = 0.0
     _loop_cases(plan, cases[:1], shared)
-    for index, part in enumerate(slices):
-        order = MODES[index % 3 :] + MODES[: index % 3]
-        for mode in order:
-            if mode == LOOP:
+    pair = _Pair(study)
+    try:
+        for index, part_places in enumerate(slices):
+            part = [cases[i] for i in part_places]
+            order = MODES[index % len(MODES) :] + MODES[: index % len(MODES)]
+            for mode in order:
+                if mode == LOOP:
+                    began = time.perf_counter()
+                    outcomes[mode].extend(_loop_cases(plan, part, shared))
+                    seconds[mode] += time.perf_counter() - began
+                    continue
+                if mode == PROCESSES:
+                    # One process alone and both side by side, one right after the other (in
+                    # turn the first), so that the ratio of the two sees the same machine.
+                    for side_by_side in (index % 2 == 0, index % 2 == 1):
+                        began = time.perf_counter()
+                        if side_by_side:
+                            outcomes[mode].extend(pair.run(part_places))
+                            seconds[mode] += time.perf_counter() - began
+                        else:
+                            pair.run_alone(part_places, index % 2)
+                            alone += time.perf_counter() - began
+                    continue
+                # Only the cluster under test is alive while it is timed: on two cores an idle
+                # second cluster (a scheduler and its workers, ticking) takes from the busy one.
+                workers = WORKERS[mode]
                 began = time.perf_counter()
-                done = _loop_cases(plan, part, shared)
-                seconds[mode] += time.perf_counter() - began
+                with open_client(workers=workers) as client:
+                    client.wait_for_workers(workers)
+                    # Models shipped, caches filled (and for short cases, a batched study run
+                    # once).
+                    count = workers if warm_up is None else warm_up
+                    warm = [dataclasses.replace(c, id=f"warm-up-{c.id}") for c in cases[:count]]
+                    _cluster_cases(client, plan, warm, batch, [])
+                    startup[mode] += (time.perf_counter() - began) / len(slices)
+                    time.sleep(IDLE_BEFORE_STUDY)
+                    began = time.perf_counter()
+                    done = _cluster_cases(client, plan, part, batch, sizes[mode])
+                    seconds[mode] += time.perf_counter() - began
+                    if whole:
+                        for _ in range(LATENCY_STUDIES):
+                            time.sleep(IDLE_BEFORE_STUDY)
+                            began = time.perf_counter()
+                            _cluster_cases(client, plan, cases[:workers], batch, [])
+                            latencies[mode].append(time.perf_counter() - began)
                 outcomes[mode].extend(done)
-                continue
-            # Only the cluster under test is alive while it is timed: on two cores an idle
-            # second cluster (a scheduler and its workers, ticking) takes from the busy one.
-            workers = WORKERS[mode]
-            began = time.perf_counter()
-            with open_client(workers=workers) as client:
-                client.wait_for_workers(workers)
-                # Models shipped, caches filled (and for short cases, a batched study run once).
-                count = workers if warm_up is None else warm_up
-                warm = [dataclasses.replace(c, id=f"warm-up-{c.id}") for c in cases[:count]]
-                _cluster_cases(client, plan, warm, batch, [])
-                startup[mode] += (time.perf_counter() - began) / len(slices)
-                began = time.perf_counter()
-                done = _cluster_cases(client, plan, part, batch, sizes[mode])
-                seconds[mode] += time.perf_counter() - began
-            outcomes[mode].extend(done)
+    finally:
+        pair.close()
     return [
         Timing(
             mode,
@@ -206,6 +320,8 @@ def measure(
             len(outcomes[mode]),
             sum(o.wall_time for o in outcomes[mode]),
             tuple(sizes[mode]),
+            statistics.median(latencies[mode]) if latencies[mode] else None,
+            alone if mode == PROCESSES else 0.0,
         )
         for mode in MODES
     ]
@@ -222,14 +338,14 @@ def _failed(outcomes: Sequence[Any]) -> int:
     return sum(o.status != "ok" for o in outcomes)
 
 
-def rows(study: str, timings: list[Timing]) -> list[dict[str, Any]]:
+def rows(study: str, timings: list[Timing], rounds: int) -> list[dict[str, Any]]:
     """One table row per mode; ratios against the loop and against 1 worker."""
-    loop = timings[0]
-    one = timings[1]
+    by_mode = {timing.mode: timing for timing in timings}
+    loop, one, two = by_mode[LOOP], by_mode["1 worker"], by_mode["2 workers"]
     cases = loop.cases
     out = []
     for timing in timings:
-        same = timing.metrics == loop.metrics
+        clustered = timing.mode in ("1 worker", "2 workers")
         out.append(
             {
                 "study": study,
@@ -237,8 +353,9 @@ def rows(study: str, timings: list[Timing]) -> list[dict[str, Any]]:
                 "cases": cases,
                 "seconds": timing.seconds,
                 "cases_per_s": cases / timing.seconds if timing.seconds else None,
-                "startup": timing.startup if timing.mode != LOOP else None,
-                "vs_1_worker": one.seconds / timing.seconds if timing.mode != LOOP else None,
+                "startup": timing.startup if clustered else None,
+                "vs_1_worker": one.seconds / timing.seconds if clustered else None,
+                "vs_1_process": timing.alone / timing.seconds if timing.mode == PROCESSES else None,
                 "overhead_per_case_ms": (timing.seconds - loop.seconds) / cases * 1000
                 if timing.mode == "1 worker"
                 else None,
@@ -248,11 +365,19 @@ def rows(study: str, timings: list[Timing]) -> list[dict[str, Any]]:
                 "busy_share": timing.inside / (timing.seconds * WORKERS[timing.mode])
                 if timing.seconds
                 else None,
+                "latency_ms": timing.latency * 1000 if timing.latency is not None else None,
                 "batch": _batches(timing.sizes),
                 "failed": timing.failed,
-                "same_metrics": same,
+                "same_metrics": timing.metrics == loop.metrics,
             }
         )
+    processes = by_mode[PROCESSES]
+    if one.latency is not None and two.latency is not None:
+        # A study costing only its latency besides its cases: on 1 worker the cases as fast
+        # as in 1 plain process, on 2 as fast as in 2 (per round: one study).
+        alone = one.latency + processes.alone / rounds
+        paired = two.latency + processes.seconds / rounds
+        out[MODES.index("2 workers")]["latency_bound"] = alone / paired
     return out
 
 
@@ -264,9 +389,11 @@ COLUMNS = (
     ("cases_per_s", "cases/s"),
     ("startup", "cluster start + warm-up s"),
     ("vs_1_worker", "speed-up vs 1 worker"),
+    ("vs_1_process", "vs 1 process"),
     ("overhead_per_case_ms", "overhead ms/case vs loop"),
     ("overhead_share", "overhead share"),
     ("busy_share", "time in cases"),
+    ("latency_ms", "latency ms"),
     ("batch", "cases per task"),
     ("failed", "failed"),
     ("same_metrics", "same metrics as loop"),
@@ -274,12 +401,15 @@ COLUMNS = (
 
 
 def targets(small: list[dict[str, Any]], scenario: list[dict[str, Any]]) -> list[dict[str, Any]]:
-    """The issue's two targets, measured on the reference scenario (speed-up on both)."""
+    """The issue's two targets, measured on the reference scenario (speed-up on both), and
+    beside each speed-up what bounds it: the machine's ceiling (2 plain processes against the
+    loop) and, where measured, the ratio a study costing only its latency would reach."""
     found = []
     for study_rows in (small, scenario):
         if not study_rows:  # skipped
             continue
         two = next(r for r in study_rows if r["mode"] == "2 workers")
+        processes = next(r for r in study_rows if r["mode"] == PROCESSES)
         found.append(
             {
                 "target": f"2 workers vs 1 ({two['study']})",
@@ -288,6 +418,23 @@ def targets(small: list[dict[str, Any]], scenario: list[dict[str, Any]]) -> list
                 "met": two["vs_1_worker"] is not None and two["vs_1_worker"] >= SPEEDUP_TARGET,
             }
         )
+        found.append(
+            {
+                "target": f"  this machine: 2 plain processes vs 1, no Dask ({two['study']})",
+                "value": processes["vs_1_process"],
+                "limit": None,
+                "met": None,
+            }
+        )
+        if two.get("latency_bound") is not None:
+            found.append(
+                {
+                    "target": "  2 workers vs 1 from 1 and 2 processes' times plus the latency",
+                    "value": two["latency_bound"],
+                    "limit": None,
+                    "met": None,
+                }
+            )
     if not scenario:
         return found
     one = next(r for r in scenario if r["mode"] == "1 worker")
@@ -306,11 +453,12 @@ def _study_rows(
     name: str, study: Path, args: argparse.Namespace, *, whole: bool = False
 ) -> list[dict[str, Any]]:
     warm_up = WARM_UP if whole else None
-    return rows(name, measure(_plan(study), args.rounds, args.batch, whole=whole, warm_up=warm_up))
+    timings = measure(study, args.rounds, args.batch, whole=whole, warm_up=warm_up)
+    return rows(name, timings, args.rounds)
 
 
 def main(argv: list[str] | None = None, console: Console | None = None) -> dict[str, Any]:
-    """Run both studies in the three modes, print the tables, return what was measured."""
+    """Run both studies in the four modes, print the tables, return what was measured."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: 10 + 2 short cases")
     parser.add_argument("--small-cases", type=int, default=200)

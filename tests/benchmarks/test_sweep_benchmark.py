@@ -1,4 +1,4 @@
-"""benchmarks/sweep.py --quick runs both studies in the three modes to the same metrics.
+"""benchmarks/sweep.py --quick runs both studies in the four modes to the same metrics.
 
 Timings are never asserted (the machine is shared); what is checked is that every mode ran
 every case, none failed, every mode gave the loop's metrics, and the tables were printed.
@@ -33,8 +33,16 @@ def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:
             assert row["failed"] == 0
             assert row["same_metrics"], f"{study}: {row['mode']} differs from the loop"
             assert row["seconds"] > 0
-            assert (row["batch"] is None) == (row["mode"] == sweep.LOOP)
-    assert len(found["targets"]) == 3
+            clustered = row["mode"] not in (sweep.LOOP, sweep.PROCESSES)
+            assert (row["batch"] is not None) == clustered
+            # The study's latency: measured on each cluster, for the small study only.
+            assert (row["latency_ms"] is not None) == (clustered and study == "small")
+            assert (row["vs_1_process"] is not None) == (row["mode"] == sweep.PROCESSES)
+    targets = [row["target"] for row in found["targets"]]
+    assert len(targets) == 6
+    assert sum("2 plain processes vs 1" in target for target in targets) == 2
+    assert sum("plus the latency" in target for target in targets) == 1
+    assert all(row["value"] is not None for row in found["targets"])
     output = text.getvalue()
     assert "Sweep: cases per second" in output
     assert "overhead vs plain loop" in output
