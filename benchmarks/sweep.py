@@ -339,7 +339,8 @@ def _failed(outcomes: Sequence[Any]) -> int:
 
 
 def rows(study: str, timings: list[Timing], rounds: int) -> list[dict[str, Any]]:
-    """One table row per mode; ratios against the loop and against 1 worker."""
+    """One table row per mode: ratios against the loop, 1 worker and 1 plain process; for the
+    2 workers, the ratio its latency allows (``latency_bound``, when measured)."""
     by_mode = {timing.mode: timing for timing in timings}
     loop, one, two = by_mode[LOOP], by_mode["1 worker"], by_mode["2 workers"]
     cases = loop.cases
@@ -402,8 +403,8 @@ COLUMNS = (
 
 def targets(small: list[dict[str, Any]], scenario: list[dict[str, Any]]) -> list[dict[str, Any]]:
     """The issue's two targets, measured on the reference scenario (speed-up on both), and
-    beside each speed-up what bounds it: the machine's ceiling (2 plain processes against the
-    loop) and, where measured, the ratio a study costing only its latency would reach."""
+    beside each speed-up what bounds it: the machine's ceiling (2 plain processes against 1)
+    and, where measured, the ratio a study costing only its latency would reach."""
     found = []
     for study_rows in (small, scenario):
         if not study_rows:  # skipped
