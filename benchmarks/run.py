@@ -44,7 +44,7 @@ EXTERNAL_PATTERNS = (
     "startup.py",
     "sweep.py",
 )
-#: Seconds each of those scripts may take (the sweep benchmark alone takes about 250 s on 2 cores).
+#: Seconds each of those scripts may take (the sweep benchmark alone: about 280 s on 2 cores).
 EXTERNAL_TIMEOUT = 600.0
 
 

@@ -24,9 +24,10 @@ caches filled: a case per worker, for the small study a batched study of 8 cases
 apart from the study (the mean per round). The modes are interleaved: every round runs in the
 four modes, each round starting with another one, so that drifting machine load hits all
 alike; a round of the small study is the whole 200-case study (repeated ``--rounds`` times),
-a round of the reference scenario a slice of its cases (2 rounds by default: 10 of the 20
+a round of the reference scenario a slice of its cases (5 rounds by default: 4 of the 20
 cases each, an even number, since an odd slice leaves one worker idle for a whole case at its
-end and caps 2 workers at 1.67x for 5 cases a round). Every mode must give the same metrics
+end and caps 2 workers at 1.67x for 5 cases a round; with 2 rounds the loop's own time, 10
+cases in one go, varied by about 10 % from run to run on a shared machine). Every mode must give the same metrics
 per case. The table shows how the engine cut the cases into Dask tasks (adaptive batches by
 default, ``--batch N`` to fix the size, ``--batch 1`` for one case per task) and the
 *time in cases*: the cases' wall times summed, over the mode's seconds times its workers --
@@ -468,7 +469,7 @@ def main(argv: list[str] | None = None, console: Console | None = None) -> dict[
     parser.add_argument(
         "--rounds",
         type=int,
-        default=2,
+        default=5,
         help="interleaved rounds per study (keep the scenario's cases per round even)",
     )
     parser.add_argument(
