@@ -27,8 +27,8 @@ alike; a round of the small study is the whole 200-case study (repeated ``--roun
 a round of the reference scenario a slice of its cases (5 rounds by default: 4 of the 20
 cases each, an even number, since an odd slice leaves one worker idle for a whole case at its
 end and caps 2 workers at 1.67x for 5 cases a round; with 2 rounds the loop's own time, 10
-cases in one go, varied by about 10 % from run to run on a shared machine). Every mode must give the same metrics
-per case. The table shows how the engine cut the cases into Dask tasks (adaptive batches by
+cases in one go, varied by about 10 % from run to run on a shared machine). Every mode must
+give the same metrics per case. The table shows how the engine cut the cases into Dask tasks (adaptive batches by
 default, ``--batch N`` to fix the size, ``--batch 1`` for one case per task) and the
 *time in cases*: the cases' wall times summed, over the mode's seconds times its workers --
 near 100 % when the workers spend their time in cases rather than waiting for tasks (a
@@ -164,16 +164,23 @@ def _loop_cases(plan: Any, cases: Sequence[Any], shared: tuple[str, Any]) -> lis
     return [run_case(text, packed, case, job) for case in cases]
 
 
-def _side(study: str, conn: Connection) -> None:
-    """One process of the *2 processes* mode: runs the cases it is sent (their places in the
-    study) as the loop does, until sent None."""
+def _warm_loop(study: Path) -> tuple[Any, list[Any], tuple[str, Any]]:
+    """The study's plan, cases and shared values (system JSON, packed models), its first case
+    run once in this process: what the loop, in this process or another, starts from."""
     from fmionnx.backends.sweep.models import pack_models
     from fmionnx.compile.systemfile import to_json
 
-    plan = _plan(Path(study))
+    plan = _plan(study)
     shared = (to_json(plan.system), pack_models(plan.system))
     cases = list(plan.cases)
-    _loop_cases(plan, cases[:1], shared)  # warm, as the loop is
+    _loop_cases(plan, cases[:1], shared)
+    return plan, cases, shared
+
+
+def _side(study: str, conn: Connection) -> None:
+    """One process of the *2 processes* mode: runs the cases it is sent (their places in the
+    study) as the loop does, until sent None."""
+    plan, cases, shared = _warm_loop(Path(study))
     conn.send(None)
     while (places := conn.recv()) is not None:
         conn.send(_loop_cases(plan, [cases[i] for i in places], shared))
@@ -241,19 +248,16 @@ def measure(
 ) -> list[Timing]:
     """The four modes on the same cases, interleaved: the cases are cut into ``rounds``
     slices and each slice runs in every mode (starting with another mode each round), so
-    drifting machine load hits all modes alike. The clusters start once, timed apart.
+    drifting machine load hits all modes alike. Each round's clusters start apart from the
+    timing.
 
     ``whole``: every round runs the whole study instead of a slice (a short study repeated,
     so that each run is the study the issue names, not a quarter of it), and each cluster's
     latency is measured. ``warm_up``: cases run on each new cluster before it is timed (None:
     one per worker)."""
     from fmionnx.backends.sweep.engine import open_client
-    from fmionnx.backends.sweep.models import pack_models
-    from fmionnx.compile.systemfile import to_json
 
-    plan = _plan(study)
-    shared = (to_json(plan.system), pack_models(plan.system))
-    cases = list(plan.cases)
+    plan, cases, shared = _warm_loop(study)
     places = list(range(len(cases)))
     slices = [places] * rounds if whole else [places[i::rounds] for i in range(rounds)]
     seconds = dict.fromkeys(MODES, 0.0)
@@ -262,7 +266,6 @@ def measure(
     sizes: dict[str, list[int]] = {mode: [] for mode in MODES}
     latencies: dict[str, list[float]] = {mode: [] for mode in MODES}
     alone = 0.0
-    _loop_cases(plan, cases[:1], shared)
     pair = _Pair(study)
     try:
         for index, part_places in enumerate(slices):

@@ -23,8 +23,9 @@ cost is shared. So the engine batches:
   gives each. A task cut short by its budget hands its rest back, and later tasks are sized
   as above. Once case times are known, a task is never less than :data:`MIN_TASK_SECONDS`
   of work: on a machine whose cores all run workers, every task also costs the workers time
-  in the driver and scheduler, more than tiny tasks at the end would gain in balance. When fewer cases are left than such a task per thread, they go out as one
-  equal share per thread.
+  in the driver and scheduler, more than tiny tasks at the end would gain in balance. When
+  fewer cases are left than such a task per thread, they go out as one equal share per
+  thread.
   Case times differ (a case of seconds, the reference scenario), so a task also carries a
   **budget** (:data:`TASK_SECONDS`): the worker runs its cases in order and stops after the
   first one that ends past the budget, returning what it ran; the driver hands the rest out
