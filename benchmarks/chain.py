@@ -176,7 +176,7 @@ def prepare_fmionnx(chain: Chain, *, native: bool = True) -> RunOnce | str:
     tail = PortRef(f"g{chain.n - 1}", "y")
     # Untimed check that the chain computes what the others do (recording only the tail).
     with native_kernel(native):
-        check = system.run(stop_time=3 * chain.step, record=(tail,))
+        check = system.run(stop_time=3 * chain.step, signals=(tail,), isolate="none")
     if not native and check.details.get("native"):
         msg = "FMIONNX_NATIVE=0 did not turn the native kernel off"
         raise RuntimeError(msg)

@@ -189,7 +189,7 @@ def chain_modes(n: int, steps: int, repeats: int, work: Path | None = None) -> l
             for mode in modes:  # untimed: both modes compute 2**N at the tail
                 check = system.run(
                     stop_time=3 * case.step,
-                    record=(tail,),
+                    signals=(tail,),
                     options=RunOptions(isolate=mode.isolate),
                 )
                 mode.correct = float(check[f"{tail.component}.y"][-1]) == case.expected

@@ -115,7 +115,9 @@ def measure(case: Case, fmu: Path, n: int, steps: int, repeat: int) -> dict[str,
     checks = {}
     for native in (True, False):
         with native_kernel(native):
-            checks[native] = system.run(stop_time=min(steps, 200) * 1e-3, record=tail)
+            checks[native] = system.run(
+                stop_time=min(steps, 200) * 1e-3, signals=tail, isolate="none"
+            )
     identical = all(
         checks[True].signals[name].tobytes() == values.tobytes()
         for name, values in checks[False].signals.items()

@@ -144,7 +144,7 @@ class Timing:
 
 
 def _plan(study: Path) -> Any:
-    from fmionnx.results.sweep import plan_study
+    from fmionnx.pipeline.sweep import plan_study
 
     return plan_study(study)[0]
 
@@ -158,10 +158,11 @@ def _job(plan: Any) -> Any:
 def _loop_cases(plan: Any, cases: Sequence[Any], shared: tuple[str, Any]) -> list[Any]:
     """Cases through ``run_case`` in this process, one after the other."""
     from fmionnx.backends.sweep.case import run_case
+    from fmionnx.pipeline.study import run_study_case
 
     text, packed = shared
     job = _job(plan)
-    return [run_case(text, packed, case, job) for case in cases]
+    return [run_case(text, packed, case, job, run_study_case) for case in cases]
 
 
 def _warm_loop(study: Path) -> tuple[Any, list[Any], tuple[str, Any]]:
@@ -232,9 +233,14 @@ def _cluster_cases(
     client: Any, plan: Any, cases: Sequence[Any], batch: int | None, sizes: list[int]
 ) -> list[Any]:
     from fmionnx.backends.sweep.engine import run_study
+    from fmionnx.pipeline.study import run_study_case
 
     outcomes: list[Any] = []
-    sizes.extend(run_study(client, plan, cases, _job(plan), outcomes.append, batch=batch).sizes)
+    sizes.extend(
+        run_study(
+            client, plan, cases, _job(plan), outcomes.append, run_study_case, batch=batch
+        ).sizes
+    )
     return outcomes
 
 

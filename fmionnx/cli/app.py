@@ -2,7 +2,9 @@
 
 from __future__ import annotations
 
+import contextlib
 import enum
+from collections.abc import Iterator
 from typing import Annotated
 
 import typer
@@ -72,3 +74,15 @@ def fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
 
     Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
     return typer.Exit(code)
+
+
+@contextlib.contextmanager
+def refused() -> Iterator[None]:
+    """A run pipeline refusal (:class:`~fmionnx.pipeline.errors.PipelineError`) inside becomes
+    ``error: message`` on stderr and its exit status."""
+    from fmionnx.pipeline.errors import PipelineError
+
+    try:
+        yield
+    except PipelineError as exc:
+        raise fail(str(exc), exc.exit_status) from None

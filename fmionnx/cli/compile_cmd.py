@@ -41,16 +41,19 @@ def compile_(
     The file holds the checked system (components with their resolved settings, connections,
     schedule, records, plots, the ROS 2 plan) and the content hash of every model it needs.
     """
-    from fmionnx.api import OverrideError, parse_value
-    from fmionnx.cli.run_cmd import load_target, parse_pairs
+    from fmionnx.api import OverrideError
+    from fmionnx.cli.app import refused
+    from fmionnx.cli.run_cmd import load_target
     from fmionnx.compile.systemfile import SUFFIX, place_models, write_compiled
+    from fmionnx.pipeline.request import params_from_text
 
     if not output.name.endswith(SUFFIX):
         raise fail(f"--output `{output}` must end with `{SUFFIX}` (how nodes recognise it)")
     check_output_file(output, "--output")
     if models is not None:
         check_output_folder(models, "--models")
-    params = {k: parse_value(v) for k, v in parse_pairs(param or [], "--param").items()}
+    with refused():
+        params = params_from_text(param or [])
     loaded = load_target(system, quiet=quiet)
     try:
         compiled = loaded.with_overrides(stop_time=stop_time, params=params).compiled

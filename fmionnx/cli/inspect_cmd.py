@@ -121,11 +121,9 @@ def inspect(
     """Show a model's ports (name, causality, type, shape, unit, start) and facts."""
     from fmionnx.core.errors import ModelError
     from fmionnx.kinds.describe import interface_to_dict
-    from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION
-    from fmionnx.kinds.registry import COMPONENT_KINDS, kind_for_path
+    from fmionnx.kinds.registry import COMPONENT_KINDS, kind_for_path, model_root
 
-    if path.name == MODEL_DESCRIPTION:  # an unpacked FMU's description, not a MuJoCo scene
-        path = path.parent
+    path = model_root(path)  # an unpacked FMU's description names the FMU, not a scene
     kind = kind_for_path(path)
     if kind is None:
         if not path.exists():

@@ -25,7 +25,6 @@ import importlib
 import sys
 import types
 from collections.abc import Mapping
-from typing import Any
 
 #: The modules deferred and the names ``typer.rich_utils`` imports from them.
 DEFERRED: dict[str, tuple[str, ...]] = {
@@ -40,7 +39,7 @@ class _DeferredClass(type):
     _module: str
     _name: str
 
-    def real(cls) -> Any:
+    def real(cls) -> object:
         """The class the stand-in stands for (its module imported on first use)."""
         module = sys.modules.get(cls._module)
         if module is None or isinstance(module, _StandIn):
@@ -48,10 +47,12 @@ class _DeferredClass(type):
             module = importlib.import_module(cls._module)
         return getattr(module, cls._name)
 
-    def __call__(cls, *args: Any, **kwargs: Any) -> Any:
-        return cls.real()(*args, **kwargs)
+    def __call__(cls, *args: object, **kwargs: object) -> object:
+        real = cls.real()
+        assert callable(real)
+        return real(*args, **kwargs)
 
-    def __getattr__(cls, name: str) -> Any:
+    def __getattr__(cls, name: str) -> object:
         if name.startswith("__"):
             raise AttributeError(name)
         return getattr(cls.real(), name)
@@ -60,7 +61,7 @@ class _DeferredClass(type):
 class _StandIn(types.ModuleType):
     """A module whose every public name is a deferred class of the real module."""
 
-    def __getattr__(self, name: str) -> Any:
+    def __getattr__(self, name: str) -> object:
         if name.startswith("__"):
             raise AttributeError(name)
         return _DeferredClass(name, (), {"_module": self.__name__, "_name": name})

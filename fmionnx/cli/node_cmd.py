@@ -1,16 +1,82 @@
-"""``fmionnx node``: run one component of a system as a ROS 2 node (the supervisor starts these)."""
+"""``fmionnx node``: run one component of a system as a ROS 2 node (the supervisor starts these).
+
+The node's options follow the rules ``fmionnx run --backend ros2`` checks them by
+(:mod:`fmionnx.backends.ros2.backend`), with the same messages; ``--param`` is read as
+``fmionnx run`` reads it.
+"""
 
 from __future__ import annotations
 
 import logging
 import sys
+from dataclasses import dataclass
 from pathlib import Path
-from typing import Annotated
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.run_options import MaxSteps, Param, RosDistro, StopTime
 from fmionnx.core.steps import MAX_RUN_STEPS
+
+if TYPE_CHECKING:
+    from fmionnx.backends.ros2.node import Node
+    from fmionnx.compile.ir import CompiledSystem
+    from fmionnx.pipeline.request import ParamValue
+
+System = Annotated[
+    Path,
+    typer.Argument(
+        help="System file (.yaml, .ssp), or a compiled system (.fmionnx.json, from `fmionnx "
+        "compile`)."
+    ),
+]
+Component = Annotated[str, typer.Argument(help="The component this node runs.")]
+Sync = Annotated[str, typer.Option("--sync", help="`lockstep` or `free`.")]
+Rtf = Annotated[
+    float, typer.Option("--rtf", help="Free run: the simulator node's pace (x real time).")
+]
+RecordDir = Annotated[
+    Path | None, typer.Option("--record-dir", help="Folder for this node's recorded rows.")
+]
+Supervised = Annotated[
+    bool, typer.Option("--supervised", help="Started by `fmionnx run --backend ros2`.")
+]
+NodeMiddleware = Annotated[
+    str,
+    typer.Option(
+        "--middleware",
+        help="`dds` (Cyclone DDS), `rclpy` (a ROS 2 node) or `zenoh` (the rmw_zenoh wire).",
+    ),
+]
+NodeInputWait = Annotated[
+    float,
+    typer.Option(
+        "--input-wait",
+        help="Free run: seconds a step waits for an input sample of its time (default 0.1).",
+    ),
+]
+Remap = Annotated[
+    list[str] | None,
+    typer.Option("--remap", "-r", help="`/from:=/to`: publish or subscribe topic /from as /to."),
+]
+NodeRouter = Annotated[
+    str,
+    typer.Option(
+        "--zenoh-router",
+        help="With --middleware zenoh: the router endpoint (default: the Zenoh configuration's, "
+        "tcp/localhost:7447 unless ZENOH_SESSION_CONFIG_URI or ZENOH_CONFIG_OVERRIDE say "
+        "otherwise).",
+    ),
+]
+Models = Annotated[
+    Path | None,
+    typer.Option(
+        "--models",
+        help="Compiled system only: folder holding the models by content hash (`fmionnx "
+        "compile --models`); default: where they were compiled.",
+    ),
+]
 
 
 def _fail(message: str, code: int) -> typer.Exit:
@@ -44,171 +110,142 @@ def _remaps(items: list[str]) -> tuple[tuple[str, str], ...]:
     "  fmionnx node systems/sign_follower.yaml tracker --middleware zenoh",
 )
 def node(
-    system: Annotated[
-        Path,
-        typer.Argument(
-            help="System file (.yaml, .ssp), or a compiled system (.fmionnx.json, from "
-            "`fmionnx compile`)."
-        ),
-    ],
-    component: Annotated[str, typer.Argument(help="The component this node runs.")],
-    sync: Annotated[str, typer.Option("--sync", help="`lockstep` or `free`.")] = "free",
-    ros_distro: Annotated[
-        str | None,
-        typer.Option(
-            "--ros-distro",
-            help="humble, iron, jazzy or kilted; replaces the system's `ros2: distro:` "
-            "(default: that, else jazzy).",
-        ),
-    ] = None,
-    stop_time: Annotated[
-        float | None, typer.Option("--stop-time", help="Stop time in seconds (overrides).")
-    ] = None,
-    param: Annotated[
-        list[str] | None, typer.Option("--param", "-p", help="`component.name=value`.")
-    ] = None,
-    rtf: Annotated[
-        float, typer.Option("--rtf", help="Free run: the simulator node's pace (x real time).")
-    ] = 1.0,
-    record_dir: Annotated[
-        Path | None, typer.Option("--record-dir", help="Folder for this node's recorded rows.")
-    ] = None,
-    supervised: Annotated[
-        bool, typer.Option("--supervised", help="Started by `fmionnx run --backend ros2`.")
-    ] = False,
-    middleware: Annotated[
-        str,
-        typer.Option(
-            "--middleware",
-            help="`dds` (Cyclone DDS), `rclpy` (a ROS 2 node) or `zenoh` (the rmw_zenoh wire).",
-        ),
-    ] = "dds",
-    input_wait: Annotated[
-        float,
-        typer.Option(
-            "--input-wait",
-            help="Free run: seconds a step waits for an input sample of its time (default 0.1).",
-        ),
-    ] = 0.1,
-    remap: Annotated[
-        list[str] | None,
-        typer.Option(
-            "--remap", "-r", help="`/from:=/to`: publish or subscribe topic /from as /to."
-        ),
-    ] = None,
-    zenoh_router: Annotated[
-        str,
-        typer.Option(
-            "--zenoh-router",
-            help="With --middleware zenoh: the router endpoint (default: the Zenoh "
-            "configuration's, tcp/localhost:7447 unless ZENOH_SESSION_CONFIG_URI or "
-            "ZENOH_CONFIG_OVERRIDE say otherwise).",
-        ),
-    ] = "",
-    models: Annotated[
-        Path | None,
-        typer.Option(
-            "--models",
-            help="Compiled system only: folder holding the models by content hash "
-            "(`fmionnx compile --models`); default: where they were compiled.",
-        ),
-    ] = None,
-    max_steps: Annotated[
-        int,
-        typer.Option(
-            "--max-steps", help="Refuse runs of more base steps than this (default 10^10)."
-        ),
-    ] = MAX_RUN_STEPS,
+    system: System,
+    component: Component,
+    sync: Sync = "free",
+    ros_distro: RosDistro = None,
+    stop_time: StopTime = None,
+    param: Param = None,
+    rtf: Rtf = 1.0,
+    record_dir: RecordDir = None,
+    supervised: Supervised = False,
+    middleware: NodeMiddleware = "dds",
+    input_wait: NodeInputWait = 0.1,
+    remap: Remap = None,
+    zenoh_router: NodeRouter = "",
+    models: Models = None,
+    max_steps: MaxSteps = MAX_RUN_STEPS,
 ) -> None:
     """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time,
     1 on a fault, 3 when its model ended the simulation (docs/ros2.md)."""
-    from fmionnx import api
-    from fmionnx.backends.ros2.env import Ros2EnvError
-    from fmionnx.backends.ros2.loading import plan_for, resolve_distro
-    from fmionnx.backends.ros2.middleware import Middleware
-    from fmionnx.backends.ros2.node import Node, NodeError, NodeOptions, SyncMode
-    from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError, distro_problem
-    from fmionnx.backends.ros2.transport import TransportError
-    from fmionnx.compile.ros2.messages import RosDistro
-    from fmionnx.compile.systemfile import CompiledFileError
-    from fmionnx.core.errors import DiagnosticError
+    from fmionnx.backends.ros2.backend import (
+        MIDDLEWARES,
+        SYNC_MODES,
+        checked_choice,
+        checked_input_wait,
+        checked_router,
+        checked_rtf,
+    )
+    from fmionnx.pipeline.errors import RequestError
+    from fmionnx.pipeline.request import params_from_text
+    from fmionnx.runtime.backend import OptionsError
 
-    try:
-        mode = SyncMode(sync)
-        requested = None if ros_distro is None else RosDistro(ros_distro)
-        transport = Middleware(middleware)
-    except ValueError as exc:
+    try:  # the same rules as `fmionnx run --backend ros2`
+        checked_choice(sync, "--sync", SYNC_MODES)
+        checked_choice(middleware, "--middleware", MIDDLEWARES)
+        rtf, input_wait = checked_rtf(rtf), checked_input_wait(input_wait)
+        if zenoh_router and middleware != "zenoh":
+            raise OptionsError("--zenoh-router applies to --middleware zenoh")  # noqa: TRY301
+        if zenoh_router:
+            checked_router(zenoh_router, endpoint_only=True)
+        values = params_from_text(param or [])
+    except (OptionsError, RequestError) as exc:
         raise _fail(str(exc), ExitCode.USAGE) from None
-    if not rtf >= 0:  # also NaN
-        raise _fail("--rtf must be >= 0 (0: as fast as possible)", ExitCode.USAGE)
     if max_steps < 1:
         raise _fail("--max-steps must be at least 1", ExitCode.USAGE)
-    if not 0 <= input_wait < float("inf"):  # also NaN
-        raise _fail("--input-wait must be >= 0 seconds", ExitCode.USAGE)
-    remaps = _remaps(remap or [])
-    if zenoh_router and transport is not Middleware.ZENOH:
-        raise _fail("--zenoh-router applies to --middleware zenoh", ExitCode.USAGE)
-    if zenoh_router:
-        from fmionnx.backends.ros2.zenoh.router import router_problem
-
-        wrong = router_problem(zenoh_router)
-        if wrong is not None or zenoh_router == "auto":
-            raise _fail(wrong or "--zenoh-router of a node is an endpoint, not `auto`",
-                        ExitCode.USAGE)  # fmt: skip
-    params = {}
-    for item in param or []:
-        key, sep, value = item.partition("=")
-        if not sep:
-            raise _fail(f"--param `{item}` must look like `name=value`", ExitCode.USAGE)
-        params[key.strip()] = value.strip()
+    request = _NodeRequest(
+        sync, ros_distro, middleware, record_dir, supervised, rtf, input_wait, zenoh_router,
+        _remaps(remap or []),
+    )  # fmt: skip
     logging.basicConfig(
         level=logging.INFO,
         stream=sys.stderr,
         format=f"%(asctime)s {component} %(levelname)s %(message)s",
     )
+    raise typer.Exit(
+        _run_node(system, component, request, values, stop_time, models, max_steps=max_steps)
+    )
+
+
+@dataclass(frozen=True)
+class _NodeRequest:
+    """The node's options as given; the distribution is settled once the system is known."""
+
+    sync: str
+    ros_distro: str | None
+    middleware: str
+    record_dir: Path | None
+    supervised: bool
+    rtf: float
+    input_wait: float
+    zenoh_router: str
+    remaps: tuple[tuple[str, str], ...]
+
+
+def _run_node(
+    path: Path,
+    component: str,
+    request: _NodeRequest,
+    values: dict[str, ParamValue],
+    stop_time: float | None,
+    models: Path | None,
+    *,
+    max_steps: int,
+) -> int:
+    """Load the system, settle the distribution, run the node; its exit status."""
+    from fmionnx import api
+    from fmionnx.backends.ros2.env import Ros2EnvError
+    from fmionnx.backends.ros2.node import NodeError
+    from fmionnx.backends.ros2.rclpy_env import RclpyUnavailableError
+    from fmionnx.backends.ros2.transport import TransportError
+    from fmionnx.compile.systemfile import CompiledFileError
+    from fmionnx.core.errors import DiagnosticError
+
     try:
-        values = {k: api.parse_value(v) for k, v in params.items()}
-        loaded = api.load(system, models=models)
+        loaded = api.load(path, models=models)
         compiled = loaded.with_overrides(stop_time=stop_time, params=values).compiled
-        if not supervised and compiled.run.steps > max_steps:  # `run` checked its own nodes
+        if not request.supervised and compiled.run.steps > max_steps:  # `run` checked its own
             raise _fail(
                 f"the run is {compiled.run.steps:.3g} base steps, more than --max-steps "
                 f"{max_steps:.3g}; check the stop time and step, or pass a larger --max-steps",
                 ExitCode.USAGE,
             )
-        distro = resolve_distro(compiled, requested)  # --ros-distro, else the system's own
-        problem = distro_problem(distro) if transport is Middleware.RCLPY else None
-        if problem is not None:
-            raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
-        plan = plan_for(compiled, distro)
-        options = NodeOptions(
-            mode,
-            distro,
-            record_dir,
-            supervised,
-            rtf,
-            transport,
-            input_wait=input_wait,
-            remap=remaps,
-            zenoh_router=zenoh_router,
-        )
-        the_node = Node(compiled, plan, component, options)
+        the_node = _made_node(compiled, component, request)
         logging.getLogger("fmionnx.node").info(
             "system %s, content hash %s", compiled.name, compiled.content_hash[:16]
         )
-        code = the_node.run()
+        return the_node.run()
     except DiagnosticError as exc:
         lines = "; ".join(str(d.message) for d in exc.diagnostics[:3])
-        raise _fail(f"{system}: {lines}", ExitCode.PROBLEMS) from None
+        raise _fail(f"{path}: {lines}", ExitCode.PROBLEMS) from None
     except (
-        NodeError,
-        api.OverrideError,
-        CompiledFileError,
-        Ros2EnvError,
-        TransportError,
+        NodeError, api.OverrideError, CompiledFileError, Ros2EnvError, TransportError,
         RclpyUnavailableError,
-    ) as exc:
+    ) as exc:  # fmt: skip
         raise _fail(str(exc), ExitCode.PROBLEMS) from None
     except KeyboardInterrupt:
         raise _fail("interrupted", 130) from None
-    raise typer.Exit(code)
+
+
+def _made_node(compiled: CompiledSystem, component: str, request: _NodeRequest) -> Node:
+    """The node of ``component``, for ``--ros-distro`` else the system's own distribution."""
+    from fmionnx.backends.ros2.loading import plan_for, resolve_distro
+    from fmionnx.backends.ros2.middleware import Middleware
+    from fmionnx.backends.ros2.node import Node, NodeOptions, SyncMode
+    from fmionnx.backends.ros2.rclpy_env import distro_problem
+    from fmionnx.compile.ros2.messages import RosDistro as Distro
+
+    try:
+        mode, transport = SyncMode(request.sync), Middleware(request.middleware)
+        wanted = Distro(request.ros_distro) if request.ros_distro is not None else None
+    except ValueError as exc:
+        raise _fail(str(exc), ExitCode.USAGE) from None
+    distro = resolve_distro(compiled, wanted)  # --ros-distro, else the system's own
+    problem = distro_problem(distro) if transport is Middleware.RCLPY else None
+    if problem is not None:
+        raise _fail(f"--middleware rclpy: {problem}", ExitCode.USAGE)
+    options = NodeOptions(
+        mode, distro, request.record_dir, request.supervised, request.rtf, transport,
+        input_wait=request.input_wait, remap=request.remaps, zenoh_router=request.zenoh_router,
+    )  # fmt: skip
+    return Node(compiled, plan_for(compiled, distro), component, options)

@@ -1,23 +1,25 @@
 """``fmionnx sweep``: run a study's cases on a local or an existing Dask cluster.
 
-Dask, pandas and pyarrow are imported inside the command (through :mod:`fmionnx.results.sweep`),
+Dask, pandas and pyarrow are imported inside the command (through :mod:`fmionnx.pipeline.sweep`),
 never when the CLI starts: ``fmionnx --help`` must not pay for them.
 """
 
 from __future__ import annotations
 
-import contextlib
 import sys
 from pathlib import Path
-from typing import TYPE_CHECKING, Annotated, Any
+from typing import TYPE_CHECKING, Annotated
 
 import typer
 
 from fmionnx.cli.app import ExitCode, QuietOption, app, fail
-from fmionnx.cli.outputs import check_output_folder
 
 if TYPE_CHECKING:
-    from fmionnx.results.sweep import SweepResult
+    from rich.console import Console
+    from rich.progress import Progress, TaskID
+
+    from fmionnx.core.diagnostics import Diagnostic
+    from fmionnx.pipeline.sweep import SweepProgress, SweepResult
 
 #: Rows of the ranked table printed for an objective.
 RANKED_ROWS = 10
@@ -68,49 +70,32 @@ def sweep(
     applied, run in-process on a worker (FMUs isolated by default). A failing case is
     recorded with its diagnostic and the study goes on.
     """
-    from fmionnx.core.diagnostics import Severity
-    from fmionnx.core.errors import DiagnosticError
-    from fmionnx.reporters import FileResult
-    from fmionnx.reporters.text import TextReporter
-    from fmionnx.results.study import StudyFolderError
-    from fmionnx.results.sweep import plan_study, run_sweep
-
-    if resume and force:
-        raise fail("--resume keeps the finished cases, --force removes them: choose one")
-    if workers is not None and scheduler is not None:
-        raise fail("--workers starts a local cluster; an existing one (--scheduler) has its own")
-    try:
-        plan, diagnostics = plan_study(study)
-    except DiagnosticError as exc:
-        TextReporter().render(
-            [FileResult(study, tuple(exc.diagnostics))], sys.stderr, color=sys.stderr.isatty()
-        )
-        raise typer.Exit(ExitCode.PROBLEMS) from None
-    warnings = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
-    if warnings and not quiet:
-        TextReporter().render([FileResult(study, warnings)], sys.stderr, color=sys.stderr.isatty())
-    from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError, scheduler_problem
-
-    problem = None if scheduler is None else scheduler_problem(scheduler)
-    if problem is not None:
-        raise fail(problem)
-    made_out = not out.exists()
-    check_output_folder(out, "--out")
     from rich.console import Console
+
+    from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError
+    from fmionnx.cli.app import refused
+    from fmionnx.core.errors import DiagnosticError
+    from fmionnx.pipeline.sweep import sweep_study
+    from fmionnx.results.study import StudyFolderError
+
+    def warn(found: tuple[Diagnostic, ...]) -> None:
+        if not quiet:
+            _show(study, found)
 
     console = Console(highlight=False)
     try:
-        with _progress(console, quiet=quiet) as update:
-            result = run_sweep(
-                plan, out, scheduler=scheduler, workers=workers, resume=resume,
+        with refused(), _progress(console, quiet=quiet) as update:
+            result = sweep_study(
+                study, out, scheduler=scheduler, workers=workers, resume=resume,
                 keep_results=keep_results, force=force, progress=update, batch=batch,
+                warnings=warn,
             )  # fmt: skip
+    except DiagnosticError as exc:
+        _show(study, tuple(exc.diagnostics))
+        raise typer.Exit(ExitCode.PROBLEMS) from None
     except StudyFolderError as exc:
         raise fail(str(exc)) from None
     except (SchedulerError, ClusterStartError) as exc:
-        if made_out:  # made just now and still empty: no trace of a study that never started
-            with contextlib.suppress(OSError):
-                out.rmdir()
         raise fail(str(exc), ExitCode.PROBLEMS) from None
     except KeyboardInterrupt:  # the finished cases are recorded: nothing to lose
         console.print(f"interrupted: the finished cases are in {out}; `--resume` runs the rest")
@@ -124,16 +109,24 @@ def sweep(
         raise typer.Exit(ExitCode.PROBLEMS)
 
 
+def _show(study: Path, diagnostics: tuple[Diagnostic, ...]) -> None:
+    """Diagnostics of the study file, rendered like ``validate``'s, on stderr."""
+    from fmionnx.reporters import FileResult
+    from fmionnx.reporters.text import TextReporter
+
+    TextReporter().render([FileResult(study, diagnostics)], sys.stderr, color=sys.stderr.isatty())
+
+
 class _progress:  # noqa: N801 - used as a function-like context manager
     """A rich progress bar (cases done, failed, ETA) on a terminal; silent otherwise."""
 
-    def __init__(self, console: Any, *, quiet: bool) -> None:
+    def __init__(self, console: Console, *, quiet: bool) -> None:
         self.console = console
         self.quiet = quiet or not console.is_terminal
-        self.bar: Any = None
-        self.task: Any = None
+        self.bar: Progress | None = None
+        self.task: TaskID | None = None
 
-    def __enter__(self) -> Any:
+    def __enter__(self) -> SweepProgress | None:
         if self.quiet:
             return None
         from rich.progress import (
@@ -161,6 +154,8 @@ class _progress:  # noqa: N801 - used as a function-like context manager
         return self.update
 
     def update(self, done: int, failed: int, total: int) -> None:
+        assert self.bar is not None
+        assert self.task is not None
         self.bar.update(self.task, completed=done, total=total, failed=failed)
 
     def __exit__(self, *exc: object) -> None:
@@ -168,7 +163,7 @@ class _progress:  # noqa: N801 - used as a function-like context manager
             self.bar.__exit__(None, None, None)
 
 
-def _summary(console: Any, result: SweepResult) -> None:
+def _summary(console: Console, result: SweepResult) -> None:
     from rich.table import Table
 
     from fmionnx.results.study import ranked

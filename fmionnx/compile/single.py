@@ -54,17 +54,19 @@ def compile_single_model(
     if start is not None and not math.isfinite(start):
         bag.emit("E040", f"--start-time {start} is not a finite number of seconds", Span(path))
         return None
-    absolute = str(path.resolve())
-    if path.suffix.lower() == ".onnx":  # each kind's module is imported only for its model
-        from fmionnx.kinds.onnx.kind import OnnxSpec
+    from fmionnx.kinds.base import TIMELESS
+    from fmionnx.kinds.registry import kind_for_path
 
+    kind = kind_for_path(path)  # each kind's module is imported only for its model
+    assert kind is not None, path  # callers pass a model file a kind reads
+    entry: dict[str, object] = {"path": str(path.resolve())}
+    if interface is not None:
+        entry["interface"] = interface
+    spec: ComponentSpecBase = kind.spec_model.model_validate(entry)
+    if TIMELESS in kind.capabilities:  # one step of 1 s: a model without time of its own
         run = RunSpec(start=0.0, stop=1.0, step=1.0)
-        spec: ComponentSpecBase = OnnxSpec(path=absolute)
     else:
-        from fmionnx.kinds.fmu.kind import FmuSpec
-
         run = RunSpec(step=step, start=start or 0.0)
-        spec = FmuSpec(path=absolute, interface=interface)
     if _read_alone(path, spec, bag) is None:
         return None
     return _compile_alone(path, spec, run, bag)

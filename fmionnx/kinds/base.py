@@ -38,6 +38,9 @@ SITES = "sites"
 #: shapes in their colours), which trajectory plots draw underneath: the kind implements
 #: :class:`MapSource`.
 MAP = "map"
+#: The model has no time of its own (a learned function): run alone, it is one step of 1 s
+#: (``fmionnx run model.onnx`` infers it once); other lone models run their own experiment.
+TIMELESS = "timeless"
 
 
 @dataclass(frozen=True, slots=True)
@@ -134,6 +137,45 @@ class Repeatable(Protocol):
 
     def repeat_problem(self, component: Component) -> str | None:
         """Why ``component`` cannot repeat a step from a saved state, or None when it can."""
+        ...
+
+
+@runtime_checkable
+class ResultNames(Protocol):
+    """A kind whose lone model names its results by the model's own variables.
+
+    ``fmionnx run model.fmu`` writes ``x``, not ``model.x``, and an FMI 2 array keeps its
+    scalar variables' names (``w[1]``), as ``fmpy simulate`` does. A kind without this
+    protocol names a lone model's columns by port (``port``, ``port[i]``).
+    """
+
+    def result_aliases(self, component: Component) -> dict[str, str]:
+        """Results column (``comp.port``, ``comp.port[i]``) -> the name a lone model's
+        results use, for every output of ``component``."""
+        ...
+
+
+@runtime_checkable
+class WorkerSettings(Protocol):
+    """A kind with process-wide settings for a process that runs many runs, each beside
+    others on the machine's other cores (a study's worker).
+
+    A study's parallelism is across its cases: a case that fans out (a thread pool per core)
+    takes a core from another case, and what a model loads once can serve the next cases.
+    """
+
+    def for_workers(self) -> None:
+        """Apply the settings to this process (idempotent)."""
+        ...
+
+
+@runtime_checkable
+class WarmUp(Protocol):
+    """A kind whose runners' imports are worth paying before a model is loaded (an isolated
+    model's process forks from a zygote that has done them)."""
+
+    def warm_up(self) -> None:
+        """Import what this kind's runners need."""
         ...
 
 

@@ -96,12 +96,68 @@ def make_runner(component: Component, wiring: Wiring | None = None) -> Runner:
     return kind_of(component).make_runner(component, wiring or Wiring())
 
 
-def kind_for_path(path: Path) -> ComponentKind | None:
-    """Guess a kind from a file name (for ``fmionnx inspect``), or None."""
-    name = path.name.lower()
+def result_aliases(component: Component) -> dict[str, str]:
+    """Results column -> the name a lone model's results use (:class:`~.base.ResultNames`;
+    by port for a kind that does not name them)."""
+    from fmionnx.core.types import Causality
+    from fmionnx.kinds.base import ResultNames
+
+    kind = kind_of(component)
+    if isinstance(kind, ResultNames):
+        return kind.result_aliases(component)
+    aliases = {}
+    for port in component.interface.with_causality(Causality.OUTPUT):
+        prefix = f"{component.name}.{port.name}"
+        if port.is_scalar:
+            aliases[prefix] = port.name
+        else:
+            for i in range(port.size or 1):
+                aliases[f"{prefix}[{i}]"] = f"{port.name}[{i}]"
+    return aliases
+
+
+def settle_worker() -> None:
+    """Every kind's settings for a study's worker (:class:`~.base.WorkerSettings`)."""
+    from fmionnx.kinds.base import WorkerSettings
+
     for kind in COMPONENT_KINDS.values():
-        if kind.suffixes and name.endswith(kind.suffixes):
-            return kind
+        if isinstance(kind, WorkerSettings):
+            kind.for_workers()
+
+
+def warm_up() -> None:
+    """Import what the runners of every kind that asks for it need (:class:`~.base.WarmUp`)."""
+    from fmionnx.kinds.base import WarmUp
+
+    for kind in COMPONENT_KINDS.values():
+        if isinstance(kind, WarmUp):
+            kind.warm_up()
+
+
+#: The file name endings each kind reads (its ``suffixes``), known without importing the kinds:
+#: a lone model loads its own kind only. tests/kinds/test_lazy_registry.py keeps this equal to
+#: the kinds' own declarations.
+KIND_SUFFIXES: Mapping[str, tuple[str, ...]] = {
+    "fmu": (".fmu",),
+    "onnx": (".onnx",),
+    "mujoco": (".xml", ".mjcf", ".mjb"),
+    "signal": (".csv",),
+}
+
+
+def model_root(path: Path) -> Path:
+    """The model a path names: an unpacked FMU's ``modelDescription.xml`` names its folder
+    (not a MuJoCo scene, which is XML too)."""
+    return path.parent if path.name == "modelDescription.xml" else path
+
+
+def kind_for_path(path: Path) -> ComponentKind | None:
+    """Guess a kind from a file name (for ``fmionnx inspect``), or None; only that kind's
+    module is imported."""
+    name = path.name.lower()
+    for kind_name, suffixes in KIND_SUFFIXES.items():
+        if suffixes and name.endswith(suffixes):
+            return COMPONENT_KINDS[kind_name]
     if path.is_dir() and (path / "modelDescription.xml").is_file():
         return COMPONENT_KINDS["fmu"]  # an unpacked FMU
     return None

@@ -8,9 +8,9 @@ one fast FMU. The guardian buys back most of the crash safety for one ``fork``:
   forked child, unchanged; a completed, faulted or interrupted run's result comes back
   through a pipe and is written by this process as usual;
 - the child records into shared memory (a memfd this process keeps open) and marks the
-  work under way there: in the child (a fork that ends with the run) the master module's
-  ``Recorder`` and ``Marker`` are rebound to :class:`SharedRecorder` and
-  :class:`SharedMarker`, whose rows, row counts, time and work index live in the memfd (the
+  work under way there: in the child (a fork that ends with the run) the master is handed
+  :class:`SharedRecorder` and :class:`SharedMarker` through its injection points
+  (:class:`~fmionnx.runtime.instruments.Instruments`), whose rows, row counts, time and work index live in the memfd (the
   loop's stores to the watchdog's marker land there). So when a model crashes, aborts or
   exits the process, this process still has every completed step and knows which component
   (or native group) was stepping at which time. It writes them, with a fault naming the
@@ -54,8 +54,9 @@ import numpy.typing as npt
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
-from fmionnx.core.runner import fault
+from fmionnx.core.runner import RunnerFactory, fault
 from fmionnx.runtime import recorder as recording
+from fmionnx.runtime.instruments import Instruments
 from fmionnx.runtime.published import Follower, Published
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 
@@ -417,22 +418,18 @@ def _phased(method: Callable[..., Any], cells: Any, phase: int, then: int, who: 
     return call
 
 
-def _phased_runners(master_class: type, cells: Any, components: list[str]) -> None:
-    """Every runner the master makes (in this forked child) marks its phases in ``cells``.
+def _phased_runners(cells: Any, components: list[str]) -> Callable[[RunnerFactory], RunnerFactory]:
+    """A wrapper of the master's runner factory (:class:`Instruments`): every runner made
+    marks its phases in ``cells``.
 
-    The master's runner factory is wrapped when a master is made, so runners of any factory
-    (isolated components' proxies, a test's wrappers) are covered; a runner's
-    ``instantiate``, ``setup`` and ``terminate`` become instance attributes that store the
-    phase around the call. Only in the child, which ends with the run.
+    Runners of any factory (isolated components' proxies, a test's wrappers) are covered; a
+    runner's ``instantiate``, ``setup`` and ``terminate`` become instance attributes that
+    store the phase around the call. Only in the child, which ends with the run.
     """
     index = {name: i for i, name in enumerate(components)}
     registry = _REGISTRY[0]
-    made: Callable[..., None] = vars(master_class)["__init__"]  # the master's own
 
-    def init(self: Any, *args: Any, **kwargs: Any) -> None:
-        made(self, *args, **kwargs)
-        make = self.make_runner
-
+    def wrap(make: RunnerFactory) -> RunnerFactory:
         def make_phased(component: Any, wiring: Any) -> Any:
             who = index.get(component.name, -1)
             cells[_PHASE_WHO], cells[_PHASE] = who, _INSTANTIATE  # making it may load it
@@ -454,9 +451,9 @@ def _phased_runners(master_class: type, cells: Any, components: list[str]) -> No
                     registry.publish()
             return runner
 
-        self.make_runner = make_phased
+        return make_phased
 
-    setattr(master_class, "__init__", init)  # noqa: B010 - a method, rebound in the child only
+    return wrap
 
 
 def _child(
@@ -473,15 +470,14 @@ def _child(
     os.environ["TMPDIR"] = str(scratch)
     tempfile.tempdir = str(scratch)
     _REGISTRY[:] = [_SharedTracks(shared)]
-    from fmionnx.runtime import master
-
-    # The master builds its recorder and marker when it is made: in this process (a fork,
-    # which ends with the run) they are the shared kinds.
-    names = vars(master)  # the master module's globals, rebound in this process only
-    names["Recorder"] = SharedRecorder
-    names["Marker"] = lambda: SharedMarker(shared.control)
-    _phased_runners(master.Master, shared.cells, components)
     cells = shared.cells
+    # The master records and marks into shared memory and marks each model's phases there:
+    # its injection points, not a patched master (this process, a fork, ends with the run).
+    instruments = Instruments(
+        recorder=SharedRecorder,
+        marker=lambda: SharedMarker(shared.control),  # type: ignore[arg-type,return-value]
+        runners=_phased_runners(cells, components),
+    )
 
     def progress(done: int, total: int, sim: float) -> None:
         cells[_DONE], cells[_TOTAL], cells[_SIM] = done, total, sim
@@ -498,6 +494,7 @@ def _child(
         options,
         progress=progress if options.progress is not None else None,
         abandon=abandoned,
+        instruments=instruments,
     )
     result = run_fn(options=options)
     for signum in (signal.SIGINT, signal.SIGTERM, signal.SIGHUP):  # the result goes out whole

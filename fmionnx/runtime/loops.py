@@ -15,8 +15,9 @@ than ``max_iterations`` updates, or a singular Jacobian, is a fault naming the l
 
 from __future__ import annotations
 
+import dataclasses
 import math
-from collections.abc import Callable, Sequence
+from collections.abc import Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -25,7 +26,7 @@ import numpy.typing as npt
 from fmionnx.compile.ir import AlgebraicLoop, CompiledSystem
 from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, StateSaving
-from fmionnx.runtime.recorder import Track
+from fmionnx.runtime.stepping import Work
 from fmionnx.runtime.transfer import Transfer, connection_views, make_transfer
 
 Vector = npt.NDArray[np.float64]
@@ -39,14 +40,12 @@ def _fd_step(view: Buffer) -> float:
 
 @dataclass(frozen=True)
 class LoopMember:
-    """One member's work in a sweep: its other transfers, its step, its recorded tracks."""
+    """One member of the loop: its runner (whose state a sweep goes back to) and its work
+    (:class:`~fmionnx.runtime.stepping.Work`: its transfers but the tears', its step, its
+    tracks)."""
 
-    name: str
     runner: StateSaving
-    transfers: tuple[Transfer, ...]
-    step: Callable[[float, float], None]
-    before: Track | None
-    after: Track | None
+    work: Work
 
 
 class IteratedLoop:
@@ -100,10 +99,9 @@ class IteratedLoop:
                 member.runner.restore_state(t)
         self._scatter(x)
         for i, member in enumerate(self.members):
-            for transfer in member.transfers:
-                transfer(t)
+            member.work.feed(t)
             try:
-                member.step(t, h)
+                member.work.step(t, h)
             except ModelTerminated:
                 self._scatter(x)
                 self._sample(self.members[: i + 1])
@@ -216,22 +214,20 @@ class IteratedLoop:
 
     @staticmethod
     def _sample(members: Sequence[LoopMember]) -> None:
+        """Record the kept sweep: the inputs it used and the outputs it produced."""
         for member in members:
-            if member.before is not None:
-                member.before.sample()
-            if member.after is not None:
-                member.after.sample()
+            member.work.record_inputs()
+            member.work.record_outputs()
 
 
 def iterated_loop(
     system: CompiledSystem,
     loop: AlgebraicLoop,
     runners: dict[str, Runner],
-    work: dict[str, tuple[tuple[Transfer, ...], Callable[[float, float], None]]],
-    tracks: dict[str, tuple[Track | None, Track | None]],
+    work: dict[str, Work],
 ) -> IteratedLoop:
-    """Prepare ``loop``: ``work`` holds each member's transfers (one per incoming connection,
-    in :meth:`CompiledSystem.inputs_of` order) and step function as the master made them."""
+    """Prepare ``loop``: ``work`` holds each member's work as the master made it (transfers
+    one per incoming connection, in :meth:`CompiledSystem.inputs_of` order)."""
     tears = set(loop.tears)
     members = []
     tear_transfers: list[Transfer] = []
@@ -244,15 +240,14 @@ def iterated_loop(
                 "cannot save and restore its state"
             )
             raise RunError(msg, component=name)
-        transfers, step = work[name]
+        own = work[name]
         kept = []
-        for transfer, connection in zip(transfers, system.inputs_of(name), strict=True):
+        for transfer, connection in zip(own.transfers, system.inputs_of(name), strict=True):
             if connection.dst in tears:
                 source = runners[connection.src.component]
                 tear_transfers.append(make_transfer(connection, source, runner))
                 views.append(connection_views(connection, source, runner)[1])
             else:
                 kept.append(transfer)
-        before, after = tracks.get(name, (None, None))
-        members.append(LoopMember(name, runner, tuple(kept), step, before, after))
+        members.append(LoopMember(runner, dataclasses.replace(own, transfers=tuple(kept))))
     return IteratedLoop(loop, members, tear_transfers, views)

@@ -29,7 +29,6 @@ import os
 import sys
 import time as _time
 from collections.abc import Callable
-from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import AlgebraicLoop, CompiledSystem
@@ -37,13 +36,15 @@ from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
 from fmionnx.core.signals import column_names, is_image
 from fmionnx.core.types import Causality, Component, PortRef, flat_index
+from fmionnx.runtime.instruments import PLAIN
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.parallel import Footprint, Issue, Job, Lane, footprint, plan
-from fmionnx.runtime.recorder import Recorder, Track
+from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
+from fmionnx.runtime.stepping import Work
 from fmionnx.runtime.stopping import shield_begin, shield_end, stop_reason
-from fmionnx.runtime.transfer import Transfer, make_transfer
-from fmionnx.runtime.watchdog import Marker, Watchdog
+from fmionnx.runtime.transfer import make_transfer
+from fmionnx.runtime.watchdog import Watchdog
 
 if TYPE_CHECKING:
     from fmionnx.runtime.loops import IteratedLoop
@@ -84,25 +85,6 @@ class _StepFailedError(Exception):
         self.error = error
 
 
-@dataclass
-class _Due:
-    """One component's work at a communication point where it is due."""
-
-    name: str
-    transfers: tuple[Transfer, ...]
-    step: Callable[[float, float], None]
-    h: float
-    before: Track | None
-    after: Track | None
-    #: The components this work steps: one, a native group's members or a loop's members.
-    members: tuple[str, ...] = ()
-    #: ``component``, ``group`` (native kernel) or ``loop`` (iterated algebraic loop).
-    what: str = "component"
-    #: Its place in the execution order (set by ``prepare``; the guardian's marker reads it
-    #: to tell, after a crash, which of the steps under way came first).
-    place: int = -1
-
-
 class Master:
     """Prepares runners for a compiled system and runs the loop."""
 
@@ -124,11 +106,14 @@ class Master:
 
             settings = IsolationSettings(self.options.step_timeout, self.options.sandbox)
             runner_factory = isolating_factory(runner_factory, self.options.isolate, settings)
+        instruments = self.options.instruments or PLAIN
+        if instruments.runners is not None:
+            runner_factory = instruments.runners(runner_factory)
         self.make_runner = runner_factory
         self.runners: dict[str, Runner] = {}
-        self.recorder = Recorder()
-        self._table: list[tuple[_Due, ...]] = []
-        self._fallback: list[tuple[_Due, int]] = []
+        self.recorder = instruments.recorder()
+        self._table: list[tuple[Work, ...]] = []
+        self._fallback: list[tuple[Work, int]] = []
         self._hyper = 1
         self._tracks: dict[str, tuple[Track | None, Track | None]] = {}
         #: Steps done per component with lazy outputs, and the step each lazy port was made at.
@@ -138,7 +123,7 @@ class Master:
         self.native = NativeStatus(used=False, reason="not prepared")
         self._watchdog: Watchdog | None = None
         #: The step under way, for the watchdog (one store per step in the loop).
-        self._marker = Marker()
+        self._marker = instruments.marker()
         #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
         self.ended_by: EndedBy | None = None
         self._started = _time.perf_counter()
@@ -149,7 +134,7 @@ class Master:
         self._issues: list[tuple[Issue, ...]] = []
         self._lanes: list[Lane] = []
         #: (work, period) in execution order and each work's place in it.
-        self._entry_list: list[tuple[_Due, int]] = []
+        self._entry_list: list[tuple[Work, int]] = []
         self._entry_index: dict[int, int] = {}
         #: The concurrent step the loop is waiting for (for the watchdog's report).
         self._joining: Job | None = None
@@ -183,7 +168,7 @@ class Master:
         self._entry_list = entries
         self._entry_index = {id(due): i for i, (due, _) in enumerate(entries)}
         for i, (due, _) in enumerate(entries):
-            due.place = i
+            due.place, due.marker = i, self._marker
             for name in due.members or (due.name,):
                 before, after = self._tracks.get(name, (None, None))
                 for track in (before, after):
@@ -198,7 +183,7 @@ class Master:
             return True  # a pipe round trip to the model's own process
         return getattr(self.runners[name], "releases_gil", False) is True
 
-    def _plan_parallel(self, entries: list[tuple[_Due, int]]) -> None:
+    def _plan_parallel(self, entries: list[tuple[Work, int]]) -> None:
         """Decide, before the loop, which steps run on a lane and where the loop joins them."""
         system = self.system
         footprints: dict[int, Footprint] = {}
@@ -237,7 +222,7 @@ class Master:
             "concurrent_steps": sum(lane.steps for lane in used),
         }
 
-    def _entries(self, dues: dict[str, _Due]) -> list[tuple[_Due, int]]:
+    def _entries(self, dues: dict[str, Work]) -> list[tuple[Work, int]]:
         """(work, period) in execution order; native groups replace their members."""
         plan = plan_native(self.system, self.runners, self._tracks)
         self.native = plan.status
@@ -253,12 +238,12 @@ class Master:
             else:
                 h = dues[item.names[0]].h
                 label = "+".join(item.names)
-                work = _Due(label, (), item.step, h, None, None, tuple(item.names), "group")
+                work = Work(label, (), item.step, h, None, None, tuple(item.names), "group")
                 entries.append((work, item.period_steps))
         self._watch(entries)
         return entries
 
-    def _loop_due(self, loop: AlgebraicLoop, dues: dict[str, _Due]) -> _Due:
+    def _loop_due(self, loop: AlgebraicLoop, dues: dict[str, Work]) -> Work:
         """One entry iterating an algebraic loop in place of its members (:mod:`.loops`).
 
         The members' own transfers and steps are what the loop sweeps; it records their
@@ -266,13 +251,13 @@ class Master:
         """
         from fmionnx.runtime.loops import iterated_loop
 
-        work = {name: (dues[name].transfers, dues[name].step) for name in loop.members}
-        solver = iterated_loop(self.system, loop, self.runners, work, self._tracks)
+        work = {name: dues[name] for name in loop.members}
+        solver = iterated_loop(self.system, loop, self.runners, work)
         self.loops.append(solver)
         h = dues[loop.members[0]].h
-        return _Due(solver.label, (), solver.step, h, None, None, tuple(loop.members), "loop")
+        return Work(solver.label, (), solver.step, h, None, None, tuple(loop.members), "loop")
 
-    def _watch(self, entries: list[tuple[_Due, int]]) -> None:
+    def _watch(self, entries: list[tuple[Work, int]]) -> None:
         """Time the steps of components in this process when a step timeout is set.
 
         Isolated components time their own steps (their proxy kills a hung child).
@@ -316,7 +301,7 @@ class Master:
 
         return produce
 
-    def _due(self, component: Component) -> _Due:
+    def _due(self, component: Component) -> Work:
         system = self.system
         runner = self.runners[component.name]
         transfers = [
@@ -341,7 +326,7 @@ class Master:
             step_fn = step_and_stamp
         before, after = self._tracks.get(component.name, (None, None))
         h = component.period_steps * system.run.step
-        return _Due(component.name, tuple(transfers), step_fn, h, before, after, (component.name,))
+        return Work(component.name, tuple(transfers), step_fn, h, before, after, (component.name,))
 
     # -- recording -----------------------------------------------------------------------------
 
@@ -455,21 +440,12 @@ class Master:
             ):
                 next_checkpoint = self._checkpoint(n)
             marker.t = t
-            for due in table[n % hyper] if hyper else self._due_at(n):
-                for transfer in due.transfers:
-                    transfer(t)
-                if due.before is not None:
-                    due.before.sample()
-                marker.work = due
-                try:
-                    due.step(t, due.h)
-                except ModelTerminated as exc:
-                    if due.after is not None:
-                        due.after.sample()  # the step completed: its outputs are the last row
-                    self._end_by(exc, n)
-                    return
-                if due.after is not None:
-                    due.after.sample()
+            try:
+                for due in table[n % hyper] if hyper else self._due_at(n):
+                    due.perform(t)  # the stepping core: feed, record, mark, step, record
+            except ModelTerminated as exc:  # the step completed: its outputs are the last row
+                self._end_by(exc, n)
+                return
             if progress is not None and n % every == 0:
                 progress(n + 1, total, start + (n + 1) * step)
         clock[0] = total
@@ -496,7 +472,7 @@ class Master:
         checkpoint = self.options.checkpoint
         next_checkpoint = _time.perf_counter() + self.options.checkpoint_every
         n = 0
-        due: _Due | None = None
+        due: Work | None = None
         try:
             for n in range(total):
                 clock[0] = n
@@ -515,18 +491,15 @@ class Master:
                         if lane.job is not None:
                             self._join(lane)
                     work = issue.work
-                    assert isinstance(work, _Due)
+                    assert isinstance(work, Work)
                     due = work
-                    for transfer in due.transfers:
-                        transfer(t)
-                    if due.before is not None:
-                        due.before.sample()
+                    due.feed(t)
+                    due.record_inputs()
                     worker = issue.lane
-                    if worker is None:
+                    if worker is None:  # a failure here is settled as the sequential run's
                         marker.work = due
-                        due.step(t, due.h)
-                        if due.after is not None:
-                            due.after.sample()
+                        due.advance(t)
+                        due.record_outputs()
                     else:
                         worker.submit(Job(due, due.step, t, due.h, n, index[id(due)]))
                 due = None
@@ -611,7 +584,7 @@ class Master:
                     failures.append((other.n, other.index, other, outcome))
         n, place, job, error = min(failures, key=lambda failure: (failure[0], failure[1]))
         work = job.work
-        assert isinstance(work, _Due)
+        assert isinstance(work, Work)
         after = work.after
         completed = isinstance(error, ModelTerminated)
         if completed and after is not None and after.count <= self._allowed(work, n, place) + 1:
@@ -623,7 +596,7 @@ class Master:
             return
         raise error
 
-    def _allowed(self, work: _Due, n: int, place: int) -> int:
+    def _allowed(self, work: Work, n: int, place: int) -> int:
         """How many steps of ``work`` the sequential order issues before place ``place`` at n."""
         period = next(p for due, p in self._entry_list if due is work)
         before = -(-n // period)
@@ -631,7 +604,7 @@ class Master:
             before += 1
         return before
 
-    def _truncate(self, n: int, place: int, failed: _Due) -> None:
+    def _truncate(self, n: int, place: int, failed: Work) -> None:
         """Take back every recorded row of work issued after (n, place) in the order."""
         for due, _ in self._entry_list:
             if due is failed:
@@ -700,9 +673,9 @@ class Master:
         """A step in this process overran the step timeout: write what we have, then exit.
 
         Called on the watchdog's thread while the main thread is stuck in the model; ``work``
-        is the scheduled work (a :class:`_Due`) the loop marked before the step.
+        is the scheduled work (a :class:`Work`) the loop marked before the step.
         """
-        assert isinstance(work, _Due)
+        assert isinstance(work, Work)
         label = work.name
         timeout = self.options.step_timeout
         error = fault(
@@ -739,7 +712,7 @@ class Master:
         if hung is not None and hung.work is work:
             n, place = hung.n, hung.index
         else:
-            assert isinstance(work, _Due)
+            assert isinstance(work, Work)
             n, place = self._clock[0], self._entry_index.get(id(work), 0)
         busy: set[str] = set()
         for lane in self._lanes:
@@ -753,12 +726,12 @@ class Master:
                     after.sample()
             else:
                 busy.add(lane.name)
-        assert isinstance(work, _Due)
+        assert isinstance(work, Work)
         self._truncate(n, place, work)
         self._clock[0] = n
         return busy
 
-    def _due_at(self, n: int) -> tuple[_Due, ...]:
+    def _due_at(self, n: int) -> tuple[Work, ...]:
         return tuple(due for due, p in self._fallback if n % p == 0)
 
     def _terminate(self, skip: set[str] | frozenset[str] = frozenset()) -> None:

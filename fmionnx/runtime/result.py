@@ -1,4 +1,4 @@
-"""The backend contract: validate before running, then run (Hamilton's ``GraphExecutor`` shape).
+"""What a run takes (:class:`RunOptions`) and what it gives back (:class:`RunResult`).
 
 A run never raises for a fault inside the simulation: it returns a :class:`RunResult` whose
 ``status`` says how it ended and whose ``error`` names component, port and simulated time, so
@@ -7,7 +7,6 @@ that callers can still write the results recorded up to that point.
 
 from __future__ import annotations
 
-import abc
 import enum
 from collections.abc import Callable, Mapping
 from dataclasses import dataclass, field
@@ -17,11 +16,14 @@ import numpy as np
 import numpy.typing as npt
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.core.diagnostics import Diagnostic
 from fmionnx.core.errors import RunError
 from fmionnx.core.types import PortRef
 
 if TYPE_CHECKING:
+    from pathlib import Path
+
+    from fmionnx.runtime.instruments import Instruments
+    from fmionnx.runtime.published import Follower
     from fmionnx.runtime.recorder import FrameSink
 
 #: A value of ``RunResult.details`` (JSON: scalars, or objects of them such as per-node counts).
@@ -96,6 +98,18 @@ class RunOptions:
     #: results bit-identical to ``sequential``, where every step runs on the loop's thread
     #: (docs/execution.md, "Parallel schedule").
     schedule: Schedule = "parallel"
+    #: The run's results folder, for backends that leave files of their own there (ROS 2:
+    #: the compiled system, logs and node rows); None: no folder (they use a scratch one).
+    out: Path | None = None
+    #: ``--record FILE`` for a backend that records by itself (ROS 2: every topic as it
+    #: crossed the wire); in-process recordings arrive through ``frames``.
+    record_file: Path | None = None
+    #: Puts the rows a guarded run publishes to use while it goes (results.csv formatted
+    #: ahead, :mod:`fmionnx.results.csvahead`); None: nobody follows.
+    follower: Follower | None = None
+    #: The in-process master's recorder, marker and runner wrapper (None: its own; see
+    #: :mod:`fmionnx.runtime.instruments`).
+    instruments: Instruments | None = None
 
 
 @dataclass
@@ -192,17 +206,3 @@ def output_rows(steps_done: int, every: int) -> npt.NDArray[np.int64]:
     if rows[-1] != steps_done:
         rows = np.append(rows, np.int64(steps_done))
     return rows
-
-
-class Backend(abc.ABC):
-    """Runs compiled systems. Stateless: runtime objects live inside one ``run`` call."""
-
-    name: str
-
-    @abc.abstractmethod
-    def validate(self, system: CompiledSystem) -> list[Diagnostic]:
-        """Problems that would stop this backend from running ``system`` (empty when fine)."""
-
-    @abc.abstractmethod
-    def run(self, system: CompiledSystem, options: RunOptions | None = None) -> RunResult:
-        """Run ``system`` from its start to its stop time (or until a fault / Ctrl-C)."""

@@ -14,6 +14,8 @@ from pathlib import Path
 import networkx as nx
 import pytest
 
+from fmionnx.kinds.registry import COMPONENT_KINDS
+
 PACKAGE = Path(__file__).resolve().parents[2] / "fmionnx"
 
 #: Layer of each top-level part of the package (``fmionnx.<part>``).
@@ -24,12 +26,13 @@ LAYER_OF = {
     "compile": "compile",
     "runtime": "runtime",
     "backends": "backends",
+    "pipeline": "pipeline",
+    "results": "pipeline",
     "api": "surface",
     "cli": "surface",
     "export": "surface",
     "lock": "surface",
     "reporters": "surface",
-    "results": "surface",
     "__init__": "surface",
     "__main__": "surface",
 }
@@ -43,6 +46,7 @@ ALLOWED = {
     "compile": {"core", "kinds", "spec"},
     "runtime": {"core", "kinds", "compiled system"},
     "backends": {"core", "kinds", "runtime", "compiled system"},
+    "pipeline": {"core", "kinds", "spec", "compile", "compiled system", "runtime", "backends"},
     "surface": {
         "core",
         "kinds",
@@ -51,6 +55,7 @@ ALLOWED = {
         "compiled system",
         "runtime",
         "backends",
+        "pipeline",
         "surface",
     },
 }
@@ -107,9 +112,11 @@ def _imports(path: Path, package: str) -> Iterator[str]:
                 module = ".".join([*base, *([node.module] if node.module else [])])
             else:
                 module = node.module or ""
-            yield module
-            for alias in node.names:  # `from fmionnx import api` imports fmionnx.api
-                yield f"{module}.{alias.name}"
+            names = [alias.name for alias in node.names]
+            if not (module == "fmionnx" and names == ["__version__"]):  # a constant, no code
+                yield module
+            for name in names:  # `from fmionnx import api` imports fmionnx.api
+                yield f"{module}.{name}"
 
 
 def _part(module: str) -> str | None:
@@ -191,6 +198,35 @@ def test_the_compiled_system_imports_no_front_end() -> None:
         and target.startswith(("fmionnx.spec", "fmionnx.compile.compiler"))
     ]
     assert broken == []
+
+
+#: Modules outside ``kinds/`` that may import a specific kind, and why.
+KIND_IMPORTS_ALLOWED = {
+    "fmionnx.cli.build_cmd": "`fmionnx build` is the FMU kind's own tool (an FMU from C sources)",
+}
+
+
+def test_only_a_kind_imports_its_modules() -> None:
+    """Everything else reaches a kind through the kind table and the protocols of
+    ``kinds/base.py`` (docs/architecture.md): the runtime's native kernel through
+    ``core/cosim.py``, a study's worker through ``settle_worker``, a lone model through
+    ``kind_for_path``."""
+    specific = {f"fmionnx.kinds.{name}" for name in COMPONENT_KINDS}
+    broken = [
+        f"{here} imports {target}"
+        for here, target in _edges()
+        if not here.startswith("fmionnx.kinds")
+        and here not in KIND_IMPORTS_ALLOWED
+        and any(target == s or target.startswith(f"{s}.") for s in specific)
+    ]
+    assert broken == []
+
+
+def test_the_kind_import_check_sees_a_lazy_import(tmp_path: Path) -> None:
+    path = tmp_path / "sample.py"
+    path.write_text("def f():\n    from fmionnx.kinds.onnx.runner import x\n", encoding="utf-8")
+    found = list(_imports(path, "fmionnx.runtime"))
+    assert "fmionnx.kinds.onnx.runner" in found
 
 
 @pytest.mark.parametrize(

@@ -74,7 +74,7 @@ def test_two_gain_fmus_in_a_loop_reach_the_analytic_solution(
     (loop,) = system.compiled.loops
     assert loop.members == ("a", "b")
     assert [str(t) for t in loop.tears] == ["a.u"]
-    result = system.run()
+    result = system.run(isolate="none")
     assert result.status is RunStatus.COMPLETED, result.error
     y1 = k1 * R / (1 + k1 * k2)
     # the row at the start time holds the initial outputs; every step solves the loop
@@ -107,7 +107,7 @@ def test_relaxation_makes_the_fixed_point_iteration_converge(
 ) -> None:
     # x <- x + w*(r - k1*k2*x - x) contracts for 0 < w < 2/(1 + k1*k2) = 2/7
     text = _gain_loop(fixture_fmu("Gain"), 2.0, 3.0, "fixed-point", extra=", relaxation: 0.14")
-    result = fmionnx.load(write_system(text)).run()
+    result = fmionnx.load(write_system(text)).run(isolate="none")
     assert result.status is RunStatus.COMPLETED, result.error
     np.testing.assert_allclose(result["a.y"][1:], 2.0 / 7.0, rtol=0, atol=1e-9)
 
@@ -116,7 +116,7 @@ def test_a_loop_that_does_not_converge_is_a_fault_naming_it(
     fixture_fmu, write_system: SystemWriter
 ) -> None:
     text = _gain_loop(fixture_fmu("Gain"), 2.0, 3.0, "fixed-point", extra=", max_iterations: 5")
-    result = fmionnx.load(write_system(text)).run()
+    result = fmionnx.load(write_system(text)).run(isolate="none")
     assert result.status is RunStatus.FAULT
     message = str(result.error)
     assert message.startswith(
@@ -131,7 +131,9 @@ def test_a_loop_that_does_not_converge_is_a_fault_naming_it(
 
 def test_a_singular_newton_jacobian_is_a_fault(fixture_fmu, write_system: SystemWriter) -> None:
     # k1*k2 = -1: u1 = r + u1 has no solution; F(x) = r is constant, its Jacobian zero
-    result = fmionnx.load(write_system(_gain_loop(fixture_fmu("Gain"), 1.0, -1.0, "newton"))).run()
+    result = fmionnx.load(write_system(_gain_loop(fixture_fmu("Gain"), 1.0, -1.0, "newton"))).run(
+        isolate="none"
+    )
     assert result.status is RunStatus.FAULT
     assert "the Jacobian of its tear values is singular" in str(result.error)
 
@@ -156,7 +158,7 @@ connections:
     (loop,) = system.compiled.loops
     assert loop.members == ("net", "gain")  # declaration order; net reads gain's newer value
     assert [str(t) for t in loop.tears] == ["net.x"]
-    result = system.run()
+    result = system.run(isolate="none")
     assert result.status is RunStatus.COMPLETED, result.error
     y = R / (1 + 0.5)  # gain.y = 1 * (r - 0.5 * gain.y)
     np.testing.assert_allclose(result["gain.y"][1:], y, rtol=0, atol=1e-9)
@@ -232,7 +234,7 @@ connections:
   - gain.y -> net.x
   - {{from: net.y, to: gain.u, factor: -1, offset: {R}}}
 """
-    result = fmionnx.load(write_system(text)).run()
+    result = fmionnx.load(write_system(text)).run(isolate="none")
     assert result.status is RunStatus.COMPLETED, result.error
     np.testing.assert_allclose(result["gain.y"][1:], R / 1.5, rtol=0, atol=1e-6)
 
@@ -245,7 +247,7 @@ def test_isolated_members_save_and_restore_through_their_process(
     from fmionnx.runtime.result import RunOptions
 
     system = fmionnx.load(write_system(_gain_loop(fixture_fmu("Gain"), 2.0, 0.25, solver)))
-    plain = system.run()
+    plain = system.run(isolate="none")
     isolated = system.run(options=RunOptions(isolate=frozenset({"a", "b"})))
     assert isolated.status is RunStatus.COMPLETED, isolated.error
     assert isolated["a.y"][-1] == pytest.approx(2.0 * R / 1.5, abs=1e-9)

@@ -40,7 +40,7 @@ def unloadable(fixture_fmu, tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> 
 def test_a_library_that_does_not_load_is_a_fault_and_the_working_folder_stays(
     unloadable: Path, tmp_path: Path
 ) -> None:
-    result = fmionnx.load(unloadable).run(stop_time=0.1)
+    result = fmionnx.load(unloadable).run(isolate="none", stop_time=0.1)
     assert result.status is RunStatus.FAULT
     assert isinstance(result.error, RunError)
     message = str(result.error)

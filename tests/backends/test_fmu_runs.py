@@ -22,7 +22,7 @@ from tests.conftest import built_model
 def test_single_fmi2_fmu_matches_fmpy_simulate(fixture_fmu, interface: str) -> None:
     fmu = fixture_fmu("Integrator")
     ours = fmionnx.load(fmu, interface=interface, step=0.01).run(
-        stop_time=1.0, params={"u": 2.0, "x0": 0.5}
+        isolate="none", stop_time=1.0, params={"u": 2.0, "x0": 0.5}
     )
     theirs = simulate_fmu(
         str(fmu),
@@ -41,7 +41,9 @@ def test_single_fmi2_fmu_matches_fmpy_simulate(fixture_fmu, interface: str) -> N
 
 def test_fmi3_array_fmu_matches_fmpy_simulate(fixture_fmu) -> None:
     fmu = fixture_fmu("Vector3")
-    ours = fmionnx.load(fmu, step=0.1).run(stop_time=1.0, params={"u": [1.0, -2.0, 3.0], "k": 1.5})
+    ours = fmionnx.load(fmu, step=0.1).run(
+        isolate="none", stop_time=1.0, params={"u": [1.0, -2.0, 3.0], "k": 1.5}
+    )
     theirs = simulate_fmu(
         str(fmu),
         stop_time=1.0,
@@ -56,7 +58,7 @@ def test_fmi3_array_fmu_matches_fmpy_simulate(fixture_fmu) -> None:
 
 def test_single_fmu_columns_use_variable_names(fixture_fmu, tmp_path: Path) -> None:
     system = fmionnx.load(fixture_fmu("Gain"), step=0.1)
-    result = system.run(stop_time=0.5)
+    result = system.run(isolate="none", stop_time=0.5)
     write_results(result, system.compiled, tmp_path)
     header = (tmp_path / "results.csv").read_text().splitlines()[0]
     assert header == "time,y,w[1],w[2],w[3]"
@@ -81,14 +83,14 @@ record: [gain.y, integ.x]
 @pytest.mark.parametrize("interface", ["cs", "me"])
 def test_chain_integrates_the_gain_output(fixture_fmu, write_system, interface: str) -> None:
     path = _chain(fixture_fmu, write_system, interface=interface)
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     assert result.status is RunStatus.COMPLETED
     assert result["integ.x"][-1] == pytest.approx(4.5, rel=1e-6)
 
 
 def test_slower_component_values_are_held_between_its_steps(fixture_fmu, write_system) -> None:
     path = _chain(fixture_fmu, write_system)
-    result = fmionnx.load(path).run(stop_time=0.2)
+    result = fmionnx.load(path).run(isolate="none", stop_time=0.2)
     x = result["integ.x"]
     # integ steps every 5 base steps: its output changes only at rows 5, 10, 15, 20
     changes = np.flatnonzero(np.diff(x)) + 1
@@ -103,7 +105,7 @@ def test_same_system_twice_gives_bit_identical_results_csv(
     texts = []
     for attempt in ("a", "b"):
         system = fmionnx.load(path)
-        write_results(system.run(), system.compiled, tmp_path / attempt)
+        write_results(system.run(isolate="none"), system.compiled, tmp_path / attempt)
         texts.append((tmp_path / attempt / "results.csv").read_bytes())
     assert texts[0] == texts[1]
     assert len(texts[0].splitlines()) == 102
@@ -135,7 +137,7 @@ connections:
 def test_fmu_fault_stops_the_run_with_partial_results(
     fixture_fmu, write_system, mode: int, message: str
 ) -> None:
-    result = fmionnx.load(_faulty(fixture_fmu, write_system, mode)).run()
+    result = fmionnx.load(_faulty(fixture_fmu, write_system, mode)).run(isolate="none")
     assert result.status is RunStatus.FAULT
     assert result.error is not None
     assert result.error.component == "bad"

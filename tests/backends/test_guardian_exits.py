@@ -26,7 +26,8 @@ from rich.console import Console
 from rich.live import _RefreshThread
 
 import fmionnx
-from fmionnx.cli.run_cmd import _with_progress
+from fmionnx.cli.run_report import TerminalReport
+from fmionnx.pipeline.observers import RunStart
 from fmionnx.runtime import guardian
 from fmionnx.runtime.guardian import run_guarded
 from fmionnx.runtime.result import RunOptions, RunStatus
@@ -74,25 +75,26 @@ def test_a_child_hanging_after_its_result_is_killed_and_its_result_kept(
 
 
 def test_the_progress_bar_runs_no_refresh_thread_under_the_guardian() -> None:
-    console = Console(file=io.StringIO(), force_terminal=True, width=120)
     run = SimpleNamespace(start=0.0, stop=1.0, steps=100)
     system = SimpleNamespace(name="demo", compiled=SimpleNamespace(run=run))
     threads: dict[bool, list[threading.Thread]] = {}
-
-    def run_fn(*, options: RunOptions) -> str:
+    output = io.StringIO()
+    before = set(threading.enumerate())
+    for guarded in (True, False):  # guarded first: the other's thread may outlive its bar
+        report = TerminalReport(Path("demo.yaml"), quiet=False)
+        report.console = Console(file=output, force_terminal=True, width=120)
+        report.wants_progress = True
+        start = RunStart(system, "inprocess", "", "", guarded, None)  # type: ignore[arg-type]
+        report.before_run(start)
         # what is running when the guardian forks
         threads[guarded] = [
             t for t in threading.enumerate() if isinstance(t, _RefreshThread) and t not in before
         ]
-        options.progress(50, 100, 0.5)  # type: ignore[misc]
-        return "done"
-
-    before = set(threading.enumerate())
-    for guarded in (True, False):  # guarded first: the other's thread may outlive its bar
-        assert _with_progress(run_fn, system, RunOptions(), quiet=False, console=console, guarded=guarded) == "done"  # fmt: skip
+        report.progress(50, 100, 0.5)
+        report.after_run()
     assert threads[False]  # in-process: rich refreshes the bar on its own thread
     assert threads[True] == []
-    assert "t =    0.500 / 1 s" in console.file.getvalue()  # type: ignore[attr-defined]
+    assert "t =    0.500 / 1 s" in output.getvalue()
 
 
 ABANDON_DIES = """

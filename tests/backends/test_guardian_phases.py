@@ -99,7 +99,7 @@ def test_a_crash_in_terminate_keeps_every_step_of_the_completed_loop(
     assert result.steps_done == 50  # the whole loop
     assert result.error.time == pytest.approx(0.5)
     assert result.time[-1] == pytest.approx(0.5)
-    plain = fmionnx.load(tmp_path / "two.yaml").run()  # the same run, unguarded
+    plain = fmionnx.load(tmp_path / "two.yaml").run(isolate="none")  # the same run, unguarded
     assert list(result.signals) == list(plain.signals) == ["first.y", "second.x"]
     for name, values in plain.signals.items():
         np.testing.assert_array_equal(result[name], values)

@@ -202,7 +202,7 @@ connections:
 """
         )
     )
-    plain = system.run()
+    plain = system.run(isolate="none")
     for isolate in ({"a"}, {"a", "b"}):
         isolated = system.run(options=RunOptions(isolate=frozenset(isolate)))
         assert isolated.status is RunStatus.COMPLETED

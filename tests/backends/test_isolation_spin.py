@@ -197,7 +197,7 @@ def test_spinning_leaves_a_multi_fmu_system_byte_identical(
     spinning = system.run(options=everything)
     monkeypatch.setattr(proxy, "SPIN_NS", 0)  # the supervisor's waits as before the counters
     blocking = system.run(options=everything)
-    plain = system.run()
+    plain = system.run(isolate="none")
     for result in (spinning, blocking):
         assert_completed_alike(plain, result)
 

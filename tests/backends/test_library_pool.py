@@ -25,7 +25,8 @@ from fmionnx.kinds.fmu.libraries import (
     keep_libraries,
     stop_keeping_libraries,
 )
-from fmionnx.results.sweep import plan_study
+from fmionnx.pipeline.study import run_study_case
+from fmionnx.pipeline.sweep import plan_study
 from tests.sweep.test_failures import SYSTEM as FAULTY_SYSTEM
 
 SYSTEM = """\
@@ -64,7 +65,9 @@ def _cases(folder: Path, system: str, study: str) -> list[CaseOutcome]:
     (folder / "study.yaml").write_text(study, encoding="utf-8")
     plan = plan_study(folder / "study.yaml")[0]
     job = Job.of(plan)
-    return run_batch(to_json(plan.system), pack_models(plan.system), plan.cases, job)
+    return run_batch(
+        to_json(plan.system), pack_models(plan.system), plan.cases, job, run_study_case
+    )
 
 
 def _with_description_flag(gain: Path, target: Path, flag: str) -> Path:
@@ -106,14 +109,13 @@ def test_the_next_case_takes_the_loaded_fmu_and_gives_the_same_results(
 
 def _run_without_pool(folder: Path, index: int) -> dict[str, float | None]:
     """Case ``index`` run as ``fmionnx run`` runs it: its own unpacked copy, nothing kept."""
-    from fmionnx.backends.sweep.case import _run
     from fmionnx.compile.studyir import apply_case
 
     plan = plan_study(folder / "study.yaml")[0]
     job = Job.of(plan)
     case = plan.cases[index]
     assert active_pool() is None
-    return _run(apply_case(plan.system, case), case, job).metrics
+    return run_study_case(apply_case(plan.system, case), case, job).metrics
 
 
 def test_an_fmu_that_faulted_is_unloaded_not_kept(

@@ -99,7 +99,7 @@ def test_a_plain_discard_is_still_a_fault(
 
 def test_fmi3_terminate_simulation_ends_the_run_at_the_end_of_that_step(fixture_fmu) -> None:
     system = fmionnx.load(fixture_fmu("Vector3"), step=0.1)
-    result = system.run(stop_time=2.0, params={"stopAt": 0.5})
+    result = system.run(isolate="none", stop_time=2.0, params={"stopAt": 0.5})
     assert result.status is RunStatus.COMPLETED
     assert result.ended_by is not None
     assert (result.ended_by.component, result.ended_by.time) == (system.compiled.name, 0.5)
@@ -144,7 +144,7 @@ components:
 record: [integ.x]
 """
     )
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     assert result.status is RunStatus.COMPLETED
     assert result.ended_by is not None
     assert result.ended_by.component == "integ"

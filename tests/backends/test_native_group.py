@@ -99,10 +99,10 @@ def _both_ways(
 ) -> tuple[RunResult, RunResult]:
     with monkeypatch.context() as patch:
         patch.setenv("FMIONNX_NATIVE", setting)
-        native = fmionnx.load(path).run()
+        native = fmionnx.load(path).run(isolate="none")
     with monkeypatch.context() as patch:
         patch.setenv("FMIONNX_NATIVE", "0")
-        python = fmionnx.load(path).run()
+        python = fmionnx.load(path).run(isolate="none")
     return native, python
 
 
@@ -114,7 +114,7 @@ def _assert_bit_identical(native: RunResult, python: RunResult) -> None:
 
 
 def test_gain_chain_is_stepped_by_one_native_group(fixture_fmu, write_system) -> None:
-    result = fmionnx.load(_gain_chain(fixture_fmu, write_system, n=3)).run()
+    result = fmionnx.load(_gain_chain(fixture_fmu, write_system, n=3)).run(isolate="none")
     assert result.status is RunStatus.COMPLETED
     sha256 = result.details.pop("native_sha256")
     assert re.fullmatch(r"[0-9a-f]{64}", str(sha256))
@@ -127,6 +127,8 @@ def test_gain_chain_is_stepped_by_one_native_group(fixture_fmu, write_system) ->
         "schedule": "parallel",
         "concurrent": None,
         "concurrent_steps": 0,
+        "isolate": "none",
+        "isolate_default": False,
     }
     assert result["g2.y"][-1] == 8.0
 
@@ -207,7 +209,7 @@ def test_run_falls_back_to_python_when_the_opt_in_build_fails(
     monkeypatch.setenv("FMIONNX_CC", compiler)
     system = fmionnx.load(_gain_chain(fixture_fmu, write_system, n=3))
     with caplog.at_level(logging.DEBUG, logger="fmionnx.runtime.native"):
-        result = system.run()
+        result = system.run(isolate="none")
     assert result.status is RunStatus.COMPLETED
     assert result["g2.y"][-1] == 8.0
     assert result.details["native"] is False
@@ -236,6 +238,6 @@ connections:
   - gain.y -> integ.u
 """
     )
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     assert result.status is RunStatus.COMPLETED
     assert (result.details["native_groups"], result.details["native_components"]) == (1, 1)

@@ -197,7 +197,7 @@ def test_run_without_a_usable_installed_library_says_why_in_run_json(
         expected = r"is not the library its build recorded"
     monkeypatch.setattr(kernel, "INSTALLED", folder)
     system = fmionnx.load(_gain_chain(fixture_fmu, write_system))
-    result = system.run()
+    result = system.run(isolate="none")
     assert result.status is RunStatus.COMPLETED
     assert result["g1.y"][-1] == 4.0
     write_results(result, system.compiled, tmp_path / "out")
@@ -214,7 +214,7 @@ def test_default_run_uses_the_installed_library_and_no_cache(
         raise AssertionError(f"built {source} without FMIONNX_NATIVE=build")
 
     monkeypatch.setattr(kernel, "build_in_cache", no_build)
-    result = fmionnx.load(_gain_chain(fixture_fmu, write_system)).run()
+    result = fmionnx.load(_gain_chain(fixture_fmu, write_system)).run(isolate="none")
     assert result.details["native"] is True
     assert result.details["native_library"] == "installed"
     assert result.details["native_sha256"] == sha256_of(kernel.INSTALLED / LIBRARY_NAME)
@@ -226,7 +226,7 @@ def test_opt_in_build_is_cached_with_its_manifest_and_checked(
 ) -> None:
     monkeypatch.setenv("FMIONNX_NATIVE", "build")
     path = _gain_chain(fixture_fmu, write_system)
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     assert result.details["native_library"] == "build"
     assert result["g1.y"][-1] == 4.0
     (folder,) = (caches / "fmionnx" / "native").iterdir()
@@ -235,11 +235,11 @@ def test_opt_in_build_is_cached_with_its_manifest_and_checked(
     assert manifest["built_by"] == "FMIONNX_NATIVE=build"
     assert manifest["sha256"] == sha256_of(folder / LIBRARY_NAME) == result.details["native_sha256"]
     # a second run reuses the cached library
-    assert fmionnx.load(path).run().details["native_sha256"] == manifest["sha256"]
+    assert fmionnx.load(path).run(isolate="none").details["native_sha256"] == manifest["sha256"]
     # and refuses it once it is no longer the library that was built
     library = folder / LIBRARY_NAME
     _replace(library, library.read_bytes() + b"\0")
-    again = fmionnx.load(path).run()
+    again = fmionnx.load(path).run(isolate="none")
     assert again.details["native"] is False
     reason = str(again.details["native_reason"])
     assert "is not the library its build recorded" in reason
@@ -251,6 +251,6 @@ def test_unknown_setting_keeps_the_python_path_and_says_so(
     fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("FMIONNX_NATIVE", "yes")
-    result = fmionnx.load(_gain_chain(fixture_fmu, write_system)).run()
+    result = fmionnx.load(_gain_chain(fixture_fmu, write_system)).run(isolate="none")
     assert result.details["native"] is False
     assert result.details["native_reason"] == "FMIONNX_NATIVE='yes' is none of 0, 1, build"

@@ -33,7 +33,7 @@ def _both_ways(
     for setting in ("1", "0"):
         with monkeypatch.context() as patch:
             patch.setenv("FMIONNX_NATIVE", setting)
-            results.append(fmionnx.load(path).run(**run))  # type: ignore[arg-type]
+            results.append(fmionnx.load(path).run(isolate="none", **run))  # type: ignore[arg-type]
     native, python = results
     assert python.details["native"] is False
     assert python.details["native_reason"] == "disabled by FMIONNX_NATIVE=0"

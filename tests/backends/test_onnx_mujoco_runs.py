@@ -65,7 +65,7 @@ connections:
   - counter.count -> lookup.idx
 """
     )
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     assert result.status is RunStatus.FAULT
     assert result.error is not None
     assert result.error.component == "lookup"
@@ -152,7 +152,7 @@ connections:
   - world.x -> source.v[0]
 """
     )
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     assert result.status is RunStatus.FAULT
     assert result.error is not None
     assert result.error.component == "world"

@@ -44,9 +44,11 @@ def test_output_rows_keep_every_kth_point_and_always_the_last() -> None:
 
 
 def test_interval_keeps_every_kth_row_of_the_full_run(fixture_fmu, write_system) -> None:
-    full = fmionnx.load(_system(fixture_fmu, write_system, mode=0)).run(stop_time=0.4)
+    full = fmionnx.load(_system(fixture_fmu, write_system, mode=0)).run(
+        isolate="none", stop_time=0.4
+    )
     sampled = fmionnx.load(_system(fixture_fmu, write_system, mode=0, interval="0.05")).run(
-        stop_time=0.4
+        isolate="none", stop_time=0.4
     )
     assert sampled.status is full.status is RunStatus.COMPLETED
     assert sampled.steps_done == full.steps_done == 40
@@ -61,8 +63,10 @@ def test_interval_keeps_every_kth_row_of_the_full_run(fixture_fmu, write_system)
 def test_an_early_end_still_writes_its_last_point(
     fixture_fmu, write_system, mode: int, status: RunStatus, last: float
 ) -> None:
-    full = fmionnx.load(_system(fixture_fmu, write_system, mode=mode)).run()
-    sampled = fmionnx.load(_system(fixture_fmu, write_system, mode=mode, interval="0.2")).run()
+    full = fmionnx.load(_system(fixture_fmu, write_system, mode=mode)).run(isolate="none")
+    sampled = fmionnx.load(_system(fixture_fmu, write_system, mode=mode, interval="0.2")).run(
+        isolate="none"
+    )
     assert sampled.status is full.status is status
     assert sampled.time.tolist() == pytest.approx([0.0, 0.2, 0.4, last])
     np.testing.assert_array_equal(sampled["bad.y"][-1], full["bad.y"][-1])

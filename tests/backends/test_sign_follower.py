@@ -32,7 +32,7 @@ def distance_to_polyline(points: np.ndarray, path: np.ndarray) -> np.ndarray:
 @pytest.fixture(scope="module")
 def run_result():
     built_model("ReadOdometry.fmu")  # raises with a `make models` hint when missing
-    return fmionnx.load(SYSTEM).run()
+    return fmionnx.load(SYSTEM).run(isolate="none")
 
 
 def test_robot_reaches_b_within_half_a_metre_and_stops(run_result) -> None:

@@ -16,8 +16,9 @@ from typing import Any
 import pytest
 
 import fmionnx
-from fmionnx.cli.run_safety import RunSafety
+from fmionnx.backends.inprocess import InProcessBackend, InProcessOptions
 from fmionnx.results.csvfile import read_csv
+from fmionnx.runtime.backend import RunContext
 from tests.backends.test_isolation import HANG, SEGFAULT, _cli, _finish
 from tests.conftest import build_fixture_fmu
 
@@ -90,15 +91,38 @@ def test_an_explicit_word_or_record_keeps_its_isolation(
     assert execution["isolate_default"] is (words[0] == "--record")
 
 
+def _resolved(options: InProcessOptions, system: Any, *, record: bool) -> InProcessOptions:
+    chosen = InProcessBackend().prepare(system, options, RunContext(recording=record))
+    assert isinstance(chosen, InProcessOptions)
+    return chosen
+
+
 def test_the_default_is_chosen_from_the_compiled_system() -> None:
     lone = fmionnx.load(build_fixture_fmu("Integrator")).compiled
-    chosen = RunSafety().resolved(lone, record=False)
-    assert (chosen.isolate, chosen.by_default, chosen.guardian) == (["guardian"], True, True)
-    assert RunSafety().resolved(lone, record=True).isolate == ["fmus"]
-    assert RunSafety(sandbox=True).resolved(lone, record=False).isolate == ["fmus"]
-    explicit = RunSafety(isolate=["none"]).resolved(lone, record=False)
-    assert (explicit.isolate, explicit.by_default) == (["none"], False)
-    assert RunSafety().words == ["fmus"]  # before the system is known
+    chosen = _resolved(InProcessOptions(), lone, record=False)
+    assert (chosen.isolate, chosen.isolate_default, chosen.guarded) == (("guardian",), True, True)
+    assert _resolved(InProcessOptions(), lone, record=True).isolate == ("fmus",)
+    assert _resolved(InProcessOptions(sandbox=True), lone, record=False).isolate == ("fmus",)
+    explicit = _resolved(InProcessOptions(isolate=("none",)), lone, record=False)
+    assert (explicit.isolate, explicit.isolate_default) == (("none",), False)
+    assert InProcessOptions().words == ("fmus",)  # before the system is known
+
+
+def test_the_guardian_is_not_the_default_where_a_fork_is_not_safe() -> None:
+    """Another Python thread could hold a lock at the fork (a notebook's): FMUs get a
+    process each instead, which isolates as well without forking the caller."""
+    import threading
+
+    lone = fmionnx.load(build_fixture_fmu("Integrator")).compiled
+    release = threading.Event()
+    other = threading.Thread(target=release.wait)
+    other.start()
+    try:
+        assert _resolved(InProcessOptions(), lone, record=False).isolate == ("fmus",)
+    finally:
+        release.set()
+        other.join()
+    assert _resolved(InProcessOptions(), lone, record=False).isolate == ("guardian",)
 
 
 def test_a_crash_of_a_lone_fmu_under_the_default_keeps_every_completed_step(

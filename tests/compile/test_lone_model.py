@@ -119,8 +119,9 @@ def test_an_onnx_model_compiles_alone_as_in_a_system_file(tmp_path: Path) -> Non
 
 
 def test_results_and_run_json_are_the_same(tmp_path: Path, copy_fmu: Callable[[str], Path]) -> None:
-    from fmionnx.api import System, fmu_aliases
+    from fmionnx.api import System
     from fmionnx.core.types import Causality, PortRef
+    from fmionnx.kinds.registry import result_aliases
     from fmionnx.results import write_results
 
     path = copy_fmu("Integrator")
@@ -134,8 +135,8 @@ def test_results_and_run_json_are_the_same(tmp_path: Path, copy_fmu: Callable[[s
             PortRef(component.name, p.name)
             for p in component.interface.with_causality(Causality.OUTPUT)
         )
-        system = System(compiled, (), fmu_aliases(component), refs)
-        result = system.run(stop_time=2.5, params={"u": 2.0})
+        system = System(compiled, (), result_aliases(component), refs)
+        result = system.run(isolate="none", stop_time=2.5, params={"u": 2.0})
         out = tmp_path / label
         write_results(result, system.compiled, out, aliases=dict(system.aliases))
         info = json.loads((out / "run.json").read_text(encoding="utf-8"))

@@ -51,7 +51,7 @@ def test_a_plain_plot_file_name_is_written_inside_the_output_folder(tmp_path: Pa
     system = fmionnx.load(_system(tmp_path, "gain.png"))
     out = tmp_path / "out"
     out.mkdir()
-    written = write_results(system.run(), system.compiled, out)
+    written = write_results(system.run(isolate="none"), system.compiled, out)
     assert out / "gain.png" in written
 
 
@@ -61,7 +61,7 @@ def test_a_hand_edited_compiled_system_cannot_write_a_plot_outside(tmp_path: Pat
     compiled = dataclasses.replace(system.compiled, plots=(plot,))
     out = tmp_path / "out"
     out.mkdir()
-    written = write_results(system.run(), compiled, out)
+    written = write_results(system.run(isolate="none"), compiled, out)
     assert not (tmp_path / "escape.png").exists()
     pngs = [p for p in written if p.suffix == ".png"]
     assert [p.parent for p in pngs] == [out]
@@ -97,5 +97,5 @@ def test_a_hand_edited_compiled_system_with_one_file_twice_writes_two(tmp_path: 
     compiled = dataclasses.replace(system.compiled, plots=(plot, plot))
     out = tmp_path / "out"
     out.mkdir()
-    written = write_results(system.run(), compiled, out)
+    written = write_results(system.run(isolate="none"), compiled, out)
     assert sorted(p.name for p in written if p.suffix == ".png") == ["gain-2.png", "gain.png"]

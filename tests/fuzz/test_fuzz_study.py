@@ -20,7 +20,7 @@ from hypothesis import strategies as st
 
 from fmionnx import api
 from fmionnx.compile.studyir import apply_case
-from fmionnx.results.sweep import plan_study
+from fmionnx.pipeline.sweep import plan_study
 from tests.conftest import build_fixture_fmu
 from tests.fuzz.harness import check_diagnostics, fuzz_settings, guarded, record, write_input
 from tests.fuzz.mutations import YAML_TOKENS, load_yaml, mutated_bytes, mutated_yaml

@@ -97,9 +97,9 @@ def test_a_new_number_changes_the_run(
 ) -> None:
     changed = apply_kind_setting(signals.compiled, target, value)
     record = (PortRef(*port.split(".")),)
-    result = dataclasses.replace(signals, compiled=changed).run(record=record)
+    result = dataclasses.replace(signals, compiled=changed).run(isolate="none", signals=record)
     assert result[port][-1] == pytest.approx(expected)
-    base = signals.run(record=record)
+    base = signals.run(isolate="none", signals=record)
     assert base[port][-1] != pytest.approx(expected)  # the base system is unchanged
 
 
@@ -154,9 +154,9 @@ def test_the_runner_moves_a_body_before_the_first_step(scene: fmionnx.System) ->
     changed = apply_kind_setting(changed, "world.body.post.pos.z", 3)
     changed = apply_kind_setting(changed, "world.numeric.gains", (5, 6))
     record = (PortRef("world", "tip.pos"),)
-    result = dataclasses.replace(scene, compiled=changed).run(record=record)
+    result = dataclasses.replace(scene, compiled=changed).run(isolate="none", signals=record)
     assert [result[f"world.tip.pos[{i}]"][0] for i in range(3)] == [2.0, -1.0, 3.5]
-    base = scene.run(record=record)
+    base = scene.run(isolate="none", signals=record)
     assert [base[f"world.tip.pos[{i}]"][0] for i in range(3)] == [1.0, 0.0, 0.5]
 
     runner = make_runner(changed.component("world"))

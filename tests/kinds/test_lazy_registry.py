@@ -11,7 +11,7 @@ import sys
 
 import pytest
 
-from fmionnx.kinds.registry import COMPONENT_KINDS, KIND_LIBRARIES
+from fmionnx.kinds.registry import COMPONENT_KINDS, KIND_LIBRARIES, KIND_SUFFIXES
 
 KIND_MODULES = ("fmionnx.kinds.fmu.kind", "fmionnx.kinds.onnx.kind", "fmionnx.kinds.mujoco.kind")
 KIND_MODULES += ("fmionnx.kinds.signal.kind",)
@@ -57,6 +57,20 @@ def test_each_entry_is_the_kind_of_its_name(name: str) -> None:
 def test_the_libraries_run_json_versions_are_the_kinds_own() -> None:
     assert list(KIND_LIBRARIES) == list(COMPONENT_KINDS)
     assert {n: k.libraries for n, k in COMPONENT_KINDS.items()} == dict(KIND_LIBRARIES)
+
+
+def test_the_suffixes_lone_models_are_found_by_are_the_kinds_own() -> None:
+    assert list(KIND_SUFFIXES) == list(COMPONENT_KINDS)
+    assert {n: k.suffixes for n, k in COMPONENT_KINDS.items()} == dict(KIND_SUFFIXES)
+
+
+def test_a_lone_model_imports_its_own_kind_only() -> None:
+    code = (
+        "from pathlib import Path\n"
+        "from fmionnx.kinds.registry import kind_for_path\n"
+        "assert kind_for_path(Path('model.fmu')).name == 'fmu'"
+    )
+    assert loaded_after(code) == ["fmionnx.kinds.fmu.kind"]
 
 
 def test_an_unknown_kind_is_a_key_error() -> None:

@@ -141,7 +141,7 @@ def test_an_edge_on_the_time_grid_is_not_moved_by_rounding(tmp_path: Path) -> No
         "  t: {kind: signal, path: table.csv, interpolation: hold}\n"
         "record: [s.v, t.a]\n",
     )
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     expected = (np.arange(51) >= 44).astype(float)
     np.testing.assert_array_equal(result["s.v"], expected)
     np.testing.assert_array_equal(result["t.a"], expected)
@@ -167,8 +167,8 @@ connections:
 record: [stim.v, stim.w, gain.y, gain.w]
 """,
     )
-    first = fmionnx.load(path).run()
-    again = fmionnx.load(path).run()
+    first = fmionnx.load(path).run(isolate="none")
+    again = fmionnx.load(path).run(isolate="none")
     time = first.time
     # after each step the signal holds its value at the step's end, the gain k times it
     assert first["stim.v"][0] == 0.0
@@ -198,7 +198,7 @@ connections:
 record: [rate.rate, integ.x]
 """,
     )
-    result = fmionnx.load(path).run()
+    result = fmionnx.load(path).run(isolate="none")
     np.testing.assert_array_equal(result["rate.rate"], np.full(101, 2.0))
     np.testing.assert_allclose(result["integ.x"], 2.0 * result.time, rtol=0, atol=1e-9)
 

@@ -198,7 +198,7 @@ def test_a_table_broken_after_validation_is_a_run_fault(folder: Path) -> None:
     system.write_text(HEADER + "  s: {kind: signal, path: t.csv}\n", encoding="utf-8")
     loaded = fmionnx.load(system)
     (folder / "t.csv").write_text("time,b\n0,1\n", encoding="utf-8")
-    result = loaded.run()
+    result = loaded.run(isolate="none")
     assert result.status.value == "fault"
     assert result.error is not None
     assert "the columns of `t.csv` changed since it was checked" in str(result.error)
@@ -240,9 +240,9 @@ def test_yaml_ssp_yaml_keeps_a_system_with_signals(system: Path, folder: Path) -
     original = fingerprint(compiled(system))
     assert fingerprint(compiled(archive)) == original
     assert fingerprint(compiled(back)) == original
-    ours = fmionnx.load(system).run()
+    ours = fmionnx.load(system).run(isolate="none")
     for other in (archive, back):
-        theirs = fmionnx.load(other).run()
+        theirs = fmionnx.load(other).run(isolate="none")
         for name, values in ours.signals.items():
             np.testing.assert_array_equal(theirs.signals[name], values, err_msg=name)
 

@@ -176,7 +176,7 @@ record: [odo3.posX, odo3.posY, odo3.theta]
 """,
         encoding="utf-8",
     )
-    result = fmionnx.load(system).run()
+    result = fmionnx.load(system).run(isolate="none")
     assert result.status is RunStatus.COMPLETED
     np.testing.assert_array_equal(result["odo3.posX"][1:], 2.5)
     np.testing.assert_array_equal(result["odo3.posY"][1:], -1.25)

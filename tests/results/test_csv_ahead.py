@@ -64,7 +64,7 @@ def test_a_multi_rate_guarded_run_writes_the_bytes_of_an_unguarded_one(
     fixture_fmu, write_system, tmp_path: Path, interval: str
 ) -> None:
     path = _long(fixture_fmu, write_system, tmp_path, interval=interval)
-    plain = fmionnx.load(path).run()
+    plain = fmionnx.load(path).run(isolate="none")
     assert plain.status is RunStatus.COMPLETED
     guarded, ahead = _guarded(path)
     assert guarded.status is RunStatus.COMPLETED
@@ -101,7 +101,7 @@ record: [bad.u, bad.y, slow.x]
     assert result.time[-1] == fail_at
     assert ahead.rows >= PIECE_ROWS
     # The same rows as a run stopped at the crash's time, byte for byte
-    shortened = fmionnx.load(path).run(stop_time=fail_at)
+    shortened = fmionnx.load(path).run(isolate="none", stop_time=fail_at)
     lines = _csv(result, tmp_path / "ahead.csv", ahead).splitlines()
     assert lines == _csv(shortened, tmp_path / "plain.csv").splitlines()
     assert len(lines) == round(fail_at / 0.01) + 2  # the header, the start and every step
@@ -135,5 +135,5 @@ def test_formatting_ahead_stops_at_its_memory_bound(
     path = _long(fixture_fmu, write_system, tmp_path)
     result, ahead = _guarded(path)
     assert ahead.rows == PIECE_ROWS
-    plain = fmionnx.load(path).run()
+    plain = fmionnx.load(path).run(isolate="none")
     assert _csv(result, tmp_path / "ahead.csv", ahead) == _csv(plain, tmp_path / "plain.csv")

@@ -191,7 +191,7 @@ def test_a_one_element_onnx_port_is_plotted_as_one_signal_of_a_real_run(tmp_path
         encoding="utf-8",
     )
     system = fmionnx.load(system_file)
-    result = system.run()
+    result = system.run(isolate="none")
     figure = Figure()
     draw_plot(figure, system.compiled.plots[0], result)
     (axes,) = figure.axes

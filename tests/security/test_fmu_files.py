@@ -16,6 +16,7 @@ import fmionnx
 from fmionnx.core.errors import DiagnosticError, ModelError
 from fmionnx.kinds.fmu.build import build_fmu
 from fmionnx.kinds.fmu.kind import FMU_KIND
+from fmionnx.pipeline.errors import RefusedError
 from tests.components.fmi_xml import fmi2, fmi3, fmu_zip, scalar
 from tests.conftest import FIXTURES, build_fixture_fmu
 from tests.security.conftest import run_capped
@@ -71,14 +72,16 @@ def test_a_library_swapped_after_compiling_is_refused_before_loading(tmp_path: P
     folder = _unpacked(build_fixture_fmu("Integrator"), tmp_path / "Integrator.fmu")
     system = fmionnx.load(folder, step=0.01)
     _swap_for_link(folder, tmp_path / "outside")
-    with pytest.raises(ModelError, match="outside the FMU") as info:
-        system.run(stop_time=0.1)
-    assert info.value.code == "E017"
+    with pytest.raises(RefusedError, match="outside the FMU") as info:
+        system.run(isolate="none", stop_time=0.1)
+    cause = info.value.__cause__
+    assert isinstance(cause, ModelError)
+    assert cause.code == "E017"
 
 
 def test_an_unchanged_unpacked_fmu_still_runs(tmp_path: Path) -> None:
     folder = _unpacked(build_fixture_fmu("Integrator"), tmp_path / "Integrator.fmu")
-    result = fmionnx.load(folder, step=0.01).run(stop_time=0.1, params={"u": 1.0})
+    result = fmionnx.load(folder, step=0.01).run(isolate="none", stop_time=0.1, params={"u": 1.0})
     assert result["x"][-1] == pytest.approx(0.1)
 
 

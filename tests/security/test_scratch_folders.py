@@ -51,7 +51,8 @@ def test_a_killed_run_leaves_a_folder_that_the_next_process_removes(tmp: Path) -
     killed = _child(
         "import os, signal, fmionnx\n"
         f"system = fmionnx.load({str(fmu)!r}, step=0.01)\n"
-        "system.run(stop_time=1.0, progress=lambda *a: os.kill(os.getpid(), signal.SIGKILL))\n",
+        "system.run(isolate='none', stop_time=1.0,\n"
+        "           progress=lambda *a: os.kill(os.getpid(), signal.SIGKILL))\n",
         tmp,
     )
     assert killed.returncode == -9, killed.stderr
@@ -59,7 +60,7 @@ def test_a_killed_run_leaves_a_folder_that_the_next_process_removes(tmp: Path) -
     assert len(left) == 1  # the unpacked FMU of the killed run
     assert (left[0] / "modelDescription.xml").is_file()
     after = _child(
-        f"import fmionnx\nfmionnx.load({str(fmu)!r}, step=0.01).run(stop_time=0.05)\n",
+        f"import fmionnx\nfmionnx.load({str(fmu)!r}, step=0.01).run(isolate='none', stop_time=0.05)\n",
         tmp,
     )
     assert after.returncode == 0, after.stderr
@@ -79,9 +80,13 @@ def test_an_exit_without_terminate_removes_the_folder(tmp: Path) -> None:
 
 
 def test_completed_and_faulted_runs_leave_nothing(tmp: Path) -> None:
-    done = fmionnx.load(build_fixture_fmu("Integrator"), step=0.01).run(stop_time=0.1)
+    done = fmionnx.load(build_fixture_fmu("Integrator"), step=0.01).run(
+        isolate="none", stop_time=0.1
+    )
     assert done.status is RunStatus.COMPLETED
-    faulted = fmionnx.load(build_fixture_fmu("Faulty"), step=0.01).run(stop_time=1.0)
+    faulted = fmionnx.load(build_fixture_fmu("Faulty"), step=0.01).run(
+        isolate="none", stop_time=1.0
+    )
     assert faulted.status is RunStatus.FAULT
     assert _scratch_folders(tmp) == []
 

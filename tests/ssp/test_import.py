@@ -89,7 +89,7 @@ def test_run_times_come_from_default_experiment_and_omsimulator_step(foreign_ssp
 def test_foreign_ssp_compiles_and_runs_with_expected_results(foreign_ssp: Path) -> None:
     result = api.compile_system(foreign_ssp)
     assert result.ok, result.diagnostics
-    run = fmionnx.load(foreign_ssp).run()
+    run = fmionnx.load(foreign_ssp).run(isolate="none")
     x, y1, y2 = run["integ.x"][-1], run["gain1.y"][-1], run["ctrl.gain2.y"][-1]
     assert x == pytest.approx(1.0)
     assert y1 == pytest.approx(3.0 * x)

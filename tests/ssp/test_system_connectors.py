@@ -211,7 +211,7 @@ def test_system_connectors_become_direct_connections(make_ssp) -> None:
 def test_run_matches_the_values_worked_out_by_hand(make_ssp) -> None:
     # gain2.y leaves through the root's output connector only: recorded by name.
     record = (PortRef("integ", "x"), PortRef("gain1", "y"), PortRef("sub.gain2", "y"))
-    run = fmionnx.load(make_ssp(top_ssd())).run(record=record)
+    run = fmionnx.load(make_ssp(top_ssd())).run(isolate="none", signals=record)
     # integ.u = 2: x(1) = 2; gain1.y = 3 * 2 = 6; gain2.u = 2 * 6 + 1 = 13;
     # gain2.y = 6.5 * 13 = 84.5.
     x, y1, y2 = run["integ.x"][-1], run["gain1.y"][-1], run["sub.gain2.y"][-1]
@@ -380,12 +380,12 @@ def test_param_sets_system_inputs_like_the_bound_values(make_ssp) -> None:
     record = (PortRef("integ", "x"), PortRef("gain1", "y"), PortRef("sub.gain2", "y"))
     # The values TOP_SSV and TOP_SSM gave: drive = 4, k_top = 6, gain_k = 3; same results:
     # integ.u = 2, x(1) = 2, gain1.y = 6, gain2.k = 6 + 0.5 = 6.5, gain2.y = 6.5 * 13 = 84.5.
-    run = system.run(params={"drive": 4, "k_top": 6, "gain_k": 3}, record=record)
+    run = system.run(isolate="none", params={"drive": 4, "k_top": 6, "gain_k": 3}, signals=record)
     assert run["integ.x"][-1] == pytest.approx(2.0)
     assert run["sub.gain2.y"][-1] == pytest.approx(84.5)
     # Unset, the targets keep their start values: integ.u = 0, so everything stays at 0 but
     # gain2.u = 2 * 0 + 1 = 1 and gain2.k = 2 (the Gain FMU's start): gain2.y = 2.
-    run = system.run(record=record)
+    run = system.run(isolate="none", signals=record)
     assert run["integ.x"][-1] == pytest.approx(0.0)
     assert run["sub.gain2.y"][-1] == pytest.approx(2.0)
 
@@ -437,7 +437,7 @@ def test_yaml_inputs_must_reach_settable_ports(tmp_path: Path, fixture_fmu) -> N
     system.write_text(system.read_text(encoding="utf-8").replace("  wrong: {to: [g.y]}\n", ""))
     loaded = fmionnx.load(system)
     # level = 1.5: g.k = 1.5, g.u = 3: g.y = 4.5.
-    run = loaded.run(params={"level": 1.5}, record=(PortRef("g", "y"),))
+    run = loaded.run(isolate="none", params={"level": 1.5}, signals=(PortRef("g", "y"),))
     assert run["g.y"][-1] == pytest.approx(4.5)
 
 
@@ -479,7 +479,9 @@ def test_system_inputs_survive_export_and_convert(tmp_path: Path, fixture_fmu) -
     result = runner.invoke(app, ["convert", str(archive), "-o", str(converted)])
     assert result.exit_code == 0, result.output
     # level = 1.5 through the converted file: g.k = 1.5, g.u = 2 * 1.5 + 1 = 4: g.y = 6.
-    run = fmionnx.load(converted).run(params={"level": 1.5}, record=(PortRef("g", "y"),))
+    run = fmionnx.load(converted).run(
+        isolate="none", params={"level": 1.5}, signals=(PortRef("g", "y"),)
+    )
     assert run["g.y"][-1] == pytest.approx(6.0)
 
 

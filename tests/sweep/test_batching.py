@@ -19,8 +19,8 @@ from fmionnx.backends.sweep.batching import (
     BatchSizer,
     batch_size,
 )
+from fmionnx.pipeline.sweep import SweepResult, plan_study, run_sweep
 from fmionnx.results.study import VOLATILE
-from fmionnx.results.sweep import SweepResult, plan_study, run_sweep
 from tests.sweep.conftest import WriteStudy
 from tests.sweep.test_failures import SYSTEM as FAULTY_SYSTEM
 
@@ -108,14 +108,17 @@ def test_a_task_with_a_budget_stops_after_the_case_that_used_it_up(
     from fmionnx.backends.sweep.models import pack_models
     from fmionnx.compile.systemfile import to_json
     from fmionnx.kinds.fmu.libraries import stop_keeping_libraries
+    from fmionnx.pipeline.study import run_study_case
 
     plan = plan_study(write_study(GRID))[0]
     job = Job.of(plan)
     text, models, cases = to_json(plan.system), pack_models(plan.system), plan.cases[:5]
     try:
-        assert [o.id for o in run_batch(text, models, cases, job, budget=0.0)] == [cases[0].id]
-        assert len(run_batch(text, models, cases, job, budget=60.0)) == 5
-        assert len(run_batch(text, models, cases, job)) == 5
+        assert [o.id for o in run_batch(text, models, cases, job, run_study_case, budget=0.0)] == [
+            cases[0].id
+        ]
+        assert len(run_batch(text, models, cases, job, run_study_case, budget=60.0)) == 5
+        assert len(run_batch(text, models, cases, job, run_study_case)) == 5
     finally:
         stop_keeping_libraries()  # what a worker keeps, this test process does not
 

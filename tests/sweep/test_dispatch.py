@@ -19,7 +19,8 @@ from distributed.diagnostics.plugin import SchedulerPlugin
 
 from fmionnx.backends.sweep import engine
 from fmionnx.backends.sweep.case import CaseOutcome, Job
-from fmionnx.results.sweep import plan_study
+from fmionnx.pipeline.study import run_study_case
+from fmionnx.pipeline.sweep import plan_study
 from tests.sweep.conftest import WriteStudy
 
 pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
@@ -68,7 +69,9 @@ def watched() -> Iterator[tuple[Any, _Where]]:
 def _run(client: Any, study: Path, **options: Any) -> tuple[list[CaseOutcome], engine.StudyRun]:
     plan, _ = plan_study(study)
     outcomes: list[CaseOutcome] = []
-    run = engine.run_study(client, plan, plan.cases, Job.of(plan), outcomes.append, **options)
+    run = engine.run_study(
+        client, plan, plan.cases, Job.of(plan), outcomes.append, run_study_case, **options
+    )
     return outcomes, run
 
 
@@ -122,7 +125,7 @@ def test_a_worker_that_joins_during_a_study_gets_tasks(
                 client.wait_for_workers(2)
             outcomes.append(outcome)
 
-        engine.run_study(client, plan, plan.cases, Job.of(plan), on_done, batch=1)
+        engine.run_study(client, plan, plan.cases, Job.of(plan), on_done, run_study_case, batch=1)
         joined = set(client.nthreads()) - first
 
     assert sorted(o.status for o in outcomes) == ["ok"] * 12

@@ -9,7 +9,7 @@ from pathlib import Path
 
 import pytest
 
-from fmionnx.results.sweep import plan_study, run_sweep
+from fmionnx.pipeline.sweep import plan_study, run_sweep
 
 #: Dask's comms now and then leave a socket of a closed connection to the garbage collector
 #: (a ResourceWarning raised while collecting, so not attributable to a line of ours).

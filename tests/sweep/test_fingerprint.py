@@ -7,7 +7,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
-from fmionnx.results.sweep import plan_study
+from fmionnx.pipeline.sweep import plan_study
 from tests.sweep.conftest import WriteStudy
 
 STUDY = "fmionnx: 1\nsystem: system.yaml\nparameters:\n  gain.k: [1, 2]\n"

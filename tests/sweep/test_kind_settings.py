@@ -112,7 +112,7 @@ def test_a_signals_numbers_vary_like_the_system_file(
             frequency=row["src.y.frequency"],
         )
         refs = (PortRef("gain", "y"), PortRef("src", "y"))
-        result = fmionnx.load(direct / "system.yaml").run(record=refs)
+        result = fmionnx.load(direct / "system.yaml").run(isolate="none", signals=refs)
         assert row["y_end"] == result["gain.y"][-1]
         assert row["src_max"] == max(result["src.y"])
 
@@ -150,7 +150,7 @@ def test_a_study_moves_a_sign_of_the_reference_scene(tmp_path: Path, scheduler: 
             tmp_path / f"direct-{row['case']}", row["world.body.sign_left.pos.y"]
         )
         refs = (PortRef("detector", "blobX"), PortRef("detector", "blobSize"))
-        result = fmionnx.load(direct / "system.yaml").run(record=refs)
+        result = fmionnx.load(direct / "system.yaml").run(isolate="none", signals=refs)
         assert row["blue_x"] == pytest.approx(result["detector.blobX[2]"][-1])
         assert row["blue_size"] == pytest.approx(result["detector.blobSize[2]"][-1])
 

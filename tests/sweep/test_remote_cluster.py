@@ -23,7 +23,8 @@ from fmionnx.backends.sweep.case import CaseOutcome, Job
 from fmionnx.backends.sweep.engine import open_client, run_study
 from fmionnx.backends.sweep.models import STORE_NAME, pack_models
 from fmionnx.compile.systemfile import has_model_file
-from fmionnx.results.sweep import plan_study
+from fmionnx.pipeline.study import run_study_case
+from fmionnx.pipeline.sweep import plan_study
 from tests.sweep.conftest import WriteStudy
 
 #: Dask's comms now and then leave a socket of a closed connection to the garbage collector
@@ -146,7 +147,13 @@ def test_models_travel_to_a_remote_worker_by_hash(
     outcomes: list[CaseOutcome] = []
     with open_client(address) as client:
         run_study(
-            client, plan, plan.cases, Job(plan.metrics, ("fmus",), 60.0), outcomes.append, packed
+            client,
+            plan,
+            plan.cases,
+            Job(plan.metrics, ("fmus",), 60.0),
+            outcomes.append,
+            run_study_case,
+            packed,
         )
     by_id = {o.id: o for o in outcomes}
     assert [by_id[c.id].status for c in plan.cases] == ["ok"] * 4, [o.message for o in outcomes]
@@ -186,7 +193,7 @@ def test_a_worker_of_several_threads_runs_its_cases_side_by_side_alike(
     plan, _ = plan_study(study)
     outcomes: list[CaseOutcome] = []
     with open_client(address) as client:
-        run_study(client, plan, plan.cases, Job.of(plan), outcomes.append, batch=1)
+        run_study(client, plan, plan.cases, Job.of(plan), outcomes.append, run_study_case, batch=1)
     assert len(outcomes) == 24
     for case in plan.cases:
         outcome = next(o for o in outcomes if o.id == case.id)
@@ -212,7 +219,7 @@ def test_a_worker_with_a_host_name_for_contact_address_still_gets_its_next_tasks
     outcomes: list[CaseOutcome] = []
     with _cluster(tmp_path, worker_args) as (address, _), open_client(address) as client:
         known = set(client.scheduler_info()["workers"])
-        run_study(client, plan, plan.cases, Job.of(plan), outcomes.append, batch=1)
+        run_study(client, plan, plan.cases, Job.of(plan), outcomes.append, run_study_case, batch=1)
         cluster = engine._Cluster(client)
     assert known == {f"tcp://127.0.0.1:{port}"}
     assert len(outcomes) == 24

@@ -10,8 +10,8 @@ from pathlib import Path
 import pandas as pd
 import pytest
 
+from fmionnx.pipeline.sweep import plan_study, run_sweep
 from fmionnx.results.study import VOLATILE, StudyFolderError
-from fmionnx.results.sweep import plan_study, run_sweep
 from tests.sweep.conftest import WriteStudy
 
 #: Dask's comms now and then leave a socket of a closed connection to the garbage collector

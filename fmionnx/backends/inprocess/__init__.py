@@ -1,19 +1,179 @@
-"""The in-process backend: one Python process, a deterministic co-simulation master."""
+"""The in-process backend: one Python process, a deterministic co-simulation master.
+
+Its options say how models are kept from taking the run down (``isolate``, ``sandbox``) and
+how steps are scheduled (``schedule``). ``isolate`` left unset is chosen per system by
+:meth:`InProcessBackend.prepare` (docs/security.md, docs/decisions.md):
+
+- a system whose only component is one FMU runs under the **guardian** (the whole run in one
+  forked child, about as fast as in-process), when a fork is safe here: Linux, no
+  ``sandbox``, no recording, and no other Python thread in this process (a thread holding a
+  lock at the fork would leave it held in the child for good: a notebook, a program with
+  threads of its own);
+- anything else runs every FMU in a process of its own (``fmus``): with several components
+  only that tells which one crashed inside a native group, and ``sandbox`` confines only
+  models in processes of their own.
+"""
 
 from __future__ import annotations
 
+import dataclasses
+import threading
+from collections.abc import Mapping
+from typing import Self
+
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.diagnostics import Diagnostic, make
-from fmionnx.runtime.result import Backend, RunOptions, RunResult
+from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
+from fmionnx.runtime.result import RunOptions, RunResult, Schedule
+
+#: The ``isolate`` word that runs the whole run in one guarded child process.
+GUARDIAN = "guardian"
+#: The ``isolate`` words besides component names (``runtime.isolated.factory``'s and the guardian).
+ISOLATE_WORDS = ("fmus", "all", "none", GUARDIAN)
+SCHEDULES: tuple[Schedule, ...] = ("parallel", "sequential")
+
+
+def isolate_words(value: object) -> tuple[str, ...]:
+    """``isolate`` as words: a string (comma-separated) or a sequence of them."""
+    items = [value] if isinstance(value, str) else value
+    if not isinstance(items, list | tuple | frozenset | set) or not all(
+        isinstance(item, str) for item in items
+    ):
+        msg = "--isolate takes words: `fmus`, `all`, `none`, `guardian` or component names"
+        raise OptionsError(msg)
+    return tuple(w.strip() for item in items for w in str(item).split(",") if w.strip())
+
+
+@dataclasses.dataclass(frozen=True)
+class InProcessOptions(BackendOptions):
+    """``isolate`` (None: chosen per system), ``sandbox``, ``schedule``."""
+
+    #: The ``--isolate`` words; None until :meth:`InProcessBackend.prepare` chose.
+    isolate: tuple[str, ...] | None = None
+    sandbox: bool = False
+    schedule: Schedule = "parallel"
+    #: Whether ``isolate`` was chosen by default, not given (run.json says so).
+    isolate_default: bool = False
+
+    @classmethod
+    def checked(cls, given: Mapping[str, object]) -> Self:
+        """Words split at commas; ``schedule`` one of :data:`SCHEDULES`."""
+        if "isolate_default" in given:
+            msg = "--isolate-default does not apply: it says whether --isolate was given"
+            raise OptionsError(msg)
+        isolate = given.get("isolate")
+        words = None if isolate is None else isolate_words(isolate)
+        schedule = given.get("schedule", "parallel")
+        if schedule is None:
+            schedule = "parallel"
+        if schedule not in SCHEDULES:
+            msg = f"--schedule must be `parallel` or `sequential`, not `{schedule}`"
+            raise OptionsError(msg)
+        sandbox = given.get("sandbox", False)
+        if not isinstance(sandbox, bool):
+            msg = "--sandbox is true or false"
+            raise OptionsError(msg)
+        chosen: Schedule = "sequential" if schedule == "sequential" else "parallel"
+        return cls(isolate=words, sandbox=sandbox, schedule=chosen)
+
+    @property
+    def words(self) -> tuple[str, ...]:
+        """The ``isolate`` words in force (``fmus`` until chosen)."""
+        return ("fmus",) if self.isolate is None else self.isolate
+
+    @property
+    def guarded(self) -> bool:
+        """The whole run in one guarded child process (``isolate`` holds ``guardian``)."""
+        return GUARDIAN in self.words
+
+    @property
+    def publishes_rows(self) -> bool:
+        """A guarded run publishes its rows in shared memory while it goes."""
+        return self.guarded
+
+    def how(self) -> str:
+        """`` in a guarded process`` (and whether by default), else nothing."""
+        if not self.guarded:
+            return ""
+        return " in a guarded process" + (
+            ", the default for a lone FMU" if self.isolate_default else ""
+        )
+
+    def details(self) -> dict[str, str | bool]:
+        """run.json's ``execution.isolate`` (the words in force) and whether by default."""
+        return {"isolate": ",".join(self.words), "isolate_default": self.isolate_default}
+
+
+def fork_is_safe() -> str | None:
+    """Why forking this process for the guardian is not safe, or None."""
+    from fmionnx.runtime.guardian import available
+
+    problem = available()
+    if problem is not None:
+        return problem
+    if threading.active_count() > 1:
+        return "this process runs other threads"
+    return None
+
+
+def default_isolation(system: CompiledSystem, *, sandbox: bool, recording: bool) -> str:
+    """``isolate``'s default word for ``system``: ``guardian`` or ``fmus`` (module docstring)."""
+    from fmionnx.kinds.base import FMI
+    from fmionnx.kinds.registry import has_capability
+
+    components = list(system.components)
+    lone_fmu = len(components) == 1 and has_capability(components[0], FMI)
+    if lone_fmu and not sandbox and not recording and fork_is_safe() is None:
+        return GUARDIAN
+    return "fmus"
 
 
 class InProcessBackend(Backend):
     """Runs every component in this process with :class:`~.master.Master`."""
 
     name = "inprocess"
+    summary = "one deterministic process"
+    options_type = InProcessOptions
 
-    def validate(self, system: CompiledSystem) -> list[Diagnostic]:
+    def prepare(
+        self, system: CompiledSystem, options: BackendOptions, context: RunContext
+    ) -> InProcessOptions:
+        """``isolate``'s default chosen, the words checked against the system."""
+        from fmionnx.runtime.isolated.factory import isolation_targets
+
+        assert isinstance(options, InProcessOptions)
+        if options.isolate is None:
+            word = default_isolation(system, sandbox=options.sandbox, recording=context.recording)
+            options = dataclasses.replace(options, isolate=(word,), isolate_default=True)
+        chosen, unknown = isolation_targets(system, _component_words(options))
+        if unknown:
+            names = ", ".join(f"`{c.name}`" for c in system.components)
+            msg = (
+                f"--isolate: no component named {', '.join(f'`{u}`' for u in unknown)}; "
+                f"use `fmus`, `all`, `none`, `guardian` or one of {names}"
+            )
+            raise OptionsError(msg)
+        if options.sandbox and not chosen:
+            msg = "--sandbox confines isolated models, and --isolate selects none"
+            raise OptionsError(msg)
+        if options.guarded:
+            from fmionnx.runtime.guardian import available
+
+            problem = available()
+            if problem is not None:
+                msg = f"--isolate guardian: {problem}"
+                raise OptionsError(msg)
+            if context.recording:
+                msg = (
+                    "--isolate guardian does not combine with --record (the frames would be "
+                    "recorded in the guarded process); isolate components by name instead"
+                )
+                raise OptionsError(msg)
+        return options
+
+    def validate(self, system: CompiledSystem, options: BackendOptions) -> list[Diagnostic]:
         """External components cannot run here (every kind has a runner: the kind table)."""
+        del options
         problems = []
         for component in system.components:
             if component.external:
@@ -28,8 +188,29 @@ class InProcessBackend(Backend):
                 )
         return problems
 
-    def run(self, system: CompiledSystem, options: RunOptions | None = None) -> RunResult:
+    def run(self, system: CompiledSystem, options: BackendOptions, run: RunOptions) -> RunResult:
         """Run ``system`` to its stop time; faults and Ctrl-C end in the result's status."""
+        from fmionnx.runtime.isolated.factory import isolation_targets
         from fmionnx.runtime.master import Master
 
-        return Master(system, options).run()
+        assert isinstance(options, InProcessOptions)
+        chosen, _ = isolation_targets(system, _component_words(options))
+        run = dataclasses.replace(
+            run, isolate=chosen, sandbox=options.sandbox, schedule=options.schedule
+        )
+
+        def plain(*, options: RunOptions) -> RunResult:
+            return Master(system, options).run()
+
+        if options.guarded:
+            from fmionnx.runtime.guardian import run_guarded
+
+            result = run_guarded(system, plain, run, run.follower)
+        else:
+            result = plain(options=run)
+        result.details.update(options.details())
+        return result
+
+
+def _component_words(options: InProcessOptions) -> list[str]:
+    return [w for w in options.words if w != GUARDIAN]

@@ -73,7 +73,8 @@ from fmionnx.core.runner import Buffer, Runner, Wiring
 from fmionnx.core.types import Component, DType
 from fmionnx.kinds.base import SIMULATOR
 from fmionnx.kinds.registry import has_capability, make_runner
-from fmionnx.runtime.transfer import Transfer, make_transfer
+from fmionnx.runtime.stepping import Work
+from fmionnx.runtime.transfer import make_transfer
 
 log = logging.getLogger("fmionnx.node")
 
@@ -335,7 +336,8 @@ class Node:
         self.ending_step: int | None = None
         self.inboxes: list[Inbox] = []
         self.outboxes: list[Outbox] = []
-        self.transfers: tuple[Transfer, ...] = ()
+        #: This node's component as the stepping core's work (set when the node opens).
+        self.work: Work | None = None
         self.recording: NodeRecording | None = None
         self.runner: Runner | None = None
         self.remap = dict(options.remap)
@@ -373,7 +375,12 @@ class Node:
             src = connection.src.component
             proxy = proxies.setdefault(src, ProxyRunner(system.component(src)))
             transfers.append(make_transfer(connection, proxy, runner))
-        self.transfers = tuple(transfers)
+        recording = self.recording
+        self.work = Work(
+            name, tuple(transfers), runner.step, self.component.period_steps * system.run.step,
+            None if recording is None else recording.before,
+            None if recording is None else recording.after, (name,),
+        )  # fmt: skip
         for topic_name in self.node_plan.subscribes:
             topic = plan.topic(topic_name)
             sinks: dict[tuple[str, str], tuple[str, Buffer]] = {}
@@ -460,25 +467,16 @@ class Node:
                     inbox.exact(inbox.schedule.count_before(n, self.position))
                 else:
                     inbox.newest()
-        for transfer in self.transfers:
-            transfer(t)
-        recording = self.recording
-        if recording is not None and recording.before is not None:
-            recording.before.sample()
-        h = self.component.period_steps * self.system.run.step
+        work = self.work
+        assert work is not None
         try:
-            runner.step(t, h)
-        except ModelTerminated:
-            # the step completed (a runner gets the outputs first): they are the last row
-            if recording is not None and recording.after is not None:
-                recording.after.sample()
+            work.perform(t)  # the stepping core, as in-process: feed, record, step, record
+        except ModelTerminated:  # the step completed: its outputs are the last row
             self.steps_done = n + self.component.period_steps
             self.ending_step = n
             raise
-        if recording is not None and recording.after is not None:
-            recording.after.sample()
         self.steps_done = n + self.component.period_steps
-        self._publish(runner, n, t + h)
+        self._publish(runner, n, t + work.h)
 
     def _gather(self, n: int, t: float) -> None:
         """Free run: load each input's sample of step ``n``, waiting at most ``input_wait``.

@@ -19,7 +19,7 @@ import math
 import os
 import threading
 import time
-from collections.abc import Mapping, Sequence
+from collections.abc import Callable, Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal
@@ -32,6 +32,9 @@ from fmionnx.compile.studyir import Case, Metric, StudyPlan, apply_case
 from fmionnx.compile.systemfile import from_json, relocate
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.types import PortRef
+
+#: Runs one case's system and measures it (``system`` is the case's own, the case applied).
+CaseRunner = Callable[[CompiledSystem, "Case", "Job"], "CaseOutcome"]
 
 #: How a case ended. ``ok``: the run completed (its checks may still fail); ``fault``: a model
 #: failed (or crashed, when isolated); ``timeout``: stopped after the study's timeout;
@@ -79,11 +82,6 @@ class CaseOutcome:
             k: (v if v is not None and math.isfinite(v) else None) for k, v in self.metrics.items()
         }
         return data
-
-
-class _Deadline(KeyboardInterrupt):
-    """Raised from the progress callback when the case's time is up: the master ends the run
-    as it ends one on Ctrl-C (between steps, models terminated, results kept)."""
 
 
 #: Base systems this worker has read, by the sha256 of their JSON, with models relocated into its store.
@@ -139,9 +137,11 @@ def base_system(text: str, models: Mapping[str, bytes], store: Path) -> Compiled
         return system
 
 
-def run_case(text: str, models: Mapping[str, bytes], case: Case, job: Job) -> CaseOutcome:
+def run_case(
+    text: str, models: Mapping[str, bytes], case: Case, job: Job, runner: CaseRunner
+) -> CaseOutcome:
     """Run ``case`` of the system ``text`` (models by hash) here; never raises."""
-    return run_batch(text, models, (case,), job)[0]
+    return run_batch(text, models, (case,), job, runner)[0]
 
 
 def run_batch(
@@ -149,6 +149,7 @@ def run_batch(
     models: Mapping[str, bytes],
     cases: Sequence[Case],
     job: Job,
+    runner: CaseRunner,
     budget: float | None = None,
 ) -> list[CaseOutcome]:
     """Run ``cases`` one after the other here, each exactly as it would run alone; never raises.
@@ -163,10 +164,11 @@ def run_batch(
     With a ``budget`` (seconds), no case starts once the batch has run that long: the outcomes
     returned are those of the first cases, at least one, and the driver hands out the rest
     again (:mod:`.batching`).
-    """
-    from fmionnx.kinds.fmu.libraries import keep_libraries
 
-    keep_libraries()  # an FMU's unpacked files and loaded library serve this worker's next cases
+    ``runner`` runs one case's system (the run pipeline's
+    :func:`~fmionnx.pipeline.study.run_study_case`, handed down by the study's driver: a
+    backend does not reach up to the pipeline itself).
+    """
     one_core_per_case()
     worker = _worker_name()
     began = started = time.perf_counter()
@@ -185,7 +187,7 @@ def run_batch(
             if system is None:
                 outcome = CaseOutcome(case.id, "failed", problem)
             else:
-                outcome = _run(apply_case(system, case), case, job)
+                outcome = runner(apply_case(system, case), case, job)
         except Exception as exc:
             outcome = CaseOutcome(case.id, "failed", f"{type(exc).__name__}: {exc}")
         outcome.wall_time = time.perf_counter() - began + setup
@@ -210,11 +212,11 @@ def one_core_per_case() -> None:
     scenario: 2 workers ran 20 cases in 22.4 s one core each, 26.2 s without (docs/sweep.md).
     An ONNX component's own ``threads`` and a ``LP_NUM_THREADS`` already set are kept.
     """
-    from fmionnx.kinds.onnx.runner import one_thread_each
+    from fmionnx.kinds.registry import settle_worker
     from fmionnx.runtime.isolated.proxy import one_core_each
 
     os.environ.setdefault(RENDER_THREADS, "1")
-    one_thread_each()
+    settle_worker()  # e.g. one onnxruntime thread each, FMU libraries kept for the next case
     one_core_each()
 
 
@@ -246,58 +248,3 @@ def record_refs(system: CompiledSystem, job: Job) -> tuple[PortRef, ...]:
     if job.keep_results:
         refs = [*(system.record or default_record(system)), *required_refs(system), *refs]
     return tuple(dict.fromkeys(refs))
-
-
-def _run(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
-    from fmionnx.runtime.checks import MeasureError, evaluate_checks, measure
-    from fmionnx.runtime.isolated.factory import isolation_targets
-    from fmionnx.runtime.master import Master
-    from fmionnx.runtime.result import RunOptions, RunStatus
-
-    external = [c.name for c in system.components if c.external]
-    if external:  # what the in-process backend refuses too (E018)
-        msg = f"component `{external[0]}` is `external: true`: only the ROS 2 backend provides it"
-        return CaseOutcome(case.id, "failed", msg)
-    isolate, _ = isolation_targets(system, job.isolate)
-    started = time.perf_counter()
-    expired = [False]
-
-    def progress(done: int, total: int, t: float) -> None:
-        if job.timeout is not None and time.perf_counter() - started > job.timeout:
-            expired[0] = True
-            raise _Deadline
-
-    options = RunOptions(
-        record=record_refs(system, job),
-        progress=progress if job.timeout is not None else None,
-        progress_every=20,
-        isolate=isolate,
-        step_timeout=job.step_timeout if job.step_timeout is not None else job.timeout,
-        schedule="sequential",
-    )
-    result = Master(system, options).run()  # the in-process backend's master
-    status: CaseStatus = "ok"
-    message = ""
-    if result.status is RunStatus.FAULT:
-        status, message = "fault", str(result.error) if result.error else "fault"
-    elif expired[0]:
-        status = "timeout"
-        message = (
-            f"stopped after the study's timeout of {job.timeout:g} s at t={result.time[-1]:g} s"
-        )
-    elif result.status is not RunStatus.COMPLETED:
-        status, message = "failed", f"the run ended {result.status.value}"
-    outcome = CaseOutcome(case.id, status, message)
-    for metric in job.metrics:
-        try:
-            outcome.metrics[metric.name] = measure(metric.measure, result)
-        except MeasureError as exc:
-            outcome.metrics[metric.name] = None
-            outcome.notes[metric.name] = str(exc)
-    for verdict in evaluate_checks(system.checks, result):
-        outcome.checks[verdict.name] = verdict.passed and status == "ok"
-        if verdict.note and not verdict.passed:
-            outcome.notes[verdict.name] = verdict.note
-    if job.keep_results:
-        outcome.signals = {"time": result.time, **result.signals}
-    return outcome

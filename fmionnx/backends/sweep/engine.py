@@ -28,7 +28,7 @@ from dataclasses import dataclass
 from typing import Any
 
 from fmionnx.backends.sweep.batching import BatchSizer
-from fmionnx.backends.sweep.case import CaseOutcome, Job, run_batch
+from fmionnx.backends.sweep.case import CaseOutcome, CaseRunner, Job, run_batch
 from fmionnx.backends.sweep.models import pack_models
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
@@ -233,10 +233,13 @@ def run_study(
     cases: Iterable[Case],
     job: Job,
     on_done: Callable[[CaseOutcome], None],
+    runner: CaseRunner,
     models: Mapping[str, bytes] | None = None,
     batch: int | None = None,
 ) -> StudyRun:
     """Run ``cases`` of ``plan`` on ``client``'s cluster; ``on_done`` gets every outcome.
+
+    ``runner`` runs one case's system on a worker (the run pipeline's, sent by reference).
 
     ``models`` are the packed models (:func:`.models.pack_models`), packed here by default.
     ``batch`` fixes the cases per task (1: one each); None sizes tasks from the measured case
@@ -283,6 +286,7 @@ def run_study(
             [shared_models] * count,
             [list(group) for group in groups],
             [shared_job] * count,
+            [runner] * count,
             [sizer.budget if len(group) > 1 else None for group in groups],
             key=keys,
             pure=False,

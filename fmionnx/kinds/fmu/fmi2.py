@@ -13,6 +13,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core.cosim import CsCalls, NativeSteppable
 from fmionnx.core.errors import ModelTerminated
 from fmionnx.core.runner import terminated
 from fmionnx.core.types import Component, DType
@@ -22,7 +23,6 @@ from fmionnx.kinds.fmu.runner import (
     FMI_DISCARD,
     FMI_OK,
     FMI_WARNING,
-    CsCalls,
     FmuRunner,
     Stepper,
 )
@@ -82,7 +82,7 @@ class Fmi2Runner(FmuRunner):
         self._guard("fmi2ExitInitializationMode", fmu.exitInitializationMode)
 
 
-class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
+class Fmi2CoSimulation(Fmi2Runner, FmuRollback, NativeSteppable):
     """FMI 2 co-simulation: one raw ``fmi2DoStep`` per step.
 
     Its prepared calls (:meth:`cs_calls`) are what the native kernel steps instead. It
@@ -93,6 +93,8 @@ class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
 
     _do_step_function: Callable[..., int]
     advance_function = "fmi2DoStep"
+    #: ``fmi2Discard`` with ``fmi2Terminated``: the model asks to end the run.
+    discard_may_end = True
 
     def __init__(self, component: Component, driven: frozenset[str]) -> None:
         super().__init__(component, driven)
@@ -142,6 +144,10 @@ class Fmi2CoSimulation(Fmi2Runner, FmuRollback):
     def cs_calls(self) -> CsCalls | None:
         """The prepared per-step calls (after ``setup``; None before)."""
         return self._calls
+
+    def native_problem(self) -> str | None:
+        """None: the native kernel can step it (:class:`fmionnx.core.cosim.NativeSteppable`)."""
+        return None
 
 
 class Fmi2ModelExchange(Fmi2Runner):

@@ -14,12 +14,14 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core.cosim import CsCalls, NativeSteppable
 from fmionnx.core.errors import ModelTerminated
 from fmionnx.core.runner import terminated
 from fmionnx.core.types import DType
+from fmionnx.kinds.fmu.clocks import UNSUPPORTED_PREFIX
 from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
 from fmionnx.kinds.fmu.rollback import FmuRollback
-from fmionnx.kinds.fmu.runner import FMI_WARNING, CsCalls, FmuRunner, Stepper
+from fmionnx.kinds.fmu.runner import FMI_WARNING, FmuRunner, Stepper
 from fmionnx.kinds.fmu.values import ValueFunctions
 
 #: FMI 3 get/set functions: type name and C element type per dtype.
@@ -67,7 +69,7 @@ class Fmi3Runner(FmuRunner):
         self._guard("fmi3ExitInitializationMode", fmu.exitInitializationMode)
 
 
-class Fmi3CoSimulation(Fmi3Runner, FmuRollback):
+class Fmi3CoSimulation(Fmi3Runner, FmuRollback, NativeSteppable):
     """FMI 3 co-simulation: one raw ``fmi3DoStep`` per step; ``terminateSimulation`` ends the run.
 
     Its prepared calls (:meth:`cs_calls`) are what the native kernel steps instead. It saves
@@ -79,6 +81,8 @@ class Fmi3CoSimulation(Fmi3Runner, FmuRollback):
     _do_step_function: Callable[..., int]
     _do_step_tail: tuple[object, ...]
     advance_function = "fmi3DoStep"
+    #: FMI 3 ends a run through ``terminateSimulation``, never through a discard.
+    discard_may_end = False
     _calls: CsCalls | None = None
 
     def _new_fmu(self, md: Any, root: Path) -> Any:
@@ -130,6 +134,21 @@ class Fmi3CoSimulation(Fmi3Runner, FmuRollback):
     def cs_calls(self) -> CsCalls | None:
         """The prepared per-step calls (after ``setup``; None before)."""
         return self._calls
+
+    def native_problem(self) -> str | None:
+        """The FMI 3 clocks it declares need Event Mode, which the kernel does not do."""
+        clocks = [
+            key[len(UNSUPPORTED_PREFIX) :]
+            for key, value in self.component.interface.facts
+            if key.startswith(UNSUPPORTED_PREFIX) and value.startswith("FMI 3 clock")
+        ]
+        if not clocks:
+            return None
+        listed = ", ".join(f"`{c}`" for c in clocks)
+        return (
+            f"declares the FMI 3 clock(s) {listed}, which need Event Mode: the Python path "
+            "runs it (without Event Mode, its output clocks ignored)"
+        )
 
 
 class Fmi3ModelExchange(Fmi3Runner):

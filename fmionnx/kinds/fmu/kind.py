@@ -156,6 +156,12 @@ class FmuKind:
             problems.extend(_missing_functions(interface, self.resolve(spec, interface).interface))
         return tuple(problems)
 
+    def result_aliases(self, component: Component) -> dict[str, str]:
+        """A lone FMU's results by variable name (:mod:`.resultnames`)."""
+        from fmionnx.kinds.fmu.resultnames import result_aliases
+
+        return result_aliases(component)
+
     def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:
         """FMPy's validation and the shared library of each model identifier (loads fmpy)."""
         from fmionnx.kinds.fmu.validation import validate_fmu_model
@@ -186,6 +192,17 @@ class FmuKind:
                 "cannot be saved and restored"
             )
         return None
+
+    def for_workers(self) -> None:
+        """A study's worker keeps cleanly ended FMUs loaded: an FMU's unpacked files and loaded
+        library serve its next cases (:mod:`.libraries`)."""
+        from fmionnx.kinds.fmu.libraries import keep_libraries
+
+        keep_libraries()
+
+    def warm_up(self) -> None:
+        """Import the runners' modules (fmpy's, ctypes): cheap, and every FMU needs them."""
+        import fmionnx.kinds.fmu.runner  # noqa: F401
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """The FMU runner of the component's FMI version and interface type (loads fmpy now)."""

@@ -18,16 +18,16 @@ component, the FMI function and the simulated time, plus the FMU's last log mess
 from __future__ import annotations
 
 import ctypes
-from abc import ABC, abstractmethod
+from abc import abstractmethod
 from collections import deque
 from collections.abc import Callable
-from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ClassVar
 
 import numpy as np
 
 from fmionnx.core.archive import safe_extract
+from fmionnx.core.cosim import STATUS_DISCARD, STATUS_OK, STATUS_WARNING, NativeCandidate, RawCall
 from fmionnx.core.errors import ModelError, ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
@@ -45,7 +45,6 @@ from fmionnx.kinds.fmu.libraries import (
 )
 from fmionnx.kinds.fmu.loading import load_library
 from fmionnx.kinds.fmu.values import (
-    RawCall,
     ValueFunctions,
     ValueGroup,
     build_groups,
@@ -61,33 +60,15 @@ LOG_MESSAGE_CHARS = 300
 #: Characters of the FMU's log a fault message quotes (the newest ones).
 LOG_CHARS = 600
 
-#: FMI status values (FMI 2 and 3 share the numbering).
-FMI_OK = 0
+#: FMI status values (FMI 2 and 3 share the numbering; :mod:`fmionnx.core.cosim`).
+FMI_OK = STATUS_OK
 #: The highest status a run goes on after.
-FMI_WARNING = 1
+FMI_WARNING = STATUS_WARNING
 #: ``fmi2DoStep``'s "only part of the step was computed": with ``fmi2Terminated``, the end.
-FMI_DISCARD = 2
+FMI_DISCARD = STATUS_DISCARD
 
 #: Advances an initialized instance from communication point ``t`` by ``h``.
 Stepper = Callable[[float, float], None]
-
-
-@dataclass(frozen=True)
-class CsCalls:
-    """What a co-simulation runner calls per step: set, doStep, get.
-
-    The native kernel (:mod:`fmionnx.runtime.native`) makes the same calls with the same arrays.
-    ``step_flags`` (FMI 3 only) are the output arguments ``fmi3DoStep`` writes
-    (``eventHandlingNeeded``, ``terminateSimulation``, ``earlyReturn``,
-    ``lastSuccessfulTime``): the kernel passes these very objects, so the runner reads what
-    the FMU wrote whichever path stepped it.
-    """
-
-    instance: ctypes.c_void_p
-    set_calls: tuple[RawCall, ...]
-    do_step: Callable[..., int]
-    get_calls: tuple[RawCall, ...]
-    step_flags: tuple[ctypes.c_bool, ctypes.c_bool, ctypes.c_bool, ctypes.c_double] | None = None
 
 
 def status_label(status: int) -> str:
@@ -101,7 +82,7 @@ def _not_set_up(t: float, h: float) -> None:
     raise RuntimeError(msg)
 
 
-class FmuRunner(ABC):
+class FmuRunner(NativeCandidate):
     """Runs one FMU instance; subclasses add what their FMI version and interface type need.
 
     The hooks, in the order they are called: ``_new_fmu`` (the fmpy object of the interface
@@ -115,6 +96,11 @@ class FmuRunner(ABC):
 
     #: What advancing one step calls, as fault messages name it (``fmi2DoStep`` ...).
     advance_function: ClassVar[str]
+
+    def native_problem(self) -> str | None:
+        """Why the native kernel cannot step this runner (:mod:`fmionnx.core.cosim`): a
+        model-exchange FMU is integrated in Python; co-simulation runners override this."""
+        return "a model-exchange FMU (integrated in Python between communication points)"
 
     def __init__(self, component: Component, driven: frozenset[str]) -> None:
         self.component = component
@@ -328,7 +314,7 @@ class FmuRunner(ABC):
             (getters or "getting outputs", self._get_outputs),
         )
 
-    def produce(self, port: str) -> None:  # noqa: B027 - a no-op for every FMU, not a hook
+    def produce(self, port: str) -> None:
         """FMU outputs are refreshed every step; nothing is lazy."""
 
     def terminate(self) -> None:

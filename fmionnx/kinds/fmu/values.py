@@ -9,16 +9,15 @@ memory; a step then costs exactly one raw FMI call per type and direction.
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Callable, Mapping, Sequence
+from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 from typing import Any
 
 import numpy as np
 
+from fmionnx.core.cosim import RawCall
 from fmionnx.core.runner import Buffer
 from fmionnx.core.types import DType, Port, Scalar
-
-RawCall = tuple[Callable[..., int], tuple[object, ...], str]
 
 
 @dataclass(frozen=True)

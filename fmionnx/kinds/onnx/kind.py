@@ -11,7 +11,7 @@ from pydantic import Field
 
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
-from fmionnx.kinds.base import Display, KindProblem, RoleDefault
+from fmionnx.kinds.base import TIMELESS, Display, KindProblem, RoleDefault
 from fmionnx.kinds.onnx.units import unit_problems, with_units
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
@@ -55,7 +55,7 @@ class OnnxKind:
     suffixes = (".onnx",)
     summary = "ONNX model run by onnxruntime"
     mime_type = "application/x-onnx"
-    capabilities: frozenset[str] = frozenset()
+    capabilities = frozenset({TIMELESS})
     libraries = ("onnxruntime",)
     display = Display(
         "ONNX",
@@ -86,6 +86,13 @@ class OnnxKind:
     def repeat_problem(self, component: Component) -> str | None:
         """None: an ONNX model has no state, its outputs are a function of its inputs."""
         return None
+
+    def for_workers(self) -> None:
+        """Sessions without ``threads`` of their own use one thread (onnxruntime's default pool
+        spins a thread per core, taking other cases' cores)."""
+        from fmionnx.kinds.onnx.runner import one_thread_each
+
+        one_thread_each()
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """An :class:`~fmionnx.kinds.onnx.runner.OnnxRunner` (loads onnxruntime only now)."""

@@ -47,9 +47,10 @@ STATUS = struct.Struct("<i")
 
 def _warm_up() -> None:
     """Import what a child needs before it loads a model (the expensive part of its start)."""
-    import fmionnx.kinds.fmu.runner
-    import fmionnx.kinds.registry
     import fmionnx.runtime.isolated.server  # noqa: F401
+    from fmionnx.kinds.registry import warm_up
+
+    warm_up()
 
 
 def _close_all_but(keep: set[int]) -> None:

@@ -22,18 +22,21 @@ from dataclasses import dataclass
 import numpy as np
 
 from fmionnx.compile.ir import Connection
+from fmionnx.core.cosim import (
+    STATUS_DISCARD,
+    STATUS_WARNING,
+    CsCalls,
+    NativeSteppable,
+    RawCall,
+)
 from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer
-from fmionnx.kinds.fmu.fmi2 import Fmi2CoSimulation
-from fmionnx.kinds.fmu.fmi3 import Fmi3CoSimulation
-from fmionnx.kinds.fmu.runner import FMI_DISCARD, FMI_WARNING, CsCalls
-from fmionnx.kinds.fmu.values import RawCall
 from fmionnx.runtime.native import kernel as k
 from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.transfer import nan_error
 
 #: The runners a group steps.
-CsRunner = Fmi2CoSimulation | Fmi3CoSimulation
+CsRunner = NativeSteppable
 
 
 @dataclass(frozen=True)
@@ -165,7 +168,7 @@ class NativeGroup:
         """
         for function, args, name in plan.calls.get_calls:
             got = int(function(*args))
-            if got > FMI_WARNING:
+            if got > STATUS_WARNING:
                 return plan.runner.fault_for(name, got, t + h)
         after = plan.tracks[1]
         if after is not None:
@@ -177,7 +180,7 @@ class NativeGroup:
         """A doStep status above Warning: a fault, unless it is FMI 2's ``fmi2Discard`` with
         ``fmi2Terminated`` (asked exactly as the Python path asks)."""
         runner = plan.runner
-        if status == FMI_DISCARD and isinstance(runner, Fmi2CoSimulation):
+        if status == STATUS_DISCARD and runner.discard_may_end:
             ending = runner.termination_requested(t, h)
             if ending is not None:
                 return cls._ended(plan, ending, t, h)

@@ -26,12 +26,11 @@ from collections.abc import Mapping, Sequence
 from dataclasses import dataclass
 
 from fmionnx.compile.ir import CompiledSystem, Connection
+from fmionnx.core.cosim import NativeCandidate, NativeSteppable
 from fmionnx.core.runner import Buffer, Runner
-from fmionnx.kinds.fmu.clocks import UNSUPPORTED_PREFIX
-from fmionnx.kinds.fmu.fmi2 import Fmi2CoSimulation
-from fmionnx.kinds.fmu.fmi3 import Fmi3CoSimulation
-from fmionnx.kinds.fmu.kind import FmuConfig
-from fmionnx.runtime.native.group import CsRunner, MemberPlan, NativeGroup, call_type, type_code
+from fmionnx.kinds.base import FMI
+from fmionnx.kinds.registry import has_capability
+from fmionnx.runtime.native.group import MemberPlan, NativeGroup, call_type, type_code
 from fmionnx.runtime.native.kernel import load_kernel
 from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.transfer import connection_views
@@ -95,35 +94,20 @@ _PLATFORM_CAST = "numpy's result for a float outside the integer's range depends
 _OTHER_KINDS = "only FMI co-simulation FMUs run natively"
 
 
-def _clock_names(runner: CsRunner) -> list[str]:
-    """The FMI 3 clocks an FMU declares (facts ``unsupported.<name>`` of the clock kind)."""
-    return [
-        key[len(UNSUPPORTED_PREFIX) :]
-        for key, value in runner.component.interface.facts
-        if key.startswith(UNSUPPORTED_PREFIX) and value.startswith("FMI 3 clock")
-    ]
-
-
 def _runner_reason(system: CompiledSystem, name: str, runner: Runner) -> str | None:
     """Why ``name``'s runner cannot be a member, judged before its connections."""
     component = system.component(name)
-    if not isinstance(component.config, FmuConfig):
+    if not isinstance(runner, NativeCandidate):
+        if has_capability(component, FMI):  # its runner is a proxy of a child process
+            return "runs in a child process (--isolate)"
         article = "an" if component.kind[:1] in "aeiou" else "a"
         return f"{article} {component.kind} component ({_OTHER_KINDS})"
-    if not isinstance(runner, Fmi2CoSimulation | Fmi3CoSimulation):
-        if component.config.interface == "me":
-            return "a model-exchange FMU (integrated in Python between communication points)"
-        return "runs in a child process (--isolate)"
+    problem = runner.native_problem()
+    if not isinstance(runner, NativeSteppable):
+        return problem or "its runner makes no co-simulation calls"
     if system.loops and system.loop_of(name) is not None:
         return "a member of an iterated algebraic loop (the loop steps its members repeatedly)"
-    clocks = _clock_names(runner) if isinstance(runner, Fmi3CoSimulation) else []
-    if clocks:
-        listed = ", ".join(f"`{c}`" for c in clocks)
-        return (
-            f"declares the FMI 3 clock(s) {listed}, which need Event Mode: the Python path "
-            "runs it (without Event Mode, its output clocks ignored)"
-        )
-    return None
+    return problem
 
 
 def _connection_reason(connection: Connection, src: Buffer, dst: Buffer) -> str | None:
@@ -152,7 +136,7 @@ def member_plan(
     problem = _runner_reason(system, name, runner)
     if problem is not None:
         return problem
-    assert isinstance(runner, Fmi2CoSimulation | Fmi3CoSimulation)
+    assert isinstance(runner, NativeSteppable)
     calls = runner.cs_calls()
     if calls is None:
         return "not set up"

@@ -56,6 +56,60 @@ def plan_study(study: str | Path) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
     return plan, diagnostics
 
 
+def sweep_study(
+    study: str | Path,
+    out: Path,
+    *,
+    scheduler: str | None = None,
+    workers: int | None = None,
+    resume: bool = False,
+    keep_results: bool = False,
+    force: bool = False,
+    progress: SweepProgress | None = None,
+    batch: int | None = None,
+    warnings: Callable[[tuple[Diagnostic, ...]], None] | None = None,
+) -> SweepResult:
+    """``fmionnx sweep`` and :func:`fmionnx.sweep`: check the request, compile the study,
+    run it into ``out``.
+
+    Options that exclude each other, a scheduler address that is not one and an unusable
+    folder are :class:`~fmionnx.pipeline.errors.RequestError` (exit 2) before anything runs;
+    errors in the study file DiagnosticError; a folder holding another study
+    ``StudyFolderError``; a cluster that cannot be reached or started ``SchedulerError`` or
+    ``ClusterStartError`` (a folder made for the study is removed again). ``warnings``
+    receives the study's warnings before the cases run.
+    """
+    from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError, scheduler_problem
+    from fmionnx.pipeline.errors import RequestError
+    from fmionnx.pipeline.outputs import check_output_folder
+
+    if resume and force:
+        msg = "--resume keeps the finished cases, --force removes them: choose one"
+        raise RequestError(msg)
+    if workers is not None and scheduler is not None:
+        msg = "--workers starts a local cluster; an existing one (--scheduler) has its own"
+        raise RequestError(msg)
+    plan, diagnostics = plan_study(study)
+    found = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
+    if found and warnings is not None:
+        warnings(found)
+    problem = None if scheduler is None else scheduler_problem(scheduler)
+    if problem is not None:
+        raise RequestError(problem)
+    made_out = not out.exists()
+    check_output_folder(out, "--out")
+    try:
+        return run_sweep(
+            plan, out, scheduler=scheduler, workers=workers, resume=resume,
+            keep_results=keep_results, force=force, progress=progress, batch=batch,
+        )  # fmt: skip
+    except (SchedulerError, ClusterStartError):
+        if made_out:  # made just now and still empty: no trace of a study that never started
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
+
+
 def run_sweep(
     plan: StudyPlan,
     out: Path,
@@ -104,6 +158,7 @@ def _run(
 ) -> SweepResult:
     from fmionnx.backends.sweep.case import Job
     from fmionnx.backends.sweep.engine import open_client, run_study
+    from fmionnx.pipeline.study import run_study_case
     from fmionnx.results.study import StudyFolder
     from fmionnx.results.study_plots import write_study_plots
 
@@ -124,10 +179,10 @@ def _run(
 
     tasks = None
     if pending and client is not None:
-        tasks = run_study(client, plan, pending, job, on_done, batch=batch)
+        tasks = run_study(client, plan, pending, job, on_done, run_study_case, batch=batch)
     elif pending:  # a resumed study with cases left
         with open_client(None, workers) as started:
-            tasks = run_study(started, plan, pending, job, on_done, batch=batch)
+            tasks = run_study(started, plan, pending, job, on_done, run_study_case, batch=batch)
     table = folder.table()
     files = folder.write_table(table)
     files.extend(write_study_plots(table, plan, out))

@@ -1,0 +1,363 @@
+"""The run pipeline: one request, the same stages for every front end and every backend.
+
+``fmionnx run``, :func:`fmionnx.run`, ``System.run`` and a study's cases hand a
+:class:`~fmionnx.pipeline.request.RunRequest` to :func:`execute`, which goes through the
+stages in this order and returns a :class:`~fmionnx.pipeline.outcome.RunOutcome`:
+
+1. **outputs** — ``--out`` and ``--record`` are usable, checked before anything is compiled:
+   learning after minutes of simulation that the results cannot be written is too late;
+2. **load** — the system file, compiled system or single model is compiled
+   (:mod:`~fmionnx.pipeline.system`);
+3. **overrides** — ``--stop-time``, ``--param``, ``--output-interval`` make a new compiled
+   system; then the run's size is held against ``--max-steps`` and the default results
+   folder (``out/<system name>/``) is chosen and checked;
+4. **safety** — the backend settles what depends on the system (in-process: ``--isolate``'s
+   default, docs/security.md) and says what would stop it (:meth:`Backend.validate`);
+5. **backend** — the backend runs; checkpoints, an abandoned run's results and observers'
+   progress are wired in here;
+6. **checks** — the system's ``checks:`` are evaluated on the recorded signals;
+7. **results** — ``results.csv``, ``run.json`` and plots are written; the exit status is
+   decided.
+
+Refusals before the first step raise :class:`~fmionnx.pipeline.errors.PipelineError` (with
+the CLI's exit status) or, for errors in the system file, DiagnosticError; a fault during the
+run is the outcome's status, with everything recorded up to it written.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+import math
+from collections.abc import Sequence
+from pathlib import Path
+from typing import TYPE_CHECKING, Unpack
+
+from fmionnx.compile.overrides import OverrideError
+from fmionnx.core.diagnostics import Severity
+from fmionnx.core.errors import DiagnosticError, FmionnxError
+from fmionnx.core.types import PortRef
+from fmionnx.pipeline.backends import backend_entry
+from fmionnx.pipeline.errors import RefusedError, RequestError
+from fmionnx.pipeline.observers import Observers, RunObserver, RunStart
+from fmionnx.pipeline.outcome import RunOutcome, exit_status
+from fmionnx.pipeline.outputs import check_output_file, check_results_folder
+from fmionnx.pipeline.request import RunRequest, RunSettings, build_request
+from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
+from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
+
+if TYPE_CHECKING:
+    from fmionnx.pipeline.system import System
+    from fmionnx.results.csvahead import CsvAhead
+    from fmionnx.results.mcap_record import McapRecorder
+
+
+def execute(
+    request: RunRequest,
+    observers: Sequence[RunObserver] = (),
+    *,
+    system: System | None = None,
+    signals: tuple[PortRef, ...] | None = None,
+) -> RunOutcome:
+    """Run ``request`` through every stage (module docstring); ``system`` skips loading (a
+    system already loaded, ``System.run``); ``signals`` narrows what is recorded."""
+    watch = Observers(observers)
+    _check_outputs(request)
+    if system is None:
+        system = load_request(request)
+    watch.loaded(system)
+    system = _overridden(system, request)
+    out = _results_folder(system, request)
+    backend = backend_entry(request.backend)()
+    recorder = _mcap_recorder(request, backend)
+    options = _prepared(backend, system, request, recording=recorder is not None)
+    ahead = _csv_ahead(system, options, out)
+    run = _run_options(request, system, options, out, watch, signals)
+    run = dataclasses.replace(run, frames=recorder, follower=ahead)
+    start = RunStart(
+        system, backend.name, options.where(), options.how(), options.publishes_rows, out
+    )
+    watch.before_run(start)
+    try:
+        result = backend.run(system.compiled, options, run)
+    except (DiagnosticError, FmionnxError) as exc:
+        if recorder is not None:
+            recorder.finish(None)
+        message = exc.diagnostics[0].message if isinstance(exc, DiagnosticError) else str(exc)
+        raise RefusedError(message) from exc  # e.g. DDS refusing to start, a swapped library
+    finally:
+        watch.after_run()
+    return _finish(request, system, result, out, recorder, ahead, watch)
+
+
+def load_request(request: RunRequest) -> System:
+    """The request's target, loaded (DiagnosticError for errors in it; RequestError for
+    ``--step``/``--start-time`` on a compiled system)."""
+    from fmionnx.pipeline.system import load
+
+    overrides = request.overrides
+    try:
+        return load(
+            request.target, interface=overrides.interface if request.kind == "model" else None,
+            step=overrides.step, start=overrides.start_time, models=overrides.models,
+        )  # fmt: skip
+    except OverrideError as exc:
+        raise RequestError(str(exc)) from None
+
+
+def run_system(
+    system: System,
+    *,
+    signals: tuple[PortRef, ...] | None = None,
+    progress: ProgressCallback | None = None,
+    observers: Sequence[RunObserver] = (),
+    **settings: Unpack[RunSettings],
+) -> RunOutcome:
+    """Run a loaded ``system`` with ``fmionnx run``'s options and defaults (``System.run``).
+
+    Without ``out`` nothing is written (a Python caller asks for a folder); options that
+    need the system file (``step``, ``start_time``, ``interface``) are refused: pass them to
+    :func:`~fmionnx.pipeline.system.load`.
+    """
+    settings.setdefault("no_out", settings.get("out") is None)
+    request = loaded_request(system, settings)
+    watchers = list(observers)
+    if progress is not None:
+        watchers.append(_ProgressCall(progress))
+    return execute(request, watchers, system=system, signals=signals)
+
+
+def run_with_options(
+    system: System,
+    options: RunOptions,
+    *,
+    signals: tuple[PortRef, ...] | None = None,
+    progress: ProgressCallback | None = None,
+    **settings: Unpack[RunSettings],
+) -> RunResult:
+    """The in-process master with exactly ``options`` (``System.run(options=...)``): no
+    isolation unless they say so, nothing written. ``stop_time`` and ``params`` still apply.
+    """
+    from fmionnx.backends.inprocess import InProcessBackend
+
+    others = sorted(k for k in settings if k not in ("stop_time", "params"))
+    if others:
+        msg = f"`{others[0]}` does not combine with `options`: set it in the RunOptions"
+        raise RequestError(msg)
+    system = system.with_overrides(
+        stop_time=settings.get("stop_time"), params=settings.get("params")
+    )
+    backend = InProcessBackend()
+    problems = [
+        d
+        for d in backend.validate(system.compiled, backend.options_type())
+        if d.severity is Severity.ERROR
+    ]
+    if problems:
+        raise DiagnosticError(problems)
+    chosen = options
+    record = signals if signals is not None else system.record
+    if record is not None and options.record is None:
+        chosen = dataclasses.replace(chosen, record=record)
+    if progress is not None:
+        chosen = dataclasses.replace(chosen, progress=progress)
+    from fmionnx.runtime.master import Master
+
+    result = Master(system.compiled, chosen).run()
+    return _aliased(result, system)
+
+
+# -- stages ------------------------------------------------------------------------------------
+
+
+def _check_outputs(request: RunRequest) -> None:
+    output = request.output
+    if output.out is not None:
+        check_results_folder(output.out, force=output.force, system_run=request.kind != "inference")
+    if output.record is not None:
+        check_output_file(output.record, "--record")
+
+
+def _overridden(system: System, request: RunRequest) -> System:
+    overrides = request.overrides
+    try:
+        system = system.with_overrides(
+            stop_time=overrides.stop_time,
+            params=dict(overrides.params),
+            output_interval=overrides.output_interval,
+        )
+    except OverrideError as exc:
+        raise RequestError(str(exc)) from None
+    steps, limit = system.compiled.run.steps, request.limits.max_steps
+    if steps > limit:  # after the overrides: --stop-time changes the count
+        msg = (
+            f"the run is {steps:.3g} base steps, more than --max-steps {limit:.3g}; check "
+            "the stop time and step, or pass a larger --max-steps"
+        )
+        raise RequestError(msg)
+    return system
+
+
+def _results_folder(system: System, request: RunRequest) -> Path | None:
+    output = request.output
+    if output.out is not None or not output.write:
+        return output.out
+    from fmionnx.results.outdir import default_folder
+
+    out = default_folder(system.name)  # the system's name is known now; still before the run
+    check_results_folder(out, force=output.force, system_run=True, default=True)
+    return out
+
+
+def _mcap_recorder(request: RunRequest, backend: Backend) -> McapRecorder | None:
+    record = request.output.record
+    if record is None or backend.records_itself:
+        return None
+    from fmionnx.results.mcap_record import McapRecorder
+
+    return McapRecorder(record)
+
+
+def _prepared(
+    backend: Backend, system: System, request: RunRequest, *, recording: bool
+) -> BackendOptions:
+    try:
+        options = backend.prepare(
+            system.compiled, request.backend_options, RunContext(recording=recording)
+        )
+    except OptionsError as exc:
+        raise RequestError(str(exc)) from None
+    problems = [
+        d for d in backend.validate(system.compiled, options) if d.severity is Severity.ERROR
+    ]
+    if problems:
+        raise RefusedError(str(problems[0].message))
+    return options
+
+
+def _run_options(
+    request: RunRequest,
+    system: System,
+    options: BackendOptions,
+    out: Path | None,
+    watch: Observers,
+    signals: tuple[PortRef, ...] | None,
+) -> RunOptions:
+    """What the backend is handed: recording, limits, checkpoints, the abandon writer."""
+    output = request.output
+    compiled, aliases = system.compiled, dict(system.aliases)
+    details = options.details()
+
+    def checkpoint(result: RunResult) -> None:
+        from fmionnx.results import write_results
+
+        assert out is not None
+        result.details.update(details)
+        write_results(result, compiled, out, aliases=aliases, checkpoint=True)
+
+    def abandon(result: RunResult) -> None:
+        result.details.update(details)
+        if out is not None:
+            from fmionnx.results import write_results
+
+            write_results(result, compiled, out, aliases=aliases, plot_signals=output.plot)
+        watch.abandoned(result, out)
+
+    record = signals if signals is not None else system.record
+    timeout = request.limits.step_timeout
+    return RunOptions(
+        record=record, progress=watch.progress if watch.wants_progress else None,
+        progress_every=watch.progress_every,
+        step_timeout=timeout if math.isfinite(timeout) else None,
+        checkpoint=checkpoint if out is not None else None,
+        checkpoint_every=output.checkpoint_every, abandon=abandon, out=out,
+        record_file=output.record,
+    )  # fmt: skip
+
+
+def _csv_ahead(system: System, options: BackendOptions, out: Path | None) -> CsvAhead | None:
+    """A run that publishes its rows while it goes gets results.csv formatted meanwhile."""
+    if not options.publishes_rows or out is None:
+        return None
+    from fmionnx.results.csvahead import CsvAhead
+
+    return CsvAhead(system.compiled)
+
+
+def _finish(
+    request: RunRequest,
+    system: System,
+    result: RunResult,
+    out: Path | None,
+    recorder: McapRecorder | None,
+    ahead: CsvAhead | None,
+    watch: Observers,
+) -> RunOutcome:
+    from fmionnx.runtime.checks import evaluate_checks
+
+    checks = tuple(evaluate_checks(system.compiled.checks, result)) if request.checks else ()
+    files: list[Path] = []
+    record = request.output.record
+    if recorder is not None:
+        files.append(recorder.finish(result))
+    elif record is not None and record.exists():
+        files.append(record)
+    if out is not None:
+        from fmionnx.results import write_results
+
+        files[:0] = write_results(
+            result, system.compiled, out, aliases=dict(system.aliases), also=files,
+            checks=checks, plot_signals=request.output.plot, ahead=ahead,
+        )  # fmt: skip
+    outcome = RunOutcome(
+        system, _aliased(result, system), checks, tuple(files), out, exit_status(result, checks)
+    )
+    watch.finished(outcome)
+    return outcome
+
+
+def _aliased(result: RunResult, system: System) -> RunResult:
+    """``result`` with its signals named as results.csv names them (a single FMU's by
+    variable)."""
+    if system.aliases:
+        result.signals = {system.aliases.get(k, k): v for k, v in result.signals.items()}
+    return result
+
+
+class _ProgressCall(RunObserver):
+    """A plain ``progress(done, total, time)`` callable as an observer."""
+
+    wants_progress = True
+
+    def __init__(self, call: ProgressCallback) -> None:
+        self._call = call
+
+    def progress(self, done: int, total: int, time: float) -> None:
+        """Pass it on."""
+        self._call(done, total, time)
+
+
+def run(target: str | Path | System, /, **settings: Unpack[RunSettings]) -> RunOutcome:
+    """Run ``target`` (a path, or a loaded :class:`System`) as ``fmionnx run`` would.
+
+    Every ``fmionnx run`` option is a keyword under its flag's name in snake_case
+    (``backend="ros2"``, ``middleware="zenoh"``, ``sync="lockstep"``, ``stop_time=``,
+    ``out=``, ``isolate=``, ``checks=`` ...; ``params`` is a mapping), with the same
+    defaults: FMUs isolated, results in ``out/<system name>/`` unless ``no_out=True``.
+    Raises DiagnosticError for errors in the system file and
+    :class:`~fmionnx.pipeline.errors.PipelineError` for a run refused before it started.
+    """
+    from fmionnx.pipeline.system import System
+
+    if isinstance(target, System):
+        return execute(loaded_request(target, settings), system=target)
+    return execute(build_request(target, **settings))
+
+
+def loaded_request(system: System, settings: RunSettings) -> RunRequest:
+    """The request to run an already loaded ``system``: options that are applied when a
+    system is compiled (``step``, ``start_time``, ``interface``, ``models``) are refused."""
+    for name in ("step", "start_time", "interface", "models"):
+        if settings.get(name) is not None:
+            msg = f"`{name}` is applied when the system is compiled: pass it to fmionnx.load()"
+            raise RequestError(msg)
+    return build_request(system.source or Path(system.name), **settings)

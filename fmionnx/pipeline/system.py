@@ -1,0 +1,238 @@
+"""Loading: a system file, a compiled system or a single model becomes a :class:`System`.
+
+``load`` accepts a system file (YAML/SSP), a compiled system (``*.fmionnx.json``) or a single
+model: an ``.fmu`` becomes a one-component system run from its default experiment with every
+output recorded under its variable name; an ``.onnx`` file gives a system whose one step
+runs the model once. A :class:`System` is immutable: overrides make a new one.
+"""
+
+from __future__ import annotations
+
+import dataclasses
+from collections.abc import Mapping
+from dataclasses import dataclass, field
+from pathlib import Path
+from typing import TYPE_CHECKING, Literal, Unpack
+
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.overrides import (
+    OverrideError,
+    override_output_interval,
+    override_parameter,
+    override_stop,
+)
+from fmionnx.compile.runflags import RunFlags, apply_run_flags, mark_command_line
+from fmionnx.compile.single import check_single_model, compile_single_model
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity
+from fmionnx.core.errors import DiagnosticError
+from fmionnx.core.types import Causality, PortRef, Scalar
+from fmionnx.pipeline.request import COMPILED_SUFFIX, RunSettings
+
+if TYPE_CHECKING:
+    from fmionnx.pipeline.observers import RunObserver
+    from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
+
+#: Single-model files ``load`` accepts besides system files.
+MODEL_SUFFIXES = (".fmu", ".onnx")
+
+
+@dataclass(frozen=True)
+class System:
+    """A compiled system ready to run; immutable (overrides make a new one).
+
+    ``aliases`` rename results columns (a single FMU's by variable name); ``record`` is the
+    signals a single FMU records (every output); ``source`` the file it was loaded from.
+    """
+
+    compiled: CompiledSystem
+    diagnostics: tuple[Diagnostic, ...] = ()
+    aliases: Mapping[str, str] = field(default_factory=dict)
+    record: tuple[PortRef, ...] | None = None
+    source: Path | None = None
+
+    @property
+    def name(self) -> str:
+        """The system's name."""
+        return self.compiled.name
+
+    def with_overrides(
+        self,
+        *,
+        stop_time: float | None = None,
+        params: Mapping[str, Scalar | list[Scalar]] | None = None,
+        output_interval: float | None = None,
+    ) -> System:
+        """A new System with a different stop time, output interval and/or parameter values."""
+        compiled = self.compiled
+        if stop_time is not None:
+            compiled = override_stop(compiled, stop_time)
+        if output_interval is not None:
+            compiled = override_output_interval(compiled, output_interval)
+        for key, value in (params or {}).items():
+            compiled = override_parameter(compiled, key, value)
+        return dataclasses.replace(self, compiled=compiled)
+
+    def run(
+        self,
+        *,
+        signals: tuple[PortRef, ...] | None = None,
+        progress: ProgressCallback | None = None,
+        options: RunOptions | None = None,
+        observers: tuple[RunObserver, ...] = (),
+        **settings: Unpack[RunSettings],
+    ) -> RunResult:
+        """Run as ``fmionnx run`` would (the same options by name, the same defaults: FMUs
+        isolated, no results folder unless ``out``) and return the recorded signals
+        (``result["comp.port"]``); :func:`fmionnx.run` returns the checks and files too.
+
+        ``signals`` narrows what is recorded (``()``: nothing). ``options`` runs the
+        in-process master with exactly these :class:`RunOptions` instead (a benchmark's or a
+        test's choice: no isolation unless they say so, nothing written).
+        """
+        from fmionnx.pipeline.run import run_system, run_with_options
+
+        if options is not None:
+            return run_with_options(self, options, signals=signals, progress=progress, **settings)
+        return run_system(
+            self, signals=signals, progress=progress, observers=observers, **settings
+        ).result
+
+
+def load(
+    path: str | Path,
+    *,
+    interface: Literal["cs", "me"] | None = None,
+    step: float | None = None,
+    models: Path | None = None,
+    start: float | None = None,
+) -> System:
+    """Compile a system file or a single model, or read a compiled system; raises
+    DiagnosticError on errors (CompiledFileError for an unusable compiled-system file).
+
+    ``interface`` applies to a single ``.fmu`` only; ``step`` and ``start`` replace the run's
+    base step and start time of any system before it is compiled (:mod:`.compile.runflags`).
+    A compiled-system file (``*.fmionnx.json``, written by ``fmionnx compile``) is read as it
+    is, nothing compiled (``step``/``start`` are refused: OverrideError); ``models`` names the
+    store its models are found in by hash (default: where they were).
+    """
+    target = Path(path)
+    flags = RunFlags(start=start, step=step)
+    if target.name.lower().endswith(COMPILED_SUFFIX):
+        from fmionnx.compile.systemfile import read_compiled
+
+        if flags.keys:
+            msg = "--step and --start-time need a system file: a compiled system is run as it is"
+            raise OverrideError(msg)
+        return System(read_compiled(target, models=models), source=target)
+    bag = DiagnosticBag()
+    if target.suffix.lower() in MODEL_SUFFIXES:
+        compiled = compile_single_model(target, bag, interface=interface, step=step, start=start)
+        if compiled is not None:
+            compiled = mark_command_line(compiled, flags)
+    else:
+        result = compile_system(target, flags)
+        bag.extend(result.diagnostics)
+        compiled = result.system
+    diagnostics = tuple(bag.sorted())
+    if compiled is None or any(d.severity is Severity.ERROR for d in diagnostics):
+        raise DiagnosticError([d for d in diagnostics if d.severity is Severity.ERROR])
+    if target.suffix.lower() == ".fmu":
+        from fmionnx.kinds.registry import result_aliases
+
+        component = compiled.components[0]
+        refs = tuple(
+            PortRef(component.name, p.name)
+            for p in component.interface.with_causality(Causality.OUTPUT)
+        )
+        return System(compiled, diagnostics, result_aliases(component), refs, target)
+    return System(compiled, diagnostics, source=target)
+
+
+# -- checking ----------------------------------------------------------------------------------
+
+
+@dataclass(frozen=True)
+class CompileResult:
+    """A compiled system (None when there were errors) and every diagnostic, sorted."""
+
+    system: CompiledSystem | None
+    diagnostics: tuple[Diagnostic, ...]
+
+    @property
+    def ok(self) -> bool:
+        """True when no diagnostic is an error."""
+        return all(d.severity is not Severity.ERROR for d in self.diagnostics)
+
+
+def compile_system(path: str | Path, flags: RunFlags | None = None) -> CompileResult:
+    """Load, check and compile a system file (YAML or SSP) into the IR; ``flags`` replace its
+    start time and base step first (``fmionnx run --start-time/--step``)."""
+    from fmionnx.compile.compiler import compile_spec
+    from fmionnx.spec.frontends import load_system
+
+    bag = DiagnosticBag()
+    loaded = load_system(Path(path), bag)
+    if flags is not None:
+        loaded = apply_run_flags(loaded, flags, bag)
+    system = None
+    if loaded.spec is not None:
+        system = compile_spec(loaded, bag)
+        if system is not None and flags is not None:
+            system = mark_command_line(system, flags)
+    diagnostics = tuple(bag.sorted())
+    if any(d.severity is Severity.ERROR for d in diagnostics):
+        system = None
+    return CompileResult(system, diagnostics)
+
+
+def is_model_file(path: str | Path) -> bool:
+    """True for a file ``validate`` checks as a lone model: one a component kind reads
+    (``.fmu`` or an unpacked FMU, ``.onnx``, a MuJoCo ``.xml``, a signal ``.csv``) that is not
+    a system file."""
+    from fmionnx.kinds.registry import kind_for_path
+    from fmionnx.spec.frontends import FRONTENDS
+
+    target = Path(path)
+    if target.suffix.lower() in FRONTENDS or target.name.lower().endswith(COMPILED_SUFFIX):
+        return False
+    return kind_for_path(target) is not None
+
+
+def check_model(path: str | Path) -> CompileResult:
+    """Validate one model file alone (``fmionnx validate model.fmu``).
+
+    The model is compiled as ``run`` would compile it (every check a system applies to it),
+    then its kind's deeper checks run: FMPy's validation for an FMU, the ONNX checker and
+    strict shape inference for an ONNX model, MuJoCo's compiler for a scene.
+    """
+    bag = DiagnosticBag()
+    system = check_single_model(Path(path), bag)
+    diagnostics = tuple(bag.sorted())
+    if any(d.severity is Severity.ERROR for d in diagnostics):
+        system = None
+    return CompileResult(system, diagnostics)
+
+
+def is_study_file(path: str | Path) -> bool:
+    """True for a YAML file that is a study (it names a ``system:`` to vary and has no
+    ``components:``): ``validate`` checks it as ``fmionnx sweep`` would compile it."""
+    from fmionnx.spec.yaml import is_study_text, read_text
+
+    target = Path(path)
+    if target.suffix.lower() not in {".yaml", ".yml"} or not target.is_file():
+        return False
+    text = read_text(target, DiagnosticBag())  # an unreadable file is the compiler's to report
+    return text is not None and is_study_text(text, target)
+
+
+def check_study(path: str | Path) -> CompileResult:
+    """Check a study file and the system it varies (``fmionnx validate study.yaml``), without
+    running a case: every diagnostic ``fmionnx sweep`` would stop on, at its place."""
+    from fmionnx.compile.study import compile_study
+    from fmionnx.spec.study import load_study
+
+    bag = DiagnosticBag()
+    plan = compile_study(load_study(Path(path), bag), bag)
+    diagnostics = tuple(bag.sorted())
+    ok = plan is not None and all(d.severity is not Severity.ERROR for d in diagnostics)
+    return CompileResult(plan.system if ok and plan is not None else None, diagnostics)
