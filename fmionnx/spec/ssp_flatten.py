@@ -66,6 +66,8 @@ class FlatInput:
     name: str
     line: int
     targets: tuple[FlatTarget, ...]
+    #: The value bound to it (a root connector bound to a value, connected to nothing).
+    value: BoundValue | None = None
 
 
 @dataclass
@@ -160,7 +162,10 @@ def flatten(document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag
     for path, element in graph.components.items():
         flat.components[".".join(path)] = element
     driven = _flatten_connections(graph, flat)
-    bound = bind_parameters(graph, root, flat.parameters)
+    kept: dict[Pin, BoundValue] = {}
+    bound = bind_parameters(graph, root, flat.parameters, kept)
+    for pin, value in kept.items():
+        flat.inputs[pin_text(pin)] = FlatInput(pin_text(pin), graph.connectors[pin].line, (), value)
     _open_connectors(graph, driven | bound, flat)
     _check_duplicates(flat, ssd, bag)
     return flat
