@@ -483,7 +483,8 @@ def test_system_inputs_survive_export_and_convert(tmp_path: Path, fixture_fmu) -
         f"  g: {{kind: fmu, path: {fixture_fmu('Gain')}}}\n"
         "inputs:\n"
         "  level: {to: [g.k, {to: g.u, factor: 2, offset: 1}]}\n"
-        "  sub.gain: {to: [g.k]}\n",
+        "  sub.gain: {to: [g.k]}\n"
+        "  spare: {to: [], value: -20.0}\n",
         encoding="utf-8",
     )
     archive = tmp_path / "inputs.ssp"
@@ -501,7 +502,10 @@ def test_system_inputs_survive_export_and_convert(tmp_path: Path, fixture_fmu) -
     } == {
         "level": ["g.k", {"to": "g.u", "factor": 2.0, "offset": 1.0}],
         "sub.gain": ["g.k"],
+        "spare": [],
     }
+    # a system input holding a value of its own is written as a bound root connector
+    assert spec.inputs["spare"].value == -20.0
     converted = tmp_path / "back.yaml"
     result = runner.invoke(app, ["convert", str(archive), "-o", str(converted)])
     assert result.exit_code == 0, result.output
