@@ -156,3 +156,33 @@ def test_co_simulation_of_the_event_fixtures_matches_fmpy(
             atol=1e-12,
             err_msg=name,
         )
+
+
+@pytest.mark.parametrize("version", VERSIONS)
+def test_feedthrough_alone_in_model_exchange_matches_fmpy(fixture_fmu, version: str) -> None:
+    # start values of every input type, discrete ones included, set before initialization
+    fmu = fixture_fmu(f"Feedthrough{version}")
+    starts = {
+        "Float64_continuous_input": 1.5,
+        "Float64_discrete_input": 3.0,
+        "Int32_input": 7,
+        "Boolean_input": True,
+    }
+    ours = fmionnx.load(fmu, interface="me", step=0.5).run(stop_time=2.0, params=starts)
+    assert ours.status is RunStatus.COMPLETED, ours.ended_by
+    outputs = [name.replace("input", "output") for name in starts]
+    theirs = simulate_fmu(
+        str(fmu),
+        fmi_type="ModelExchange",
+        stop_time=2.0,
+        output_interval=0.5,
+        start_values=starts,
+        output=outputs,
+        record_events=False,
+    )
+    np.testing.assert_allclose(ours.time, theirs["time"], atol=1e-12)
+    for name in outputs:
+        np.testing.assert_array_equal(
+            np.asarray(ours[name], dtype=float), np.asarray(theirs[name], dtype=float), name
+        )
+    assert ours["Int32_output"][-1] == 7
