@@ -16,7 +16,8 @@ Values bound to components and to system connectors are resolved by
 ``parameter`` connector that nothing drives and no binding sets. Each becomes a named system
 input (``conn`` on the root system, ``sub.conn`` on a nested one) whose value the command line
 can set (``--param conn=1``) and that reaches the component connectors at the ends of its
-chains, transformations included.
+chains, transformations included. A root connector bound to a value and connected to nothing
+becomes a system input holding that value (no targets), as OMSimulator keeps it.
 """
 
 from __future__ import annotations
