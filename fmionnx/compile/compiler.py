@@ -18,7 +18,7 @@ from fmionnx.compile.endpoints import (
     split_endpoint,
 )
 from fmionnx.compile.graph import execution_order, execution_order_with_loops
-from fmionnx.compile.ir import CompiledSystem, Connection
+from fmionnx.compile.ir import CompiledSystem, Connection, Origin
 from fmionnx.compile.loops import compile_loops
 from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.resolve import read_interface, resolve_run
@@ -26,6 +26,7 @@ from fmionnx.compile.sysinputs import compile_inputs
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
 from fmionnx.compile.unitcheck import check_units
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Severity, Span
+from fmionnx.core.signals import every_output
 from fmionnx.core.sourcetext import source_lines
 from fmionnx.core.types import (
     Causality,
@@ -74,7 +75,13 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     _check_unconnected(components, mentioned, spec, sources, bag)
     usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
     loops = compile_loops(components, usable, spec.run.algebraic_loops, loaded.path, sources, bag)
-    record = _refs(spec.record or [], "record", by_name, sources, bag)
+    if spec.record is not None:
+        record = tuple(_refs(spec.record, "record", by_name, sources, bag))
+    else:  # other tools' default: every output (images excepted), resolved here for all
+        record = every_output(components)
+        if run is not None:
+            origins = (*run.origins, ("record", Origin.BUILTIN_DEFAULT))
+            run = dataclasses.replace(run, origins=origins)
     plots = compile_plots(spec, by_name, sources, bag)
     checks = compile_checks(spec.checks, by_name, sources, bag)
     if run is None or bag.has_errors:
@@ -96,7 +103,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             else execution_order(components, usable)
         ),
         plots=plots,
-        record=tuple(record),
+        record=record,
         checks=checks,
         ros2=ros2,
         description=spec.description,

@@ -25,6 +25,8 @@ from fmionnx.core.types import (
     Component,
     Port,
     PortRef,
+    Scalar,
+    ValueSource,
 )
 from fmionnx.core.units import UnitConversion
 from fmionnx.kinds.base import SceneMap
@@ -54,6 +56,11 @@ class SystemInput:
     name: str
     targets: tuple[InputTarget, ...]
     span: Span | None = None
+    #: The value it holds without ``--param``: a value bound to an SSP connector that leads
+    #: to no component connector (kept as OMSimulator keeps it); None: unset.
+    value: Scalar | None = None
+    #: Where ``value`` came from.
+    source: ValueSource | None = None
 
 
 @dataclass(frozen=True, slots=True)
@@ -276,7 +283,9 @@ class CompiledSystem:
         }
         if self.inputs:  # absent when empty: the hashes of systems without inputs stay as they were
             payload["inputs"] = [
-                [i.name, [[str(t.ref), t.factor, t.offset] for t in i.targets]] for i in self.inputs
+                [i.name, [[str(t.ref), t.factor, t.offset] for t in i.targets]]
+                + ([i.value] if i.value is not None else [])
+                for i in self.inputs
             ]
         if self.loops:  # only then: the hashes of systems without loops stay as they were
             payload["loops"] = [dataclasses.asdict(loop) for loop in self.loops]

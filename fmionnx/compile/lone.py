@@ -15,13 +15,15 @@ serialised form and their diagnostics, for FMUs and an ONNX model).
 
 from __future__ import annotations
 
+import dataclasses
 from pathlib import Path
 
 from fmionnx.compile.components import compile_component
 from fmionnx.compile.graph import execution_order
-from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.ir import CompiledSystem, Origin
 from fmionnx.compile.resolve import read_interface, resolve_run
 from fmionnx.core.diagnostics import DiagnosticBag
+from fmionnx.core.signals import every_output
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.spec.runspec import RunSpec
 from fmionnx.spec.sourcemap import SourceMap
@@ -48,6 +50,10 @@ def compile_lone(
     component = compile_component(name, spec, interface, settings, path, sources, bag)
     if settings is None or bag.has_errors:
         return None
+    # every output, as for a system file without `record:` (compiler.py)
+    settings = dataclasses.replace(
+        settings, origins=(*settings.origins, ("record", Origin.BUILTIN_DEFAULT))
+    )
     return CompiledSystem(
         name=name,
         source=path,
@@ -56,7 +62,7 @@ def compile_lone(
         connections=(),
         order=execution_order([component], []),
         plots=(),
-        record=(),
+        record=every_output((component,)),
         checks=(),
         ros2=None,
         description="",

@@ -21,6 +21,7 @@ from fmionnx.core.types import (
     DType,
     ParameterValue,
     Scalar,
+    ValueSource,
     is_whole_multiple,
     number_text,
 )
@@ -123,7 +124,10 @@ def _coerce(dtype: DType, value: Scalar) -> Scalar | None:
 
 
 def override_parameter(
-    system: CompiledSystem, key: str, value: Scalar | list[Scalar]
+    system: CompiledSystem,
+    key: str,
+    value: Scalar | list[Scalar],
+    source: ValueSource = ValueSource.COMMAND_LINE,
 ) -> CompiledSystem:
     """The system with ``component.name = value`` set before initialization.
 
@@ -133,17 +137,24 @@ def override_parameter(
     """
     for system_input in system.inputs:
         if system_input.name == key:
-            return _override_input(system, system_input, value)
-    return _override_port(system, key, value)
+            return _override_input(system, system_input, value, source)
+    return _override_port(system, key, value, source)
 
 
 def _override_input(
-    system: CompiledSystem, system_input: SystemInput, value: Scalar | list[Scalar]
+    system: CompiledSystem,
+    system_input: SystemInput,
+    value: Scalar | list[Scalar],
+    source: ValueSource,
 ) -> CompiledSystem:
     key = system_input.name
     if isinstance(value, list):
         msg = f"--param `{key}`: a system input takes one value, got `{value}`"
         raise OverrideError(msg)
+    given = dataclasses.replace(system_input, value=value, source=source)
+    system = dataclasses.replace(
+        system, inputs=tuple(given if i is system_input else i for i in system.inputs)
+    )
     for target in system_input.targets:
         item: Scalar = value
         if target.factor != 1.0 or target.offset != 0.0:
@@ -158,7 +169,7 @@ def _override_input(
                 msg = f"--param `{key}`: {number_text(value)} becomes infinite at `{target.ref}`"
                 raise OverrideError(msg)
         try:
-            system = _override_port(system, str(target.ref), item)
+            system = _override_port(system, str(target.ref), item, source)
         except OverrideError as exc:
             detail = str(exc).split(": ", 1)[-1]  # without the target's own `--param` prefix
             msg = f"--param `{key}` (a system input, reaching `{target.ref}`): {detail}"
@@ -167,7 +178,7 @@ def _override_input(
 
 
 def _override_port(
-    system: CompiledSystem, key: str, value: Scalar | list[Scalar]
+    system: CompiledSystem, key: str, value: Scalar | list[Scalar], source: ValueSource
 ) -> CompiledSystem:
     names = [c.name for c in system.components]
     owners = [n for n in names if key.startswith(n + ".")]
@@ -222,7 +233,7 @@ def _override_port(
     values = tuple(c for c in coerced if c is not None)
     kept = tuple(p for p in component.parameters if p.port != port_name)
     updated = dataclasses.replace(
-        component, parameters=(*kept, ParameterValue(port_name, values, None))
+        component, parameters=(*kept, ParameterValue(port_name, values, None, source))
     )
     components = tuple(updated if c.name == component_name else c for c in system.components)
     return dataclasses.replace(system, components=components)

@@ -8,7 +8,7 @@ from pathlib import Path
 
 from fmionnx.compile.ir import Origin, RunSettings
 from fmionnx.compile.typecheck import declared_note
-from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
+from fmionnx.core.diagnostics import DiagnosticBag, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.specbase import ComponentSpecBase, ParameterLiteral
 from fmionnx.core.steps import (
@@ -30,6 +30,7 @@ from fmionnx.core.types import (
     is_whole_multiple,
     number_text,
 )
+from fmionnx.core.units import Unit, conversion
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.runspec import RunSpec
 from fmionnx.spec.sourcemap import SourceMap
@@ -141,10 +142,55 @@ def resolve_parameters(
             continue
         flat = _flatten(value)
         value_span = sources.value(("components", name, "parameters", key))
+        written_in = sources.units.get(("components", name, "parameters", key))
+        if flat is not None and written_in is not None:
+            flat = _in_port_unit(name, port, flat, written_in, value_span, bag)
         if flat is None or not _check_value(name, port, flat, value_span, bag):
             continue
-        resolved.append(ParameterValue(key, tuple(flat), value_span))
+        source = sources.value_source(("components", name, "parameters", key))
+        resolved.append(ParameterValue(key, tuple(flat), value_span, source))
     return tuple(resolved)
+
+
+def _in_port_unit(
+    name: str, port: Port, flat: list[Scalar], unit: Unit, span: Span, bag: DiagnosticBag
+) -> list[Scalar] | None:
+    """Values written in ``unit`` (an SSV value's ``unit``) converted to the port's unit.
+
+    SSP 2.0 (SSV, ``ssv:Real unit``): the value is in the unit named, defined in the set's
+    ``ssv:Units``. A port whose unit has the same definition takes the number as it is; one
+    of the same quantity gets it converted (``500 mH`` -> ``0.5`` for a port in ``H``); a
+    port of another quantity is E033. A port without a unit definition cannot be checked:
+    the number is used as written when the names agree, else W070 says so.
+    """
+    target = port.unit_definition
+    if target is None:
+        if port.unit != unit.name:
+            bag.emit(
+                "W070",
+                f"`{name}.{port.name}` is given in `{unit.name}`, but the model defines no unit "
+                f"for it (`{port.unit or ''}`); the value is used as written",
+                span,
+            )
+        return flat
+    if not unit.same_dimension(target):
+        bag.emit(
+            "E033",
+            f"`{name}.{port.name}` is given in `{unit.name}` ({unit.dimension()}), but the "
+            f"model measures it in `{target.name}` ({target.dimension()})",
+            span,
+            notes=declared_note(port),
+        )
+        return None
+    change = conversion(unit, target, relative=port.relative_quantity)
+    if change.is_identity:
+        return flat
+    return [
+        change.factor * v + change.offset
+        if isinstance(v, int | float) and not isinstance(v, bool)
+        else v
+        for v in flat
+    ]
 
 
 def _check_value(

@@ -27,7 +27,7 @@ from fmionnx.compile.overrides import (
     override_parameter,
     override_stop,
 )
-from fmionnx.core.types import PortRef, Scalar
+from fmionnx.core.types import PortRef, Scalar, ValueSource
 
 #: What a setting changes: a parameter (or system input), the stop time, the output interval,
 #: or a setting of a component's kind (``setting``: a signal's amplitude, a scene value).
@@ -132,7 +132,7 @@ def apply_setting(system: CompiledSystem, setting: Setting) -> CompiledSystem:
     if setting.kind == "setting":
         return apply_kind_setting(system, setting.target, setting.value)
     value = list(setting.value) if isinstance(setting.value, tuple) else setting.value
-    return override_parameter(system, setting.target, value)
+    return override_parameter(system, setting.target, value, ValueSource.STUDY)
 
 
 def _seconds(value: SettingValue, flag: str) -> float:

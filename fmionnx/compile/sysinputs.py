@@ -59,5 +59,9 @@ def compile_inputs(
                 )
                 continue
             targets.append(InputTarget(ref, target.factor, target.offset))
-        result.append(SystemInput(name, tuple(targets), sources.key(("inputs", name))))
+        value = entry.value
+        source = sources.value_source(("inputs", name, "value")) if value is not None else None
+        result.append(
+            SystemInput(name, tuple(targets), sources.key(("inputs", name)), value, source)
+        )
     return tuple(result)

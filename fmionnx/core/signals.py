@@ -7,7 +7,9 @@ on one naming, so it lives here, below all of them: ``comp.port`` for a scalar,
 
 from __future__ import annotations
 
-from fmionnx.core.types import DType, Port, flat_index
+from collections.abc import Iterable
+
+from fmionnx.core.types import Causality, Component, DType, Port, PortRef, flat_index
 
 
 def is_image(port: Port) -> bool:
@@ -23,3 +25,21 @@ def column_names(component: str, port: Port, index: tuple[int, ...] | None = Non
         return [f"{component}.{port.name}"]
     size = port.size or 1
     return [f"{component}.{port.name}[{i}]" for i in range(size)]
+
+
+def every_output(components: Iterable[Component]) -> tuple[PortRef, ...]:
+    """What a run records when the system file does not say (``record:`` absent).
+
+    Other tools record every output by default (OMSimulator, FMPy): a system whose outputs
+    feed nothing — a foreign SSP, a system of parameters only, a lone model — must still give
+    results. So the default is every output port of every component, whole ports in
+    declaration order, component by component, camera images excepted. The compiler resolves
+    it into the compiled system (``record``, with ``settings_origin.record`` = ``built-in
+    default`` in ``run.json``), so that every backend records the same columns.
+    """
+    return tuple(
+        PortRef(component.name, port.name)
+        for component in components
+        for port in component.interface.with_causality(Causality.OUTPUT)
+        if not is_image(port)
+    )

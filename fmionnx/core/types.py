@@ -215,13 +215,29 @@ class PortRef:
         return f"{self.component}.{self.port_label}"
 
 
+class ValueSource(enum.StrEnum):
+    """Where a parameter or start value came from; ``run.json`` records it with the value."""
+
+    SYSTEM_FILE = "system file"
+    SSV_FILE = "ssv file"
+    SSP_INLINE = "ssp inline"
+    SSP_ANNOTATION = "ssp annotation"
+    COMMAND_LINE = "command line"
+    STUDY = "study"
+
+
 @dataclass(frozen=True, slots=True)
 class ParameterValue:
-    """A value set on a variable before initialization (parameter or start value)."""
+    """A value set on a variable before initialization (parameter or start value).
+
+    ``source`` says where the value was written (resolved by the compiler, replaced by an
+    override), so that every backend and ``run.json`` can tell without reading the file again.
+    """
 
     port: str
     value: tuple[Scalar, ...]
     span: Span | None = None
+    source: ValueSource = ValueSource.SYSTEM_FILE
 
 
 @dataclass(frozen=True, slots=True)

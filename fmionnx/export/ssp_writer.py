@@ -226,6 +226,18 @@ class _Writer:
             connector = _sub(connectors, "ssd", "Connector", name=name, kind=kind)
             if floats:  # no unit: each target keeps its own, through its transformation
                 _sub(connector, "ssc", "Real")
+        held = {name: e.value for name, e in self.spec.inputs.items() if e.value is not None}
+        if held:  # values of their own: a binding on the root system, as tools write them
+            bindings = etree.Element(_q("ssd", "ParameterBindings"))
+            system.insert(1, bindings)  # after Connectors, before Elements
+            binding = _sub(bindings, "ssd", "ParameterBinding")
+            values = _sub(binding, "ssd", "ParameterValues")
+            parameter_set = _sub(values, "ssv", "ParameterSet", version=SSP_VERSION, name="inputs")
+            parameters = _sub(parameter_set, "ssv", "Parameters")
+            for name, value in held.items():
+                parameter = _sub(parameters, "ssv", "Parameter", name=name)
+                element, text = _ssv_type(value, None)
+                _sub(parameter, "ssv", element, value=text)
 
     def component(self, parent: Any, name: str, spec: ComponentSpecBase, staging: Path) -> None:
         source = self._pack(name, spec, staging)

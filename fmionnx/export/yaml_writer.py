@@ -115,6 +115,7 @@ def spec_data(spec: SystemSpec, paths: dict[str, str]) -> dict[str, Any]:
                     else item.model_dump(mode="json", exclude_defaults=True)
                     for item in entry.to
                 ],
+                **({"value": entry.value} if entry.value is not None else {}),
                 **({"description": entry.description} if entry.description else {}),
             }
             for name, entry in spec.inputs.items()

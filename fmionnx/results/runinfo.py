@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import json
+import math
 import platform
 from collections.abc import Sequence
 from importlib import metadata
@@ -12,6 +13,7 @@ from typing import Any
 from fmionnx import __version__
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.safewrite import write_text_atomic
+from fmionnx.core.types import Scalar, ValueSource
 from fmionnx.kinds.registry import KIND_LIBRARIES
 from fmionnx.runtime.checks import CheckOutcome
 from fmionnx.runtime.result import RunResult
@@ -29,6 +31,48 @@ def versions() -> dict[str, str]:
         except metadata.PackageNotFoundError:
             found[name] = "not installed"
     return found
+
+
+def _json_value(value: Scalar) -> Scalar:
+    """A value as JSON holds it: non-finite floats as the strings ``nan``, ``inf``, ``-inf``."""
+    if isinstance(value, float) and not math.isfinite(value):
+        return str(value)
+    return value
+
+
+def parameter_table(system: CompiledSystem) -> list[dict[str, Any]]:
+    """Every parameter and start value the run sets, with its final value and its source.
+
+    One entry per value set before initialization, in component order: ``name``
+    (``component.port``), ``value`` (a number, string or boolean; a list for an array) and
+    ``source`` (``system file``, ``ssv file``, ``ssp inline``, ``ssp annotation``, ``command
+    line``, ``study``), as the compiled system carries them, overrides applied. System inputs
+    that hold a value of their own follow, named as on the command line.
+    """
+    table: list[dict[str, Any]] = []
+    for component in system.components:
+        for parameter in component.parameters:
+            values = [_json_value(v) for v in parameter.value]
+            port = component.interface.port(parameter.port)
+            scalar = port is None or not port.shape
+            table.append(
+                {
+                    "name": f"{component.name}.{parameter.port}",
+                    "value": values[0] if scalar and len(values) == 1 else values,
+                    "source": parameter.source.value,
+                }
+            )
+    for system_input in system.inputs:
+        if system_input.value is not None:
+            source = system_input.source or ValueSource.SYSTEM_FILE
+            table.append(
+                {
+                    "name": system_input.name,
+                    "value": _json_value(system_input.value),
+                    "source": source.value,
+                }
+            )
+    return table
 
 
 def run_info(
@@ -57,6 +101,7 @@ def run_info(
         "wall_time": round(result.wall_time, 6),
         "real_time_factor": round(result.real_time_factor, 3) if result.wall_time > 0 else None,
         "settings_origin": {key: origin.value for key, origin in system.run.origins},
+        "parameters": parameter_table(system),
         "error": None
         if error is None
         else {

@@ -34,7 +34,7 @@ from typing import TYPE_CHECKING
 from fmionnx.compile.ir import AlgebraicLoop, CompiledSystem
 from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, RunnerFactory, Wiring, fault
-from fmionnx.core.signals import column_names, is_image
+from fmionnx.core.signals import column_names, every_output, is_image
 from fmionnx.core.types import Causality, Component, PortRef, flat_index
 from fmionnx.runtime.instruments import PLAIN
 from fmionnx.runtime.native import NativeStatus, plan_native
@@ -56,14 +56,9 @@ BACKEND_NAME = "inprocess"
 
 
 def default_record(system: CompiledSystem) -> tuple[PortRef, ...]:
-    """Every connected output (whole port, declaration order), images excepted."""
-    connected = {(c.src.component, c.src.port) for c in system.connections}
-    refs = []
-    for component in system.components:
-        for port in component.interface.with_causality(Causality.OUTPUT):
-            if (component.name, port.name) in connected and not is_image(port):
-                refs.append(PortRef(component.name, port.name))
-    return tuple(refs)
+    """The compiler's default (:func:`fmionnx.core.signals.every_output`), for a system
+    whose ``record`` is empty (``record: []``, or compiled by hand)."""
+    return every_output(system.components)
 
 
 def plot_refs(system: CompiledSystem) -> tuple[PortRef, ...]:

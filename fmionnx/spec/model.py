@@ -12,7 +12,7 @@ from typing import TYPE_CHECKING, Annotated, Any, Literal, Union
 
 from pydantic import Field, field_validator, model_validator
 
-from fmionnx.core.specbase import ComponentSpecBase, StrictModel
+from fmionnx.core.specbase import ComponentSpecBase, ScalarLiteral, StrictModel
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.runspec import RunSpec
 
@@ -83,11 +83,22 @@ class SystemInputSpec(StrictModel):
     """A named input of the system: ``--param NAME=value`` sets every port it reaches."""
 
     to: list[str | InputTargetSpec] = Field(
-        min_length=1,
         description="Parameters or inputs (`component.port`, or `{to, factor, offset}`) the "
-        "value is set on.",
+        "value is set on; empty only for an input that holds a `value` of its own.",
+    )
+    value: ScalarLiteral | None = Field(
+        default=None,
+        description="The value it holds without `--param` (an SSP top-level connector bound to "
+        "a value and connected to nothing keeps it here). Unset: the ports keep their own.",
     )
     description: str = ""
+
+    @model_validator(mode="after")
+    def _reaches_something(self) -> SystemInputSpec:
+        if not self.to and self.value is None:
+            msg = "a system input without `to` targets must hold a `value`"
+            raise ValueError(msg)
+        return self
 
 
 class PlotSpec(StrictModel):

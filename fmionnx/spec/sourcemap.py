@@ -12,6 +12,8 @@ from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmionnx.core.diagnostics import Span
+from fmionnx.core.types import ValueSource
+from fmionnx.core.units import Unit
 
 KeyPath = tuple[str | int, ...]
 
@@ -23,6 +25,16 @@ class SourceMap:
     file: Path
     spans: dict[KeyPath, Span] = field(default_factory=dict)
     key_spans: dict[KeyPath, Span] = field(default_factory=dict)
+    #: Where a value was written when not in the system file itself (an SSP's ``.ssv`` file,
+    #: inline parameter set or annotation), by the value's key path.
+    sources: dict[KeyPath, ValueSource] = field(default_factory=dict)
+    #: The unit a value is written in when it is not the unit of what it sets (an SSV
+    #: ``unit``): the compiler converts the value to the port's unit.
+    units: dict[KeyPath, Unit] = field(default_factory=dict)
+
+    def value_source(self, path: Sequence[str | int]) -> ValueSource:
+        """Where the value at ``path`` was written (the system file unless recorded)."""
+        return self.sources.get(tuple(path), ValueSource.SYSTEM_FILE)
 
     def record(self, path: KeyPath, value: Span, key: Span | None = None) -> None:
         """Remember where ``path``'s value (and key) are."""

@@ -19,6 +19,7 @@ from pydantic import ValidationError
 
 from fmionnx.core.diagnostics import DiagnosticBag, Severity, Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.types import ValueSource
 from fmionnx.kinds.base import FMI
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.model import DOTTED_NAME, SystemSpec
@@ -249,11 +250,15 @@ def _component(
             parameters.update(extra)
             for parameter in extra:
                 sources.record((*key, "parameters", parameter), option_span, option_span)
+                sources.sources[(*key, "parameters", parameter)] = ValueSource.SSP_ANNOTATION
         entry.update(options)
     bound = flat.parameters.get(name, {})
     for parameter, value in bound.items():
         parameters[parameter] = value.value
         sources.record((*key, "parameters", parameter), value.span, value.span)
+        sources.sources[(*key, "parameters", parameter)] = value.origin
+        if value.unit is not None:
+            sources.units[(*key, "parameters", parameter)] = value.unit
     if parameters:
         entry["parameters"] = parameters
         if (*key, "parameters") not in sources.spans:
@@ -266,7 +271,7 @@ def _inputs(flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag)
     result: dict[str, Any] = {}
     for name, item in flat.inputs.items():
         span = Span(ssd, item.line)
-        if not item.targets:  # its connections were refused already
+        if not item.targets and item.value is None:  # its connections were refused already
             continue
         if not DOTTED_NAME.fullmatch(name):
             bag.emit(
@@ -287,6 +292,10 @@ def _inputs(flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag)
                     {"to": target.endpoint, "factor": target.factor, "offset": target.offset}
                 )
         result[name] = {"to": targets}
+        if item.value is not None:
+            result[name]["value"] = item.value.value
+            sources.record(("inputs", name, "value"), item.value.span, item.value.span)
+            sources.sources[("inputs", name, "value")] = item.value.origin
     return result
 
 

@@ -11,15 +11,27 @@ names, for each value, one of:
 * a parameter of a component inside it, as ``comp.k`` or ``sub.comp.k`` (the component with
   the longest dotted name that prefixes the value's name).
 
-Bindings are applied innermost element first, so that the values of outer systems override
-those of inner systems and components; within one element a later binding overrides an
-earlier one. SSP gives a system connector no start value of its own (``ssc:Real`` has a
-``unit`` and nothing else, in 1.0 and 2.0): its value comes from a binding or from a
-connection.
+Precedence (SSP 2.0, section 5.2.3 "ParameterBindings" and 5.3.2 "Connections"):
+
+1. A component connector that a connection from a bound system connector reaches takes the
+   value that flows along the connection: the connection is its one source of data ("Allowed
+   Connections": no more than one inbound connection into a parameter or input), so a direct
+   binding of the same connector (``addP.k1 = 10`` next to ``k_cref = 30`` wired to
+   ``addP.k1``) does not override it, whatever the order or level of the two bindings.
+2. Otherwise, bindings at a higher hierarchy level take precedence over lower levels (system
+   over sub-system over component): bindings are applied innermost element first.
+3. At the same level, a later binding overrides an earlier one, and within one parameter set
+   a later entry an earlier one.
+
+SSP gives a system connector no start value of its own (``ssc:Real`` has a ``unit`` and
+nothing else, in 1.0 and 2.0): its value comes from a binding or from a connection. A bound
+connector of the root system that leads to no component connector is kept with its value as
+a system input (OMSimulator keeps it too), so that ``run.json`` shows it.
 """
 
 from __future__ import annotations
 
+from dataclasses import replace
 from pathlib import Path
 
 from fmionnx.core.specbase import ScalarLiteral
@@ -30,20 +42,37 @@ from fmionnx.spec.ssp_tree import Element
 Parameters = dict[str, dict[str, BoundValue]]
 
 
-def bind_parameters(graph: SystemGraph, root: Path | None, parameters: Parameters) -> set[Pin]:
-    """Fill ``parameters`` (component -> name -> value); return the system connectors set."""
+def bind_parameters(
+    graph: SystemGraph,
+    root: Path | None,
+    parameters: Parameters,
+    kept: dict[Pin, BoundValue] | None = None,
+) -> set[Pin]:
+    """Fill ``parameters`` (component -> name -> value); return the system connectors set.
+
+    ``kept`` receives the values bound to root-system connectors that lead to no component
+    connector (they stay system inputs with that value).
+    """
     bound: set[Pin] = set()
     # Innermost first, so that outer bindings (applied later) override them.
     for path, element in sorted(graph.elements, key=lambda item: -len(item[0])):
         for binding in element.bindings:
             for value in binding_values(binding, graph.ssd, root, graph.bag):
                 if not element.is_system:
-                    parameters[".".join(path)][value.name] = value
+                    _set(parameters, ".".join(path), value)
                     continue
-                pin = _assign(graph, path, element, value, parameters)
+                pin = _assign(graph, path, element, value, parameters, kept)
                 if pin is not None:
                     bound |= _downstream(graph, pin)
     return bound
+
+
+def _set(parameters: Parameters, component: str, value: BoundValue) -> None:
+    """Set ``value`` unless a value that came along a connection holds the connector."""
+    held = parameters[component].get(value.name)
+    if held is not None and held.via_connection and not value.via_connection:
+        return
+    parameters[component][value.name] = value
 
 
 def _assign(
@@ -52,6 +81,7 @@ def _assign(
     element: Element,
     value: BoundValue,
     parameters: Parameters,
+    kept: dict[Pin, BoundValue] | None = None,
 ) -> Pin | None:
     """Set ``value`` bound on the system at ``path``; the system connector it set, if any."""
     target = _resolve(graph, path, value.name)
@@ -67,10 +97,13 @@ def _assign(
         return None
     pin, is_connector = target
     if not is_connector:
-        parameters[".".join(pin[0])][pin[1]] = BoundValue(pin[1], value.value, value.span)
+        _set(parameters, ".".join(pin[0]), replace(value, name=pin[1]))
         return None
+    value = _in_connector_unit(graph, pin, value)
     reached = graph.reach_from(pin)
-    if not reached and not graph.broken:
+    if not reached and not pin[0] and kept is not None and not graph.broken:
+        kept[pin] = value  # a top-level connector bound to a value: a system input
+    elif not reached and not graph.broken:
         graph.bag.emit(
             "W070",
             f"`{value.name}` sets connector `{pin[1]}` of "
@@ -82,8 +115,37 @@ def _assign(
         result = _transformed(graph, value, end)
         if result is not None:
             component = ".".join(end.pin[0])
-            parameters[component][end.pin[1]] = BoundValue(end.pin[1], result, value.span)
+            carried = replace(value, name=end.pin[1], value=result, via_connection=True)
+            _set(parameters, component, carried)
     return pin
+
+
+def _in_connector_unit(graph: SystemGraph, pin: Pin, value: BoundValue) -> BoundValue:
+    """``value`` in the unit of the system connector it is bound to, when both units are known.
+
+    A value written in another unit (``20 N.cm`` for a connector in ``Nm``) is converted
+    first, so that the chain's own unit conversions and transformations then apply to it as
+    to a signal. A connector without a declared unit leaves the value's unit to the compiler,
+    which converts it to the unit of the component variable it reaches.
+    """
+    connector = graph.connectors.get(pin)
+    target = graph.document.units.get(connector.unit) if connector and connector.unit else None
+    unit = value.unit
+    number = value.value
+    if unit is None or target is None or isinstance(number, bool):
+        return value
+    if not isinstance(number, int | float):
+        return value
+    if unit.exponents != target.exponents:
+        graph.bag.emit(
+            "E033",
+            f"`{value.name}` is given in `{unit.name}`, which measures another quantity than "
+            f"connector `{pin[1]}` (`{connector.unit if connector else ''}`)",
+            value.span,
+        )
+        return value
+    converted = (unit.factor * number + unit.offset - target.offset) / target.factor
+    return replace(value, value=converted, unit=None)
 
 
 def _resolve(graph: SystemGraph, path: tuple[str, ...], name: str) -> tuple[Pin, bool] | None:

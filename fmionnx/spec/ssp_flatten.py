@@ -16,7 +16,8 @@ Values bound to components and to system connectors are resolved by
 ``parameter`` connector that nothing drives and no binding sets. Each becomes a named system
 input (``conn`` on the root system, ``sub.conn`` on a nested one) whose value the command line
 can set (``--param conn=1``) and that reaches the component connectors at the ends of its
-chains, transformations included.
+chains, transformations included. A root connector bound to a value and connected to nothing
+becomes a system input holding that value (no targets), as OMSimulator keeps it.
 """
 
 from __future__ import annotations
@@ -66,6 +67,8 @@ class FlatInput:
     name: str
     line: int
     targets: tuple[FlatTarget, ...]
+    #: The value bound to it (a root connector bound to a value, connected to nothing).
+    value: BoundValue | None = None
 
 
 @dataclass
@@ -160,7 +163,10 @@ def flatten(document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag
     for path, element in graph.components.items():
         flat.components[".".join(path)] = element
     driven = _flatten_connections(graph, flat)
-    bound = bind_parameters(graph, root, flat.parameters)
+    kept: dict[Pin, BoundValue] = {}
+    bound = bind_parameters(graph, root, flat.parameters, kept)
+    for pin, value in kept.items():
+        flat.inputs[pin_text(pin)] = FlatInput(pin_text(pin), graph.connectors[pin].line, (), value)
     _open_connectors(graph, driven | bound, flat)
     _check_duplicates(flat, ssd, bag)
     return flat

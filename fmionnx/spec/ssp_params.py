@@ -8,13 +8,15 @@ binding belongs to. Values keep their SSV type: ``Real`` -> float, ``Integer`` -
 
 from __future__ import annotations
 
-from dataclasses import dataclass
+from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 from urllib.parse import unquote, urlparse
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.specbase import ScalarLiteral
+from fmionnx.core.types import ValueSource
+from fmionnx.core.units import BASE_UNITS, Unit, builtin_unit
 from fmionnx.spec.ssp_tree import Binding, Transformation
 from fmionnx.spec.ssp_xml import parse_xml, tag, validate, validate_inline
 
@@ -26,6 +28,13 @@ class BoundValue:
     name: str
     value: ScalarLiteral
     span: Span
+    #: Where the value was written: ``SSP_INLINE`` or ``SSV_FILE`` (``run.json`` says it).
+    origin: ValueSource = ValueSource.SSP_INLINE
+    #: It reached the connector along connections from a bound system connector.
+    via_connection: bool = False
+    #: The unit the value is written in (a Real's ``unit``, defined in the set's
+    #: ``ssv:Units``); None: the unit of whatever it sets.
+    unit: Unit | None = None
 
 
 def resolve_uri(
@@ -97,15 +106,51 @@ def _scalar(node: Any, span: Span, bag: DiagnosticBag) -> ScalarLiteral | None:
     return None
 
 
-def read_parameter_set(element: Any, file: Path, bag: DiagnosticBag) -> list[BoundValue]:
+def read_parameter_set(
+    element: Any, file: Path, bag: DiagnosticBag, origin: ValueSource = ValueSource.SSP_INLINE
+) -> list[BoundValue]:
     """The parameters of a ``ssv:ParameterSet`` element (inline or a file's root)."""
+    units = _units(element)
     values = []
     for node in element.iterfind(f"{tag('ssv', 'Parameters')}/{tag('ssv', 'Parameter')}"):
         span = Span(file, node.sourceline)
         value = _scalar(node, span, bag)
         if value is not None:
-            values.append(BoundValue(node.get("name"), value, span))
+            unit = _value_unit(node, units, span, bag)
+            values.append(BoundValue(node.get("name"), value, span, origin, unit=unit))
     return values
+
+
+def _units(element: Any) -> dict[str, Unit]:
+    """The ``ssv:Units`` of a parameter set: name -> definition (SI exponents, factor, offset)."""
+    units: dict[str, Unit] = {}
+    for node in element.iterfind(f"{tag('ssv', 'Units')}/{tag('ssc', 'Unit')}"):
+        base = node.find(tag("ssc", "BaseUnit"))
+        if base is None:
+            continue
+        exponents = tuple(int(base.get(e, "0")) for e in BASE_UNITS)
+        factor = float(base.get("factor", "1"))
+        offset = float(base.get("offset", "0"))
+        units[node.get("name")] = Unit(node.get("name"), exponents, factor, offset)
+    return units
+
+
+def _value_unit(node: Any, units: dict[str, Unit], span: Span, bag: DiagnosticBag) -> Unit | None:
+    """The unit a Real value is written in: defined in the set's ``ssv:Units`` (SSV: it
+    MUST be), else a built-in unit of that name; None (W070) for a name neither defines."""
+    typed = node.find(tag("ssv", "Real"))
+    name = typed.get("unit") if typed is not None else None
+    if not name:
+        return None
+    unit = units.get(name) or builtin_unit(name)
+    if unit is None:
+        bag.emit(
+            "W070",
+            f"unit `{name}` of parameter `{node.get('name')}` is not defined in the parameter "
+            "set's `ssv:Units`; the value is used as written",
+            span,
+        )
+    return unit
 
 
 @dataclass(frozen=True, slots=True)
@@ -152,7 +197,7 @@ def _apply(value: BoundValue, entry: _Entry | None, bag: DiagnosticBag) -> Bound
             )
         else:
             result = entry.transformation.factor * result + entry.transformation.offset
-    return BoundValue(entry.target, result, value.span)
+    return replace(value, name=entry.target, value=result)
 
 
 def _load(
@@ -182,7 +227,7 @@ def binding_values(
         loaded = _load(binding.source, base, root, "ssv", span, bag)
         if loaded is None:
             return []
-        values = read_parameter_set(loaded[0], loaded[1], bag)
+        values = read_parameter_set(loaded[0], loaded[1], bag, ValueSource.SSV_FILE)
     mapping: dict[str, list[_Entry]] = {}
     if binding.inline_mapping is not None:
         if not validate_inline(binding.inline_mapping, "ssm", ssd, bag):
@@ -195,7 +240,7 @@ def binding_values(
     # The prefix is prepended before mapping and name resolution (SSD XSD, `prefix`).
     result: list[BoundValue] = []
     for value in values:
-        full = BoundValue(binding.prefix + value.name, value.value, value.span)
+        full = replace(value, name=binding.prefix + value.name)
         entries: list[_Entry | None] = [*mapping.get(full.name, [])] or [None]
         result.extend(_apply(full, entry, bag) for entry in entries)
     return result

@@ -49,9 +49,15 @@ def test_run_writes_results_and_names_the_folder_last(fixture_fmu, write_system,
     assert result.exit_code == 0, result.output
     assert result.output.strip().splitlines()[-1] == f"Results: {out}"
     table = read_csv(out / "results.csv")
-    assert list(table) == ["time", "a.y"]
+    # no `record:`: every output of every component, as other tools record (issue #33)
+    assert list(table) == [
+        "time",
+        *(f"{c}.{p}" for c in "ab" for p in ("y", "w[0]", "w[1]", "w[2]")),
+    ]
     assert table["a.y"][-1] == 4.0
     info = json.loads((out / "run.json").read_text())
+    assert info["settings_origin"]["record"] == "built-in default"
+    assert {"name": "a.k", "value": 4.0, "source": "command line"} in info["parameters"]
     assert info["status"] == "completed"
     assert info["steps"] == 500
     assert set(info["versions"]) >= {"fmionnx", "fmpy", "onnxruntime", "mujoco"}

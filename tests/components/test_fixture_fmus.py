@@ -38,7 +38,20 @@ def test_fmi2_fixtures_share_one_glue_source() -> None:
             assert path.resolve() == (FMUS / "common" / file).resolve()
 
 
-@pytest.mark.parametrize("name", ["Gain", "Integrator", "Faulty", "Vector3"])
+EVENT_FIXTURES = tuple(
+    f"{model}{version}" for model in ("Feedthrough", "BouncingBall", "Stair") for version in "23"
+)
+
+
+def test_event_fixtures_share_one_source() -> None:
+    # the FMI 2 and FMI 3 models with events (issue #33) are built from one C file
+    for name in EVENT_FIXTURES:
+        path = FMUS / name / "sources" / "events.c"
+        assert path.is_symlink(), f"{path} should link to common/events.c"
+        assert path.resolve() == (FMUS / "common" / "events.c").resolve()
+
+
+@pytest.mark.parametrize("name", ["Gain", "Integrator", "Faulty", "Vector3", *EVENT_FIXTURES])
 def test_fixture_fmu_passes_fmpy_validation(fixture_fmu: BuildFmu, name: str) -> None:
     assert validate_fmu(str(fixture_fmu(name))) == []
 

@@ -257,13 +257,40 @@ def test_values_for_nested_system_connectors_by_dotted_name(make_ssp) -> None:
     assert spec.components["sub.gain2"].parameters == {"k": 4.0}
 
 
-def test_a_value_on_a_connector_that_leads_nowhere_is_a_warning(make_ssp) -> None:
-    # As OMSimulator writes a system's inputs with values and nothing connected yet.
+def test_a_value_on_a_top_level_connector_that_leads_nowhere_is_kept(make_ssp) -> None:
+    # As OMSimulator writes a system's inputs with values and nothing connected yet: the
+    # standard's parameter binding gives the connector that value, and OMSimulator keeps it
+    # (issue #33: fmionnx dropped it with W070)
     text = top_ssd().replace(real("y", "output"), real("y", "output") + real("spare", "input"))
     inline = (
         "<ssd:ParameterBinding><ssd:ParameterValues>"
         '<ssv:ParameterSet version="2.0" name="p"><ssv:Parameters>'
-        '<ssv:Parameter name="spare"><ssv:Real value="1"/></ssv:Parameter>'
+        '<ssv:Parameter name="spare"><ssv:Real value="-20"/></ssv:Parameter>'
+        "</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>"
+    )
+    text = text.replace(
+        "</ssd:ParameterBinding></ssd:ParameterBindings>",
+        f"</ssd:ParameterBinding>{inline}</ssd:ParameterBindings>",
+        1,
+    )
+    spec, found = load(make_ssp(text))
+    assert spec is not None, found
+    assert not [f for f in found if f[0] == "W070"], found
+    assert spec.inputs["spare"].to == []
+    assert spec.inputs["spare"].value == -20.0
+    compiled = fmionnx.load(make_ssp(text)).compiled
+    (kept,) = [i for i in compiled.inputs if i.name == "spare"]
+    assert (kept.value, kept.targets, str(kept.source)) == (-20.0, (), "ssp inline")
+
+
+def test_a_value_on_a_nested_connector_that_leads_nowhere_is_a_warning(make_ssp) -> None:
+    text = top_ssd().replace(
+        real("y_out", "output"), real("y_out", "output") + real("spare", "input")
+    )
+    inline = (
+        "<ssd:ParameterBinding><ssd:ParameterValues>"
+        '<ssv:ParameterSet version="2.0" name="p"><ssv:Parameters>'
+        '<ssv:Parameter name="sub.spare"><ssv:Real value="1"/></ssv:Parameter>'
         "</ssv:Parameters></ssv:ParameterSet></ssd:ParameterValues></ssd:ParameterBinding>"
     )
     text = text.replace(
@@ -276,7 +303,7 @@ def test_a_value_on_a_connector_that_leads_nowhere_is_a_warning(make_ssp) -> Non
     assert [(c, m) for c, _, m in found if c == "W070"] == [
         (
             "W070",
-            "`spare` sets connector `spare` of the root system `top`, which leads to no "
+            "`sub.spare` sets connector `spare` of system `sub`, which leads to no "
             "component connector; the value is not used",
         )
     ]
@@ -456,7 +483,8 @@ def test_system_inputs_survive_export_and_convert(tmp_path: Path, fixture_fmu) -
         f"  g: {{kind: fmu, path: {fixture_fmu('Gain')}}}\n"
         "inputs:\n"
         "  level: {to: [g.k, {to: g.u, factor: 2, offset: 1}]}\n"
-        "  sub.gain: {to: [g.k]}\n",
+        "  sub.gain: {to: [g.k]}\n"
+        "  spare: {to: [], value: -20.0}\n",
         encoding="utf-8",
     )
     archive = tmp_path / "inputs.ssp"
@@ -474,7 +502,10 @@ def test_system_inputs_survive_export_and_convert(tmp_path: Path, fixture_fmu) -
     } == {
         "level": ["g.k", {"to": "g.u", "factor": 2.0, "offset": 1.0}],
         "sub.gain": ["g.k"],
+        "spare": [],
     }
+    # a system input holding a value of its own is written as a bound root connector
+    assert spec.inputs["spare"].value == -20.0
     converted = tmp_path / "back.yaml"
     result = runner.invoke(app, ["convert", str(archive), "-o", str(converted)])
     assert result.exit_code == 0, result.output

@@ -16,8 +16,8 @@ from typing import Any
 from fmionnx.core.cosim import CsCalls, NativeSteppable
 from fmionnx.core.errors import ModelTerminated
 from fmionnx.core.runner import terminated
-from fmionnx.core.types import Component, DType
-from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
+from fmionnx.core.types import Component, DType, Port
+from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls, discrete_input
 from fmionnx.kinds.fmu.rollback import FmuRollback
 from fmionnx.kinds.fmu.runner import (
     FMI_DISCARD,
@@ -78,7 +78,7 @@ class Fmi2Runner(FmuRunner):
             lambda: fmu.setupExperiment(tolerance=tolerance, startTime=start, stopTime=stop),
         )
         self._guard("fmi2EnterInitializationMode", fmu.enterInitializationMode)
-        self._call_all(self._set_calls, start)
+        self._call_all(self._initial_input_calls(), start)
         self._guard("fmi2ExitInitializationMode", fmu.exitInitializationMode)
 
 
@@ -163,7 +163,13 @@ class Fmi2ModelExchange(Fmi2Runner):
     def _stepper(self, start: float, stop: float) -> Stepper:
         fmu = self._fmu
         calls = VersionCalls(fmu.getDerivatives, fmu.newDiscreteStates)
-        return ModelExchange(self, fmu, self._md, start, stop, self.config, calls).advance
+        return ModelExchange(
+            self, fmu, self._md, start, stop, self.config, calls, self._event_inputs
+        ).advance
+
+    def sets_in_event_mode(self, port: Port) -> bool:
+        """Discrete inputs and driven parameters: set in Event Mode only (:mod:`.me`)."""
+        return discrete_input(port)
 
 
 #: The runner class per interface type.

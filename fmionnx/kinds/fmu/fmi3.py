@@ -17,9 +17,9 @@ from typing import Any
 from fmionnx.core.cosim import CsCalls, NativeSteppable
 from fmionnx.core.errors import ModelTerminated
 from fmionnx.core.runner import terminated
-from fmionnx.core.types import DType
+from fmionnx.core.types import DType, Port
 from fmionnx.kinds.fmu.clocks import UNSUPPORTED_PREFIX
-from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls
+from fmionnx.kinds.fmu.me import ModelExchange, VersionCalls, discrete_input
 from fmionnx.kinds.fmu.rollback import FmuRollback
 from fmionnx.kinds.fmu.runner import FMI_WARNING, FmuRunner, Stepper
 from fmionnx.kinds.fmu.values import ValueFunctions
@@ -65,7 +65,7 @@ class Fmi3Runner(FmuRunner):
                 tolerance=tolerance, startTime=start, stopTime=stop
             ),
         )
-        self._call_all(self._set_calls, start)
+        self._call_all(self._initial_input_calls(), start)
         self._guard("fmi3ExitInitializationMode", fmu.exitInitializationMode)
 
 
@@ -166,7 +166,13 @@ class Fmi3ModelExchange(Fmi3Runner):
     def _stepper(self, start: float, stop: float) -> Stepper:
         fmu = self._fmu
         calls = VersionCalls(fmu.getContinuousStateDerivatives, fmu.updateDiscreteStates)
-        return ModelExchange(self, fmu, self._md, start, stop, self.config, calls).advance
+        return ModelExchange(
+            self, fmu, self._md, start, stop, self.config, calls, self._event_inputs
+        ).advance
+
+    def sets_in_event_mode(self, port: Port) -> bool:
+        """Discrete inputs and driven parameters: set in Event Mode only (:mod:`.me`)."""
+        return discrete_input(port)
 
 
 #: The runner class per interface type.

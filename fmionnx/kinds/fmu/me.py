@@ -13,17 +13,22 @@ from __future__ import annotations
 
 import ctypes
 import math
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 from typing import TYPE_CHECKING, Any
 
 import numpy as np
 
 from fmionnx.core.runner import fault, terminated
+from fmionnx.core.types import Causality, Port
 
 if TYPE_CHECKING:
     from fmionnx.kinds.fmu.kind import FmuConfig
     from fmionnx.kinds.fmu.runner import FmuRunner
+    from fmionnx.kinds.fmu.values import ValueGroup
+
+#: The highest FMI status a run goes on after (as :data:`fmionnx.kinds.fmu.runner.FMI_WARNING`).
+FMI_WARNING = 1
 
 
 @dataclass(frozen=True)
@@ -47,6 +52,19 @@ class _HeldInputs:
         """Inputs were set at the communication point and stay constant until the next."""
 
 
+def discrete_input(port: Port) -> bool:
+    """Whether model exchange may set ``port`` only in Event Mode, not in Continuous-Time Mode.
+
+    FMI 2.0 (section 3.2.3) and FMI 3.0 (section 3.2.5) let Continuous-Time Mode set only
+    continuous inputs (``variability="continuous"``, floating point); discrete inputs (every
+    Integer and Boolean one) and tunable parameters driven by a connection change only at
+    events.
+    """
+    if port.causality is Causality.PARAMETER:
+        return True
+    return not port.dtype.is_float or port.variability not in (None, "continuous")
+
+
 def _close(a: float, b: float) -> bool:
     return math.isclose(a, b, rel_tol=1e-12, abs_tol=1e-12)
 
@@ -63,9 +81,13 @@ class ModelExchange:
         stop: float,
         config: FmuConfig,
         calls: VersionCalls,
+        event_inputs: Sequence[ValueGroup] = (),
     ) -> None:
         self._runner = runner
         self._fmu = fmu
+        self._event_inputs = tuple(event_inputs)
+        #: The discrete inputs as last set (in Initialization or Event Mode).
+        self._applied = [group.array.copy() for group in self._event_inputs]
         self._update_discrete_states = calls.update_discrete_states
         self._nx = int(md.numberOfContinuousStates)
         self._nz = int(md.numberOfEventIndicators)
@@ -141,8 +163,40 @@ class ModelExchange:
         """Integrate from ``t`` to ``t + h`` handling every event on the way."""
         self._guarded(t, self._advance, t, t + h)
 
+    def _input_event(self, t: float) -> None:
+        """New values of discrete inputs: an event at ``t`` (FMI 2.0 3.2.3, FMI 3.0 3.2.5).
+
+        Continuous-Time Mode forbids setting a discrete input (or a tunable parameter driven
+        by a connection): the master enters Event Mode, sets them, iterates the discrete
+        states until they settle and returns to Continuous-Time Mode, as FMPy does at an
+        input's discontinuity. Unchanged values cause no event.
+        """
+        changed = [
+            (group, applied)
+            for group, applied in zip(self._event_inputs, self._applied, strict=True)
+            if not np.array_equal(group.array, applied)
+        ]
+        if not changed:
+            return
+        fmu = self._fmu
+        fmu.enterEventMode()
+        for group, applied in changed:
+            function, args, name = group.call
+            status = int(function(*args))
+            if status > FMI_WARNING:
+                raise self._runner.fault_for(name, status, t)
+            applied[:] = group.array
+        self._event_iteration(t)
+        fmu.enterContinuousTimeMode()
+        if self._solver is not None:
+            self._solver.reset(t)
+        elif self._nz:
+            self._get_z(self._pz, self._nz)
+
     def _advance(self, t: float, t_end: float) -> None:
         fmu = self._fmu
+        if self._event_inputs:
+            self._input_event(t)
         time = t
         while time < t_end and not _close(time, t_end):
             target = t_end

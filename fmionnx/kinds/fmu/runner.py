@@ -31,7 +31,7 @@ from fmionnx.core.cosim import STATUS_DISCARD, STATUS_OK, STATUS_WARNING, Native
 from fmionnx.core.errors import ModelError, ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
-from fmionnx.core.types import Causality, Component, DType
+from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.fmu.aliases import settable_inputs
 from fmionnx.kinds.fmu.description import component_description
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, contained_library
@@ -116,6 +116,7 @@ class FmuRunner(NativeCandidate):
         #: with that port.
         self._stand_in: dict[str, str] = {}
         self._outputs: list[ValueGroup] = []
+        self._event_inputs: list[ValueGroup] = []
         self._set_calls: list[RawCall] = []
         self._get_calls: list[RawCall] = []
         self._advance: Stepper = _not_set_up
@@ -186,9 +187,14 @@ class FmuRunner(NativeCandidate):
             raise RunError(
                 f"component `{component.name}`: {exc}", component=component.name
             ) from None
-        self._inputs = build_groups(dll, inst, in_ports, self.values, setter=True)
+        held = [p for p in in_ports if self.sets_in_event_mode(p)]
+        steady = [p for p in in_ports if not self.sets_in_event_mode(p)]
+        continuous = build_groups(dll, inst, steady, self.values, setter=True)
+        #: Inputs that may change only at events (set by the version's event handling).
+        self._event_inputs = build_groups(dll, inst, held, self.values, setter=True)
+        self._inputs = [*continuous, *self._event_inputs]
         self._outputs = build_groups(dll, inst, out_ports, self.values, setter=False)
-        self._set_calls = [g.call for g in self._inputs]
+        self._set_calls = [g.call for g in continuous]
         self._get_calls = [g.call for g in self._outputs]
         explicit = {p.port: p.value for p in component.parameters}
         for group in self._inputs:
@@ -205,6 +211,14 @@ class FmuRunner(NativeCandidate):
         self._advance = self._stepper(start, stop)
         self._call_all(self._get_calls, start)
 
+    def sets_in_event_mode(self, port: Port) -> bool:
+        """Whether ``port`` is set only in Event Mode, not with every step's inputs.
+
+        Co-simulation sets every input before each step (Step Mode allows it). Model
+        exchange overrides this for discrete inputs, which Continuous-Time Mode forbids.
+        """
+        return False
+
     @abstractmethod
     def _new_fmu(self, md: Any, root: Path) -> Any:
         """fmpy's object for this version and interface type (loads the library)."""
@@ -220,6 +234,10 @@ class FmuRunner(NativeCandidate):
     @abstractmethod
     def _stepper(self, start: float, stop: float) -> Stepper:
         """Prepare stepping right after initialization; return what :meth:`step` calls."""
+
+    def _initial_input_calls(self) -> list[RawCall]:
+        """Every input's set call, the event-mode ones included (Initialization Mode)."""
+        return [g.call for g in self._inputs]
 
     def _fmpy_arguments(self, interface: Any, root: Path) -> dict[str, str]:
         """Keyword arguments of fmpy's FMU classes; ``interface`` is ``md.coSimulation`` ...
