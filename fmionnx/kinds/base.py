@@ -137,6 +137,22 @@ class Repeatable(Protocol):
         ...
 
 
+@runtime_checkable
+class ConfinedStart(Protocol):
+    """A kind whose runner, to start, would run a process of its own.
+
+    A model confined by ``--sandbox`` can start no process (docs/security.md): what the
+    runner would find out that way (MuJoCo probes which OpenGL backend works in a child
+    process) is found by the process that starts the confined one, and handed to it in its
+    environment.
+    """
+
+    def confined_environment(self, component: Component) -> Mapping[str, str]:
+        """Environment variables that settle, for a confined process, what the runner of
+        ``component`` would otherwise find out by starting a process (empty: nothing)."""
+        ...
+
+
 #: A value a study gives one of a kind's settings: a number, or a flat list (a position).
 SettingInput = Scalar | tuple[Scalar, ...]
 

@@ -89,6 +89,14 @@ def config_type(kind: str) -> type[KindConfig]:
     return COMPONENT_KINDS[kind].config_type
 
 
+def confined_environment(component: Component) -> Mapping[str, str]:
+    """What the kind of ``component`` hands a process it confines (see ``ConfinedStart``)."""
+    from fmionnx.kinds.base import ConfinedStart
+
+    kind = kind_of(component)
+    return kind.confined_environment(component) if isinstance(kind, ConfinedStart) else {}
+
+
 def make_runner(component: Component, wiring: Wiring | None = None) -> Runner:
     """The runner for ``component``: the default runner factory of the runtime."""
     from fmionnx.core.runner import Wiring  # brings numpy: only when a runner is made

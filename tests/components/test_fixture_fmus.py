@@ -12,7 +12,7 @@ from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
 FMUS = Path(__file__).resolve().parent.parent / "fixtures" / "fmus"
-FMI2_FIXTURES = ("Gain", "Integrator", "Faulty")
+FMI2_FIXTURES = ("Gain", "Integrator", "Faulty", "Probe")
 
 BuildFmu = Callable[[str], Path]
 
@@ -38,7 +38,7 @@ def test_fmi2_fixtures_share_one_glue_source() -> None:
             assert path.resolve() == (FMUS / "common" / file).resolve()
 
 
-@pytest.mark.parametrize("name", ["Gain", "Integrator", "Faulty", "Vector3"])
+@pytest.mark.parametrize("name", ["Gain", "Integrator", "Faulty", "Probe", "Vector3"])
 def test_fixture_fmu_passes_fmpy_validation(fixture_fmu: BuildFmu, name: str) -> None:
     assert validate_fmu(str(fixture_fmu(name))) == []
 

@@ -144,6 +144,18 @@ class MujocoKind:
 
         return moving_body_hint(component.path, name)
 
+    def confined_environment(self, component: Component) -> Mapping[str, str]:
+        """``MUJOCO_GL``: the OpenGL backend that works, probed here (the probe is a process
+        of its own, which a sandboxed process cannot start); empty when none works (the
+        runner then says so, as without a sandbox)."""
+        config = component.config
+        if not isinstance(config, MujocoConfig) or not config.cameras:
+            return {}  # nothing to render
+        from fmionnx.kinds.mujoco.gl import backend_for
+
+        backend = backend_for(config.gl)
+        return {} if backend is None else {"MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.mujoco.runner.MujocoRunner` (loads mujoco only now)."""
         from fmionnx.kinds.mujoco.runner import MujocoRunner
