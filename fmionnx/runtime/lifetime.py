@@ -32,7 +32,7 @@ import ctypes
 import os
 import signal
 import time
-from collections.abc import Callable, Iterable
+from collections.abc import Callable, Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -240,17 +240,44 @@ class Adoption:
         entry = process(pid)
         self._since = entry.start if entry is not None else 0
 
-    def end(self) -> int:
-        """Kill what the child left (and the child, if it runs); returns how many."""
+    def from_now(self) -> None:
+        """What is adopted is whatever this process's children start from now on (models
+        that run in this very process)."""
+        ticks = os.sysconf("SC_CLK_TCK")
+        self._since = int(time.clock_gettime(time.CLOCK_BOOTTIME) * ticks)
+
+    def end(self, spare: Iterable[int] = ()) -> int:
+        """Kill what the child left (and the child, if it runs), but ``spare``; returns how
+        many."""
         if self._since is None:
             return 0
-        return end_adopted(self._before, since=self._since)
+        return end_adopted(self._before | frozenset(spare), since=self._since)
 
-    def close(self) -> None:
-        """End what is left, and stop adopting (unless this process did before)."""
+    def close(self, spare: Iterable[int] = ()) -> None:
+        """End what is left (but ``spare``), and stop adopting (unless this process did
+        before)."""
         try:
-            self.end()
+            self.end(spare)
         finally:
             self._since = None
             if self._made and not self._was:
                 set_subreaper(False)
+
+
+@contextlib.contextmanager
+def models_here() -> Iterator[None]:
+    """The block runs models in this very process (``--isolate none``, ONNX, MuJoCo): what
+    they start is adopted meanwhile and ended at its end, with every process this process
+    started within the block -- but its zygote (kept for the next run).
+
+    For the run pipeline, around an in-process run: ``with lifetime.models_here(): ...``.
+    """
+    adoption = Adoption()
+    adoption.from_now()
+    try:
+        yield
+    finally:
+        from fmionnx.runtime.isolated.launcher import zygote_pid
+
+        zygote = zygote_pid()
+        adoption.close(() if zygote is None else (zygote,))

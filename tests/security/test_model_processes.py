@@ -65,6 +65,33 @@ def test_a_model_that_forks_then_crashes_is_a_fault_with_nothing_left(
         token.end_all()
 
 
+def test_models_run_in_this_process_leave_no_process_after_the_block(
+    fixture_fmu, tmp_path: Path
+) -> None:
+    """``lifetime.models_here()``: for a run whose models run in fmionnx's own process (the
+    Python API's in-process run here); it ends what they started."""
+    probe = {"p": f"{{mode: {probes.FORK_ESCAPE}, count: {CHILDREN}}}"}
+    system = probes.system(tmp_path, fixture_fmu("Probe"), probe)
+    code = f"""
+import fmionnx
+from fmionnx.runtime import lifetime
+with lifetime.models_here():
+    result = fmionnx.load({str(system)!r}).run()
+print(result["p.y"][-1])
+"""
+    token = probes.Token()
+    try:
+        done = subprocess.run(
+            [sys.executable, "-c", code], capture_output=True, text=True, check=False,
+            timeout=probes.RUN_TIMEOUT, env=dict(os.environ, **token.env),
+        )  # fmt: skip
+        assert done.returncode == 0, done.stderr
+        assert float(done.stdout) == CHILDREN
+        assert token.processes() == []
+    finally:
+        token.end_all()
+
+
 def test_ending_descendants_ends_orphans_and_their_children(tmp_path: Path) -> None:
     """The mechanism itself, in a process of its own: a subreaper that ends its descendants
     finds the grandchildren an exited child left, in their own session."""
