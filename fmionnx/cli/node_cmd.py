@@ -214,7 +214,10 @@ def _run_node(
         logging.getLogger("fmionnx.node").info(
             "system %s, content hash %s", compiled.name, compiled.content_hash[:16]
         )
-        return the_node.run()
+        from fmionnx.runtime.lifetime import models_here
+
+        with models_here():  # what the node's model starts ends with the node
+            return the_node.run()
     except DiagnosticError as exc:
         lines = "; ".join(str(d.message) for d in exc.diagnostics[:3])
         raise _fail(f"{path}: {lines}", ExitCode.PROBLEMS) from None

@@ -75,6 +75,7 @@ def sweep(
     from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError
     from fmionnx.cli.app import refused
     from fmionnx.core.errors import DiagnosticError
+    from fmionnx.core.modelfiles import ShippingError
     from fmionnx.pipeline.sweep import sweep_study
     from fmionnx.results.study import StudyFolderError
 
@@ -95,7 +96,7 @@ def sweep(
         raise typer.Exit(ExitCode.PROBLEMS) from None
     except StudyFolderError as exc:
         raise fail(str(exc)) from None
-    except (SchedulerError, ClusterStartError) as exc:
+    except (SchedulerError, ClusterStartError, ShippingError) as exc:
         raise fail(str(exc), ExitCode.PROBLEMS) from None
     except KeyboardInterrupt:  # the finished cases are recorded: nothing to lose
         console.print(f"interrupted: the finished cases are in {out}; `--resume` runs the rest")

@@ -18,9 +18,12 @@ import dataclasses
 import enum
 import json
 import math
+import os
 import re
 import shutil
+import stat
 import sys
+import tempfile
 import types
 import typing
 from collections.abc import Mapping
@@ -30,7 +33,9 @@ from typing import Any
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.errors import FmionnxError, ModelError
+from fmionnx.core.modelfiles import ShippingError, copy_model_files
 from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES
+from fmionnx.core.safewrite import refuse, write_text_atomic
 from fmionnx.core.specbase import NO_MODEL_FILE
 from fmionnx.core.steps import (
     MAX_EXACT_STEPS,
@@ -39,8 +44,7 @@ from fmionnx.core.steps import (
     step_problem,
 )
 from fmionnx.core.types import Component, KindConfig
-from fmionnx.kinds.base import MODEL_FOLDER
-from fmionnx.kinds.registry import COMPONENT_KINDS, config_type
+from fmionnx.kinds.registry import COMPONENT_KINDS, config_type, model_files
 
 #: The ``format`` of a compiled-system file, and the versions this release reads.
 FORMAT = "fmionnx-compiled-system"
@@ -270,10 +274,34 @@ def _check_port_sizes(component: Component, origin: str) -> None:
 
 
 def write_compiled(system: CompiledSystem, path: Path) -> None:
-    """Write ``system`` to ``path`` (through a temporary file: never half-written)."""
-    temporary = path.with_name(path.name + ".partial")
-    temporary.write_text(to_json(system), encoding="utf-8")
-    temporary.replace(path)
+    """Write ``system`` to ``path`` atomically (a fresh temporary file renamed over it: never
+    half-written, never through a link planted at ``path`` or beside it)."""
+    write_text_atomic(path, to_json(system))
+
+
+#: How every compiled-system file this release writes begins (:func:`to_json`).
+_HEADER = ('{\n "format": ' + json.dumps(FORMAT) + ",").encode()
+
+
+def written_by_fmionnx(path: Path) -> bool:
+    """``path`` is a regular file (not a link) that begins as a compiled system does."""
+    try:
+        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
+    except OSError:
+        return False
+    with os.fdopen(fd, "rb") as stream:
+        if not stat.S_ISREG(os.fstat(stream.fileno()).st_mode):
+            return False
+        return stream.read(len(_HEADER)) == _HEADER
+
+
+def check_compile_target(output: Path, *, force: bool) -> None:
+    """Raise :class:`OverwriteRefusedError` when ``output`` holds something fmionnx did not
+    write (compiling again over its own file is the normal loop and needs no option)."""
+    if force:
+        return
+    if output.is_symlink() or (output.exists() and not written_by_fmionnx(output)):
+        raise refuse(output, "exists and is not a compiled system written by `fmionnx compile`")
 
 
 def read_compiled(path: Path, *, models: Path | None = None) -> CompiledSystem:
@@ -329,7 +357,14 @@ def stored_model(store: Path, component: Component) -> Path:
 
 def place_models(system: CompiledSystem, store: Path) -> list[Path]:
     """Copy every model ``system`` needs into ``store`` by content hash (what a remote host or
-    worker receives). A kind whose model needs its folder gets the folder. Returns the paths."""
+    worker receives); returns the paths.
+
+    What is copied is the model's kind's to say (:func:`~fmionnx.kinds.registry.model_files`:
+    a scene and the files it references, never its whole folder), as regular files inside the
+    model's folder, bounded (:mod:`fmionnx.core.modelfiles`; ShippingError otherwise). Each
+    model's folder is filled in a fresh staging folder and renamed into place: nothing is
+    written through a link planted in the store, and nothing there is deleted.
+    """
     placed = []
     for component in filter(has_model_file, system.components):
         target = stored_model(store, component)
@@ -337,17 +372,19 @@ def place_models(system: CompiledSystem, store: Path) -> list[Path]:
         if target.exists():
             continue
         folder = target.parent
-        staging = folder.with_name(folder.name + ".partial")
-        shutil.rmtree(staging, ignore_errors=True)
-        kind = COMPONENT_KINDS[component.kind]
-        if MODEL_FOLDER in kind.capabilities:
-            shutil.copytree(component.path.parent, staging, ignore=shutil.ignore_patterns(".*"))
-        elif component.path.is_dir():
-            shutil.copytree(component.path, staging / component.path.name)
-        else:
-            staging.mkdir(parents=True)
-            shutil.copy2(component.path, staging / component.path.name)
-        staging.replace(folder)
+        store.mkdir(parents=True, exist_ok=True)
+        staging = Path(tempfile.mkdtemp(prefix=f".{folder.name[:16]}-", dir=store))
+        try:
+            files = model_files(component.kind, component.path)
+            copy_model_files(component.path, files, staging)
+            staging.replace(folder)
+        except FileExistsError:
+            pass  # placed meanwhile (by another process)
+        except OSError as exc:
+            msg = f"cannot place the model of `{component.name}` at `{folder}`: {exc}"
+            raise ShippingError(msg) from None
+        finally:
+            shutil.rmtree(staging, ignore_errors=True)
     return placed
 
 

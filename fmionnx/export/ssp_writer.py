@@ -22,17 +22,19 @@ from typing import Any
 from lxml import etree
 
 from fmionnx.compile.endpoints import split_endpoint
+from fmionnx.compile.expected_path import expected_path_file
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.resolve import model_path
 from fmionnx.core.archive import write_deterministic_zip
 from fmionnx.core.errors import FmionnxError, ModelError
+from fmionnx.core.modelfiles import ModelFile, ShippingError, copy_model_files, regular_file
 from fmionnx.core.resources import SSP_XML_BYTES
 from fmionnx.core.safewrite import refuse
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, DType, Port
 from fmionnx.core.units import BASE_UNITS, Unit
-from fmionnx.kinds.base import FMI, MODEL_FOLDER
-from fmionnx.kinds.registry import COMPONENT_KINDS
+from fmionnx.kinds.base import FMI, ShipsFiles
+from fmionnx.kinds.registry import COMPONENT_KINDS, model_files
 from fmionnx.spec.model import ConnectionSpec, InputTargetSpec, SystemSpec, split_connection
 from fmionnx.spec.ssp import MIME_BY_KIND
 from fmionnx.spec.ssp_archive import SSD_NAME
@@ -43,8 +45,6 @@ from fmionnx.spec.ssp_xml import NS, schema
 #: Namespace of the element inside our annotations (never fetched; a name only).
 FMIONNX_NS = "https://fmionnx.dev/ssp/1"
 SSP_VERSION = "1.0"
-#: A MuJoCo scene is packed with its folder (meshes, textures, expected path); cap its size.
-MAX_SCENE_FOLDER_BYTES = 512 * 1024**2
 
 _IMPLEMENTATION = {"cs": "CoSimulation", "me": "ModelExchange"}
 _NSMAP = {"ssd": NS["ssd"], "ssc": NS["ssc"], "ssv": NS["ssv"], "fmionnx": FMIONNX_NS}
@@ -281,29 +281,35 @@ class _Writer:
             msg = f"component `{name}`: `{source}` does not exist"
             raise ExportError(msg)
         kind = COMPONENT_KINDS[spec.kind]
-        if MODEL_FOLDER in kind.capabilities:
-            folder = f"resources/{name}"
-            _copy_scene_folder(source.parent, staging / folder)
-            return f"{folder}/{source.name}"
-        suffix = kind.suffixes[0] if source.is_dir() else source.suffix or kind.suffixes[0]
-        target = f"resources/{name}{suffix}"
-        (staging / "resources").mkdir(exist_ok=True)
-        if source.is_dir():
-            write_deterministic_zip(source, staging / target)
-        else:
-            shutil.copyfile(source, staging / target)
+        try:
+            files = model_files(spec.kind, source)
+            if isinstance(kind, ShipsFiles):  # the model needs files beside it: a folder
+                folder = f"resources/{name}"
+                copy_model_files(source, (*files, *_companions(source)), staging / folder)
+                return f"{folder}/{source.name}"
+            suffix = kind.suffixes[0] if source.is_dir() else source.suffix or kind.suffixes[0]
+            target = f"resources/{name}{suffix}"
+            (staging / "resources").mkdir(exist_ok=True)
+            if source.is_dir():  # an unpacked model (FMU): zipped, as the format wants it
+                unpacked = staging / ".unpacked" / name
+                copy_model_files(source, files, unpacked)
+                write_deterministic_zip(unpacked / source.name, staging / target)
+                shutil.rmtree(staging / ".unpacked")
+            else:
+                (only,) = files
+                copy_model_files(source, [ModelFile(target, only.source)], staging)
+        except ShippingError as exc:
+            raise ExportError(f"component `{name}`: {exc}") from None
         return target
 
 
-def _copy_scene_folder(folder: Path, target: Path) -> None:
-    total = sum(p.stat().st_size for p in folder.rglob("*") if p.is_file())
-    if total > MAX_SCENE_FOLDER_BYTES:
-        msg = (
-            f"the MuJoCo scene folder `{folder}` holds {total} bytes; keep a scene with its "
-            f"assets in a folder of at most {MAX_SCENE_FOLDER_BYTES} bytes to export it"
-        )
-        raise ExportError(msg)
-    shutil.copytree(folder, target, ignore=shutil.ignore_patterns(".*", "__pycache__"))
+def _companions(model: Path) -> tuple[ModelFile, ...]:
+    """Files fmionnx itself finds beside a model: its expected path (``<stem>.path.csv``),
+    which plots and checks of the converted system look for there again."""
+    path = expected_path_file(model)
+    if not (path.exists() or path.is_symlink()):
+        return ()
+    return (regular_file(model.parent, path, model),)
 
 
 def _ssv_type(value: Any, port: Port | None) -> tuple[str, str]:

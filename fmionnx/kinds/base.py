@@ -18,6 +18,7 @@ from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig, Scalar
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
+    from fmionnx.core.modelfiles import ModelFile
     from fmionnx.core.runner import Runner, Wiring
 
 #: The kind steps a physics simulation: its timestep bounds the base step, it drives the ROS 2
@@ -28,9 +29,6 @@ CAMERA = "camera"
 #: An FMI model: SSP connector names are its own variable names (``a.b[2]``) and the SSP
 #: ``implementation`` attribute selects its interface type.
 FMI = "fmi"
-#: The model file needs the files beside it (a scene's meshes, textures, includes): exporters
-#: copy its whole folder.
-MODEL_FOLDER = "model-folder"
 #: The model names fixed points of its world (MuJoCo sites) that checks measure distances to
 #: (``distance(..., to=world.site.B)``): the kind implements :class:`SiteSource`.
 SITES = "sites"
@@ -156,6 +154,23 @@ class ResultNames(Protocol):
 
 
 @runtime_checkable
+class ShipsFiles(Protocol):
+    """A kind whose model needs files beside it (a scene's includes, meshes, textures).
+
+    ``compile --models``, ``export`` and ``sweep`` ship what :meth:`model_files` lists, copied
+    by :func:`fmionnx.core.modelfiles.copy_model_files` (regular files inside the model's
+    folder, bounded): never the model's whole folder, which may hold anything. Such a model
+    travels in a folder of its own (an SSP's ``resources/<component>/``). A kind without it
+    ships its model file alone, or an unpacked model folder's files.
+    """
+
+    def model_files(self, path: Path) -> tuple[ModelFile, ...]:
+        """The files the model at ``path`` needs, itself included, named relative to its
+        folder (ShippingError when one reaches outside it or is no regular file)."""
+        ...
+
+
+@runtime_checkable
 class WorkerSettings(Protocol):
     """A kind with process-wide settings for a process that runs many runs, each beside
     others on the machine's other cores (a study's worker).
@@ -176,6 +191,22 @@ class WarmUp(Protocol):
 
     def warm_up(self) -> None:
         """Import what this kind's runners need."""
+        ...
+
+
+@runtime_checkable
+class ConfinedStart(Protocol):
+    """A kind whose runner, to start, would run a process of its own.
+
+    A model confined by ``--sandbox`` can start no process (docs/security.md): what the
+    runner would find out that way (MuJoCo probes which OpenGL backend works in a child
+    process) is found by the process that starts the confined one, and handed to it in its
+    environment.
+    """
+
+    def confined_environment(self, component: Component) -> Mapping[str, str]:
+        """Environment variables that settle, for a confined process, what the runner of
+        ``component`` would otherwise find out by starting a process (empty: nothing)."""
         ...
 
 

@@ -15,6 +15,7 @@ from fmionnx.core.types import Component, KindConfig
 from fmionnx.kinds.base import ComponentKind
 
 if TYPE_CHECKING:
+    from fmionnx.core.modelfiles import ModelFile
     from fmionnx.core.runner import Runner, Wiring
 
 
@@ -87,6 +88,26 @@ def has_capability(component: Component, capability: str) -> bool:
 def config_type(kind: str) -> type[KindConfig]:
     """The config class of ``kind`` (for reading serialised systems); KeyError when unknown."""
     return COMPONENT_KINDS[kind].config_type
+
+
+def model_files(kind: str, path: Path) -> tuple[ModelFile, ...]:
+    """The files the model at ``path`` of kind ``kind`` is shipped with (see ``ShipsFiles``):
+    the kind's list, else the model file alone, or every file of an unpacked model folder."""
+    from fmionnx.core.modelfiles import model_file_alone, model_folder_tree
+    from fmionnx.kinds.base import ShipsFiles
+
+    found = COMPONENT_KINDS[kind]
+    if isinstance(found, ShipsFiles):
+        return found.model_files(path)
+    return model_folder_tree(path) if path.is_dir() else model_file_alone(path)
+
+
+def confined_environment(component: Component) -> Mapping[str, str]:
+    """What the kind of ``component`` hands a process it confines (see ``ConfinedStart``)."""
+    from fmionnx.kinds.base import ConfinedStart
+
+    kind = kind_of(component)
+    return kind.confined_environment(component) if isinstance(kind, ConfinedStart) else {}
 
 
 def make_runner(component: Component, wiring: Wiring | None = None) -> Runner:

@@ -47,16 +47,19 @@ def write_results(
     (:mod:`fmionnx.results.csvahead`); the file's bytes are the same without it.
 
     ``run.json`` is written last and lists every file of the run (``also``: files written
-    by others, e.g. ``--record`` into ``out``), so the next run into ``out`` knows which
-    files were fmionnx's and removes those it does not write again (see ``outdir``).
+    by others, e.g. ``--record`` into ``out``); then the folder's ownership record is made to
+    list those very files (:mod:`fmionnx.core.owned`), so the next run into ``out`` can prove
+    which files were fmionnx's and removes those it does not write again (see ``outdir``).
     """
+    from fmionnx.core.owned import OwnedFolder
     from fmionnx.results.csvfile import write_csv
-    from fmionnx.results.outdir import RUN_JSON, previous_run, relative_name, remove_stale
+    from fmionnx.results.outdir import RUN_JSON, relative_name
     from fmionnx.results.runinfo import write_run_json
     from fmionnx.runtime.checks import evaluate_checks
 
     out.mkdir(parents=True, exist_ok=True)
-    previous = previous_run(out)
+    owned = OwnedFolder(out)
+    previous = owned.proven_names()
     files = [write_csv(result, out / "results.csv", aliases=aliases, ahead=ahead)]
     if not checkpoint:
         plots: list[Path] = []
@@ -78,5 +81,6 @@ def write_results(
     elif checks is None:
         checks = evaluate_checks(system.checks, result)
     files.append(write_run_json(result, system, path, files=names, checks=checks))
-    remove_stale(out, previous, listed)
+    owned.remove(previous - set(names))  # only what the record proves: nothing else
+    owned.record(listed)
     return files

@@ -12,6 +12,11 @@ The records are the durable progress: an interrupted study loses at most the cas
 and ``--resume`` runs only the cases without a record. The table is built from the records
 alone, in case order, so a study run twice (or resumed) gives the same table -- apart from the
 ``wall_time`` and ``worker`` columns.
+
+Every file written is noted in the folder's ownership record (:mod:`fmionnx.core.owned`):
+``--force`` deletes only files that record proves fmionnx wrote, and only in a folder whose
+``study.json`` it proves (a folder that merely holds a file of that name is not a study's).
+``records`` and ``cases`` are folders of the study's own, never links to elsewhere.
 """
 
 from __future__ import annotations
@@ -24,6 +29,7 @@ from typing import TYPE_CHECKING, Any
 
 from fmionnx.compile.studyir import StudyPlan
 from fmionnx.core.errors import FmionnxError
+from fmionnx.core.owned import OwnedFolder, safe_folder
 from fmionnx.core.safewrite import atomic_binary, atomic_text
 
 if TYPE_CHECKING:
@@ -37,6 +43,8 @@ FORMAT = "fmionnx-study"
 VOLATILE = ("wall_time", "worker")
 #: Prefix of a check's column (the check's name follows).
 CHECK_PREFIX = "check: "
+#: The study's description, and the folders it writes into.
+DESCRIPTION, RECORDS, CASES = "study.json", "records", "cases"
 
 
 class StudyFolderError(FmionnxError):
@@ -59,41 +67,58 @@ class StudyFolder:
         """Create the folder (or check it, with ``resume``); returns the finished cases' ids.
 
         Refused as :meth:`problem` says; with ``force`` what an earlier study wrote is removed
-        first (nothing else).
+        first (only what the ownership record proves it wrote; nothing else).
         """
         problem = self.problem(resume=resume, force=force)
         if problem is not None:
             raise StudyFolderError(problem)
-        marker = self.out / "study.json"
-        if marker.exists() and force and not resume:
-            self._clear()
-        self.records.mkdir(parents=True, exist_ok=True)
+        marker = self.out / DESCRIPTION
+        afresh = force and not resume
+        if afresh:
+            self.owned.remove_all()
+        self.out.mkdir(parents=True, exist_ok=True)
+        self._folder(RECORDS, RECORDS)
         if not marker.exists():
             with atomic_text(marker) as stream:
                 json.dump(self.description(), stream, indent=2)
                 stream.write("\n")
-        return self.finished()
+            self.owned.note([marker])
+        return set() if afresh else self.finished()
+
+    @property
+    def owned(self) -> OwnedFolder:
+        """The folder's ownership record."""
+        return OwnedFolder(self.out)
 
     def problem(self, *, resume: bool, force: bool = False) -> str | None:
         """Why the folder cannot take this study (None: it can), touching nothing.
 
         A folder holding another study's records is refused (resuming would mix two plans);
         without ``resume`` a folder that already holds a study is refused too, so finished
-        results are never overwritten by accident -- unless ``force`` says to start afresh.
+        results are never overwritten by accident -- unless ``force`` says to start afresh,
+        which needs a study fmionnx can prove it wrote (``study.json`` in its ownership
+        record). ``records`` and ``cases`` must be folders, not links.
         """
-        marker = self.out / "study.json"
-        if marker.exists() and force and not resume:
-            return None
-        if marker.exists():
+        for name in (RECORDS, CASES):
+            inside = self.out / name
+            if inside.is_symlink() or (inside.exists() and not inside.is_dir()):
+                return self._not_a_folder(name)
+        marker = self.out / DESCRIPTION
+        if marker.exists() or marker.is_symlink():
+            if force and not resume:
+                if not self.owned.proven(DESCRIPTION):
+                    return (
+                        f"`{self.out}` holds a {DESCRIPTION} that fmionnx cannot prove it "
+                        "wrote (its ownership record does not list that very file), so "
+                        "--force deletes nothing there: choose a new or empty folder"
+                    )
+                return None
             if not resume:
                 return (
                     f"`{self.out}` already holds a study's results: --resume finishes it, "
                     "--force starts afresh"
                 )
-            try:
-                previous = json.loads(marker.read_text(encoding="utf-8"))
-            except (OSError, ValueError):
-                previous = {}
+            previous = _read_description(marker)
             if previous.get("fingerprint") != self.plan.fingerprint:
                 return (
                     f"`{self.out}` holds the results of another study (or of this one before it "
@@ -103,15 +128,18 @@ class StudyFolder:
             return f"`{self.out}` is not empty and holds no study: choose a new or empty folder"
         return None
 
-    def _clear(self) -> None:
-        """Remove what a study writes in ``out`` (records, kept results, table, plots)."""
-        import shutil
+    def _folder(self, shown: str, name: str) -> Path:
+        """``out/name``, made or found without following a link (StudyFolderError)."""
+        try:
+            return safe_folder(self.out, name)
+        except OSError:
+            raise StudyFolderError(self._not_a_folder(shown)) from None
 
-        for folder in (self.records, self.out / "cases"):
-            shutil.rmtree(folder, ignore_errors=True)
-        for pattern in ("cases.parquet", "cases.csv", "*.png", "study.json"):
-            for path in self.out.glob(pattern):
-                path.unlink()
+    def _not_a_folder(self, name: str) -> str:
+        return (
+            f"`{self.out / name}` is a link or a file: a study writes its {name} only into a "
+            "folder of its own; remove it or choose a new folder"
+        )
 
     def description(self) -> dict[str, Any]:
         """``study.json``."""
@@ -140,12 +168,18 @@ class StudyFolder:
 
     def record(self, outcome: CaseOutcome) -> None:
         """Write the case's record (and its results.csv when kept); atomic, so a record is
-        either whole or absent."""
+        either whole or absent. Never through a link planted in the folder meanwhile: the
+        folders are checked on the way (StudyFolderError)."""
+        written = []
         if outcome.signals is not None:
-            _write_results(self.out / "cases" / outcome.id / "results.csv", outcome.signals)
-        with atomic_text(self.records / f"{outcome.id}.json") as stream:
+            folder = self._folder(CASES, f"{CASES}/{outcome.id}")
+            written.append(_write_results(folder / "results.csv", outcome.signals))
+        path = self._folder(RECORDS, RECORDS) / f"{outcome.id}.json"
+        with atomic_text(path) as stream:
             json.dump(outcome.as_json(), stream, indent=1, sort_keys=True)
             stream.write("\n")
+        written.append(path)
+        self.owned.note(written)
 
     def table(self) -> pd.DataFrame:
         """One row per case with a record, in case order."""
@@ -195,6 +229,7 @@ class StudyFolder:
             pq.write_table(arrow, stream)
         with atomic_text(csv) as stream:
             table.to_csv(stream, index=False, lineterminator="\n")
+        self.owned.note([parquet, csv])
         return [parquet, csv]
 
 
@@ -236,7 +271,16 @@ def _read(path: Path) -> dict[str, Any] | None:
     return data if isinstance(data, dict) and "id" in data else None
 
 
-def _write_results(path: Path, signals: dict[str, Any]) -> None:
+def _read_description(path: Path) -> dict[str, Any]:
+    """``study.json`` (empty when it is no JSON object: it then matches no plan)."""
+    try:
+        data = json.loads(path.read_text(encoding="utf-8"))
+    except (OSError, ValueError):
+        return {}
+    return data if isinstance(data, dict) else {}
+
+
+def _write_results(path: Path, signals: dict[str, Any]) -> Path:
     import numpy as np
 
     from fmionnx.results.csvfile import write_csv
@@ -261,3 +305,4 @@ def _write_results(path: Path, signals: dict[str, Any]) -> None:
         rest,
     )
     write_csv(result, path)
+    return path

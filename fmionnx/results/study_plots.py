@@ -16,6 +16,7 @@ from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fmionnx.compile.studyir import StudyPlan
+from fmionnx.core.owned import OwnedFolder
 from fmionnx.results.plots import DPI, save_figure
 from fmionnx.results.study import CHECK_PREFIX
 
@@ -47,6 +48,7 @@ def write_study_plots(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[P
             written.append(_against(table, numeric, metric.name, out))
     if plan.check_names:
         written.append(_passfail(table, numeric, plan, out))
+    OwnedFolder(out).note(written)  # a later --force may delete them (fmionnx.core.owned)
     return written
 
 

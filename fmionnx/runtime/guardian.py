@@ -55,6 +55,7 @@ import numpy.typing as npt
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import RunnerFactory, fault
+from fmionnx.runtime import lifetime
 from fmionnx.runtime import recorder as recording
 from fmionnx.runtime.instruments import Instruments
 from fmionnx.runtime.published import Follower, Published
@@ -541,14 +542,20 @@ def run_guarded(
     # heap once more (0.05 s of CPU for a lone FMU's run; the guardian formats results.csv
     # meanwhile, which runs the collector).
     gc.freeze()
+    # The model's processes: the child adopts what they orphan while it lives and ends them
+    # before it exits; this process adopts them when the child dies first, and ends them
+    # once it has reaped the child (runtime/lifetime.py).
+    adoption = lifetime.Adoption()
     try:
         pid = os.fork()
     except BaseException:
+        adoption.close()
         gc.unfreeze()
         raise
     if pid == 0:  # the child: never returns into the caller
         code = 70
         try:
+            lifetime.set_subreaper(True)  # not inherited through fork
             os.close(read_end)
             components = [c.name for c in system.components]
             code = _child(run_fn, options, shared, write_end, scratch, components)
@@ -559,12 +566,16 @@ def run_guarded(
             with contextlib.suppress(Exception):
                 sys.stdout.flush()
                 sys.stderr.flush()
+            with contextlib.suppress(BaseException):
+                lifetime.end_descendants()
             os._exit(code)
     os.close(write_end)
+    adoption.forked(pid)
     try:
         following = None if published is None or follower is None else (follower, published)
         data, reason = _wait(pid, read_end, shared, options, stop_reason, following)
         status = _reap(pid)
+        adoption.end()  # before the run is reported over: nothing of the model is left
         if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results and said so
             # The process ends with status 1 as an abandoned in-process run's does, but
             # through SystemExit: the caller's progress display is taken down on the way
@@ -575,6 +586,7 @@ def run_guarded(
             result = _salvage(system, shared, status, reason, time.perf_counter() - started)
         return result
     finally:
+        adoption.close()
         gc.unfreeze()
         if published is not None:
             published.close()
@@ -591,8 +603,12 @@ def _wait(
     stop_reason: Callable[[BaseException], str],
     following: tuple[Follower, Published] | None = None,
 ) -> tuple[bytes, str | None]:
-    """Read the child's result until the pipe closes; pass progress and stop signals on,
-    and let the follower work while nothing arrives.
+    """Read the child's result until the pipe closes or the child ends; pass progress and
+    stop signals on, and let the follower work while nothing arrives.
+
+    The child's end is watched on its own (not only the pipe's): processes the model forked
+    inherited the pipe and keep it open for as long as they live; they are ended once the
+    child is reaped (:class:`~fmionnx.runtime.lifetime.Adoption`), never waited for.
 
     The child is killed when it stays silent for :data:`STOP_GRACE` seconds after it was
     asked to stop (stuck in a model) or after its result arrived (stuck on its way out: its
@@ -609,36 +625,85 @@ def _wait(
     cells = shared.cells
     deadline = float("inf")
     busy = False  # the follower found work last time: look at the pipe without waiting
-    while True:
-        try:
-            ready, _, _ = select.select([pipe], [], [], 0.0 if busy else _tick(following))
-            if ready:
-                chunk = os.read(pipe, 1 << 20)
-                if not chunk:
+    ended = _Ended(pid)
+    try:
+        while True:
+            try:
+                ready, _, _ = select.select(
+                    [pipe, *ended.fds], [], [], 0.0 if busy else _tick(following)
+                )
+                if pipe in ready:
+                    chunk = os.read(pipe, 1 << 20)
+                    if not chunk:
+                        break
+                    chunks.append(chunk)
+                    received += len(chunk)
+                    if reason is not None or received >= _RESULT_MESSAGE:
+                        deadline = time.monotonic() + STOP_GRACE
+                if ended():  # what it wrote before it ended is in the pipe: take it, done
+                    chunks.extend(_drain(pipe))
                     break
-                chunks.append(chunk)
-                received += len(chunk)
-                if reason is not None or received >= _RESULT_MESSAGE:
+                if not ready and time.monotonic() > deadline:  # stopped or done, silent: stuck
+                    deadline = float("inf")
+                    with contextlib.suppress(ProcessLookupError):
+                        os.kill(pid, signal.SIGKILL)
+                if options.progress is not None and cells[_PROGRESS] != seen:
+                    seen = float(cells[_PROGRESS])
+                    options.progress(int(cells[_DONE]), int(cells[_TOTAL]), float(cells[_SIM]))
+                if following is not None and not ready:
+                    worked = _follow(*following)
+                    if worked is None:  # the follower failed: the run goes on without it
+                        following = None
+                    busy = bool(worked)
+            except KeyboardInterrupt as exc:  # SIGINT/SIGTERM/SIGHUP here: the child stops too
+                if reason is None:
+                    reason = stop_reason(exc)
                     deadline = time.monotonic() + STOP_GRACE
-            elif time.monotonic() > deadline:  # stopped or done, and silent: stuck
-                deadline = float("inf")
-                with contextlib.suppress(ProcessLookupError):
-                    os.kill(pid, signal.SIGKILL)
-            if options.progress is not None and cells[_PROGRESS] != seen:
-                seen = float(cells[_PROGRESS])
-                options.progress(int(cells[_DONE]), int(cells[_TOTAL]), float(cells[_SIM]))
-            if following is not None and not ready:
-                worked = _follow(*following)
-                if worked is None:  # the follower failed: the run goes on without it
-                    following = None
-                busy = bool(worked)
-        except KeyboardInterrupt as exc:  # SIGINT/SIGTERM/SIGHUP here: the child stops too
-            if reason is None:
-                reason = stop_reason(exc)
-                deadline = time.monotonic() + STOP_GRACE
-                with contextlib.suppress(ProcessLookupError):
-                    os.kill(pid, signal.Signals[reason])
+                    with contextlib.suppress(ProcessLookupError):
+                        os.kill(pid, signal.Signals[reason])
+    finally:
+        ended.close()
     return b"".join(chunks), reason
+
+
+class _Ended:
+    """Whether the guarded child has ended, without reaping it: its pidfd is readable from
+    then on (``fds``, for ``select``); without pidfds (Linux < 5.3) a look at every tick."""
+
+    def __init__(self, pid: int) -> None:
+        self._pid = pid
+        self._pidfd = -1
+        with contextlib.suppress(OSError, AttributeError):
+            self._pidfd = os.pidfd_open(pid)
+        self.fds = [self._pidfd] if self._pidfd >= 0 else []
+
+    def __call__(self) -> bool:
+        if self._pidfd >= 0:
+            return bool(select.select([self._pidfd], [], [], 0.0)[0])
+        try:
+            found = os.waitid(os.P_PID, self._pid, os.WEXITED | os.WNOHANG | os.WNOWAIT)
+        except ChildProcessError:
+            return True
+        return found is not None
+
+    def close(self) -> None:
+        if self._pidfd >= 0:
+            os.close(self._pidfd)
+            self._pidfd = -1
+
+
+def _drain(pipe: int) -> list[bytes]:
+    """What the pipe holds now, read without waiting for its end."""
+    chunks = []
+    os.set_blocking(pipe, False)
+    try:
+        while chunk := os.read(pipe, 1 << 20):
+            chunks.append(chunk)
+    except BlockingIOError:
+        pass
+    finally:
+        os.set_blocking(pipe, True)
+    return chunks
 
 
 def _tick(following: tuple[Follower, Published] | None) -> float:

@@ -182,3 +182,10 @@ _WATCHER: ProcessLocal[_Watcher] = ProcessLocal()
 
 def _watcher() -> _Watcher:
     return _WATCHER.get_or_make(_Watcher)
+
+
+def watch_thread() -> threading.Thread | None:
+    """This process's watch thread, if it runs. A fork may leave it behind: it holds no lock
+    a child needs (a forked child makes a watcher of its own)."""
+    watcher = _WATCHER.get()
+    return None if watcher is None else watcher._thread

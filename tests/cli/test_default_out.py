@@ -54,7 +54,12 @@ def test_a_run_without_out_writes_to_out_system_name_and_names_it_last(project: 
     assert code == 0
     assert stdout.splitlines()[-1] == "Results: out/chain"
     folder = project / "out" / "chain"
-    assert sorted(p.name for p in folder.iterdir()) == ["gain.png", "results.csv", "run.json"]
+    assert sorted(p.name for p in folder.iterdir()) == [
+        ".fmionnx-owned",  # the ownership record: what fmionnx may delete there
+        "gain.png",
+        "results.csv",
+        "run.json",
+    ]
 
 
 def test_quiet_still_names_the_folder(project: Path) -> None:
@@ -72,7 +77,12 @@ def test_a_second_run_replaces_the_first_runs_files_and_keeps_a_users_file(
     (folder / "notes.txt").write_text("mine\n", encoding="utf-8")
     (project / "system.yaml").write_text(SYSTEM.format(plots=""), encoding="utf-8")
     assert run("system.yaml", "-q", "--stop-time", "0.03")[0] == 0
-    assert sorted(p.name for p in folder.iterdir()) == ["notes.txt", "results.csv", "run.json"]
+    assert sorted(p.name for p in folder.iterdir()) == [
+        ".fmionnx-owned",
+        "notes.txt",
+        "results.csv",
+        "run.json",
+    ]
     assert (folder / "notes.txt").read_text(encoding="utf-8") == "mine\n"
     second = json.loads((folder / "run.json").read_text(encoding="utf-8"))
     assert second["files"] == ["results.csv", "run.json"]

@@ -222,7 +222,12 @@ def test_a_rerun_removes_its_stale_plot_and_keeps_the_users_file(project: Path) 
     (out / "notes.txt").write_text("mine\n")
     (project / "system.yaml").write_text(SYSTEM.format(plots=""), encoding="utf-8")
     assert cli("run", "system.yaml", "--out", "out", "-q")[0] == 0  # no --force needed
-    assert sorted(p.name for p in out.iterdir()) == ["notes.txt", "results.csv", "run.json"]
+    assert sorted(p.name for p in out.iterdir()) == [
+        ".fmionnx-owned",
+        "notes.txt",
+        "results.csv",
+        "run.json",
+    ]
     assert (out / "notes.txt").read_text() == "mine\n"
 
 

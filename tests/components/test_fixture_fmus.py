@@ -12,7 +12,7 @@ from fmpy import simulate_fmu
 from fmpy.validation import validate_fmu
 
 FMUS = Path(__file__).resolve().parent.parent / "fixtures" / "fmus"
-FMI2_FIXTURES = ("Gain", "Integrator", "Faulty")
+FMI2_FIXTURES = ("Gain", "Integrator", "Faulty", "Probe")
 
 BuildFmu = Callable[[str], Path]
 
@@ -51,7 +51,9 @@ def test_event_fixtures_share_one_source() -> None:
         assert path.resolve() == (FMUS / "common" / "events.c").resolve()
 
 
-@pytest.mark.parametrize("name", ["Gain", "Integrator", "Faulty", "Vector3", *EVENT_FIXTURES])
+@pytest.mark.parametrize(
+    "name", ["Gain", "Integrator", "Faulty", "Probe", "Vector3", *EVENT_FIXTURES]
+)
 def test_fixture_fmu_passes_fmpy_validation(fixture_fmu: BuildFmu, name: str) -> None:
     assert validate_fmu(str(fixture_fmu(name))) == []
 

@@ -107,11 +107,13 @@ class InProcessOptions(BackendOptions):
 def fork_is_safe() -> str | None:
     """Why forking this process for the guardian is not safe, or None."""
     from fmionnx.runtime.guardian import available
+    from fmionnx.runtime.watchdog import watch_thread
 
     problem = available()
     if problem is not None:
         return problem
-    if threading.active_count() > 1:
+    ours = {threading.main_thread(), watch_thread()}  # the watch thread is fork-safe
+    if any(thread not in ours for thread in threading.enumerate()):
         return "this process runs other threads"
     return None
 
@@ -207,7 +209,10 @@ class InProcessBackend(Backend):
 
             result = run_guarded(system, plain, run, run.follower)
         else:
-            result = plain(options=run)
+            from fmionnx.runtime.lifetime import models_here
+
+            with models_here():  # what a model in this process starts ends with the run
+                result = plain(options=run)
         result.details.update(options.details())
         return result
 

@@ -2,7 +2,8 @@
 
 The driver packs every model the compiled system needs (one archive per content hash, made
 from the same model-store layout as ``fmionnx compile --models``: ``<sha256>/<file>``, a scene
-with its folder). Small archives travel inside every task; larger ones reach a worker once, as
+with the files it references -- never the rest of its folder, see
+:func:`~fmionnx.kinds.registry.model_files`). Small archives travel inside every task; larger ones reach a worker once, as
 the result of a task keyed by their content, which the scheduler can recompute if the worker
 holding it dies (a very large model therefore travels through the scheduler once per worker;
 see :func:`.engine._shared`). The worker unpacks an archive into its own store unless that
@@ -63,9 +64,10 @@ def unpack_models(store: Path, packed: Mapping[str, bytes]) -> None:
             folder = store / digest
             if folder.is_dir():
                 continue
-            staging = store / f"{digest}.partial"
-            shutil.rmtree(staging, ignore_errors=True)
-            staging.mkdir()
-            with tarfile.open(fileobj=io.BytesIO(blob), mode="r") as archive:
-                archive.extractall(staging, filter="data")
-            staging.replace(folder)
+            staging = Path(tempfile.mkdtemp(prefix=f".{digest[:16]}-", dir=store))
+            try:
+                with tarfile.open(fileobj=io.BytesIO(blob), mode="r") as archive:
+                    archive.extractall(staging, filter="data")
+                staging.replace(folder)
+            finally:
+                shutil.rmtree(staging, ignore_errors=True)

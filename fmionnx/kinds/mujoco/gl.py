@@ -21,6 +21,8 @@ _PROBE = (
 )
 
 _chosen: str | None = None
+#: What ``auto`` found in this process, by preference (the probe starts a process: once).
+_probed: dict[str, str | None] = {}
 
 
 def _works(backend: str) -> bool:
@@ -34,6 +36,24 @@ def _works(backend: str) -> bool:
     return result.returncode == 0
 
 
+def backend_for(preference: str = "auto") -> str | None:
+    """The backend :func:`choose_gl` would use, without setting it (None: none works).
+
+    For a process that will render under ``--sandbox``, which can start no probe of its own:
+    the process that starts it finds the backend here and hands it over in ``MUJOCO_GL``.
+    """
+    explicit = os.environ.get("MUJOCO_GL")
+    if explicit:
+        return explicit
+    if _chosen is not None:
+        return _chosen
+    if preference in ("egl", "osmesa"):
+        return preference
+    if preference not in _probed:
+        _probed[preference] = next((b for b in ("egl", "osmesa") if _works(b)), None)
+    return _probed[preference]
+
+
 def choose_gl(preference: str = "auto") -> str:
     """Set ``MUJOCO_GL`` (and PyOpenGL's platform) for rendering; returns the backend used.
 
@@ -45,17 +65,13 @@ def choose_gl(preference: str = "auto") -> str:
         return explicit
     if _chosen is not None:
         return _chosen
-    if preference in ("egl", "osmesa"):
-        backend = preference
-    else:
-        working = next((b for b in ("egl", "osmesa") if _works(b)), None)
-        if working is None:
-            msg = (
-                "no offscreen OpenGL backend works (tried EGL and OSMesa); install "
-                "libegl1 + libgl1-mesa-dri, or libosmesa6, or set MUJOCO_GL"
-            )
-            raise RuntimeError(msg)
-        backend = working
+    backend = backend_for(preference)
+    if backend is None:
+        msg = (
+            "no offscreen OpenGL backend works (tried EGL and OSMesa); install "
+            "libegl1 + libgl1-mesa-dri, or libosmesa6, or set MUJOCO_GL"
+        )
+        raise RuntimeError(msg)
     late = "mujoco" in sys.modules
     os.environ["MUJOCO_GL"] = backend
     os.environ.setdefault("PYOPENGL_PLATFORM", backend)

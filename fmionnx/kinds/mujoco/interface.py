@@ -17,7 +17,7 @@ from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.core.units import builtin_unit
-from fmionnx.kinds.mujoco.files import check_scene_files
+from fmionnx.kinds.mujoco.files import check_scene_files, scene_files
 
 #: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case); every
 #: name is a built-in unit (:data:`fmionnx.core.units.BUILTIN_UNITS`), so it has a definition.
@@ -85,23 +85,45 @@ def load_model(path: Path) -> tuple[Any, str]:
             text = " ".join(str(exc).split())
             msg = f"`{path}` is not a valid MuJoCo scene: {text}"
             raise ModelError("E012", msg) from None
-        _MODELS[key] = (model, _compiled_digest(model))
+        _MODELS[key] = (model, _compiled_digest(model, path))
     return _MODELS[key]
 
 
-def _compiled_digest(model: Any) -> str:
+def _compiled_digest(model: Any, path: Path) -> str:
     """sha256 of the compiled model, so included files, meshes and textures count too.
 
     Hashing the XML alone would miss a changed ``<include>``d file or mesh; the compiled
     model holds all of it. (A MuJoCo upgrade may change the bytes: the lock then reports
-    "model changed, same interface", which is true.)
+    "model changed, same interface", which is true.) A model that read asset files also
+    keeps their paths, which say where the scene's folder lies: such a scene is hashed as
+    compiled from its files by their names inside the folder (:func:`_relocatable`), so that
+    a copy elsewhere (``compile --models``, a sweep worker's store) has the same hash.
     """
     import mujoco
     import numpy as np
 
+    if int(getattr(model, "npaths", 0)) > 0 and path.suffix != ".mjb":
+        model = _relocatable(path)
     buffer = np.zeros(mujoco.mj_sizeModel(model), dtype=np.uint8)
     mujoco.mj_saveModel(model, None, buffer)
     return hashlib.sha256(buffer.tobytes()).hexdigest()
+
+
+def _relocatable(path: Path) -> Any:
+    """The scene compiled from its text, with every file it names handed to MuJoCo by its
+    name inside the scene's folder (MuJoCo's virtual file system): the asset paths the model
+    keeps are then those names, the same wherever the folder lies."""
+    import mujoco
+
+    from fmionnx.core.modelfiles import ShippingError
+
+    try:
+        files = scene_files(path)
+        assets = {f.name: f.source.read_bytes() for f in files if f.name != path.name}
+        return mujoco.MjModel.from_xml_string(path.read_text(encoding="utf-8"), assets)
+    except (OSError, UnicodeDecodeError, ValueError, ShippingError) as exc:
+        msg = f"`{path}` cannot be read with the files it names: {exc}"
+        raise ModelError("E012", msg) from None
 
 
 def read_mujoco_interface(

@@ -15,7 +15,6 @@ from fmionnx.core.types import Component, ComponentInterface, KindConfig
 from fmionnx.kinds.base import (
     CAMERA,
     MAP,
-    MODEL_FOLDER,
     SIMULATOR,
     SITES,
     Display,
@@ -27,6 +26,7 @@ from fmionnx.kinds.base import (
 )
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
+    from fmionnx.core.modelfiles import ModelFile
     from fmionnx.core.runner import Runner, Wiring
 
 
@@ -88,7 +88,7 @@ class MujocoKind:
     suffixes = (".xml", ".mjcf", ".mjb")
     summary = "MuJoCo physics scene (sensors, actuators, cameras)"
     mime_type = "application/x-mujoco+xml"
-    capabilities = frozenset({SIMULATOR, CAMERA, MODEL_FOLDER, SITES, MAP})
+    capabilities = frozenset({SIMULATOR, CAMERA, SITES, MAP})
     libraries = ("mujoco",)
     display = Display(
         "MuJoCo",
@@ -143,6 +143,24 @@ class MujocoKind:
         from fmionnx.kinds.mujoco.scenevalues import moving_body_hint
 
         return moving_body_hint(component.path, name)
+
+    def model_files(self, path: Path) -> tuple[ModelFile, ...]:
+        """The scene, its includes and the assets it names (never the rest of its folder)."""
+        from fmionnx.kinds.mujoco.files import scene_files
+
+        return scene_files(path)
+
+    def confined_environment(self, component: Component) -> Mapping[str, str]:
+        """``MUJOCO_GL``: the OpenGL backend that works, probed here (the probe is a process
+        of its own, which a sandboxed process cannot start); empty when none works (the
+        runner then says so, as without a sandbox)."""
+        config = component.config
+        if not isinstance(config, MujocoConfig) or not config.cameras:
+            return {}  # nothing to render
+        from fmionnx.kinds.mujoco.gl import backend_for
+
+        backend = backend_for(config.gl)
+        return {} if backend is None else {"MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.mujoco.runner.MujocoRunner` (loads mujoco only now)."""

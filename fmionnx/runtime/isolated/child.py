@@ -27,9 +27,23 @@ def _die_with_parent() -> None:
 
 def main(argv: list[str]) -> int:
     """``child COMMANDS REPLIES SHARED [--no-spin] [--sandbox WRITABLE MODEL]`` (inherited
-    descriptors; ``--no-spin``: block on the command pipe at once, see ``server.SPIN_NS``)."""
+    descriptors; ``--no-spin``: block on the command pipe at once, see ``server.SPIN_NS``).
+
+    Whatever processes the model starts are this process's descendants (it adopts their
+    orphans) and end with it: see :mod:`fmionnx.runtime.lifetime`.
+    """
+    from fmionnx.runtime import lifetime
+
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the supervisor's to handle
     _die_with_parent()
+    lifetime.set_subreaper(True)
+    try:
+        return _serve(argv)
+    finally:
+        lifetime.end_descendants()
+
+
+def _serve(argv: list[str]) -> int:
     commands, replies, shared = (int(a) for a in argv[:3])
     options = argv[3:]
     spin = options[:1] != ["--no-spin"]

@@ -204,6 +204,11 @@ class Zygote:
         pid = json.loads(message)["pid"]
         return ForkedChild(int(pid), received[0], received[1])
 
+    @property
+    def pid(self) -> int:
+        """The zygote's process id."""
+        return self._process.pid
+
     def close(self) -> None:
         """End the zygote (its children are killed with it): it exits when its socket
         closes; killed if it has not within a few seconds."""
@@ -225,6 +230,12 @@ class Zygote:
 _zygote: ProcessLocal[Zygote] = ProcessLocal()
 #: This process could not start a zygote: do not try at every child again.
 _no_zygote: ProcessLocal[bool] = ProcessLocal()
+
+
+def zygote_pid() -> int | None:
+    """The process id of this process's zygote, if it has one running."""
+    made = _zygote.get()
+    return None if made is None else made.pid
 
 
 @atexit.register

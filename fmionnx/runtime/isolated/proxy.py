@@ -134,6 +134,9 @@ class IsolatedRunner:
         env = dict(os.environ, TMPDIR=str(self._tmp))
         argv = [] if children_spin() else ["--no-spin"]
         if self._settings.sandbox:
+            from fmionnx.kinds.registry import confined_environment
+
+            env.update(confined_environment(self.component))
             argv += ["--sandbox", str(self._tmp), str(self.component.path)]
         try:
             self._process = launcher.launch((command_read, reply_write, self._shared), argv, env)

@@ -37,6 +37,8 @@ import tempfile
 import traceback
 from typing import Any
 
+from fmionnx.runtime import lifetime
+
 #: Largest request (JSON with the supervisor's environment) the zygote reads.
 MAX_REQUEST = 1 << 20
 #: The first message on the socket: the zygote has imported what children need.
@@ -114,17 +116,28 @@ def _spawn(server: socket.socket, request: dict[str, Any], fds: list[int]) -> tu
 
 
 def _reap(statuses: dict[int, int]) -> None:
-    """Write the exit code of every ended child into its status pipe."""
+    """Write the exit code of every ended child into its status pipe.
+
+    A child that ended before it could end the processes its model started left them to
+    this process (a subreaper): they are ended first, so that a child reported ended has
+    nothing left running (:mod:`fmionnx.runtime.lifetime`).
+    """
+    ended: list[tuple[int, int]] = []
     while True:
         try:
             pid, status = os.waitpid(-1, os.WNOHANG)
         except ChildProcessError:
-            return
+            break
         if pid == 0:
-            return
+            break
+        ended.append((pid, status))
+    if not ended:
+        return
+    lifetime.end_adopted(statuses)
+    for pid, status in ended:
         write = statuses.pop(pid, None)
         if write is None:
-            continue
+            continue  # an adopted orphan, reaped
         try:
             os.write(write, STATUS.pack(os.waitstatus_to_exitcode(status)))
         except OSError:
@@ -171,10 +184,14 @@ def serve(server: socket.socket) -> None:
 def main(argv: list[str]) -> int:
     """``zygote SOCKET`` (an inherited descriptor)."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the supervisor's to handle
+    lifetime.set_subreaper(True)  # adopts what a child's model leaves when the child dies
     server = socket.socket(fileno=int(argv[0]))
     _warm_up()
-    with contextlib.suppress(BrokenPipeError, ConnectionResetError):
-        serve(server)  # either way it ends when the supervisor goes away
+    try:
+        with contextlib.suppress(BrokenPipeError, ConnectionResetError):
+            serve(server)  # either way it ends when the supervisor goes away
+    finally:
+        lifetime.end_descendants()  # its children, and whatever their models started
     return 0
 
 
