@@ -14,12 +14,12 @@ import json
 from pathlib import Path
 
 import pytest
-from fmionnx.pipeline.sweep import plan_study
 from typer.testing import CliRunner
 
 from fmionnx.backends.sweep.case import CaseOutcome
 from fmionnx.cli import app
 from fmionnx.core.owned import MARKER, OwnedFolder
+from fmionnx.pipeline.sweep import plan_study
 from fmionnx.results.study import StudyFolder, StudyFolderError
 
 SYSTEM = """\
