@@ -28,6 +28,7 @@ LAYER_OF = {
     "cli": "surface",
     "export": "surface",
     "lock": "surface",
+    "lsp": "surface",
     "reporters": "surface",
     "results": "surface",
     "__init__": "surface",
