@@ -21,13 +21,14 @@ import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
+from typing import Any
 
 from fmionnx import api
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
 from fmionnx.core.sourcetext import editing
-from fmionnx.lsp.outline import Outline, outline_loaded, outline_yaml
+from fmionnx.lsp.outline import Outline, outline_loaded, outline_yaml, plain_data
 from fmionnx.spec.frontends import SSP_SUFFIXES, load_system
-from fmionnx.spec.yaml import is_study_text, read_text
+from fmionnx.spec.yaml import is_study_document, read_text
 
 #: Suffixes of YAML files the server checks.
 YAML_SUFFIXES = (".yaml", ".yml")
@@ -44,21 +45,25 @@ class DocumentKind(enum.Enum):
 
 #: The format-version key every system and study file starts with, at the top level.
 _FORMAT_KEY = re.compile(r"^fmionnx[ \t]*:", re.MULTILINE)
+#: "Not loaded yet" (None is a text that does not load).
+_UNREAD: Any = object()
 
 
-def document_kind(path: Path, text: str) -> DocumentKind:
-    """What an open file is.
+def document_kind(path: Path, text: str, data: Any = _UNREAD) -> DocumentKind:
+    """What an open file is (``data``: its text loaded by :func:`plain_data`, when it is).
 
     A YAML file is fmionnx's when it has the top-level ``fmionnx:`` key that both formats
     require: an editor opens every YAML file of a workspace (CI workflows, compose files),
     and those are not system files with errors. A study names a ``system:`` and no
-    ``components:``; any other such file is checked as a system file, as ``validate`` does.
+    ``components:`` (:func:`fmionnx.spec.yaml.is_study_document`, what ``validate`` asks);
+    any other such file is checked as a system file, as ``validate`` does.
     """
     suffix = path.suffix.lower()
     if suffix in SSP_SUFFIXES:
         return DocumentKind.SSP
     if suffix in YAML_SUFFIXES and _FORMAT_KEY.search(text):
-        return DocumentKind.STUDY if is_study_text(text, path) else DocumentKind.SYSTEM
+        loaded = plain_data(path, text) if data is _UNREAD else data
+        return DocumentKind.STUDY if is_study_document(loaded) else DocumentKind.SYSTEM
     return DocumentKind.OTHER
 
 
@@ -80,14 +85,16 @@ def analyse(path: Path, texts: Mapping[Path, str]) -> Analysis:
     included), which stand in for the files on disk."""
     text = texts[path]
     with editing(texts):
-        kind = document_kind(path, text)
+        yaml = path.suffix.lower() in YAML_SUFFIXES
+        data = plain_data(path, text) if yaml else None
+        kind = document_kind(path, text, data)
         failure = None
         try:
             diagnostics = _diagnostics(path, kind)
         except Exception as exc:  # a bug of fmionnx: reported on the file, the server lives
             diagnostics, failure = (), _internal(exc)
         try:
-            outline = _outline(path, text, kind)
+            outline = _outline(path, text, kind, data)
         except Exception:  # the outline only helps completion; its bug must not hide the rest
             outline = None
     return Analysis(path, text, kind, diagnostics, outline, failure)
@@ -101,23 +108,20 @@ def _diagnostics(path: Path, kind: DocumentKind) -> tuple[Diagnostic, ...]:
     return ()
 
 
-def _outline(path: Path, text: str, kind: DocumentKind) -> Outline | None:
+def _outline(path: Path, text: str, kind: DocumentKind, data: Any) -> Outline | None:
     if kind is DocumentKind.SSP:
         loaded = load_system(path, DiagnosticBag())
-        if loaded.spec is None:
-            return None
-        return outline_loaded(path, loaded.spec.components, loaded.sources)
+        return outline_loaded(path, loaded.spec.components) if loaded.spec is not None else None
     if kind is DocumentKind.OTHER:
         return None
-    outline = outline_yaml(path, text)
+    outline = outline_yaml(path, text, data)
     if kind is DocumentKind.STUDY and isinstance(outline.data, dict):
         system = outline.data.get("system")
         if isinstance(system, str) and system:
             target = path.parent / system
             system_text = read_text(target, DiagnosticBag()) if target.is_file() else None
             if system_text is not None:
-                inner = outline_yaml(target, system_text)
-                return Outline(path, outline.data, outline.sources, {}, inner)
+                return Outline(path, outline.data, {}, outline_yaml(target, system_text))
     return outline
 
 

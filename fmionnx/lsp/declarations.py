@@ -76,12 +76,27 @@ def _write_read_only(path: Path, data: bytes) -> Path:
     return path
 
 
+#: Copies made by this process: (FMU path, content hash) -> the copy (and its root's line).
+_COPIES: dict[tuple[str, str], tuple[Path, int]] = {}
+
+
 def model_description_file(interface: ComponentInterface) -> Path | None:
     """A ``modelDescription.xml`` of the FMU an editor can open, or None when unreadable."""
     fmu = interface.path
     if fmu.is_dir():
         candidate = fmu / MODEL_DESCRIPTION
         return candidate if candidate.is_file() else None
+    known = _COPIES.get((str(fmu), interface.content_hash))
+    if known is not None and known[0].is_file():
+        return known[0]
+    copy = _copy_description(interface)
+    if copy is not None and interface.content_hash:
+        _COPIES[(str(fmu), interface.content_hash)] = (copy, _root_line(copy))
+    return copy
+
+
+def _copy_description(interface: ComponentInterface) -> Path | None:
+    fmu = interface.path
     try:
         with open_zip(fmu) as archive:
             check_archive(archive)
@@ -130,7 +145,10 @@ def model_place(interface: ComponentInterface) -> Place | None:
     of a binary model, the model file."""
     if _is_fmi(interface):
         xml = model_description_file(interface)
-        return Place(xml, _root_line(xml)) if xml is not None else None
+        if xml is None:
+            return None
+        known = _COPIES.get((str(interface.path), interface.content_hash))
+        return Place(xml, known[1] if known is not None else _root_line(xml))
     if _is_binary(interface.path):
         page, _ = binary_page(interface)
         return Place(page, 1) if page is not None else None

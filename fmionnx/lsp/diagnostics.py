@@ -72,8 +72,7 @@ def convert(analysis: Analysis, lines_of: Lines) -> dict[Path, list[Published]]:
     outlines = _outlines(analysis.outline)
     for diagnostic in analysis.diagnostics:
         file = analysis.path if diagnostic.span is None else _absolute(diagnostic.span.file)
-        values = _values(file, outlines)
-        lsp = to_lsp(diagnostic, lines_of(file), values, outlines, lines_of)
+        lsp = to_lsp(diagnostic, lines_of(file), outlines, lines_of)
         by_file.setdefault(file, []).append(Published(lsp, diagnostic))
     return by_file
 
@@ -81,11 +80,10 @@ def convert(analysis: Analysis, lines_of: Lines) -> dict[Path, list[Published]]:
 def to_lsp(
     diagnostic: Diagnostic,
     lines: Sequence[str],
-    values: set[tuple[int, int]],
     outlines: Sequence[Outline],
     lines_of: Lines,
 ) -> types.Diagnostic:
-    """One diagnostic; ``lines`` are its file's, ``values`` where the file's values start."""
+    """One diagnostic; ``lines`` are its file's."""
     related: list[types.DiagnosticRelatedInformation] = []
     text_notes: list[str] = []
     for note in diagnostic.notes:
@@ -96,7 +94,7 @@ def to_lsp(
             related.append(types.DiagnosticRelatedInformation(location, note.message))
     hint = [f"hint: {diagnostic.hint}"] if diagnostic.hint else []
     return types.Diagnostic(
-        range=span_range(diagnostic.span, lines, values=values, code=diagnostic.code),
+        range=span_range(diagnostic.span, lines, code=diagnostic.code),
         message="\n".join([diagnostic.message, *text_notes, *hint]),
         severity=_SEVERITY[diagnostic.severity],
         code=diagnostic.code,
@@ -115,20 +113,6 @@ def _outlines(outline: Outline | None) -> list[Outline]:
         found.append(outline)
         outline = outline.system
     return found
-
-
-def _values(file: Path, outlines: Sequence[Outline]) -> set[tuple[int, int]]:
-    for outline in outlines:
-        if _same(outline.path, file):
-            return {(s.line, s.col) for s in outline.sources.spans.values()}
-    return set()
-
-
-def _same(a: Path, b: Path) -> bool:
-    try:
-        return a.resolve() == b.resolve()
-    except OSError:
-        return a == b
 
 
 def _note_location(

@@ -1,13 +1,16 @@
-"""What an editor needs to know about a file besides its diagnostics: its components, their
-real interfaces and where every key and value is.
+"""What an editor needs to know about a file besides its diagnostics: its components and their
+real interfaces.
 
 The compiler (``fmionnx.api.compile_system``) gives diagnostics and, when there are none, a
 compiled system; but completion and hover are needed most while a file has errors. So the
-outline is read on its own, leniently: the YAML is parsed by the system-file front end
-(positions in a :class:`~fmionnx.spec.sourcemap.SourceMap`), each component entry is checked
-alone against its kind's model (a mistake in one entry leaves the others usable), and each
-model's interface is read by :func:`fmionnx.compile.resolve.read_interface`, the compiler's own
-reader with its per-process cache: a model whose file did not change is not read again.
+outline is read on its own, leniently: the YAML is loaded as plain data (within the front
+end's resource limits, by ruamel's C safe loader: a few milliseconds, where the parse that
+keeps every position takes several times as long, on every keystroke), each component entry
+is checked alone against its kind's model (a mistake in one entry leaves the others usable),
+and each model's interface is read by :func:`fmionnx.compile.resolve.read_interface`, the
+compiler's own reader with its per-process cache: a model whose file did not change is not
+read again. Positions are not kept here: the features that edit the file (fixes, rename)
+parse the text they edit with the front end itself.
 """
 
 from __future__ import annotations
@@ -24,11 +27,11 @@ from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import ComponentInterface
 from fmionnx.kinds.registry import COMPONENT_KINDS
+from fmionnx.spec.limits import check_limits
 from fmionnx.spec.sourcemap import SourceMap
-from fmionnx.spec.yaml import parse_yaml
 
 #: Keys kept when an entry is checked again without its faulty keys: what the interface needs.
-_INTERFACE_KEYS = ("kind", "path", "cameras", "units", "interface")
+_INTERFACE_KEYS = ("kind", "path", "cameras", "units", "interface", "outputs")
 
 
 @dataclass(frozen=True, slots=True)
@@ -44,44 +47,51 @@ class ComponentOutline:
 
 @dataclass(frozen=True)
 class Outline:
-    """A parsed system or study file: its plain data, positions and components.
+    """A system or study file: its plain data and components.
 
-    ``data`` is the YAML as plain values (None when it does not parse). For a study,
-    ``system`` is the outline of the system file it varies.
+    ``data`` is the YAML as plain values (None when it does not load, and for an SSD). For a
+    study, ``system`` is the outline of the system file it varies.
     """
 
     path: Path
     data: Any
-    sources: SourceMap
     components: Mapping[str, ComponentOutline] = field(default_factory=dict)
     system: Outline | None = None
 
-    @property
-    def interfaces(self) -> dict[str, ComponentInterface | None]:
-        """Interface per component name (None where it could not be read)."""
-        return {name: c.interface for name, c in self.components.items()}
+
+def plain_data(path: Path, text: str) -> Any:
+    """The YAML text as plain data, or None when it is over a resource limit or does not
+    load (the compiler says why)."""
+    if not check_limits(text, path, DiagnosticBag()):
+        return None
+    from ruamel.yaml import YAML
+    from ruamel.yaml.error import YAMLError
+
+    try:
+        return YAML(typ="safe").load(text)
+    except (YAMLError, TypeError, ValueError, AttributeError, KeyError, IndexError):
+        return None
 
 
-def outline_yaml(path: Path, text: str) -> Outline:
-    """The outline of a YAML system or study file whose text is ``text``."""
-    sources = SourceMap(path)
-    data = parse_yaml(text, path, sources, DiagnosticBag())
-    return Outline(path, data, sources, _components(path, data, sources))
+def outline_yaml(path: Path, text: str, data: Any = None) -> Outline:
+    """The outline of a YAML system or study file whose text is ``text`` (``data``: that text
+    already loaded by :func:`plain_data`)."""
+    if data is None:
+        data = plain_data(path, text)
+    return Outline(path, data, _components(path, data))
 
 
-def outline_loaded(
-    path: Path, components: Mapping[str, ComponentSpecBase], sources: SourceMap
-) -> Outline:
-    """The outline of a system a front end loaded (an SSD): its specs are already checked."""
-    found = {name: _read(name, spec, path, sources) for name, spec in components.items()}
-    return Outline(path, None, sources, found)
+def outline_loaded(path: Path, components: Mapping[str, ComponentSpecBase]) -> Outline:
+    """The outline of a system a front end loaded (an SSD): its entries are checked already."""
+    return Outline(path, None, {name: _read(name, spec, path) for name, spec in components.items()})
 
 
-def _components(path: Path, data: Any, sources: SourceMap) -> dict[str, ComponentOutline]:
+def _components(path: Path, data: Any) -> dict[str, ComponentOutline]:
     if not isinstance(data, dict) or not isinstance(data.get("components"), dict):
         return {}
     found: dict[str, ComponentOutline] = {}
-    for name, entry in data["components"].items():
+    for key, entry in data["components"].items():
+        name = str(key)
         spec = _entry_spec(entry)
         if spec is None:
             kind = entry.get("kind") if isinstance(entry, dict) else None
@@ -89,7 +99,7 @@ def _components(path: Path, data: Any, sources: SourceMap) -> dict[str, Componen
                 name, kind if isinstance(kind, str) else None, None, None
             )
             continue
-        found[name] = _read(name, spec, path, sources)
+        found[name] = _read(name, spec, path)
     return found
 
 
@@ -110,7 +120,7 @@ def _entry_spec(entry: Any) -> ComponentSpecBase | None:
     return None
 
 
-def _read(name: str, spec: ComponentSpecBase, path: Path, sources: SourceMap) -> ComponentOutline:
-    model = entry_path(path, spec)
-    interface = read_interface(name, spec, path, sources, DiagnosticBag())
-    return ComponentOutline(name, spec.kind, model, interface, spec)
+def _read(name: str, spec: ComponentSpecBase, path: Path) -> ComponentOutline:
+    # The compiler's reader; the diagnostics it makes are the compiler's too, not wanted here.
+    interface = read_interface(name, spec, path, SourceMap(path), DiagnosticBag())
+    return ComponentOutline(name, spec.kind, entry_path(path, spec), interface, spec)

@@ -3,11 +3,12 @@
 ``fmionnx validate`` points at where a problem starts; an editor underlines a range. The range
 starts exactly at the diagnostic's line and column and ends where the thing there ends:
 
-* a whole value the source map recorded (a connection ``a.y -> b.u``, a period, a flow
-  mapping on its line): to the end of that scalar or bracket;
-* anything else, and always for problems inside a value (an endpoint of a connection, a name
-  in a check expression): to the end of the token there, a dotted name with its index such
-  as ``odometry.thta`` or ``world.base_quat[7]``, a key up to its colon, a quoted string;
+* a problem inside a value (an endpoint of a connection, a name in a check expression, a
+  syntax error): the token there, a dotted name with its index such as ``odometry.thta`` or
+  ``world.base_quat[7]``, or a quoted string;
+* a key (the token is followed by ``:``): the key;
+* any other problem is about the value that starts there (a connection ``a.y -> b.u`` with a
+  unit mismatch, a period, a flow mapping): to the end of that scalar or bracket on its line;
 * a span of a whole file (line 0): the first line; of a whole line (column 0): its text.
 
 Positions here count characters (code points); the server converts them to the client's
@@ -16,16 +17,18 @@ encoding (UTF-16 by default) against the document's text.
 
 from __future__ import annotations
 
-from collections.abc import Collection, Sequence
+from collections.abc import Sequence
 
 from lsprotocol import types
 
 from fmionnx.core.diagnostics import Span
 
-#: Codes whose span is a position inside a value (an endpoint, a name in an expression): the
-#: range is the token there, never the whole value that starts at the same column.
+#: Codes whose span is a position inside a value (an endpoint, a name in an expression, a
+#: syntax error's character): the range is the token there, never the whole value that
+#: starts at the same column.
 INSIDE_VALUE_CODES = frozenset(
-    {"E020", "E021", "E022", "E023", "E025", "E045", "E046", "E090", "E091", "E092", "E093"}
+    {"E001", "E020", "E021", "E022", "E023", "E025", "E045", "E046"}
+    | {"E090", "E091", "E092", "E093"}
 )
 
 
@@ -136,18 +139,9 @@ def line_range(lines: Sequence[str], line: int) -> types.Range:
     )
 
 
-def span_range(
-    span: Span | None,
-    lines: Sequence[str],
-    *,
-    values: Collection[tuple[int, int]] = (),
-    code: str = "",
-) -> types.Range:
-    """The range of a diagnostic's ``span`` in a file whose lines are ``lines``.
-
-    ``values`` holds the (line, column) of every value the source map recorded; a span at one
-    of them covers the whole value, unless ``code`` says the problem is inside it.
-    """
+def span_range(span: Span | None, lines: Sequence[str], *, code: str = "") -> types.Range:
+    """The range of a diagnostic's ``span`` in a file whose lines are ``lines``; ``code``
+    says whether the problem is a point inside a value (:data:`INSIDE_VALUE_CODES`)."""
     if span is None or span.line <= 0:
         return line_range(lines, 0)
     row = span.line - 1
@@ -155,9 +149,16 @@ def span_range(
         return line_range(lines, row)
     text = lines[row] if row < len(lines) else ""
     start = min(span.col - 1, len(text))
-    whole = (span.line, span.col) in values and code not in INSIDE_VALUE_CODES
-    end = value_end(text, start) if whole else token_end(text, start)
+    end = token_end(text, start)
+    if code not in INSIDE_VALUE_CODES and not _is_key(text, end):
+        end = value_end(text, start)
     return types.Range(
         types.Position(line=row, character=start),
         types.Position(line=row, character=max(start, min(end, len(text)))),
     )
+
+
+def _is_key(text: str, end: int) -> bool:
+    """Whether the token ending at ``end`` is a mapping key (``:`` and a blank follow)."""
+    rest = text[end:].lstrip(" ")
+    return rest.startswith(":") and (len(rest) == 1 or rest[1] in " \t")
