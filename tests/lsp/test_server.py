@@ -3,12 +3,14 @@
 from __future__ import annotations
 
 import json
+import shutil
 from pathlib import Path
 
 from lsprotocol import types
 from typer.testing import CliRunner
 
 from fmionnx.cli.app import app
+from tests.conftest import REPO
 from tests.lsp.client import Session, apply
 from tests.lsp.conftest import reference_text
 
@@ -321,3 +323,49 @@ def test_an_endpoint_with_an_index_in_a_flow_list_gets_quoted(
     assert "  - {xy: ['world.base_pos[0]', odometry.posY]" in fixed
     server.change(uri, fixed)
     assert [d.code for d in server.wait_diagnostics(uri)] == []
+
+
+def test_an_ssd_file_gets_validates_diagnostics_as_it_is_edited(
+    server: Session, workspace: Path
+) -> None:
+    vendor = REPO / "examples" / "ssp-roundtrip" / "vendor"
+    folder = workspace / "ssd"
+    shutil.copytree(vendor, folder)
+    path = folder / "SystemStructure.ssd"
+    expected = _validate_json(path)
+    uri = server.open(path)
+    found = server.wait_diagnostics(uri)
+    assert [(d.code, d.range.start.line + 1) for d in found] == [
+        (d["code"], d["line"]) for d in expected
+    ]
+    assert [d.code for d in found] == ["E072", "I070", "E072"]
+    text = path.read_text(encoding="utf-8")
+    server.change(uri, text.replace("<ssd:Elements>", "<ssd:Elements", 1))
+    [broken] = server.wait_diagnostics(uri)
+    assert broken.code == "E001"
+    assert "is not well-formed XML" in broken.message
+    server.change(uri, text)
+    assert [d.code for d in server.wait_diagnostics(uri)] == ["E072", "I070", "E072"]
+
+
+def test_a_note_naming_a_declaration_is_related_information_at_its_line(
+    server: Session, workspace: Path
+) -> None:
+    text = reference_text().replace(
+        "  - odometry.theta -> tracker.theta", "  - odometry.posX -> tracker.theta"
+    )
+    path = _write(workspace, "declared.yaml", text)
+    uri = server.open(path)
+    [diagnostic] = server.wait_diagnostics(uri)
+    assert diagnostic.code == "E033"  # m into rad
+    [related] = diagnostic.related_information or []
+    assert (
+        related.message
+        == "`theta` is declared at SignTrackingLogic.fmu/modelDescription.xml:"
+        + (related.message.rsplit(":", 1)[1])
+    )
+    assert related.location.uri.endswith("SignTrackingLogic.fmu/modelDescription.xml")
+    xml = Path(related.location.uri.removeprefix("file://")).read_text(encoding="utf-8")
+    line = xml.splitlines()[related.location.range.start.line]
+    assert 'name="theta"' in line
+    assert str(related.location.range.start.line + 1) == related.message.rsplit(":", 1)[1]
