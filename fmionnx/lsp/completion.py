@@ -8,7 +8,7 @@ What is offered depends on where the cursor is (:mod:`fmionnx.lsp.yamlcontext`):
   outputs left of ``->`` in a connection (and in ``from:``), inputs right of it
   (and in ``to:``), any port in ``record``, ``plots`` and checks;
 * parameter names under ``parameters:`` and in a study's targets, port names and units under
-  an ONNX entry's ``units:``;
+  an ONNX entry's ``units:``, units after any ``unit:`` of an entry;
 * ROS 2: message types, the fields of the type given, component names as node keys;
 * the checks language: its functions, signals, ``component.site.NAME`` and
   ``component.expected_path``;
@@ -30,7 +30,7 @@ from fmionnx.compile.plots import MAP_REFERENCE
 from fmionnx.compile.typecheck import SOURCE_CAUSALITIES, TARGET_CAUSALITIES
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, Port
-from fmionnx.core.units import BUILTIN_UNITS
+from fmionnx.core.units import BUILTIN_UNITS, Unit
 from fmionnx.kinds.base import MAP, SITES, SiteSource
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.lsp.analysis import DocumentKind
@@ -56,6 +56,13 @@ def port_detail(port: Port) -> str:
     shape = "" if port.is_scalar else port.shape_text()
     unit = f" {port.unit}" if port.unit else ""
     return f"{port.causality.value} {port.dtype.value}{shape}{unit}"
+
+
+def unit_detail(unit: Unit) -> str:
+    """What a unit is in SI: ``0.277778 m*s^-1`` (km/h), ``K + 273.15`` (degC)."""
+    scale = "" if unit.factor == 1.0 else f"{unit.factor:g} "
+    shift = "" if unit.offset == 0.0 else f" + {unit.offset:g}"
+    return f"{scale}{unit.dimension()}{shift}"
 
 
 def complete(
@@ -164,11 +171,8 @@ def _component_entry(
         return _ports(here, component, text, _SETTABLE_SIDE)
     if rest == ("units",) and role == "key":
         return _ports(here, component, text, _ANY_SIDE)
-    if len(rest) == 2 and rest[0] == "units" and role == "value":
-        return [
-            here.item(n, text, _K.Unit, f"{unit.dimension()}", order=0)
-            for n, unit in BUILTIN_UNITS.items()
-        ]
+    if role == "value" and (rest[-1:] == ("unit",) or (len(rest) == 2 and rest[0] == "units")):
+        return [here.item(n, text, _K.Unit, unit_detail(unit)) for n, unit in BUILTIN_UNITS.items()]
     if rest == ("kind",) and role == "value":
         return [
             here.item(n, text, _K.EnumMember, COMPONENT_KINDS[n].summary) for n in COMPONENT_KINDS

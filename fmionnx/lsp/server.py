@@ -50,6 +50,9 @@ from fmionnx.lsp.rename import RenameError, component_at, rename
 SETTLE_SECONDS = 0.15
 #: Longest a request waits for a file's first check.
 FIRST_CHECK_SECONDS = 60.0
+#: Files whose change on disk can change an open file's diagnostics: models, SSP resources,
+#: expected paths, other system files.
+WATCHED = ["**/*.{fmu,onnx,xml,mjb,csv,ssv,ssm,ssd,yaml,yml}", "**/modelDescription.xml"]
 #: Characters after which an editor asks for completion by itself.
 TRIGGERS = [".", " ", "/", "(", ",", "[", ">"]
 
@@ -321,6 +324,36 @@ def make_server() -> FmionnxServer:
         # A saved file may be what another open file uses; models may have been rebuilt.
         for uri in list(server.workspace.text_documents):
             server.schedule(uri, 0.0 if uri == params.text_document.uri else SETTLE_SECONDS)
+
+    @server.feature(types.INITIALIZED)
+    @_guarded(server, "starting")
+    async def initialized(params: types.InitializedParams) -> None:
+        # Models are rebuilt outside the editor (`make models`, an FMU re-exported): ask the
+        # client to say when one changes, where it can be asked.
+        workspace = server.client_capabilities.workspace
+        watched = workspace.did_change_watched_files if workspace is not None else None
+        if watched is None or not watched.dynamic_registration:
+            return
+        options = types.DidChangeWatchedFilesRegistrationOptions(
+            watchers=[types.FileSystemWatcher(glob_pattern=pattern) for pattern in WATCHED]
+        )
+        registration = types.Registration(
+            id="fmionnx-models",
+            method=types.WORKSPACE_DID_CHANGE_WATCHED_FILES,
+            register_options=options,
+        )
+        try:
+            await server.client_register_capability_async(types.RegistrationParams([registration]))
+        except JsonRpcException:
+            return  # refused: files saved in the editor still check everything again
+
+    @server.feature(types.WORKSPACE_DID_CHANGE_WATCHED_FILES)
+    @_guarded(server, "taking a changed file")
+    async def watched_changed(params: types.DidChangeWatchedFilesParams) -> None:
+        # A model (or an SSP resource, a path file) changed on disk: every open file is
+        # checked again; an unchanged model is still not read again (its identity is the same).
+        for uri in list(server.workspace.text_documents):
+            server.schedule(uri, SETTLE_SECONDS)
 
     @server.feature(types.TEXT_DOCUMENT_DID_CLOSE)
     @_guarded(server, "closing a file")

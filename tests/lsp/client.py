@@ -123,6 +123,18 @@ class Session:
         )
         self.notify(lambda: self.client.text_document_did_change(params))
 
+    def files_changed(self, *paths: Path) -> None:
+        """Say that files changed on disk (as an editor's file watcher does)."""
+        params = types.DidChangeWatchedFilesParams(
+            changes=[
+                types.FileEvent(uri=p.absolute().as_uri(), type=types.FileChangeType.Changed)
+                for p in paths
+            ]
+        )
+        with self.published:
+            self.diagnostics.clear()
+        self.notify(lambda: self.client.workspace_did_change_watched_files(params))
+
     def wait_diagnostics(self, uri: str, timeout: float = TIMEOUT_S) -> list[types.Diagnostic]:
         """The next diagnostics published for ``uri`` (after the last open or change)."""
         deadline = time.monotonic() + timeout

@@ -170,6 +170,12 @@ def test_a_code_action_fixes_the_typo(server: Session, workspace: Path) -> None:
     path = _write(workspace, "fix.yaml", TYPO)
     uri = server.open(path)
     [diagnostic] = server.wait_diagnostics(uri)
+    explained = server.hover(uri, diagnostic.range.start.line, diagnostic.range.start.character)
+    assert explained is not None
+    assert isinstance(explained.contents, types.MarkupContent)
+    assert "**E021** `unknown-port` (error, endpoint): A connection names a port" in (
+        explained.contents.value
+    )
     actions = server.code_actions(uri, diagnostic.range, [diagnostic])
     titles = [a.title for a in actions]
     assert titles == ["Replace `thta` with `theta`"]
@@ -247,6 +253,9 @@ def test_a_study_completes_its_targets_from_the_system(server: Session, workspac
     assert "v" not in items  # an output is no target
     metric = {i.label: i.detail for i in server.completion(uri, 5, len("  d: final(odometry."))}
     assert metric["posX"] == "output float64 m"
+    # the study's system is one definition away
+    [location] = server.definition(uri, 1, len("system: stu"))
+    assert location.uri == (workspace / "systems" / "studied.yaml").as_uri()
 
 
 def test_rename_of_a_component_edits_every_reference(server: Session, workspace: Path) -> None:
@@ -280,6 +289,11 @@ def test_unit_mismatches_get_the_long_form_fixes(
     path = _write(workspace, "units.yaml", system)
     uri = server.open(path)
     found = server.wait_diagnostics(uri)
+    units = {
+        i.label: i.detail for i in server.completion(uri, 4, system.split("\n")[4].index("px"))
+    }
+    assert units["km/h"] == "0.277778 m*s^-1"  # a unit and what it is in SI
+    assert units["degC"] == "K + 273.15"
     assert [(d.code, d.range.start.line) for d in found if d.code == "E033"] == [
         ("E033", 7),
         ("E033", 8),
@@ -369,3 +383,21 @@ def test_a_note_naming_a_declaration_is_related_information_at_its_line(
     line = xml.splitlines()[related.location.range.start.line]
     assert 'name="theta"' in line
     assert str(related.location.range.start.line + 1) == related.message.rsplit(":", 1)[1]
+
+
+def test_a_model_rebuilt_on_disk_is_read_again_when_the_editor_says_so(
+    server: Session, workspace: Path, fixture_fmu
+) -> None:
+    model = workspace / "systems" / "watched.fmu"
+    shutil.copy(fixture_fmu("Gain"), model)
+    system = (
+        "fmionnx: 1\nname: watched\nrun: {stop: 1, step: 0.01}\n"
+        "components:\n  g: {kind: fmu, path: watched.fmu}\n"
+        "  src: {kind: signal, outputs: {a: {constant: 1}}}\n"
+        "connections:\n  - src.a -> g.v[0]\n"
+    )
+    uri = server.open(_write(workspace, "watched.yaml", system))
+    assert "E021" not in [d.code for d in server.wait_diagnostics(uri)]
+    shutil.copy(fixture_fmu("Integrator"), model)  # rebuilt: another model, no `v`
+    server.files_changed(model)
+    assert "E021" in [d.code for d in server.wait_diagnostics(uri)]
