@@ -16,7 +16,7 @@ from fmionnx.compile.expected_path import EXPECTED_PATH
 from fmionnx.compile.plots import MAP_REFERENCE
 from fmionnx.core.types import Port
 from fmionnx.lsp.outline import ComponentOutline, Outline
-from fmionnx.lsp.yamlcontext import ITEM, cursor_at, name_at
+from fmionnx.lsp.yamlcontext import cursor_at, name_at
 
 #: Where a name under the cursor is the port of the entry it is written in (its key).
 _OWN_PORT_SECTIONS = ("parameters", "units")
@@ -25,8 +25,8 @@ _OWN_PORT_SECTIONS = ("parameters", "units")
 @dataclass(frozen=True, slots=True)
 class Reference:
     """A resolved name: ``what`` is ``component``, ``port``, ``site``, ``expected_path``,
-    ``map`` or ``function``; ``start``/``end`` are the columns of the part of the line that
-    names the referenced thing's component (for rename) and of the whole name."""
+    ``map`` or ``function`` (``detail``: its signature); the name is on 0-based ``line`` from
+    column ``start`` to ``end``."""
 
     what: str
     name: str
@@ -36,11 +36,10 @@ class Reference:
     line: int = 0
     start: int = 0
     end: int = 0
-    component_end: int = 0
 
 
 def components_of(outline: Outline | None) -> dict[str, ComponentOutline]:
-    """The components names in a file refer to: a study's are its system's."""
+    """The components that names in a file refer to (a study's are its system's)."""
     if outline is None:
         return {}
     if outline.system is not None:
@@ -51,10 +50,7 @@ def components_of(outline: Outline | None) -> dict[str, ComponentOutline]:
 def reference_at(text: str, line: int, column: int, outline: Outline | None) -> Reference | None:
     """What the name at 0-based ``line``/``column`` of ``text`` refers to, or None."""
     lines = text.split("\n")
-    if line >= len(lines):
-        return None
-    line_text = lines[line]
-    found = name_at(line_text, column)
+    found = name_at(lines[line], column) if line < len(lines) else None
     if found is None:
         return None
     name, start = found
@@ -62,26 +58,23 @@ def reference_at(text: str, line: int, column: int, outline: Outline | None) -> 
     where = cursor_at(text, line, start)
     components = components_of(outline)
     path = where.path
-    # The key of a component entry, and the entry's own ports under `parameters`/`units`.
+
+    def whole(what: str, component: ComponentOutline | None, port: Port | None = None) -> Reference:
+        detail = FUNCTIONS.get(name, "") if what == "function" else ""
+        return Reference(what, name, component, port, detail, line, start, end)
+
+    # the key of a component's entry, and that entry's own ports under `parameters`/`units`
     if path == ("components",) and where.role == "key" and name in components:
-        return Reference("component", name, components[name], line=line, start=start, end=end,
-                         component_end=end)  # fmt: skip
+        return whole("component", components[name])
     if len(path) == 3 and path[0] == "components" and path[2] in _OWN_PORT_SECTIONS:
         owner = components.get(path[1])
-        if owner is not None and owner.interface is not None and where.role == "key":
-            port = owner.interface.port(name)
-            if port is not None:
-                return Reference("port", name, owner, port, line=line, start=start, end=end)
-    if path[:1] == ("ros2",) and path[1:2] == ("nodes",) and name in components:
-        return Reference("component", name, components[name], line=line, start=start, end=end,
-                         component_end=end)  # fmt: skip
-    if "." not in name or name == ITEM:
+        port = owner.interface.port(name) if owner and owner.interface else None
+        return whole("port", owner, port) if port is not None and where.role == "key" else None
+    if "." not in name:
         if name in components and path[:1] != ("components",):
-            return Reference("component", name, components[name], line=line, start=start,
-                             end=end, component_end=end)  # fmt: skip
+            return whole("component", components[name])  # a ROS 2 node key, an `isolate` entry
         if name in FUNCTIONS and _in_expression(path):
-            return Reference("function", name, detail=FUNCTIONS[name], line=line, start=start,
-                             end=end)  # fmt: skip
+            return whole("function", None)
         return None
     return _dotted(name, components, line, start, end)
 
@@ -101,10 +94,7 @@ def _dotted(
     component = components[component_name]
 
     def found(what: str, named: str, port: Port | None = None) -> Reference:
-        return Reference(
-            what, named, component, port, line=line, start=start, end=end,
-            component_end=start + len(component_name),
-        )  # fmt: skip
+        return Reference(what, named, component, port, line=line, start=start, end=end)
 
     if rest == EXPECTED_PATH:
         return found("expected_path", name)
