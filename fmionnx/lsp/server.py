@@ -1,10 +1,12 @@
 """``fmionnx lsp``: the language server over stdio (pygls).
 
 The protocol layer only: documents are checked by :mod:`fmionnx.lsp.analysis` on one worker
-thread (the compiler's caches are used from that thread alone), a change waits
+thread, where requests that read models run too (the compiler's caches and the model readers
+are used from that thread alone), a change waits
 :data:`SETTLE_SECONDS` for the next keystroke before it is checked, and requests answer from
-the last check's outline with the editor's current text, so completion never waits for a
-check that is already out of date (it waits only when a file has never been checked).
+the last check's outline with the editor's current text: completion never waits for the
+check of the change just typed (only for a check already running to end, and for the first
+check of a file just opened).
 
 Bad input never stops the server:
 
@@ -160,6 +162,12 @@ class FmionnxServer(LanguageServer):
             system = analysis.outline.system if analysis.outline is not None else None
             if other != uri and system is not None and _same(system.path, path):
                 self.schedule(other, SETTLE_SECONDS)
+
+    async def on_checker(self, work: Callable[P, R], *args: P.args, **kwargs: P.kwargs) -> R:
+        """``work(...)`` on the checker's thread: the compiler's caches and the model readers
+        (MuJoCo's among them) are used from that one thread only."""
+        loop = asyncio.get_running_loop()
+        return await loop.run_in_executor(self.checker, functools.partial(work, *args, **kwargs))
 
     async def settled(self, uri: str) -> None:
         """Wait for the file's first check (a later one is not waited for)."""
@@ -369,7 +377,9 @@ def make_server() -> FmionnxServer:
         await server.settled(uri)
         doc = document(uri)
         line, column = at(doc, params.position)
-        items = complete(doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri))
+        items = await server.on_checker(
+            complete, doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri)
+        )
         for item in items:
             if isinstance(item.text_edit, types.TextEdit):
                 item.text_edit = types.TextEdit(
@@ -389,7 +399,9 @@ def make_server() -> FmionnxServer:
             for item in server.published.get(uri, [])
             if item.lsp.code is not None and _contains(item.lsp.range, line, column)
         ]
-        found = hover(doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri), codes)
+        found = await server.on_checker(
+            hover, doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri), codes
+        )
         if found is not None and found.range is not None:
             found.range = to_client(doc, found.range)
         return found
@@ -401,15 +413,8 @@ def make_server() -> FmionnxServer:
         await server.settled(uri)
         doc = document(uri)
         line, column = at(doc, params.position)
-        loop = asyncio.get_running_loop()
-        found = await loop.run_in_executor(
-            server.checker,
-            definition,
-            doc.source,
-            line,
-            column,
-            kind_of(uri, doc),
-            server.outlines.get(uri),
+        found = await server.on_checker(
+            definition, doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri)
         )
         return found or None
 

@@ -164,6 +164,21 @@ def test_definition_of_a_port_lands_in_its_model_description(
     assert location.uri.endswith("/modelDescription.xml")
     xml = Path(location.uri.removeprefix("file://")).read_text(encoding="utf-8").splitlines()
     assert 'name="theta"' in xml[location.range.start.line]
+    # a MuJoCo port: its element in the scene's XML; a site: its <site>
+    line, column = _position(text, "  - world.base_pos[0] -> odometry.x", "base_pos")
+    [scene] = server.definition(uri, line, column)
+    assert scene.uri == (workspace / "models" / "world" / "sign_course.xml").as_uri()
+    xml = (REPO / "models" / "world" / "sign_course.xml").read_text(encoding="utf-8").splitlines()
+    assert 'name="base_pos"' in xml[scene.range.start.line]
+    line, column = _position(text, "to=world.site.B", "site.B", 5)
+    [site] = server.definition(uri, line, column)
+    assert '<site name="B"' in xml[site.range.start.line]
+    # an ONNX output: its line on the model's page
+    line, column = _position(text, "  - detector.blobX -> tracker.blobX", "blobX")
+    [page] = server.definition(uri, line, column)
+    assert page.uri.endswith("/sign_detector.onnx.txt")
+    shown = Path(page.uri.removeprefix("file://")).read_text(encoding="utf-8").splitlines()
+    assert shown[page.range.start.line].startswith("  blobX: float32[1,3]  # Mean 0-based column")
 
 
 def test_a_code_action_fixes_the_typo(server: Session, workspace: Path) -> None:
