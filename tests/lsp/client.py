@@ -30,7 +30,10 @@ TIMEOUT_S = 90.0
 class Session:
     """One server process and the client talking to it."""
 
-    def __init__(self, cwd: Path, env: dict[str, str] | None = None) -> None:
+    def __init__(
+        self, cwd: Path, env: dict[str, str] | None = None, args: tuple[str, ...] = ()
+    ) -> None:
+        """Start the server in ``cwd``: ``python -m fmionnx lsp``, or ``python ARGS``."""
         self.loop = asyncio.new_event_loop()
         self.thread = threading.Thread(target=self.loop.run_forever, daemon=True)
         self.thread.start()
@@ -52,9 +55,8 @@ class Session:
             self.log.append(params.message)
 
         environment = {**os.environ, **(env or {})}
-        self.call(
-            self.client.start_io(sys.executable, "-m", "fmionnx", "lsp", cwd=cwd, env=environment)
-        )
+        command = args or ("-m", "fmionnx", "lsp")
+        self.call(self.client.start_io(sys.executable, *command, cwd=cwd, env=environment))
         server = self.client._server
         assert server is not None
         assert server.stderr is not None
