@@ -42,6 +42,8 @@ from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.study import StudySpec
 
 _K = types.CompletionItemKind
+#: Characters of a name (a key, a component, a port) an item replaces after the cursor.
+_WORD_CHARACTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_$-"
 #: Targets of a study that are run settings, not parameters (docs/sweep.md).
 _RUN_TARGETS = {
     "run.stop": "stop time of each case",
@@ -74,7 +76,7 @@ def complete(
     cursor = cursor_at(text, line, column)
     root: type[BaseModel] = StudySpec if kind is DocumentKind.STUDY else SystemSpec
     data = outline.data if outline is not None else None
-    here = _Here(cursor, line, column, outline, data)
+    here = _Here(cursor, text, line, column, outline, data)
     items = _study(here) if kind is DocumentKind.STUDY else _system(here)
     if items is None:
         items = _schema(here, root)
@@ -85,7 +87,7 @@ class _Here:
     """The request: where the cursor is and what the file is known to hold."""
 
     def __init__(
-        self, cursor: Cursor, line: int, column: int, outline: Outline | None, data: Any
+        self, cursor: Cursor, text: str, line: int, column: int, outline: Outline | None, data: Any
     ) -> None:
         self.cursor = cursor
         self.path = cursor.path
@@ -94,12 +96,18 @@ class _Here:
         self.outline = outline
         self.data = data
         self.components = components_of(outline)
+        lines = text.split("\n")
+        rest = lines[line][column:] if line < len(lines) else ""
+        #: The rest of the word the cursor is in: an item replaces it too (`kind: |onnx`).
+        self.word_after = len(rest) - len(rest.lstrip(_WORD_CHARACTERS)) if rest else 0
+        self.dot_after = rest[self.word_after : self.word_after + 1] == "."
 
     def edit_range(self, typed: str) -> types.Range:
-        """The range of the last ``typed`` characters before the cursor (what is replaced)."""
+        """What an item replaces: the ``typed`` characters before the cursor and the rest of
+        the word after it."""
         return types.Range(
             types.Position(line=self.line, character=max(0, self.column - len(typed))),
-            types.Position(line=self.line, character=self.column),
+            types.Position(line=self.line, character=self.column + self.word_after),
         )
 
     def item(
@@ -231,7 +239,7 @@ def _component_names(here: _Here, typed: str, suffix: str = "") -> list[types.Co
                 typed,
                 _K.Module,
                 f"{component.kind or '?'} {model}".strip(),
-                insert=name + suffix if suffix else name,
+                insert=name + suffix if suffix and not here.dot_after else name,
             )
         )
     return items

@@ -136,6 +136,32 @@ def test_completion_of_parameters_and_component_names(server: Session, workspace
     line, column = _position(text, "  - tracker.v -> world.cmd_v", "tracker")
     names = {i.label for i in server.completion(uri, line, column)}
     assert names == {"world", "odometry", "detector", "tracker"}
+    # ROS 2: the members of the message type the entry names, at the field path typed so far
+    line, column = _position(text, "tracker.w: {topic: /cmd_vel", "angular.", len("angular."))
+    fields = {i.label: i.detail for i in server.completion(uri, line, column)}
+    assert fields == {"x": "scalar float64", "y": "scalar float64", "z": "scalar float64"}
+
+
+def test_completion_of_a_kind_and_the_keys_it_takes(server: Session, workspace: Path) -> None:
+    text = reference_text().replace(
+        "    period: 0.01\n    description: Planar", "    \n    description: Planar", 1
+    )
+    uri = server.open(_write(workspace, "complete_kind.yaml", text))
+    line = next(n for n, row in enumerate(text.split("\n")) if row == "    ")
+    keys = {i.label: i for i in server.completion(uri, line, 4)}
+    # an FMU entry's keys the file does not give yet, with what each means
+    assert {"period", "interface", "solver", "tolerance", "external"} <= set(keys)
+    assert not {"kind", "path", "cameras", "providers"} & set(keys)
+    documentation = keys["interface"].documentation
+    assert isinstance(documentation, types.MarkupContent)
+    assert "co-simulation" in documentation.value
+    line, column = _position(text, "    kind: onnx", "onnx")
+    items = {i.label: i for i in server.completion(uri, line, column)}
+    assert set(items) == {"fmu", "onnx", "mujoco", "signal"}
+    assert items["mujoco"].detail == "MuJoCo physics scene (sensors, actuators, cameras)"
+    edit = items["fmu"].text_edit  # the kind the cursor is in is replaced, not pushed aside
+    assert isinstance(edit, types.TextEdit)
+    assert (edit.range.start.character, edit.range.end.character) == (column, column + len("onnx"))
 
 
 def test_hover_on_odometry_theta_shows_its_unit(server: Session, workspace: Path) -> None:
