@@ -42,11 +42,13 @@ from fmionnx.core.sourcetext import source_lines
 from fmionnx.lsp.actions import actions
 from fmionnx.lsp.analysis import Analysis, DocumentKind, analyse, document_kind
 from fmionnx.lsp.completion import complete
+from fmionnx.lsp.declarations import Place
 from fmionnx.lsp.definition import definition
 from fmionnx.lsp.diagnostics import Published, convert, uri_of
 from fmionnx.lsp.hover import hover
 from fmionnx.lsp.outline import Outline
 from fmionnx.lsp.rename import RenameError, component_at, rename
+from fmionnx.lsp.ssd import complete_ssd, definition_ssd, hover_ssd
 
 #: Seconds a change waits for the next one before the file is checked.
 SETTLE_SECONDS = 0.15
@@ -377,9 +379,11 @@ def make_server() -> FmionnxServer:
         await server.settled(uri)
         doc = document(uri)
         line, column = at(doc, params.position)
-        items = await server.on_checker(
-            complete, doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri)
-        )
+        kind, outline = kind_of(uri, doc), server.outlines.get(uri)
+        if kind is DocumentKind.SSP:
+            items = await server.on_checker(complete_ssd, doc.source, line, column, outline)
+        else:
+            items = await server.on_checker(complete, doc.source, line, column, kind, outline)
         for item in items:
             if isinstance(item.text_edit, types.TextEdit):
                 item.text_edit = types.TextEdit(
@@ -399,9 +403,12 @@ def make_server() -> FmionnxServer:
             for item in server.published.get(uri, [])
             if item.lsp.code is not None and _contains(item.lsp.range, line, column)
         ]
-        found = await server.on_checker(
-            hover, doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri), codes
-        )
+        kind, outline = kind_of(uri, doc), server.outlines.get(uri)
+        found = await server.on_checker(hover, doc.source, line, column, kind, outline, codes)
+        if kind is DocumentKind.SSP:
+            about = await server.on_checker(hover_ssd, doc.source, line, column, outline)
+            if about is not None:
+                found = _with_text(found, about[0], about[1])
         if found is not None and found.range is not None:
             found.range = to_client(doc, found.range)
         return found
@@ -413,9 +420,11 @@ def make_server() -> FmionnxServer:
         await server.settled(uri)
         doc = document(uri)
         line, column = at(doc, params.position)
-        found = await server.on_checker(
-            definition, doc.source, line, column, kind_of(uri, doc), server.outlines.get(uri)
-        )
+        kind, outline = kind_of(uri, doc), server.outlines.get(uri)
+        if kind is DocumentKind.SSP:
+            place = await server.on_checker(definition_ssd, doc.source, line, column, outline)
+            return [_location(place)] if place is not None else None
+        found = await server.on_checker(definition, doc.source, line, column, kind, outline)
         return found or None
 
     @server.feature(
@@ -479,6 +488,21 @@ def make_server() -> FmionnxServer:
         return edit
 
     return server
+
+
+def _with_text(hover_found: types.Hover | None, text: str, span: types.Range) -> types.Hover:
+    """``text`` first, then what ``hover_found`` says (a diagnostic's code)."""
+    parts = [text]
+    if hover_found is not None and isinstance(hover_found.contents, types.MarkupContent):
+        parts.append(hover_found.contents.value)
+    return types.Hover(
+        types.MarkupContent(types.MarkupKind.Markdown, "\n\n---\n\n".join(parts)), span
+    )
+
+
+def _location(place: Place) -> types.Location:
+    position = types.Position(line=max(place.line - 1, 0), character=0)
+    return types.Location(uri_of(place.file), types.Range(position, position))
 
 
 def _contains(span: types.Range, line: int, column: int) -> bool:

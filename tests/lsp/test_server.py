@@ -442,3 +442,67 @@ def test_a_model_rebuilt_on_disk_is_read_again_when_the_editor_says_so(
     shutil.copy(fixture_fmu("Integrator"), model)  # rebuilt: another model, no `v`
     server.files_changed(model)
     assert "E021" in [d.code for d in server.wait_diagnostics(uri)]
+
+
+SSD = """\
+<?xml version="1.0" encoding="UTF-8"?>
+<ssd:SystemStructureDescription
+    xmlns:ssc="http://ssp-standard.org/SSP1/SystemStructureCommon"
+    xmlns:ssd="http://ssp-standard.org/SSP1/SystemStructureDescription"
+    name="pair" version="1.0">
+  <ssd:System name="root">
+    <ssd:Elements>
+      <ssd:Component name="integ" type="application/x-fmu-sharedlibrary" source="Integrator.fmu">
+        <ssd:Connectors>
+          <ssd:Connector name="x" kind="output"><ssc:Real/></ssd:Connector>
+        </ssd:Connectors>
+      </ssd:Component>
+      <ssd:Component name="gain" type="application/x-fmu-sharedlibrary" source="Gain.fmu">
+        <ssd:Connectors>
+          <ssd:Connector name="u" kind="input"><ssc:Real unit="m"/></ssd:Connector>
+        </ssd:Connectors>
+      </ssd:Component>
+    </ssd:Elements>
+    <ssd:Connections>
+      <ssd:Connection startElement="integ" startConnector="x" endElement="gain" endConnector="u"/>
+    </ssd:Connections>
+  </ssd:System>
+</ssd:SystemStructureDescription>
+"""
+
+
+def test_an_ssd_completes_hovers_and_goes_to_its_models(
+    server: Session, workspace: Path, fixture_fmu
+) -> None:
+    folder = workspace / "pair"
+    folder.mkdir()
+    for name in ("Integrator", "Gain"):
+        shutil.copy(fixture_fmu(name), folder / f"{name}.fmu")
+    path = folder / "pair.ssd"
+    path.write_text(SSD, encoding="utf-8")
+    uri = server.open(path)
+    assert "E021" not in [d.code for d in server.wait_diagnostics(uri)]
+    line, column = _position(SSD, "endConnector=", 'endConnector="', len('endConnector="'))
+    inputs = {i.label: i.detail for i in server.completion(uri, line, column)}
+    assert inputs["u"] == "input float64 m"
+    assert "y" not in inputs  # an output does not end a connection
+    line, column = _position(SSD, "startConnector=", 'startConnector="', len('startConnector="'))
+    assert {i.label for i in server.completion(uri, line, column)} == {"x"}
+    found = server.hover(uri, line, column)
+    assert found is not None
+    assert isinstance(found.contents, types.MarkupContent)
+    assert found.contents.value.startswith("**integ.x** — output `float64` scalar")
+    [location] = server.definition(uri, line, column)
+    assert location.uri.endswith("Integrator.fmu/modelDescription.xml")
+    xml = Path(location.uri.removeprefix("file://")).read_text(encoding="utf-8").splitlines()
+    assert 'name="x"' in xml[location.range.start.line]
+    # a misspelt connector: the compiler's diagnostic, as validate gives it
+    typo = SSD.replace('endConnector="u"', 'endConnector="uu"')
+    server.change(uri, typo)
+    [diagnostic] = [d for d in server.wait_diagnostics(uri) if d.code == "E021"]
+    assert diagnostic.range.start.line == _position(typo, 'endConnector="uu"', "<")[0]
+    [action] = server.code_actions(uri, diagnostic.range, [diagnostic])
+    assert action.title == "Replace `uu` with `u`"
+    assert action.edit is not None
+    assert action.edit.changes is not None
+    assert apply(typo, action.edit.changes[uri]) == SSD
