@@ -28,6 +28,7 @@ from fmionnx.lsp.hover import hover
 from fmionnx.lsp.outline import Outline, outline_yaml
 from fmionnx.lsp.positions import span_range
 from fmionnx.lsp.rename import RenameError, component_at, rename
+from fmionnx.lsp.ssd import complete_ssd, definition_ssd, hover_ssd
 from fmionnx.lsp.yamlcontext import cursor_at
 from tests.conftest import REPO
 from tests.fuzz.harness import fuzz_settings
@@ -98,3 +99,21 @@ def test_ranges_and_fixes_of_any_diagnostic_never_fail(
         types.Position(line=0, character=0), types.Position(line=10**6, character=0)
     )
     assert isinstance(actions("file:///x.yaml", REFERENCE, text, published, everything), list)
+
+
+SSD_TEXT = (REPO / "examples" / "ssp-roundtrip" / "vendor" / "SystemStructure.ssd").read_text(
+    encoding="utf-8"
+)
+
+
+@fuzz_settings(40)
+@given(data=st.data())
+def test_ssd_features_answer_any_text_at_any_position(data: st.DataObject) -> None:
+    text = mutate_text(data.draw, SSD_TEXT)
+    lines = text.split("\n")
+    line = data.draw(st.integers(0, len(lines) - 1))
+    column = data.draw(st.integers(0, len(lines[line]) + 2))
+    outline = reference_outline()
+    assert isinstance(complete_ssd(text, line, column, outline), list)
+    hover_ssd(text, line, column, outline)
+    definition_ssd(text, line, column, outline)
