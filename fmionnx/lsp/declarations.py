@@ -65,9 +65,8 @@ def _write_read_only(path: Path, data: bytes) -> Path:
             touch(path.parent)
             return path
     path.parent.mkdir(parents=True, exist_ok=True)
-    if path.exists():
-        with contextlib.suppress(OSError):
-            path.chmod(stat.S_IRUSR | stat.S_IWUSR)
+    # A new file renamed over the name: an old copy (read-only) or a link planted there is
+    # replaced, never written through; the mode is set on the file just written.
     write_bytes_atomic(path, data)
     with contextlib.suppress(OSError):
         path.chmod(stat.S_IRUSR | stat.S_IRGRP | stat.S_IROTH)
