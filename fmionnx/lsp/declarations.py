@@ -86,7 +86,7 @@ def model_description_file(interface: ComponentInterface) -> Path | None:
         candidate = fmu / MODEL_DESCRIPTION
         return candidate if candidate.is_file() else None
     known = _COPIES.get((str(fmu), interface.content_hash))
-    if known is not None and known[0].is_file():
+    if known is not None and known[0].is_file() and not known[0].is_symlink():
         return known[0]
     copy = _copy_description(interface)
     if copy is not None and interface.content_hash:
