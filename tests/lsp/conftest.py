@@ -12,6 +12,13 @@ from tests.conftest import BUILT_MODELS, REPO
 from tests.lsp.client import Session
 
 
+@pytest.fixture(autouse=True)
+def _own_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
+    """In-process tests write the editor copies (``lsp-models/``) into a cache of their own,
+    never the user's."""
+    monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path_factory.mktemp("lsp-own-cache")))
+
+
 @pytest.fixture(scope="session")
 def workspace(tmp_path_factory: pytest.TempPathFactory) -> Path:
     """A folder with ``systems/`` (where tests write their files) and links to the built
