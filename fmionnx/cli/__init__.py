@@ -12,6 +12,7 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands (invo
     invoked,
     lean_help,
     lock_cmd,
+    lsp_cmd,
     node_cmd,
     ros2_cmd,
     run_cmd,

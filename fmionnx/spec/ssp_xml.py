@@ -19,6 +19,7 @@ from lxml import etree
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.resources import SSP_XML_BYTES
+from fmionnx.core.sourcetext import edited_text
 
 SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
 SSC_NS = "http://ssp-standard.org/SSP1/SystemStructureCommon"
@@ -61,9 +62,15 @@ def _parser() -> Any:
 
 
 def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
-    """Parse an SSP XML file safely; None (and E010/E001 diagnostics) on failure."""
+    """Parse an SSP XML file safely; None (and E010/E001 diagnostics) on failure.
+
+    A file being edited (:func:`fmionnx.core.sourcetext.editing`) is parsed from the editor's
+    text.
+    """
+    edited = edited_text(path)
+    data = None if edited is None else edited.encode("utf-8", "surrogatepass")
     try:
-        size = path.stat().st_size
+        size = path.stat().st_size if data is None else len(data)
     except OSError:
         bag.emit("E010", f"`{path.name}` does not exist", Span(path))
         return None
@@ -83,6 +90,8 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
         )
         return None
     try:
+        if data is not None:
+            return etree.ElementTree(etree.fromstring(data, _parser(), base_url=str(path)))
         return etree.parse(str(path), _parser())
     except etree.XMLSyntaxError as exc:
         line, col = exc.position if exc.position else (1, 0)

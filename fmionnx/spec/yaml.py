@@ -17,6 +17,7 @@ from typing import TYPE_CHECKING, Any
 from pydantic import ValidationError
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
+from fmionnx.core.sourcetext import edited_text
 from fmionnx.spec.limits import MAX_DOCUMENT_BYTES, check_limits, check_size
 from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.pydantic_errors import report_validation_error
@@ -56,8 +57,16 @@ class _StructureError(Exception):
 
 
 def read_text(path: Path, bag: DiagnosticBag) -> str | None:
-    """Read a UTF-8 text file, reporting missing files, directories and bad encodings."""
+    """Read a UTF-8 text file, reporting missing files, directories and bad encodings.
+
+    A file being edited (:func:`fmionnx.core.sourcetext.editing`) reads as the editor's text,
+    within the same size limit.
+    """
     span = Span(path)
+    edited = edited_text(path)
+    if edited is not None:
+        size = len(edited.encode("utf-8", "surrogatepass"))
+        return edited if check_size(size, path, bag) else None
     if not path.exists():
         bag.emit("E010", f"system file `{path}` does not exist", span)
         return None

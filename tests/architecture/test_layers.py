@@ -32,6 +32,7 @@ LAYER_OF = {
     "cli": "surface",
     "export": "surface",
     "lock": "surface",
+    "lsp": "surface",
     "reporters": "surface",
     "__init__": "surface",
     "__main__": "surface",

@@ -10,6 +10,7 @@ from __future__ import annotations
 
 import json
 import re
+import threading
 from pathlib import Path
 from typing import Any
 
@@ -97,7 +98,14 @@ def _resolved(options: InProcessOptions, system: Any, *, record: bool) -> InProc
     return chosen
 
 
-def test_the_default_is_chosen_from_the_compiled_system() -> None:
+@pytest.fixture
+def only_main_thread(monkeypatch: pytest.MonkeyPatch) -> None:
+    """This process as the CLI's is when it chooses: no other thread (tests run beside
+    threads that earlier tests' libraries left)."""
+    monkeypatch.setattr(threading, "enumerate", lambda: [threading.main_thread()])
+
+
+def test_the_default_is_chosen_from_the_compiled_system(only_main_thread: None) -> None:
     lone = fmionnx.load(build_fixture_fmu("Integrator")).compiled
     chosen = _resolved(InProcessOptions(), lone, record=False)
     assert (chosen.isolate, chosen.isolate_default, chosen.guarded) == (("guardian",), True, True)
@@ -108,20 +116,21 @@ def test_the_default_is_chosen_from_the_compiled_system() -> None:
     assert InProcessOptions().words == ("fmus",)  # before the system is known
 
 
-def test_the_guardian_is_not_the_default_where_a_fork_is_not_safe() -> None:
+def test_the_guardian_is_not_the_default_where_a_fork_is_not_safe(
+    monkeypatch: pytest.MonkeyPatch,
+) -> None:
     """Another Python thread could hold a lock at the fork (a notebook's): FMUs get a
-    process each instead, which isolates as well without forking the caller."""
-    import threading
+    process each instead, which isolates as well without forking the caller. fmionnx's own
+    watch thread does not count: a forked child makes its own."""
+    from fmionnx.runtime import watchdog
 
     lone = fmionnx.load(build_fixture_fmu("Integrator")).compiled
-    release = threading.Event()
-    other = threading.Thread(target=release.wait)
-    other.start()
-    try:
-        assert _resolved(InProcessOptions(), lone, record=False).isolate == ("fmus",)
-    finally:
-        release.set()
-        other.join()
+    other = threading.Thread(target=lambda: None)
+    watch = threading.Thread(target=lambda: None)
+    monkeypatch.setattr(watchdog, "watch_thread", lambda: watch)
+    monkeypatch.setattr(threading, "enumerate", lambda: [threading.main_thread(), other])
+    assert _resolved(InProcessOptions(), lone, record=False).isolate == ("fmus",)
+    monkeypatch.setattr(threading, "enumerate", lambda: [threading.main_thread(), watch])
     assert _resolved(InProcessOptions(), lone, record=False).isolate == ("guardian",)
 
 
