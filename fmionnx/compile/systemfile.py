@@ -236,6 +236,8 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
     except RecursionError:  # e.g. a check expression nested far beyond what the compiler makes
         msg = f"{origin}: not a compiled-system file (nested too deeply)"
         raise CompiledFileError(msg) from None
+    except CompiledFileError as exc:  # says where in the document; the file is said here
+        raise CompiledFileError(f"{origin}: {exc}") from None
     assert isinstance(system, CompiledSystem)
     if system.content_hash != document.get("content_hash"):
         msg = f"{origin}: damaged: the system does not match its content hash"

@@ -139,3 +139,38 @@ def test_a_compiled_file_declaring_a_huge_port_is_refused(system: Path) -> None:
     with pytest.raises(CompiledFileError, match=f"port `{port['name']}` of shape") as info:
         from_json(json.dumps(document))
     assert "FMIONNX_MAX_ARRAY_ELEMENTS" in str(info.value)
+
+
+def _damaged(system: Path, tmp_path: Path, damage: str) -> Path:
+    """The compiled system of ``system``, written and then damaged as ``damage`` says."""
+    path = tmp_path / "small.fmionnx.json"
+    write_compiled(_compiled(system), path)
+    document = json.loads(path.read_text(encoding="utf-8"))
+    if damage == "hash":
+        document["content_hash"] = "0" * 64
+    elif damage == "nan-step":
+        document["system"]["run"]["step"] = float("nan")
+    elif damage == "huge-port":
+        document["system"]["components"][1]["interface"]["ports"][0]["shape"] = [10**6, 10**6]
+    elif damage == "not-an-object":
+        document["system"] = None
+    path.write_text(json.dumps(document), encoding="utf-8")
+    return path
+
+
+@pytest.mark.parametrize("damage", ["hash", "nan-step", "huge-port", "not-an-object"])
+@pytest.mark.parametrize("command", [["run", "--no-out"], ["node", "COMPONENT"]])
+def test_run_and_node_refuse_a_damaged_compiled_system_in_one_line(
+    system: Path, tmp_path: Path, damage: str, command: list[str]
+) -> None:
+    """``run`` reports a refused compiled-system file as ``node`` does: exit 1, one line
+    naming the file, no traceback (issue #38: ``run`` raised CompiledFileError)."""
+    path = _damaged(system, tmp_path, damage)
+    args = [command[0], str(path), *(["gain"] if command[0] == "node" else command[1:])]
+    result = CliRunner().invoke(app, args)
+    assert result.exit_code == 1, result.output
+    assert result.exception is None or isinstance(result.exception, SystemExit)
+    lines = result.output.strip().splitlines()
+    assert len(lines) == 1, result.output
+    assert lines[0].startswith("error: ")
+    assert str(path) in " ".join(result.output.split())
