@@ -424,6 +424,10 @@ class Supervisor:
             participant.close()
             if self.router is not None:
                 self.router.close()
+            if self.options.middleware == "zenoh":  # what killed nodes left in /dev/shm
+                from fmionnx.backends.ros2.zenoh.shm import remove_orphaned_segments
+
+                remove_orphaned_segments()
         return self._result(status, error, wall)
 
     def _open_transport(self, env: DdsEnvironment) -> NodeTransport:
@@ -433,8 +437,10 @@ class Supervisor:
             return Participant(env)
         from fmionnx.backends.ros2.zenoh.config import zenoh_environment
         from fmionnx.backends.ros2.zenoh.router import choose_router
+        from fmionnx.backends.ros2.zenoh.shm import remove_orphaned_segments
         from fmionnx.backends.ros2.zenoh.transport import ZenohTransport
 
+        remove_orphaned_segments()  # what an earlier run, killed as a whole, left behind
         zenv = zenoh_environment(env.distro)
         self.router = choose_router(self.options.zenoh_router, zenv)
         try:
