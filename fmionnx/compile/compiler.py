@@ -74,9 +74,12 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     _check_unconnected(components, mentioned, spec, sources, bag)
     usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
     loops = compile_loops(components, usable, spec.run.algebraic_loops, loaded.path, sources, bag)
-    record = _refs(spec.record or [], "record", by_name, sources, bag)
-    plots = compile_plots(spec, by_name, sources, bag)
-    checks = compile_checks(spec.checks, by_name, sources, bag)
+    # Declared components whose model could not be read (E010-E019 said why): what names
+    # them below is skipped without a word, never called an unknown component.
+    unreadable = frozenset(name for name, interface in interfaces.items() if interface is None)
+    record = _refs(spec.record or [], "record", by_name, unreadable, sources, bag)
+    plots = compile_plots(spec, by_name, sources, bag, unreadable=unreadable)
+    checks = compile_checks(spec.checks, by_name, sources, bag, unreadable=unreadable)
     if run is None or bag.has_errors:
         return None
     ros2 = None
@@ -339,11 +342,13 @@ def _refs(
     texts: list[str],
     section: str,
     components: dict[str, Component],
+    unreadable: frozenset[str],
     sources: SourceMap,
     bag: DiagnosticBag,
 ) -> list[PortRef]:
     interfaces: dict[str, ComponentInterface | None] = {
-        n: c.interface for n, c in components.items()
+        **dict.fromkeys(unreadable),
+        **{n: c.interface for n, c in components.items()},
     }
     refs = []
     for index, text in enumerate(texts):

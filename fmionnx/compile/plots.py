@@ -40,11 +40,21 @@ MAX_LINES = 64
 
 
 def compile_plots(
-    spec: SystemSpec, components: Mapping[str, Component], sources: SourceMap, bag: DiagnosticBag
+    spec: SystemSpec,
+    components: Mapping[str, Component],
+    sources: SourceMap,
+    bag: DiagnosticBag,
+    *,
+    unreadable: frozenset[str] = frozenset(),
 ) -> tuple[Plot, ...]:
-    """Check and resolve every plot entry, in order; problems go to ``bag``."""
+    """Check and resolve every plot entry, in order; problems go to ``bag``.
+
+    ``unreadable``: declared components whose model could not be read (reported already);
+    a signal or ``over`` naming one is left out without a further diagnostic.
+    """
     interfaces: dict[str, ComponentInterface | None] = {
-        n: c.interface for n, c in components.items()
+        **dict.fromkeys(unreadable),
+        **{n: c.interface for n, c in components.items()},
     }
     taken = {with_suffix(p.file) for p in spec.plots if p.file is not None}
     given: set[str] = set()
@@ -66,7 +76,7 @@ def compile_plots(
                 refs.append(resolved.ref)
                 columns = column_names(resolved.ref.component, resolved.port, resolved.ref.index)
                 series.append(Series(text, tuple(columns), resolved.port.unit))
-        path, scene = _over(plot, index, components, sources, bag)
+        path, scene = _over(plot, index, components, unreadable, sources, bag)
         plots.append(
             Plot(
                 xy=(texts[0], texts[1]) if plot.xy is not None else None,
@@ -123,15 +133,18 @@ def _over(
     plot: PlotSpec,
     index: int,
     components: Mapping[str, Component],
+    unreadable: frozenset[str],
     sources: SourceMap,
     bag: DiagnosticBag,
 ) -> tuple[tuple[tuple[float, float], ...], SceneMap | None]:
     """The expected path's points and the map ``over`` names (empty and None when it names
-    nothing usable, with a diagnostic)."""
+    nothing usable, with a diagnostic unless its component's model could not be read)."""
     if plot.over is None:
         return (), None
     span = sources.value(("plots", index, "over"))
     owner, _, what = plot.over.strip().rpartition(".")
+    if owner in unreadable:
+        return (), None
     choices = f"`<component>.{EXPECTED_PATH}` or `<component>.{MAP_REFERENCE}`"
     if plot.xy is None:
         bag.emit(
