@@ -67,8 +67,13 @@ QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print only err
 
 
 def fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
-    """Print ``error: message`` on stderr and return the Exit to raise (usage error by default)."""
-    from rich.console import Console
+    """Print ``error: message`` on stderr and return the Exit to raise (usage error by default).
 
-    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
+    ``message`` is plain text, printed as written: square brackets in it (``'.[rclpy]'``,
+    ``power[0]``, a file name) are not rich markup and must not be eaten as such.
+    """
+    from rich.console import Console
+    from rich.markup import escape
+
+    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {escape(message)}")
     return typer.Exit(code)
