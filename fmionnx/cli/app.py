@@ -7,8 +7,11 @@ from typing import Annotated
 
 import typer
 
+from fmionnx.cli.helptext import PlainFlagsGroup
+
 app = typer.Typer(
     name="fmionnx",
+    cls=PlainFlagsGroup,
     help="Compile, check and run systems of FMUs, ONNX models and MuJoCo scenes.",
     no_args_is_help=True,
     add_completion=False,
@@ -70,10 +73,13 @@ def fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
     """Print ``error: message`` on stderr and return the Exit to raise (usage error by default).
 
     ``message`` is plain text, printed as written: square brackets in it (``'.[rclpy]'``,
-    ``power[0]``, a file name) are not rich markup and must not be eaten as such.
+    ``power[0]``, a file name) are not rich markup and must not be eaten as such. It is one
+    line that rich never breaks (the terminal wraps it), so a command or a path in it can be
+    copied whole.
     """
-    from rich.console import Console
     from rich.markup import escape
 
-    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {escape(message)}")
+    from fmionnx.cli.console import make_console
+
+    make_console(stderr=True, soft_wrap=True).print(f"[bold red]error:[/] {escape(message)}")
     return typer.Exit(code)
