@@ -189,8 +189,8 @@ def _connections(
             )
             continue
         left, left_span, right, right_span, transformation = texts
-        src = resolve_endpoint(left, left_span, interfaces, bag)
-        dst = resolve_endpoint(right, right_span, interfaces, bag)
+        src = resolve_endpoint(left, left_span, interfaces, bag, role=Causality.OUTPUT)
+        dst = resolve_endpoint(right, right_span, interfaces, bag, role=Causality.INPUT)
         for end in (src, dst):
             if end is not None:
                 mentioned.add((end.ref.component, end.ref.port))
@@ -216,8 +216,11 @@ def _check_connection(
     if src.ref.component == dst.ref.component and src.ref.port == dst.ref.port:
         bag.emit("E036", f"`{src.ref}` is connected to itself", span)
         return None
-    ok = check_causality(src, dst, span, bag)
-    ok = check_dtype(src, dst, span, bag) and ok
+    if not check_causality(src, dst, span, bag):
+        # A connection between the wrong ports is one mistake: its types and units would
+        # only be compared for a connection that cannot exist.
+        return None
+    ok = check_dtype(src, dst, span, bag)
     size = check_count(src, dst, span, bag)
     # A connection that is wrong anyway gets its unit errors, but no notes about conversions.
     found = DiagnosticBag()

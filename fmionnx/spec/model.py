@@ -42,6 +42,21 @@ else:
 ARROW = "->"
 #: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``).
 DOTTED_NAME = re.compile(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*")
+#: The name of a system (the JSON Schema carries it as a pattern).
+SYSTEM_NAME_PATTERN = r"^[A-Za-z_][\w-]*$"
+#: What each pattern of the schema means, for an error message (pydantic would show the
+#: regular expression).
+PATTERN_MEANINGS = {
+    SYSTEM_NAME_PATTERN: "a name: a letter or `_`, then letters, digits, `_` or `-` (no spaces)"
+}
+
+
+class InvalidKeyError(ValueError):
+    """A mapping's key is not a valid name; ``key`` lets the error point at that key."""
+
+    def __init__(self, message: str, key: str) -> None:
+        super().__init__(message)
+        self.key = key
 
 
 class ConnectionSpec(StrictModel):
@@ -187,7 +202,7 @@ class SystemSpec(StrictModel):
     """A whole system file."""
 
     fmionnx: int = Field(description="Format version of this file; this release reads 1.")
-    name: str = Field(pattern=r"^[A-Za-z_][\w-]*$", description="Name of the system.")
+    name: str = Field(pattern=SYSTEM_NAME_PATTERN, description="Name of the system.")
     description: str = ""
     run: RunSpec = Field(default_factory=RunSpec)
     components: dict[str, ComponentSpec] = Field(
@@ -229,7 +244,7 @@ class SystemSpec(StrictModel):
                     f"system input name `{name}` must start with a letter or `_` and contain "
                     "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
                 )
-                raise ValueError(msg)
+                raise InvalidKeyError(msg, name)
         return value
 
     @field_validator("components")
@@ -241,7 +256,7 @@ class SystemSpec(StrictModel):
                     f"component name `{name}` must start with a letter or `_` and contain "
                     "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
                 )
-                raise ValueError(msg)
+                raise InvalidKeyError(msg, name)
         return value
 
 
