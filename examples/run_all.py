@@ -241,7 +241,7 @@ def _external_results(out: Path) -> list[str]:
         problems.append(
             f"the robot drove to x = {table['odometry.posX'][-1]:.2f} m, not past 2.5 m"
         )
-    if max(table["detector.blobSize[2]"]) < 100:
+    if max(table["detector.blobSize[0,2]"]) < 100:
         problems.append("the detector never saw the blue board in the outside camera images")
     if max(table["tracker.w"]) < 0.5:
         problems.append("the tracker never turned left at the blue board")

@@ -43,13 +43,13 @@ from fmionnx.compile.expected_path import (
 from fmionnx.compile.scalarpos import position_in_value
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
+from fmionnx.core.signals import column_names
 from fmionnx.core.types import (
     Causality,
     Component,
     ComponentInterface,
     DType,
     PortRef,
-    flat_index,
 )
 from fmionnx.kinds.base import SITES, Site, SiteSource
 from fmionnx.kinds.registry import COMPONENT_KINDS
@@ -330,9 +330,8 @@ class _Resolver:
             )
         if ref.index is not None and len(port.shape) >= 2 and port.dtype is DType.UINT8:
             raise _CheckError("E091", f"{where} is an image: images are not recorded", start)
-        column = str(ref)
-        if ref.index is not None:  # results.csv numbers the elements of an array flat
-            column = f"{ref.component}.{port.name}[{flat_index(port, ref.index)}]"
+        # the column results.csv gives the element (``power[0]`` and ``power[0,0]`` are one)
+        column = str(ref) if ref.index is None else column_names(ref.component, port, ref.index)[0]
         return ir.Signal(column, ref)
 
     def _reference_used_as_signal(self, text: str, start: int) -> None:

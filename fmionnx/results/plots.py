@@ -174,7 +174,7 @@ def draw_panel(axes: Any, result: RunResult, members: list[Series], unit: str | 
 
 
 def _element_label(item: Series, column: str) -> str:
-    """``detector.blobX[2] [px]``: one element's line of an array signal."""
+    """``detector.blobX[0,2] [px]``: one element's line of an array signal."""
     element = column[column.rfind("[") :] if column.endswith("]") else ""
     return f"{item.signal}{element} [{item.unit}]" if item.unit else f"{item.signal}{element}"
 

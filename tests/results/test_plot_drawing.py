@@ -123,15 +123,15 @@ def test_written_plot_files_are_named_from_their_titles(
 
 def test_the_signals_figure_has_a_panel_per_port_with_its_unit(reference: CompiledSystem) -> None:
     result = _driven(reference)
-    result.signals["detector.blobX[0]"] = np.zeros(len(result.time))
-    result.signals["detector.blobX[1]"] = np.ones(len(result.time))
+    result.signals["detector.blobX[0,0]"] = np.zeros(len(result.time))
+    result.signals["detector.blobX[0,1]"] = np.ones(len(result.time))
     series = signal_series(result, reference)
     assert [(s.signal, s.columns, s.unit) for s in series] == [
         ("odometry.posX", ("odometry.posX",), "m"),
         ("odometry.posY", ("odometry.posY",), "m"),
         ("tracker.v", ("tracker.v",), "m/s"),
         ("tracker.w", ("tracker.w",), "rad/s"),
-        ("detector.blobX", ("detector.blobX[0]", "detector.blobX[1]"), None),
+        ("detector.blobX", ("detector.blobX[0,0]", "detector.blobX[0,1]"), None),
     ]
     figure = draw_signals(series, result, title="t")
     assert [a.get_ylabel() for a in figure.axes] == [
@@ -142,8 +142,8 @@ def test_the_signals_figure_has_a_panel_per_port_with_its_unit(reference: Compil
         "detector.blobX",
     ]
     assert [line.get_label() for line in figure.axes[-1].lines] == [
-        "detector.blobX[0]",
-        "detector.blobX[1]",
+        "detector.blobX[0,0]",
+        "detector.blobX[0,1]",
     ]
 
 
@@ -198,9 +198,9 @@ def test_a_one_element_onnx_port_is_plotted_as_one_signal_of_a_real_run(tmp_path
     assert axes.get_ylabel() == "net.y, net.z"
     assert [line.get_label() for line in axes.lines] == [
         "net.y",
-        "net.z[0]",
-        "net.z[1]",
-        "net.z[2]",
+        "net.z[0,0]",
+        "net.z[0,1]",
+        "net.z[0,2]",
     ]
     np.testing.assert_array_equal(axes.lines[0].get_ydata(), [3, 3, 3, 3])
     np.testing.assert_array_equal(axes.lines[3].get_ydata(), [1.5, 1.5, 1.5, 1.5])
