@@ -38,6 +38,11 @@ SITES = "sites"
 #: shapes in their colours), which trajectory plots draw underneath: the kind implements
 #: :class:`MapSource`.
 MAP = "map"
+#: The model has no state: its outputs at the start time are computed from its connected
+#: inputs at the start time (its runner implements
+#: :class:`fmionnx.core.runner.StartEvaluating`), so a backend hands it those inputs at
+#: initialization, and a lazy output it reads (a camera) is made at the start time too.
+EVALUATED_AT_START = "evaluated-at-start"
 
 
 @dataclass(frozen=True, slots=True)

@@ -61,6 +61,7 @@ from fmionnx.backends.ros2.middleware import (
 )
 from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
 from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
+from fmionnx.backends.ros2.startinputs import evaluate_at_start
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
@@ -584,7 +585,6 @@ class Node:
         try:
             runner.instantiate()
             runner.setup(self.system.run.start, self.system.run.stop)
-            self.recording = node_recording(self.system, runner, record_refs(self.system))
             self._open(participant, runner)
             clock_in = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
             done = participant.writer(DONE_DDS, DONE_TYPE, CONTROL_WRITER_QOS)
@@ -604,6 +604,11 @@ class Node:
                     )
                 )  # fmt: skip
             self._readers_matched()
+            evaluate_at_start(  # ONNX: outputs at the start time from the start inputs
+                runner, self.inboxes, self.transfers, self.system.run.start,
+                lockstep=opts.sync is SyncMode.LOCKSTEP, input_wait=opts.input_wait,
+            )  # fmt: skip
+            self.recording = node_recording(self.system, runner, record_refs(self.system))
             self._publish(runner, None, self.system.run.start)
             if opts.supervised:
                 ready.wait_for_readers(1, MATCH_TIMEOUT)
