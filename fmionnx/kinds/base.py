@@ -96,13 +96,15 @@ class MapShape:
 
     ``outline`` is its footprint on the ground plane, a convex polygon (counter-clockwise,
     metres); ``top`` its highest point, so that what stands higher is drawn over what it
-    hides, as seen from above.
+    hides, as seen from above. ``label``: what the landmark means, when the model says
+    (a sign board's "turn left"), for a plot's legend.
     """
 
     name: str
     outline: tuple[tuple[float, float], ...]
     rgba: Rgba
     top: float
+    label: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

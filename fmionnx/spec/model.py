@@ -105,6 +105,20 @@ class SystemInputSpec(StrictModel):
     description: str = ""
 
 
+class MarksSpec(StrictModel):
+    """Marks on a time plot where a discrete signal changes (a controller's state, a mode)."""
+
+    signal: str = Field(
+        description="A scalar signal (`tracker.state`): a line is drawn wherever its value "
+        "changes."
+    )
+    labels: dict[int, str] = Field(
+        default_factory=dict,
+        description="What each value means, written at the mark (`{2: turn left}`); other "
+        "values are shown as `signal = value`.",
+    )
+
+
 class PlotSpec(StrictModel):
     """A plot written by ``fmionnx run``: an x-y trajectory or signals over time."""
 
@@ -127,6 +141,11 @@ class PlotSpec(StrictModel):
         default=None,
         description="Output file name inside the output folder, a plain name without folders "
         "(default: derived from the title, else from the signals).",
+    )
+    marks: MarksSpec | None = Field(
+        default=None,
+        description="A time plot only: a vertical line, labelled, at each change of a discrete "
+        "signal (`{signal: tracker.state, labels: {1: approach, 2: turn left}}`).",
     )
 
     @model_validator(mode="after")

@@ -67,7 +67,9 @@ def test_robot_path_stays_within_30_cm_of_the_expected_path(run_result) -> None:
 #: inputs (issue #34): the detector's columns from 0 to 0.098 s hold what it sees in the first
 #: frame (blue board at x = 319.5 px, size 106.8) instead of its output for a black frame
 #: (-1, 0); nothing else changes (the tracker reads the detector after its first step).
-REFERENCE_RESULTS_SHA256 = "50cfc6fb1664775ac831026e1237847d74b254c1d81b7a62218d22eb74712f9f"
+#: Last change: the velocity plot marks the tracker's state changes (issue #34), so
+#: `tracker.state` is recorded: one more column, the others unchanged.
+REFERENCE_RESULTS_SHA256 = "5e7547cffcd73f6b8a58c895a5fb7d9e5c1936224ef3537e777d0c5efd881574"
 
 
 def test_reference_results_csv_is_byte_identical_to_the_recorded_hash(run_result, tmp_path) -> None:
