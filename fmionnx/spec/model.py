@@ -109,8 +109,7 @@ class MarksSpec(StrictModel):
     """Marks on a time plot where a discrete signal changes (a controller's state, a mode)."""
 
     signal: str = Field(
-        description="A scalar signal (`tracker.state`): a line is drawn wherever its value "
-        "changes."
+        description="A scalar signal (`tracker.state`): a line wherever its value changes."
     )
     labels: dict[int, str] = Field(
         default_factory=dict,
