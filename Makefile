@@ -62,8 +62,9 @@ models: $(DEMO_STAMP)
 demo: models
 	$(VENV)/bin/fmionnx run systems/sign_follower.yaml --out $(DEMO_OUT)
 
-# Every example's README commands, outputs in build/examples/ (about 70 s on
-# 2 cores); the examples need the package alone, so the demo's set-up suffices.
+# Every example's README commands, outputs in build/examples/ (about two minutes on
+# 2 cores), and the READMEs' tables and pictures compared with the run; the examples
+# need the package alone, so the demo's set-up suffices.
 examples: models
 	$(PY) examples/run_all.py
 
