@@ -106,7 +106,7 @@ def _marks(
     """The plot's ``marks`` resolved to one recorded column; None (E045/E046 when wrong)."""
     if plot.marks is None:
         return None
-    span = sources.value(("plots", index, "marks", "signal"))
+    span = sources.value(("plots", index, "marks", "of"))
     if plot.xy is not None:
         bag.emit(
             "E045",
@@ -115,7 +115,7 @@ def _marks(
             hint="move `marks` to a plot with `y: [...]`",
         )
         return None
-    text = re.sub(r"\s+", "", plot.marks.signal)
+    text = re.sub(r"\s+", "", plot.marks.of)
     scratch = DiagnosticBag()
     resolved = resolve_endpoint(text, span, interfaces, scratch)
     if resolved is None:

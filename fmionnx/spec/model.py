@@ -108,7 +108,7 @@ class SystemInputSpec(StrictModel):
 class MarksSpec(StrictModel):
     """Marks on a time plot where a discrete signal changes (a controller's state, a mode)."""
 
-    signal: str = Field(
+    of: str = Field(
         description="A scalar signal (`tracker.state`): a line wherever its value changes."
     )
     labels: dict[int, str] = Field(
@@ -144,7 +144,7 @@ class PlotSpec(StrictModel):
     marks: MarksSpec | None = Field(
         default=None,
         description="A time plot only: a vertical line, labelled, at each change of a discrete "
-        "signal (`{signal: tracker.state, labels: {1: approach, 2: turn left}}`).",
+        "signal (`{of: tracker.state, labels: {1: sign seen, 2: turn left}}`).",
     )
 
     @model_validator(mode="after")

@@ -255,19 +255,19 @@ def _marks_errors(tmp_path: Path, plot: str) -> list[str]:
     ("plot", "expected"),
     [
         (
-            "{xy: [g.y, g.u], marks: {signal: g.y}}",
+            "{xy: [g.y, g.u], marks: {of: g.y}}",
             "E045 `marks` are drawn on a plot over time; this is an xy plot",
         ),
         (
-            "{y: [g.y], marks: {signal: g.w}}",
+            "{y: [g.y], marks: {of: g.w}}",
             "E046 plot marks: follow one signal; `g.w` has 3 elements",
         ),
         (
-            "{y: [g.y], marks: {signal: g.z}}",
+            "{y: [g.y], marks: {of: g.z}}",
             "E045 plot marks: component `g` (fmu) has no port `z`",
         ),
         (
-            "{y: [g.y], marks: {signal: g.k}}",
+            "{y: [g.y], marks: {of: g.k}}",
             "E046 plot: `g.k` is a parameter: it does not change during a run and is not recorded",
         ),
     ],

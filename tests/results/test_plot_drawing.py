@@ -251,7 +251,7 @@ def test_time_marks_fall_on_round_seconds(duration: float, step: float) -> None:
 
 
 def test_the_velocity_plot_marks_the_trackers_state_changes(reference: CompiledSystem) -> None:
-    """``marks: {signal: tracker.state, labels: ...}``: a line on every panel where the state
+    """``marks: {of: tracker.state, labels: ...}``: a line on every panel where the state
     changes, its new value named on the top one (issue #34)."""
     figure = _drawn(1, reference, _driven(reference))
     for axes in figure.axes:
