@@ -606,7 +606,7 @@ class Node:
             self._readers_matched()
             evaluate_at_start(  # ONNX: outputs at the start time from the start inputs
                 runner, self.inboxes, self.transfers, self.system.run.start,
-                lockstep=opts.sync is SyncMode.LOCKSTEP, input_wait=opts.input_wait,
+                lockstep=opts.sync is SyncMode.LOCKSTEP,
             )  # fmt: skip
             self.recording = node_recording(self.system, runner, record_refs(self.system))
             self._publish(runner, None, self.system.run.start)
