@@ -7,6 +7,10 @@ PY := $(VENV)/bin/python
 # bootstrapper re-executes every Python process of the venv). `.[test]` includes the demo's
 # set, so installing it renews the demo stamp too.
 DEMO_STAMP := $(VENV)/.installed-demo
+# setuptools announces every editable install with a boxed warning about folders named like
+# the package (`fmionnx/` is the package here: nothing to act on). pip passes the variable
+# to the build backend; the filter matches that one message and no other warning.
+QUIET_EDITABLE := PYTHONWARNINGS="ignore:Editable installation"
 TEST_STAMP := $(VENV)/.installed-test
 BUILD := build
 DEMO_OUT := out/demo
@@ -41,11 +45,11 @@ $(PY): | system-deps
 	$(PY) -m pip install --quiet --upgrade pip
 
 $(DEMO_STAMP): $(INSTALL_INPUTS) | $(PY)
-	$(PY) -m pip install --quiet -e .
+	$(QUIET_EDITABLE) $(PY) -m pip install --quiet -e .
 	touch $(DEMO_STAMP)
 
 $(TEST_STAMP): $(INSTALL_INPUTS) | $(PY)
-	$(PY) -m pip install --quiet -e '.[test]'
+	$(QUIET_EDITABLE) $(PY) -m pip install --quiet -e '.[test]'
 	@# ROS 2's rosidl-parser wheel needs the old `lark-parser`, which ships the same `lark`
 	@# package as fmpy's `lark` 1.x: whichever pip unpacks last wins. Make it lark 1.x.
 	$(PY) -m pip install --quiet --no-deps --force-reinstall \
@@ -58,8 +62,9 @@ models: $(DEMO_STAMP)
 demo: models
 	$(VENV)/bin/fmionnx run systems/sign_follower.yaml --out $(DEMO_OUT)
 
-# Every example's README commands, outputs in build/examples/ (about 70 s on
-# 2 cores); the examples need the package alone, so the demo's set-up suffices.
+# Every example's README commands, outputs in build/examples/ (about two minutes on
+# 2 cores), and the READMEs' tables and pictures compared with the run; the examples
+# need the package alone, so the demo's set-up suffices.
 examples: models
 	$(PY) examples/run_all.py
 

@@ -57,8 +57,9 @@ SCRATCH_TREES = ["systems", "schemas", "models", "tests/fixtures", "examples"]
 KNOWN_MARKERS = {"not-run", "part-of", "valid-system"}
 TIMEOUT_S = 120
 # What a transcript of a failing command shows: a diagnostic summary with errors, an error
-# annotation, a run fault or failed checks. Such a command must exit non-zero, any other 0.
-FAILURE = re.compile(r"^\d+ errors?\b|\berror\[E\d{3}|^::error |^fault:|checks? failed")
+# annotation, a usage error, a run fault or failed checks. Such a command must exit non-zero,
+# any other 0.
+FAILURE = re.compile(r"^\d+ errors?\b|\berror\[E\d{3}|^::error |^error: |^fault:|checks? failed")
 
 
 @dataclass

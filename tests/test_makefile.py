@@ -7,8 +7,10 @@ the test sees which set of extras each command installs and that nothing is inst
 
 from __future__ import annotations
 
+import os
 import shutil
 import subprocess
+import sys
 from pathlib import Path
 
 import pytest
@@ -110,3 +112,38 @@ def test_examples_need_the_demo_set_only(tree: Path) -> None:
     lines = make(tree, "examples")
     assert installs(lines) == ["python -m pip install --quiet -e ."]
     assert lines[-1] == "python examples/run_all.py"
+
+
+WARNING_PROBE = """
+import warnings
+warnings.warn(
+    "Editable installation.\\n!!\\n\\n    Please be careful with folders in your working directory "
+    "with the same\\n    name as your package as they may take precedence during imports.\\n!!",
+    UserWarning,
+)
+warnings.warn("another warning", UserWarning)
+"""
+
+
+def test_installs_silence_setuptools_editable_warning_box_and_nothing_else(tree: Path) -> None:
+    """``make demo`` printed setuptools' boxed "Editable installation" warning (issue #34)."""
+    stub = tree / ".venv" / "bin" / "python"
+    log = tree / "log"
+    stub.write_text(
+        f'#!/bin/sh\necho "$(basename "$0") $* PYTHONWARNINGS=$PYTHONWARNINGS" >> "{log}"\n',
+        encoding="utf-8",
+    )
+    lines = [*installs(make(tree, "demo")), *installs(make(tree, "test"))]
+    assert len([line for line in lines if "-e " in line]) == 2
+    filters = {line.partition(" PYTHONWARNINGS=")[2] for line in lines if "-e " in line}
+    (value,) = filters
+    assert value
+    probe = subprocess.run(
+        [sys.executable, "-c", WARNING_PROBE],
+        env={**os.environ, "PYTHONWARNINGS": value},
+        capture_output=True,
+        text=True,
+        check=True,
+    )
+    assert "Editable installation" not in probe.stderr
+    assert "another warning" in probe.stderr

@@ -22,6 +22,9 @@ from fmionnx.cli import (  # noqa: F401 - importing registers the commands (invo
     validate_cmd,
 )
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.helptext import tidy
+
+tidy(app)  # every command is registered now: plain flags, help paragraphs unwrapped
 
 
 def main() -> None:

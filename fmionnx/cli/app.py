@@ -9,8 +9,11 @@ from typing import Annotated
 
 import typer
 
+from fmionnx.cli.helptext import PlainFlagsGroup
+
 app = typer.Typer(
     name="fmionnx",
+    cls=PlainFlagsGroup,
     help="Compile, check and run systems of FMUs, ONNX models and MuJoCo scenes.",
     no_args_is_help=True,
     add_completion=False,
@@ -69,10 +72,18 @@ QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print only err
 
 
 def fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
-    """Print ``error: message`` on stderr and return the Exit to raise (usage error by default)."""
-    from rich.console import Console
+    """Print ``error: message`` on stderr and return the Exit to raise (usage error by default).
 
-    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
+    ``message`` is plain text, printed as written: square brackets in it (``'.[rclpy]'``,
+    ``power[0]``, a file name) are not rich markup and must not be eaten as such. It is one
+    line that rich never breaks (the terminal wraps it), so a command or a path in it can be
+    copied whole.
+    """
+    from rich.markup import escape
+
+    from fmionnx.cli.console import make_console
+
+    make_console(stderr=True, soft_wrap=True).print(f"[bold red]error:[/] {escape(message)}")
     return typer.Exit(code)
 
 

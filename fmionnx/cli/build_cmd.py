@@ -22,23 +22,24 @@ def build_fmu_command(
     output: Annotated[Path | None, typer.Option("--output", "-o", help="FMU to write.")] = None,
 ) -> None:
     """Compile a source FMU (C sources inside) into a binary FMU for this platform."""
-    from rich.console import Console
+    from rich.markup import escape
 
+    from fmionnx.cli.console import make_console
     from fmionnx.core.errors import BuildError, ModelError
     from fmionnx.kinds.fmu.build import build_fmu
 
-    err = Console(stderr=True, highlight=False)
+    err = make_console(stderr=True, soft_wrap=True)
     if output is not None:
         check_output_file(output, "--output")
     try:
         written = build_fmu(source, output)
     except ModelError as exc:
-        err.print(f"[bold red]error[{exc.code}][/]: {exc}")
+        err.print(f"[bold red]error\\[{exc.code}][/]: {escape(str(exc))}")
         if exc.hint:
-            err.print(f"  hint: {exc.hint}")
+            err.print(f"  hint: {exc.hint}", markup=False)
         raise typer.Exit(ExitCode.PROBLEMS) from None
     except BuildError as exc:
-        err.print(f"[bold red]error[/]: {exc}")
+        err.print(f"[bold red]error[/]: {escape(str(exc))}")
         err.print(exc.log, markup=False)
         raise typer.Exit(ExitCode.PROBLEMS) from None
-    Console(highlight=False).print(f"built {written}")
+    make_console(soft_wrap=True).print(f"built {written}", markup=False)

@@ -10,36 +10,72 @@ from typing import Annotated
 
 import typer
 
-from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.app import ExitCode, app, fail
 from fmionnx.cli.outputs import check_output_file
 
 #: Text formats and the writer in fmionnx.export.graph (imported when the command runs).
 TEXT_FORMATS = {"dot": "to_dot", "mermaid": "to_mermaid", "json": "to_json_text"}
 IMAGE_FORMATS = ("svg", "png")
+#: The format an ``--output`` file's suffix stands for when ``--format`` is not given.
+FORMAT_OF_SUFFIX = {
+    ".dot": "dot",
+    ".gv": "dot",
+    ".mmd": "mermaid",
+    ".mermaid": "mermaid",
+    ".json": "json",
+    ".svg": "svg",
+    ".png": "png",
+}
 
 
-def _check_format(value: str) -> str:
-    if value not in TEXT_FORMATS and value not in IMAGE_FORMATS:
+def _check_format(value: str | None) -> str | None:
+    if value is not None and value not in TEXT_FORMATS and value not in IMAGE_FORMATS:
         names = ", ".join([*TEXT_FORMATS, *IMAGE_FORMATS])
         msg = f"unknown format `{value}`; expected one of {names}"
         raise typer.BadParameter(msg)
     return value
 
 
+def format_of(output: Path | None) -> str:
+    """The format ``--output``'s suffix stands for (DOT on stdout); exit 2 for an unknown one.
+
+    Writing DOT text into ``graph.svg`` because ``-f`` was left out would give a file no
+    viewer opens; an unknown suffix is refused rather than guessed.
+    """
+    if output is None:
+        return "dot"
+    found = FORMAT_OF_SUFFIX.get(output.suffix.lower())
+    if found is None:
+        known = ", ".join(f"`{suffix}`" for suffix in FORMAT_OF_SUFFIX)
+        shown = f"`{output.suffix}`" if output.suffix else "no suffix"
+        msg = (
+            f"--output `{output}` has {shown}: the format cannot be told from it; "
+            f"give `--format` ({', '.join([*TEXT_FORMATS, *IMAGE_FORMATS])}) or a file "
+            f"ending in {known}"
+        )
+        raise fail(msg)
+    return found
+
+
 @app.command(
     epilog="Examples:\n\n"
     "  fmionnx graph systems/sign_follower.yaml                 # DOT on stdout\n\n"
-    "  fmionnx graph systems/sign_follower.yaml -f mermaid -o graph.md\n\n"
-    "  fmionnx graph systems/sign_follower.yaml -f svg -o graph.svg   # needs Graphviz",
+    "  fmionnx graph systems/sign_follower.yaml -o graph.mmd        # Mermaid, from the suffix\n\n"
+    "  fmionnx graph systems/sign_follower.yaml -o graph.svg        # needs Graphviz",
 )
 def graph(
     system: Annotated[Path, typer.Argument(help="System file (.yaml, .ssp, .ssd).")],
     output_format: Annotated[
-        str,
+        str | None,
         typer.Option(
-            "--format", "-f", callback=_check_format, help="dot, mermaid, json, svg, png."
+            "--format",
+            "-f",
+            callback=_check_format,
+            show_default=False,
+            help="dot, mermaid, json, svg, png. Default: from the suffix of --output "
+            "(.dot/.gv, .mmd/.mermaid, .json, .svg, .png), DOT on stdout.",
         ),
-    ] = "dot",
+    ] = None,
     output: Annotated[Path | None, typer.Option("--output", "-o", help="File to write.")] = None,
 ) -> None:
     """Compile a system and print or write its dataflow graph."""
@@ -47,6 +83,8 @@ def graph(
     from fmionnx.export import graph as writers
     from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
+    if output_format is None:
+        output_format = format_of(output)
     if output is not None:
         check_output_file(output, "--output")
     result = api.compile_system(system)

@@ -145,9 +145,9 @@ def _run(request: RunRequest, *, quiet: bool) -> int:
 def _infer(request: RunRequest, *, quiet: bool) -> None:
     """A single ONNX model inferred once: a table of its outputs, then the folder."""
     import numpy as np
-    from rich.console import Console
     from rich.table import Table
 
+    from fmionnx.cli.console import make_console
     from fmionnx.cli.run_report import show_diagnostics
     from fmionnx.core.errors import DiagnosticError
     from fmionnx.pipeline.infer import infer
@@ -166,7 +166,7 @@ def _infer(request: RunRequest, *, quiet: bool) -> None:
             shown = shown[:-1] + ", ...]"
         table.add_row(name, str(value.dtype), str(list(value.shape)), shown)
     if not quiet:
-        Console(highlight=False).print(table)
+        make_console().print(table)
     if done.out is not None:
         print(f"Results: {done.out}")  # the last line names the folder (make demo)
     sys.stdout.flush()

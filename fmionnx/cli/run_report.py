@@ -11,10 +11,10 @@ import sys
 import time
 from pathlib import Path
 
-from rich.console import Console
 from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
 from fmionnx.cli.checks_report import print_checks
+from fmionnx.cli.console import make_console
 from fmionnx.core.diagnostics import Diagnostic, Severity
 from fmionnx.pipeline.observers import RunObserver, RunStart
 from fmionnx.pipeline.outcome import RunOutcome
@@ -36,7 +36,7 @@ class TerminalReport(RunObserver):
     """The CLI's observer: ``quiet`` keeps only failed checks, faults and the last line."""
 
     def __init__(self, target: Path, *, quiet: bool) -> None:
-        self.console = Console(stderr=True, highlight=False)
+        self.console = make_console(stderr=True)
         self.target = target
         self.quiet = quiet
         self.wants_progress = not quiet and self.console.is_terminal
@@ -105,7 +105,7 @@ class TerminalReport(RunObserver):
         """The fault and the folder: the process ends right after."""
         console = self.console
         if self._guarded:  # in the guarded child: the parent's console may be locked for good
-            console = Console(stderr=True, highlight=False)
+            console = make_console(stderr=True)
         console.print(f"[bold red]fault:[/] {result.error}")
         if out is not None:
             print(f"Results: {out}")

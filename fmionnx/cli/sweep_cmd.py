@@ -70,10 +70,9 @@ def sweep(
     applied, run in-process on a worker (FMUs isolated by default). A failing case is
     recorded with its diagnostic and the study goes on.
     """
-    from rich.console import Console
-
     from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError
     from fmionnx.cli.app import refused
+    from fmionnx.cli.console import make_console
     from fmionnx.core.errors import DiagnosticError
     from fmionnx.core.modelfiles import ShippingError
     from fmionnx.pipeline.sweep import sweep_study
@@ -83,7 +82,7 @@ def sweep(
         if not quiet:
             _show(study, found)
 
-    console = Console(highlight=False)
+    console = make_console()
     try:
         with refused(), _progress(console, quiet=quiet) as update:
             result = sweep_study(

@@ -43,13 +43,13 @@ from fmionnx.compile.expected_path import (
 from fmionnx.compile.scalarpos import position_in_value
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
+from fmionnx.core.signals import column_names
 from fmionnx.core.types import (
     Causality,
     Component,
     ComponentInterface,
     DType,
     PortRef,
-    flat_index,
 )
 from fmionnx.kinds.base import SITES, Site, SiteSource
 from fmionnx.kinds.registry import COMPONENT_KINDS
@@ -109,8 +109,14 @@ def compile_checks(
     components: Mapping[str, Component],
     sources: SourceMap,
     bag: DiagnosticBag,
+    *,
+    unreadable: frozenset[str] = frozenset(),
 ) -> tuple[ir.Check, ...]:
-    """Resolve every entry of ``checks:``; problems go into ``bag`` at their place."""
+    """Resolve every entry of ``checks:``; problems go into ``bag`` at their place.
+
+    ``unreadable``: declared components whose model could not be read (reported already); a
+    check that reads one cannot be resolved and is left out without a further diagnostic.
+    """
     checks = []
     first_of: dict[str, Span] = {}
     for index, spec in enumerate(specs):
@@ -129,7 +135,10 @@ def compile_checks(
             first_of[name] = name_span
         value_span = sources.value(("checks", index, "expect"))
         try:
-            checks.append(_Resolver(components).check(name, spec.expect, text, value_span))
+            resolver = _Resolver(components, unreadable)
+            checks.append(resolver.check(name, spec.expect, text, value_span))
+        except _UnreadableError:
+            continue
         except ParseError as exc:
             span = position_in_value(value_span, spec.expect, exc.start)
             bag.emit("E090", f"check `{name}`: {exc.message}", span, hint=exc.hint)
@@ -166,13 +175,21 @@ def compile_measure(
     return expr, tuple(dict.fromkeys(s.ref for s in signals if s.ref is not None))
 
 
+class _UnreadableError(Exception):
+    """The expression names a declared component whose model could not be read."""
+
+
 class _Resolver:
     """Resolves one expression against the system's components."""
 
-    def __init__(self, components: Mapping[str, Component]) -> None:
+    def __init__(
+        self, components: Mapping[str, Component], unreadable: frozenset[str] = frozenset()
+    ) -> None:
         self.components = components
+        self.unreadable = unreadable
         self.interfaces: dict[str, ComponentInterface | None] = {
-            n: c.interface for n, c in components.items()
+            **dict.fromkeys(unreadable),
+            **{n: c.interface for n, c in components.items()},
         }
 
     def check(self, name: str, raw: str, text: str, span: Span) -> ir.Check:
@@ -289,7 +306,7 @@ class _Resolver:
             self._reference_used_as_signal(text, start)
             found = next(iter(scratch), None)
             if found is None:  # the component's model could not be read: reported already
-                raise _CheckError("E091", f"`{text}` cannot be resolved", start)
+                raise _UnreadableError(text)
             raise _CheckError("E091", found.message, start, found.hint)
         port, ref = resolved.port, resolved.ref
         where = f"`{ref}`"
@@ -313,9 +330,8 @@ class _Resolver:
             )
         if ref.index is not None and len(port.shape) >= 2 and port.dtype is DType.UINT8:
             raise _CheckError("E091", f"{where} is an image: images are not recorded", start)
-        column = str(ref)
-        if ref.index is not None:  # results.csv numbers the elements of an array flat
-            column = f"{ref.component}.{port.name}[{flat_index(port, ref.index)}]"
+        # the column results.csv gives the element (``power[0]`` and ``power[0,0]`` are one)
+        column = str(ref) if ref.index is None else column_names(ref.component, port, ref.index)[0]
         return ir.Signal(column, ref)
 
     def _reference_used_as_signal(self, text: str, start: int) -> None:
@@ -584,6 +600,8 @@ class _Resolver:
             raise _CheckError("E092", str(exc), node.start) from None
 
     def _component(self, name: str, start: int) -> Component:
+        if name in self.unreadable:
+            raise _UnreadableError(name)
         if name not in self.components:
             hint = did_you_mean(name, self.components) or one_of(self.components)
             raise _CheckError("E092", f"unknown component `{name}`", start, hint)

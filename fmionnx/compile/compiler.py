@@ -75,15 +75,18 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     _check_unconnected(components, mentioned, spec, sources, bag)
     usable = [c for c in connections if c.src.component in by_name and c.dst.component in by_name]
     loops = compile_loops(components, usable, spec.run.algebraic_loops, loaded.path, sources, bag)
+    # Declared components whose model could not be read (E010-E019 said why): what names
+    # them below is skipped without a word, never called an unknown component.
+    unreadable = frozenset(name for name, interface in interfaces.items() if interface is None)
     if spec.record is not None:
-        record = tuple(_refs(spec.record, "record", by_name, sources, bag))
+        record = tuple(_refs(spec.record, "record", by_name, unreadable, sources, bag))
     else:  # other tools' default: every output (images excepted), resolved here for all
         record = every_output(components)
         if run is not None:
             origins = (*run.origins, ("record", Origin.BUILTIN_DEFAULT))
             run = dataclasses.replace(run, origins=origins)
-    plots = compile_plots(spec, by_name, sources, bag)
-    checks = compile_checks(spec.checks, by_name, sources, bag)
+    plots = compile_plots(spec, by_name, sources, bag, unreadable=unreadable)
+    checks = compile_checks(spec.checks, by_name, sources, bag, unreadable=unreadable)
     if run is None or bag.has_errors:
         return None
     ros2 = None
@@ -193,8 +196,8 @@ def _connections(
             )
             continue
         left, left_span, right, right_span, transformation = texts
-        src = resolve_endpoint(left, left_span, interfaces, bag)
-        dst = resolve_endpoint(right, right_span, interfaces, bag)
+        src = resolve_endpoint(left, left_span, interfaces, bag, role=Causality.OUTPUT)
+        dst = resolve_endpoint(right, right_span, interfaces, bag, role=Causality.INPUT)
         for end in (src, dst):
             if end is not None:
                 mentioned.add((end.ref.component, end.ref.port))
@@ -220,8 +223,11 @@ def _check_connection(
     if src.ref.component == dst.ref.component and src.ref.port == dst.ref.port:
         bag.emit("E036", f"`{src.ref}` is connected to itself", span)
         return None
-    ok = check_causality(src, dst, span, bag)
-    ok = check_dtype(src, dst, span, bag) and ok
+    if not check_causality(src, dst, span, bag):
+        # A connection between the wrong ports is one mistake: its types and units would
+        # only be compared for a connection that cannot exist.
+        return None
+    ok = check_dtype(src, dst, span, bag)
     size = check_count(src, dst, span, bag)
     # A connection that is wrong anyway gets its unit errors, but no notes about conversions.
     found = DiagnosticBag()
@@ -346,11 +352,13 @@ def _refs(
     texts: list[str],
     section: str,
     components: dict[str, Component],
+    unreadable: frozenset[str],
     sources: SourceMap,
     bag: DiagnosticBag,
 ) -> list[PortRef]:
     interfaces: dict[str, ComponentInterface | None] = {
-        n: c.interface for n, c in components.items()
+        **dict.fromkeys(unreadable),
+        **{n: c.interface for n, c in components.items()},
     }
     refs = []
     for index, text in enumerate(texts):

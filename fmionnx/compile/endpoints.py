@@ -6,7 +6,7 @@ from collections.abc import Mapping
 from dataclasses import dataclass
 
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
-from fmionnx.core.types import ComponentInterface, Port, PortRef
+from fmionnx.core.types import Causality, ComponentInterface, Port, PortRef
 from fmionnx.spec.runspec import ENDPOINT_RE
 
 
@@ -46,11 +46,15 @@ def resolve_endpoint(
     span: Span,
     interfaces: Mapping[str, ComponentInterface | None],
     bag: DiagnosticBag,
+    *,
+    role: Causality | None = None,
 ) -> ResolvedEndpoint | None:
     """Resolve one endpoint; report E020-E023 into ``bag`` and return None on failure.
 
     A component whose interface could not be read (``None``) makes its endpoints unresolvable
-    without a further diagnostic: its own error was reported already.
+    without a further diagnostic: its own error was reported already. ``role``: the
+    causality the endpoint needs (a connection's source is an output, its target an input);
+    an unknown port's hint then suggests ports of that causality.
     """
     parts = split_endpoint(text, interfaces)
     if parts is None:
@@ -80,8 +84,7 @@ def resolve_endpoint(
         )
         return None
     if port is None:
-        names = [p.name for p in interface.ports]
-        hint = did_you_mean(port_name, names) or one_of(names)
+        hint = _port_hint(interface, component, port_name, role)
         bag.emit(
             "E021",
             f"component `{component}` ({interface.kind}) has no port `{port_name}`",
@@ -98,6 +101,25 @@ def resolve_endpoint(
             return None
         count = 1
     return ResolvedEndpoint(PortRef(component, port_name, index), port, count)
+
+
+def _port_hint(
+    interface: ComponentInterface, component: str, name: str, role: Causality | None
+) -> str:
+    """A close name among the ports that fit ``role`` (else among all), or those ports."""
+    fitting = [p.name for p in interface.ports if role is None or p.causality is role]
+    close = did_you_mean(name, fitting)
+    if close is not None:
+        return close
+    if role is not None and fitting:
+        listed = one_of(fitting).removeprefix("expected one of ")
+        return f"expected {_a(role.value)} of `{component}`: {listed}"
+    names = [p.name for p in interface.ports]
+    return did_you_mean(name, names) or one_of(names)
+
+
+def _a(word: str) -> str:
+    return ("an " if word[:1] in "aeiou" else "a ") + word
 
 
 def _index_ok(

@@ -160,6 +160,23 @@ class Series:
 
 
 @dataclass(frozen=True, slots=True)
+class Marks:
+    """Marks of a time plot: where ``column`` changes value, each new value's ``labels``
+    entry (value, text), else ``signal = value``."""
+
+    signal: str
+    column: str
+    labels: tuple[tuple[float, str], ...] = ()
+
+    def label(self, value: float) -> str:
+        """What the mark of a change to ``value`` says."""
+        for known, text in self.labels:
+            if known == value:
+                return text
+        return f"{self.signal} = {value:g}"
+
+
+@dataclass(frozen=True, slots=True)
 class Plot:
     """A plot ``run`` draws, resolved: an x-y trajectory (``xy``) or signals over time (``y``).
 
@@ -168,7 +185,8 @@ class Plot:
     What an xy plot draws underneath is resolved too, so that drawing needs no model file:
     ``path`` the expected path's points, ``scene`` the map of the component's world (its sites
     and fixed shapes). ``file`` is the image's name inside the output folder, always set by
-    the compiler (given, or derived from the title).
+    the compiler (given, or derived from the title). ``marks``: a time plot's marks where a
+    discrete signal changes (its port is among ``refs``, so it is recorded).
     """
 
     xy: tuple[str, str] | None = None
@@ -179,6 +197,7 @@ class Plot:
     scene: SceneMap | None = None
     title: str | None = None
     file: str | None = None
+    marks: Marks | None = None
 
 
 #: How an algebraic loop is iterated (``run.algebraic_loops.solver``).

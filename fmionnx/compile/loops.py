@@ -71,10 +71,19 @@ def compile_loops(
 
 
 def _cycle_spans(cycle: list[str], connections: Sequence[Connection]) -> list[Span]:
+    """Where the connections that are edges of ``cycle`` are written, in declaration order.
+
+    ``cycle`` lists the ports the loop passes through (``comp.port``, each followed by the
+    next, the last by the first); a connection is part of the loop only when it leads from
+    one port of the cycle to the port after it. Another connection leaving a looping output
+    (its value also goes elsewhere) is not: marking it would send the user to the wrong line.
+    """
+    edges = set(zip(cycle, [*cycle[1:], cycle[0]], strict=True))
     return [
         c.span
         for c in connections
-        if f"{c.src.component}.{c.src.port}" in cycle and c.span is not None
+        if c.span is not None
+        and (f"{c.src.component}.{c.src.port}", f"{c.dst.component}.{c.dst.port}") in edges
     ]
 
 

@@ -21,7 +21,7 @@ from fmionnx.compile.expected_path import (
     expected_path_file,
     read_expected_path,
 )
-from fmionnx.compile.ir import Plot, Series, plot_file_problem
+from fmionnx.compile.ir import Marks, Plot, Series, plot_file_problem
 from fmionnx.compile.plotfiles import derived_stem, slug, unique_name, with_suffix
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.errors import ModelError
@@ -40,11 +40,21 @@ MAX_LINES = 64
 
 
 def compile_plots(
-    spec: SystemSpec, components: Mapping[str, Component], sources: SourceMap, bag: DiagnosticBag
+    spec: SystemSpec,
+    components: Mapping[str, Component],
+    sources: SourceMap,
+    bag: DiagnosticBag,
+    *,
+    unreadable: frozenset[str] = frozenset(),
 ) -> tuple[Plot, ...]:
-    """Check and resolve every plot entry, in order; problems go to ``bag``."""
+    """Check and resolve every plot entry, in order; problems go to ``bag``.
+
+    ``unreadable``: declared components whose model could not be read (reported already);
+    a signal or ``over`` naming one is left out without a further diagnostic.
+    """
     interfaces: dict[str, ComponentInterface | None] = {
-        n: c.interface for n, c in components.items()
+        **dict.fromkeys(unreadable),
+        **{n: c.interface for n, c in components.items()},
     }
     taken = {with_suffix(p.file) for p in spec.plots if p.file is not None}
     given: set[str] = set()
@@ -66,7 +76,10 @@ def compile_plots(
                 refs.append(resolved.ref)
                 columns = column_names(resolved.ref.component, resolved.port, resolved.ref.index)
                 series.append(Series(text, tuple(columns), resolved.port.unit))
-        path, scene = _over(plot, index, components, sources, bag)
+        path, scene = _over(plot, index, components, unreadable, sources, bag)
+        marks = _marks(plot, index, interfaces, sources, bag)
+        if marks is not None:
+            refs.append(marks[1])
         plots.append(
             Plot(
                 xy=(texts[0], texts[1]) if plot.xy is not None else None,
@@ -77,9 +90,52 @@ def compile_plots(
                 scene=scene,
                 title=plot.title,
                 file=_file(plot, index, texts, taken, given, sources, bag),
+                marks=None if marks is None else marks[0],
             )
         )
     return tuple(plots)
+
+
+def _marks(
+    plot: PlotSpec,
+    index: int,
+    interfaces: Mapping[str, ComponentInterface | None],
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> tuple[Marks, PortRef] | None:
+    """The plot's ``marks`` resolved to one recorded column; None (E045/E046 when wrong)."""
+    if plot.marks is None:
+        return None
+    span = sources.value(("plots", index, "marks", "of"))
+    if plot.xy is not None:
+        bag.emit(
+            "E045",
+            "`marks` are drawn on a plot over time; this is an xy plot",
+            sources.key(("plots", index, "marks")),
+            hint="move `marks` to a plot with `y: [...]`",
+        )
+        return None
+    text = re.sub(r"\s+", "", plot.marks.of)
+    scratch = DiagnosticBag()
+    resolved = resolve_endpoint(text, span, interfaces, scratch)
+    if resolved is None:
+        for diagnostic in scratch:
+            bag.emit("E045", f"plot marks: {diagnostic.message}", span, hint=diagnostic.hint)
+        return None
+    count = 1 if resolved.ref.index is not None else resolved.port.size
+    if count != 1:
+        bag.emit(
+            "E046",
+            f"plot marks: follow one signal; `{text}` has {count or 'several'} elements",
+            span,
+            hint=f"select one element, e.g. `{text}[0]`",
+        )
+        return None
+    if not _drawable(resolved, text, on_xy=False, span=span, bag=bag):
+        return None
+    (column,) = column_names(resolved.ref.component, resolved.port, resolved.ref.index)
+    labels = tuple((float(value), label) for value, label in plot.marks.labels.items())
+    return Marks(text, column, labels), resolved.ref
 
 
 def _drawable(
@@ -123,15 +179,18 @@ def _over(
     plot: PlotSpec,
     index: int,
     components: Mapping[str, Component],
+    unreadable: frozenset[str],
     sources: SourceMap,
     bag: DiagnosticBag,
 ) -> tuple[tuple[tuple[float, float], ...], SceneMap | None]:
     """The expected path's points and the map ``over`` names (empty and None when it names
-    nothing usable, with a diagnostic)."""
+    nothing usable, with a diagnostic unless its component's model could not be read)."""
     if plot.over is None:
         return (), None
     span = sources.value(("plots", index, "over"))
     owner, _, what = plot.over.strip().rpartition(".")
+    if owner in unreadable:
+        return (), None
     choices = f"`<component>.{EXPECTED_PATH}` or `<component>.{MAP_REFERENCE}`"
     if plot.xy is None:
         bag.emit(

@@ -65,10 +65,24 @@ def declared_note(port: Port) -> list[Note]:
 def check_causality(
     src: ResolvedEndpoint, dst: ResolvedEndpoint, span: Span, bag: DiagnosticBag
 ) -> bool:
-    """Output -> input only; parameters are set under ``parameters:``, not by connections."""
+    """Output -> input only; parameters are set under ``parameters:``, not by connections.
+
+    A connection written backwards (an input to an output) is one mistake and one error,
+    whose hint shows the connection turned round.
+    """
+    if src.port.causality is Causality.INPUT and dst.port.causality is Causality.OUTPUT:
+        bag.emit(
+            "E030",
+            f"the connection runs backwards: `{src.ref}` is an input and `{dst.ref}` an "
+            "output; a connection goes from an output to an input",
+            span,
+            hint=f"swap the two sides: `{dst.ref} -> {src.ref}`",
+            notes=[*declared_note(src.port), *declared_note(dst.port)],
+        )
+        return False
     ok = True
     if src.port.causality not in SOURCE_CAUSALITIES:
-        hint = "swap the two sides" if dst.port.causality is Causality.OUTPUT else None
+        hint = None
         bag.emit(
             "E030",
             f"`{src.ref}` is {_a(src.port.causality.value)}, but a connection must start at an output",
@@ -80,8 +94,6 @@ def check_causality(
     if dst.port.causality not in TARGET_CAUSALITIES:
         if dst.port.causality in (Causality.PARAMETER, Causality.STRUCTURAL_PARAMETER):
             hint = f"set it under `components.{dst.ref.component}.parameters`"
-        elif dst.port.causality is Causality.OUTPUT and src.port.causality is Causality.INPUT:
-            hint = "swap the two sides"
         else:
             hint = None
         bag.emit(

@@ -95,6 +95,24 @@ class StateSaving(Protocol):
         ...
 
 
+@runtime_checkable
+class StartEvaluating(Protocol):
+    """A runner whose outputs at the start time are computed from its inputs at the start time.
+
+    A model without state (ONNX) has no initialization of its own: its outputs are a function
+    of its inputs. Its initial outputs are therefore those of its start inputs, as an FMU's
+    are after initialization, not those of its inputs' start values (all zeros, a black
+    camera frame). Once every runner is set up, the backend hands it, in the execution order,
+    the values its connections carry at the start time (producers earlier in the order already
+    evaluated, a camera rendered at the initial state) and calls :meth:`evaluate_at_start`,
+    before the first row is recorded or published. docs/execution.md, "Initial values".
+    """
+
+    def evaluate_at_start(self, start: float) -> None:
+        """Compute the outputs from the inputs now in the input buffers (time ``start``)."""
+        ...
+
+
 class OutputCopies:
     """Copies of a runner's output buffers, for :class:`StateSaving` runners to restore."""
 

@@ -39,6 +39,11 @@ MAP = "map"
 #: The model has no time of its own (a learned function): run alone, it is one step of 1 s
 #: (``fmionnx run model.onnx`` infers it once); other lone models run their own experiment.
 TIMELESS = "timeless"
+#: The model has no state: its outputs at the start time are computed from its connected
+#: inputs at the start time (its runner implements
+#: :class:`fmionnx.core.runner.StartEvaluating`), so a backend hands it those inputs at
+#: initialization, and a lazy output it reads (a camera) is made at the start time too.
+EVALUATED_AT_START = "evaluated-at-start"
 
 
 @dataclass(frozen=True, slots=True)
@@ -92,13 +97,15 @@ class MapShape:
 
     ``outline`` is its footprint on the ground plane, a convex polygon (counter-clockwise,
     metres); ``top`` its highest point, so that what stands higher is drawn over what it
-    hides, as seen from above.
+    hides, as seen from above. ``label``: what the landmark means, when the model says
+    (a sign board's "turn left"), for a plot's legend.
     """
 
     name: str
     outline: tuple[tuple[float, float], ...]
     rgba: Rgba
     top: float
+    label: str | None = None
 
 
 @dataclass(frozen=True, slots=True)

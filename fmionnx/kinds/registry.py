@@ -120,21 +120,18 @@ def make_runner(component: Component, wiring: Wiring | None = None) -> Runner:
 def result_aliases(component: Component) -> dict[str, str]:
     """Results column -> the name a lone model's results use (:class:`~.base.ResultNames`;
     by port for a kind that does not name them)."""
+    from fmionnx.core.signals import column_names
     from fmionnx.core.types import Causality
     from fmionnx.kinds.base import ResultNames
 
     kind = kind_of(component)
     if isinstance(kind, ResultNames):
         return kind.result_aliases(component)
-    aliases = {}
-    for port in component.interface.with_causality(Causality.OUTPUT):
-        prefix = f"{component.name}.{port.name}"
-        if port.is_scalar:
-            aliases[prefix] = port.name
-        else:
-            for i in range(port.size or 1):
-                aliases[f"{prefix}[{i}]"] = f"{port.name}[{i}]"
-    return aliases
+    return {
+        column: column.split(".", 1)[1]  # the port and its element, without the component
+        for port in component.interface.with_causality(Causality.OUTPUT)
+        for column in column_names(component.name, port)
+    }
 
 
 def settle_worker() -> None:

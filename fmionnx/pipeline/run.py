@@ -92,7 +92,6 @@ def execute(
 def load_request(request: RunRequest) -> System:
     """The request's target, loaded (DiagnosticError for errors in it; RequestError for
     ``--step``/``--start-time`` on a compiled system)."""
-    from fmionnx.compile.systemfile import CompiledFileError
     from fmionnx.pipeline.system import load
 
     overrides = request.overrides
@@ -103,8 +102,12 @@ def load_request(request: RunRequest) -> System:
         )  # fmt: skip
     except OverrideError as exc:
         raise RequestError(str(exc)) from None
-    except CompiledFileError as exc:  # a compiled-system file refused: said as `node` says it
-        raise RefusedError(str(exc)) from None
+    except FmionnxError as exc:  # the compiled-system module loads only when one was read
+        from fmionnx.compile.systemfile import CompiledFileError
+
+        if isinstance(exc, CompiledFileError):  # refused: said as `node` says it, one line
+            raise RefusedError(str(exc)) from None
+        raise
 
 
 def run_system(

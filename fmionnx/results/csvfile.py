@@ -126,7 +126,10 @@ def _quote(name: str) -> str:
 
 def read_csv(path: Path) -> dict[str, np.ndarray]:
     """Read a results.csv back into columns (for tests and plots of earlier runs)."""
-    with path.open(encoding="utf-8") as stream:
-        header = stream.readline().strip().split(",")
+    import csv
+
+    with path.open(encoding="utf-8", newline="") as stream:
+        # names of tensor elements hold commas (`detector.blobX[0,2]`) and come quoted
+        header = next(csv.reader([stream.readline()]))
         data = np.loadtxt(stream, delimiter=",", ndmin=2)
     return {name: data[:, i] for i, name in enumerate(header)}

@@ -5,9 +5,12 @@ the results columns and unit of every signal, the expected path's points, the ma
 scene, the file name. Drawing reads no model file and knows no component kind.
 
 * An ``xy`` plot draws one signal against the other over the scene's map (shapes in their
-  colours, sites named) and the expected path, with axes labelled ``odometry.posX [m]``.
+  colours, sites named, the landmarks the scene labels in the legend) and the expected path,
+  with axes labelled ``odometry.posX [m]``, and marks the time along the run (a dot and its
+  time every round number of seconds).
 * A ``y`` plot draws signals over time, one panel per unit (a panel's y axis has one unit),
-  each labelled with its signals and unit.
+  each labelled with its signals and unit; its ``marks`` put a labelled line wherever a
+  discrete signal (a controller's state) changes.
 
 Figures are made with matplotlib's object API (no pyplot state, no display) and written
 atomically inside the output folder. A signal that was not recorded in this run (the Python
@@ -21,7 +24,7 @@ import logging
 from pathlib import Path
 from typing import Any
 
-from fmionnx.compile.ir import CompiledSystem, Plot, Series, plot_file_problem
+from fmionnx.compile.ir import CompiledSystem, Marks, Plot, Series, plot_file_problem
 from fmionnx.compile.plotfiles import derived_stem, unique_name, with_suffix
 from fmionnx.core.safewrite import write_bytes_atomic
 from fmionnx.results.scenedraw import SITE_LAYER, draw_scene
@@ -32,6 +35,8 @@ LOG = logging.getLogger("fmionnx.results")
 XY_SIZE = (7.0, 6.5)
 TIME_WIDTH, PANEL_HEIGHT = 9.0, 2.6
 DPI = 120
+#: Most time marks along a trajectory (dots every 1, 2 or 5 times a power of ten seconds).
+MOST_TIME_MARKS = 8
 
 
 def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Path]:
@@ -120,6 +125,7 @@ def draw_xy(axes: Any, plot: Plot, result: RunResult) -> None:
     if x_axis is not None and y_axis is not None and not missing:
         x, y = result.signals[x_axis.columns[0]], result.signals[y_axis.columns[0]]
         axes.plot(x, y, color="tab:blue", lw=1.5, label="simulated", zorder=3)
+        _time_marks(axes, result.time, x, y)
         # start and end above the sites' markers: a run starts at A, inside its circle
         axes.plot(x[:1], y[:1], "o", color="tab:green", label="start", zorder=SITE_LAYER + 1)
         axes.plot(x[-1:], y[-1:], "s", color="tab:red", label="end", zorder=SITE_LAYER + 1)
@@ -130,6 +136,44 @@ def draw_xy(axes: Any, plot: Plot, result: RunResult) -> None:
     axes.grid(visible=True, alpha=0.3)
     if axes.get_legend_handles_labels()[0]:
         axes.legend(loc="best")
+
+
+def time_step(duration: float, most: int = MOST_TIME_MARKS) -> float:
+    """A round interval (1, 2, 5 times a power of ten, seconds) giving at most ``most`` marks."""
+    import math
+
+    if not duration > 0:
+        return 0.0
+    decade = 10.0 ** math.floor(math.log10(duration / most))
+    for factor in (1.0, 2.0, 5.0, 10.0):
+        if duration / (factor * decade) <= most:
+            return factor * decade
+    return 10.0 * decade
+
+
+def _time_marks(axes: Any, time: Any, x: Any, y: Any) -> None:
+    """Dots along the path every round number of seconds, each labelled with its time."""
+    import numpy as np
+
+    if len(time) < 2:
+        return
+    step = time_step(float(time[-1] - time[0]))
+    if step <= 0:
+        return
+    first = np.ceil(time[0] / step) * step
+    marks = np.arange(first if first > time[0] else first + step, time[-1], step)
+    rows = np.searchsorted(time, marks - 1e-9 * step)
+    if not len(rows):
+        return
+    axes.plot(
+        x[rows], y[rows], ".", color="tab:blue", markersize=7, zorder=3.5,
+        label=f"every {step:g} s", gid="time marks",
+    )  # fmt: skip
+    for row, t in zip(rows, marks, strict=True):
+        axes.annotate(
+            f"{t:g} s", (x[row], y[row]), xytext=(4, -10), textcoords="offset points",
+            fontsize=7, color="tab:blue", zorder=3.5, gid="time marks",
+        )  # fmt: skip
 
 
 def unit_groups(series: tuple[Series, ...]) -> list[tuple[str | None, list[Series]]]:
@@ -149,6 +193,28 @@ def draw_over_time(figure: Any, plot: Plot, result: RunResult) -> None:
     panels[-1].set_xlabel("time [s]")
     if plot.title:
         panels[0].set_title(plot.title)
+    if plot.marks is not None:
+        draw_marks(panels, plot.marks, result)
+
+
+def draw_marks(panels: Any, marks: Marks, result: RunResult) -> None:
+    """A dotted line on every panel where ``marks``' signal changes, labelled on the top one."""
+    import numpy as np
+
+    values = result.signals.get(marks.column)
+    if values is None:
+        _note_missing(panels[0], [Series(marks.signal, (marks.column,))])
+        return
+    changes = np.flatnonzero(values[1:] != values[:-1]) + 1
+    for row in changes:
+        t = float(result.time[row])
+        for axes in panels:
+            axes.axvline(t, color="grey", lw=0.8, ls=":", zorder=0, gid="marks")
+        panels[0].annotate(
+            marks.label(float(values[row])), (t, 1.0), xycoords=("data", "axes fraction"),
+            xytext=(2, -2), textcoords="offset points", rotation=90, va="top", ha="left",
+            fontsize=7, color="dimgrey", gid="marks",
+        )  # fmt: skip
 
 
 def draw_panel(axes: Any, result: RunResult, members: list[Series], unit: str | None) -> None:
@@ -174,7 +240,7 @@ def draw_panel(axes: Any, result: RunResult, members: list[Series], unit: str | 
 
 
 def _element_label(item: Series, column: str) -> str:
-    """``detector.blobX[2] [px]``: one element's line of an array signal."""
+    """``detector.blobX[0,2] [px]``: one element's line of an array signal."""
     element = column[column.rfind("[") :] if column.endswith("]") else ""
     return f"{item.signal}{element} [{item.unit}]" if item.unit else f"{item.signal}{element}"
 

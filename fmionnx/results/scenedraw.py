@@ -3,7 +3,8 @@
 The map was read through the component's kind at compile time (:class:`SceneMap`: plain
 numbers), so nothing here knows which simulator made it. Shapes are drawn lowest first, as
 seen from above, under everything else; a site is a marker in its own colour with its name
-beside it. Every artist carries the landmark's name as its ``gid``, which keeps an SVG
+beside it; a shape the scene labels (a sign board's "turn left") is named in the legend, in its
+colour. Every artist carries the landmark's name as its ``gid``, which keeps an SVG
 readable and lets tests find what was drawn.
 """
 
@@ -22,7 +23,13 @@ def draw_scene(axes: Any, scene: SceneMap) -> None:
     """Draw ``scene`` on matplotlib ``axes`` (an xy plot in the scene's metres)."""
     from matplotlib.patches import Polygon
 
+    legend: set[tuple[str, Rgba]] = set()
     for shape in scene.shapes:
+        # a labelled landmark says what it means in the legend, once per label and colour
+        key = (shape.label, shape.rgba) if shape.label else None
+        label = shape.label if key is not None and key not in legend else None
+        if key is not None:
+            legend.add(key)
         patch = Polygon(
             shape.outline,
             closed=True,
@@ -31,6 +38,7 @@ def draw_scene(axes: Any, scene: SceneMap) -> None:
             linewidth=1.2,  # a 4 cm sign board stays visible on a 10 m map
             zorder=SHAPE_LAYER,
             gid=shape.name,
+            label=label if label is not None else "_nolegend_",
         )
         axes.add_patch(patch)
     for site in scene.sites:

@@ -6,7 +6,10 @@
 * always, with checks: a pass/fail map (``passfail.png``) over the first two targets (or
   against the first one), green where the case ran and passed every check.
 
-Cases that did not complete are drawn as missing (a grey cell, a cross), never as a value.
+Cases that did not complete are drawn as missing (a grey cell, a cross), never as a value,
+and say why (their status); a case that completed but whose metric has no value (a
+``first_time`` whose condition never held) is drawn the same way, labelled ``no value``. Axes
+and colour bars carry the targets' and metrics' units (:mod:`.study_units`).
 """
 
 from __future__ import annotations
@@ -19,6 +22,7 @@ from fmionnx.compile.studyir import StudyPlan
 from fmionnx.core.owned import OwnedFolder
 from fmionnx.results.plots import DPI, save_figure
 from fmionnx.results.study import CHECK_PREFIX
+from fmionnx.results.study_units import labelled, plan_units
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -41,15 +45,21 @@ def write_study_plots(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[P
     written: list[Path] = []
     if table.empty or not numeric:
         return written
+    units = plan_units(plan)
+    names = {name: labelled(name, unit) for name, unit in units.items()}
     for metric in plan.metrics:
         if len(numeric) == 2 and _is_grid(table, numeric):
-            written.append(_heatmap(table, numeric, metric.name, out))
+            written.append(_heatmap(table, numeric, metric.name, names, out))
         else:
-            written.append(_against(table, numeric, metric.name, out))
+            written.append(_against(table, numeric, metric.name, names, out))
     if plan.check_names:
-        written.append(_passfail(table, numeric, plan, out))
+        written.append(_passfail(table, numeric, plan, names, out))
     OwnedFolder(out).note(written)  # a later --force may delete them (fmionnx.core.owned)
     return written
+
+
+#: What a case that completed without a value for a metric is labelled.
+NO_VALUE = "no value"
 
 
 def _numeric(column: pd.Series) -> bool:
@@ -75,7 +85,9 @@ def completed(table: pd.DataFrame, metric: str) -> pd.Series:
     return table[metric].where(table["status"] == "ok")
 
 
-def _heatmap(table: pd.DataFrame, targets: list[str], metric: str, out: Path) -> Path:
+def _heatmap(
+    table: pd.DataFrame, targets: list[str], metric: str, names: dict[str, str], out: Path
+) -> Path:
     from matplotlib import colormaps
 
     shown = table.assign(**{metric: completed(table, metric)})
@@ -86,19 +98,20 @@ def _heatmap(table: pd.DataFrame, targets: list[str], metric: str, out: Path) ->
     palette = colormaps["viridis"].with_extremes(bad="lightgrey")
     image = axes.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap=palette)
     _ticks(axes, grid)
-    axes.set_xlabel(targets[0])
-    axes.set_ylabel(targets[1])
+    axes.set_xlabel(names.get(targets[0], targets[0]))
+    axes.set_ylabel(names.get(targets[1], targets[1]))
     axes.set_title(metric)
-    figure.colorbar(image, ax=axes, label=metric)
+    figure.colorbar(image, ax=axes, label=names.get(metric, metric))
     low, high = image.get_clim()
     for (row, col), value in _cells(grid):
         bright = high > low and (value - low) / (high - low) > 0.6  # viridis is light up there
         colour = "black" if bright else "white"
         axes.text(col, row, f"{value:.3g}", ha="center", va="center", color=colour, fontsize=8)
     columns, rows = list(grid.columns), list(grid.index)
-    for _, case in table[table["status"] != "ok"].iterrows():  # the grey cells say why
+    for _, case in table[shown[metric].isna()].iterrows():  # the grey cells say why
         col, row = columns.index(case[targets[0]]), rows.index(case[targets[1]])
-        axes.text(col, row, case["status"], ha="center", va="center", color="tab:red", fontsize=8)
+        why = NO_VALUE if case["status"] == "ok" else case["status"]
+        axes.text(col, row, why, ha="center", va="center", color="tab:red", fontsize=8, gid=why)
     return save_figure(figure, out / _file("heatmap", metric))
 
 
@@ -119,29 +132,39 @@ def _ticks(axes: Any, grid: pd.DataFrame) -> None:
     axes.set_yticks(range(len(grid.index)), [f"{v:g}" for v in grid.index])
 
 
-def _against(table: pd.DataFrame, targets: list[str], metric: str, out: Path) -> Path:
+def _against(
+    table: pd.DataFrame, targets: list[str], metric: str, names: dict[str, str], out: Path
+) -> Path:
     figure, axes = new_figure_plain(ncols=len(targets))
     panels = axes if len(targets) > 1 else [axes]
     shown = table.assign(**{metric: completed(table, metric)})
     incomplete = table[table["status"] != "ok"]
+    empty = table[(table["status"] == "ok") & shown[metric].isna()]
     for panel, target in zip(panels, targets, strict=True):
         ordered = shown.sort_values(target, kind="stable")
         style = "o-" if len(targets) == 1 else "o"
         panel.plot(ordered[target], ordered[metric], style)
-        if not incomplete.empty:  # a cross at the panel's foot, where no value is drawn
-            panel.plot(
-                incomplete[target], [0.03] * len(incomplete), "x", color="tab:red",
-                transform=panel.get_xaxis_transform(), label="did not complete",
-            )  # fmt: skip
+        for cases, colour, label in (
+            (incomplete, "tab:red", "did not complete"),
+            (empty, "tab:grey", NO_VALUE),
+        ):
+            if not cases.empty:  # a cross at the panel's foot, where no value is drawn
+                panel.plot(
+                    cases[target], [0.03] * len(cases), "x", color=colour,
+                    transform=panel.get_xaxis_transform(), label=label, gid=label,
+                )  # fmt: skip
+        if not incomplete.empty or not empty.empty:
             panel.legend(loc="best")
-        panel.set_xlabel(target)
-        panel.set_ylabel(metric)
+        panel.set_xlabel(names.get(target, target))
+        panel.set_ylabel(names.get(metric, metric))
         panel.grid(visible=True, alpha=0.3)
     figure.suptitle(metric)
     return save_figure(figure, out / _file("metric", metric))
 
 
-def _passfail(table: pd.DataFrame, targets: list[str], plan: StudyPlan, out: Path) -> Path:
+def _passfail(
+    table: pd.DataFrame, targets: list[str], plan: StudyPlan, names: dict[str, str], out: Path
+) -> Path:
     checks = [CHECK_PREFIX + n for n in plan.check_names]
     passed = (table["status"] == "ok") & table[checks].all(axis=1)
     figure, axes = new_figure_plain()
@@ -149,9 +172,9 @@ def _passfail(table: pd.DataFrame, targets: list[str], plan: StudyPlan, out: Pat
     y = table[targets[1]] if len(targets) > 1 else passed.astype(int)
     axes.scatter(x[passed], y[passed], c="tab:green", marker="o", s=80, label="passed")
     axes.scatter(x[~passed], y[~passed], c="tab:red", marker="x", s=80, label="failed")
-    axes.set_xlabel(targets[0])
+    axes.set_xlabel(names.get(targets[0], targets[0]))
     if len(targets) > 1:
-        axes.set_ylabel(targets[1])
+        axes.set_ylabel(names.get(targets[1], targets[1]))
     else:
         axes.set_yticks([0, 1], ["failed", "passed"])
     axes.set_title("checks: " + ", ".join(plan.check_names))

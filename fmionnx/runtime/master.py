@@ -41,6 +41,7 @@ from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.parallel import Footprint, Issue, Job, Lane, footprint, plan
 from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
+from fmionnx.runtime.startvalues import evaluate_at_start
 from fmionnx.runtime.stepping import Work
 from fmionnx.runtime.stopping import shield_begin, shield_end, stop_reason
 from fmionnx.runtime.transfer import make_transfer
@@ -149,6 +150,7 @@ class Master:
         for name, runner in self.runners.items():
             if runner.lazy_outputs:
                 self._stamps[name] = 0
+        evaluate_at_start(system, self.runners, self._producer_hook)  # ONNX: outputs at start
         self._build_tracks()
         dues = {name: self._due(system.component(name)) for name in system.order}
         entries = self._entries(dues)

@@ -34,12 +34,21 @@ def load_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
     from fmionnx.spec.sourcemap import SourceMap
 
     frontend = FRONTENDS.get(path.suffix.lower())
+    suffixes = ", ".join(f"`{s}`" for s in sorted(FRONTENDS))
+    if frontend is None and path.is_dir():
+        bag.emit(
+            "E011",
+            f"`{path}` is a folder, not a system file",
+            Span(path),
+            hint=f"name the system files (ending in {suffixes}), e.g. `{path / '*.yaml'}`",
+        )
+        return LoadedSpec(None, SourceMap(path), path)
     if frontend is None:
         bag.emit(
             "E013",
-            f"`{path.name}` is not a system file fmionnx reads",
+            f"`{path.name or path}` is not a system file fmionnx reads",
             Span(path),
-            hint="system files end in " + ", ".join(f"`{s}`" for s in sorted(FRONTENDS)),
+            hint=f"system files end in {suffixes}",
         )
         return LoadedSpec(None, SourceMap(path), path)
     return frontend(path, bag)

@@ -42,6 +42,21 @@ else:
 ARROW = "->"
 #: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``).
 DOTTED_NAME = re.compile(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*")
+#: The name of a system (the JSON Schema carries it as a pattern).
+SYSTEM_NAME_PATTERN = r"^[A-Za-z_][\w-]*$"
+#: What each pattern of the schema means, for an error message (pydantic would show the
+#: regular expression).
+PATTERN_MEANINGS = {
+    SYSTEM_NAME_PATTERN: "a name: a letter or `_`, then letters, digits, `_` or `-` (no spaces)"
+}
+
+
+class InvalidKeyError(ValueError):
+    """A mapping's key is not a valid name; ``key`` lets the error point at that key."""
+
+    def __init__(self, message: str, key: str) -> None:
+        super().__init__(message)
+        self.key = key
 
 
 class ConnectionSpec(StrictModel):
@@ -101,6 +116,19 @@ class SystemInputSpec(StrictModel):
         return self
 
 
+class MarksSpec(StrictModel):
+    """Marks on a time plot where a discrete signal changes (a controller's state, a mode)."""
+
+    of: str = Field(
+        description="A scalar signal (`tracker.state`): a line wherever its value changes."
+    )
+    labels: dict[int, str] = Field(
+        default_factory=dict,
+        description="What each value means, written at the mark (`{2: turn left}`); other "
+        "values are shown as `signal = value`.",
+    )
+
+
 class PlotSpec(StrictModel):
     """A plot written by ``fmionnx run``: an x-y trajectory or signals over time."""
 
@@ -123,6 +151,11 @@ class PlotSpec(StrictModel):
         default=None,
         description="Output file name inside the output folder, a plain name without folders "
         "(default: derived from the title, else from the signals).",
+    )
+    marks: MarksSpec | None = Field(
+        default=None,
+        description="A time plot only: a vertical line, labelled, at each change of a discrete "
+        "signal (`{of: tracker.state, labels: {1: sign seen, 2: turn left}}`).",
     )
 
     @model_validator(mode="after")
@@ -198,7 +231,7 @@ class SystemSpec(StrictModel):
     """A whole system file."""
 
     fmionnx: int = Field(description="Format version of this file; this release reads 1.")
-    name: str = Field(pattern=r"^[A-Za-z_][\w-]*$", description="Name of the system.")
+    name: str = Field(pattern=SYSTEM_NAME_PATTERN, description="Name of the system.")
     description: str = ""
     run: RunSpec = Field(default_factory=RunSpec)
     components: dict[str, ComponentSpec] = Field(
@@ -240,7 +273,7 @@ class SystemSpec(StrictModel):
                     f"system input name `{name}` must start with a letter or `_` and contain "
                     "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
                 )
-                raise ValueError(msg)
+                raise InvalidKeyError(msg, name)
         return value
 
     @field_validator("components")
@@ -252,7 +285,7 @@ class SystemSpec(StrictModel):
                     f"component name `{name}` must start with a letter or `_` and contain "
                     "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
                 )
-                raise ValueError(msg)
+                raise InvalidKeyError(msg, name)
         return value
 
 

@@ -7,6 +7,7 @@ being validated to suggest the closest valid key.
 
 from __future__ import annotations
 
+import re
 import types
 import typing
 from typing import Any
@@ -93,11 +94,65 @@ def _emit(
             hint="this release reads `fmionnx: 1`",
         )
         return
+    from fmionnx.spec.model import PATTERN_MEANINGS, InvalidKeyError  # as SystemSpec above
+
     message = str(error.get("msg", "invalid value"))
     message = message.removeprefix("Value error, ")
     value = _value_at(data, data_loc)
-    shown = f" (got {_short(value)})" if value is not _MISSING else ""
-    bag.emit("E003", f"`{where}`: {message}{shown}", sources.value(data_loc))
+    # a whole mapping or list shown as Python's repr helps nobody: the value is at the caret
+    scalar = value is not _MISSING and not isinstance(value, (dict, list))
+    shown = f" (got {_short(value)})" if scalar else ""
+    span = sources.value(data_loc)
+    context = error.get("ctx") or {}
+    cause = context.get("error")
+    if isinstance(cause, InvalidKeyError):  # the key itself is wrong: point at it
+        bag.emit(
+            "E003",
+            f"`{where}`: {message}",
+            sources.key((*data_loc, cause.key)),
+            hint=f"e.g. `{_as_name(cause.key)}`",
+        )
+        return
+    if kind in _MAPPING_EXPECTED:
+        written, example = _WRITTEN_AS.get(
+            str(context.get("class_name")), ("a mapping (`key: value` pairs)", "`key: value`")
+        )
+        bag.emit("E003", f"`{where}` must be {written}{shown}", span, hint=f"e.g. {example}")
+        return
+    if kind == "string_pattern_mismatch":
+        pattern = str(context.get("pattern", ""))
+        meaning = PATTERN_MEANINGS.get(pattern, f"text of the form `{pattern}`")
+        hint = f"e.g. `{_as_name(str(value), dots=False)}`" if pattern in PATTERN_MEANINGS else None
+        bag.emit("E003", f"`{where}` must be {meaning}{shown}", span, hint=hint)
+        return
+    bag.emit("E003", f"`{where}`: {message}{shown}", span)
+
+
+#: pydantic error types that mean "a mapping was expected here".
+_MAPPING_EXPECTED = frozenset({"model_type", "model_attributes_type", "dict_type"})
+#: How an entry of each model is written, for "must be ..." (pydantic names the class), and
+#: an example for the hint.
+_WRITTEN_AS = {
+    "ConnectionSpec": (
+        "a connection: `source.port -> target.port`, or a mapping `{from: ..., to: ...}`",
+        "`- plant.y -> controller.u`",
+    ),
+    "RunSpec": ("the run settings: a mapping", "`run: {stop: 10, step: 0.01}`"),
+    "PlotSpec": ("a plot: a mapping of the signals it draws", "`- {y: [plant.y]}`"),
+    "CheckSpec": (
+        "a check: a mapping with `expect` (and a `name`)",
+        "`- {name: settles, expect: abs(final(plant.y) - 1) < 0.01}`",
+    ),
+}
+
+
+def _as_name(text: str, *, dots: bool = True) -> str:
+    """``text`` made a valid name: other characters become ``_``, a leading digit gets one.
+
+    ``dots``: whether the name may be dotted (components, system inputs) or not (a system).
+    """
+    name = re.sub(r"[^\w.-]+" if dots else r"[^\w-]+", "_", text.strip()) or "_"
+    return name if re.match(r"[A-Za-z_]", name) else f"_{name}"
 
 
 _MISSING = object()

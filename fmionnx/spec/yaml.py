@@ -269,7 +269,32 @@ def _report_marked(
     hint = None
     if mark is not None and exc.problem is not None:
         hint = flow_index_hint(text, mark.line, mark.column, exc.problem)
+    indentation = _indentation_problem(exc)
+    if indentation is not None:
+        message, hint = indentation
+        bag.emit(code, message, span, hint=hint)
+        return
     bag.emit(code, f"invalid YAML: {problem}{context}", span, hint=hint)
+
+
+def _indentation_problem(exc: MarkedYAMLError) -> tuple[str, str] | None:
+    """Message and hint for YAML's "expected <block end>, but found ...": a line that does
+    not line up with the block (mapping or list) it is in, said in a user's words."""
+    if not (exc.problem or "").startswith("expected <block end>") or exc.context_mark is None:
+        return None
+    column = exc.context_mark.column + 1
+    if "sequence" in (exc.context or ""):
+        return (
+            f"invalid YAML: this line does not line up with the list it is in (its items "
+            f"start with `-` in column {column})",
+            "give every item of a list the same indentation",
+        )
+    return (
+        f"invalid YAML: this line does not line up with the mapping it is in (its keys start "
+        f"in column {column})",
+        f"indent the keys of one mapping alike (here: column {column}); to nest this line "
+        "under the key above, end that key's line with `:` and no value",
+    )
 
 
 def _plain(

@@ -133,7 +133,9 @@ record: [brightness.m, world.x]
     frames = _Frames()
     result = fmionnx.load(path).run(options=RunOptions(frames=frames))
     assert result.status is RunStatus.COMPLETED
-    assert frames.times == [0.0, 0.25, 0.5, 0.75]
+    # the first frame is the initial scene, for the model's outputs at the start time
+    # (docs/execution.md, "Initial values"); then one per step of the model
+    assert frames.times == [0.0, 0.0, 0.25, 0.5, 0.75]
     assert 0 < result["brightness.m"][-1] < 255
 
 

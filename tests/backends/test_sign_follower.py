@@ -60,11 +60,14 @@ def test_robot_path_stays_within_30_cm_of_the_expected_path(run_result) -> None:
 #: Last change: the sign course renders only what the camera needs (issue #14: no anti-aliasing,
 #: no skybox, a plain floor, the headlight only), so the camera's frames and everything after
 #: them differ; the checks still hold (end 0.0224 m from B, largest deviation 0.0238 m).
-#: Last change: default recording is every output (issue #33), so the file gains the columns
-#: world.A.pos, world.B.pos, world.base.pos (3 each), tracker.stopRobot and tracker.state
-#: (29 signals, was 18); the 18 columns it had, written alone, still hash to the previous
-#: value 2766eeea206176f38d8065f2d8e4cd9e1d3759f03645601fb8433395183f6f2a bit for bit.
-REFERENCE_RESULTS_SHA256 = "57b8f451548d2032296e7cd1f83141943c6101309fca565fe7c99ea5d4e95610"
+#: Last change (issues #33 and #34 merged): default recording is every output (29 signals, was
+#: 18: world.A.pos, world.B.pos, world.base.pos, tracker.stopRobot, tracker.state); the
+#: detector's tensor elements are named with one index per dimension (`"detector.blobX[0,2]"`,
+#: quoted for its comma; was `detector.blobX[2]`); an ONNX component's outputs at the start
+#: time come from its start inputs, so the detector's columns from 0 to 0.098 s (rows 1-50)
+#: hold what it sees in the first frame instead of its output for a black frame. Compared
+#: column by column with the file before the merge: nothing else changed.
+REFERENCE_RESULTS_SHA256 = "b028fde126b0d4127ee3506aa804dc08921477825c4df1c2f0f3f3d66d674a70"
 
 
 def test_reference_results_csv_is_byte_identical_to_the_recorded_hash(run_result, tmp_path) -> None:

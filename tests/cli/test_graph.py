@@ -83,3 +83,50 @@ def test_a_broken_system_prints_diagnostics_and_exits_1(tmp_path: Path) -> None:
     result = CliRunner().invoke(app, ["graph", str(broken)], catch_exceptions=False)
     assert result.exit_code == 1
     assert "E010" in result.output
+
+
+@pytest.mark.parametrize(
+    ("name", "golden"),
+    [
+        ("graph.dot", "sign_follower.dot"),
+        ("graph.gv", "sign_follower.dot"),
+        ("graph.mmd", "sign_follower.mmd"),
+        ("graph.json", "sign_follower.graph.json"),
+    ],
+)
+def test_without_format_the_output_suffix_chooses_it(
+    name: str, golden: str, tmp_path: Path
+) -> None:
+    out = tmp_path / name
+    result = CliRunner().invoke(app, ["graph", str(SYSTEM), "-o", str(out)], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert out.read_text(encoding="utf-8") == (GOLDEN / golden).read_text(encoding="utf-8")
+
+
+@pytest.mark.skipif(
+    shutil.which("dot") is None, reason="Graphviz is installed by tools/system-deps.sh"
+)
+def test_an_svg_suffix_writes_svg_not_dot_text(tmp_path: Path) -> None:
+    out = tmp_path / "graph.svg"
+    result = CliRunner().invoke(app, ["graph", str(SYSTEM), "-o", str(out)], catch_exceptions=False)
+    assert result.exit_code == 0, result.output
+    assert b"<svg" in out.read_bytes()
+    assert not out.read_bytes().startswith(b"digraph")
+
+
+@pytest.mark.parametrize("name", ["graph.txt", "graph.md", "graph"])
+def test_an_unknown_suffix_without_format_is_a_usage_error(name: str, tmp_path: Path) -> None:
+    out = tmp_path / name
+    result = CliRunner().invoke(app, ["graph", str(SYSTEM), "-o", str(out)])
+    assert result.exit_code == 2
+    assert "the format cannot be told from it; give `--format`" in " ".join(result.output.split())
+    assert not out.exists()
+
+
+def test_an_explicit_format_wins_over_the_suffix(tmp_path: Path) -> None:
+    out = tmp_path / "graph.txt"
+    result = CliRunner().invoke(
+        app, ["graph", str(SYSTEM), "-f", "mermaid", "-o", str(out)], catch_exceptions=False
+    )
+    assert result.exit_code == 0, result.output
+    assert out.read_text(encoding="utf-8") == (GOLDEN / "sign_follower.mmd").read_text("utf-8")

@@ -44,7 +44,8 @@ def _invoke(*args: str) -> tuple[int, str]:
 def test_an_output_file_under_a_plain_file_is_a_usage_error(
     command: list[str], a_file: Path
 ) -> None:
-    target = a_file / ("out.ssp" if command[0] == "export" else "out.x")
+    suffix = {"export": ".ssp", "graph": ".dot"}.get(command[0], ".x")  # a format they write
+    target = a_file / f"out{suffix}"
     code, output = _invoke(*command, str(target))
     assert code == 2
     assert f"`{target}`: the folder `{a_file}` exists and is not a folder" in output
@@ -52,7 +53,7 @@ def test_an_output_file_under_a_plain_file_is_a_usage_error(
 
 @pytest.mark.parametrize(
     ("command", "option"),
-    [(["graph", SYSTEM, "-o"], "--output"), (["run", SYSTEM, "--record"], "--record")],
+    [(["graph", SYSTEM, "-f", "dot", "-o"], "--output"), (["run", SYSTEM, "--record"], "--record")],
 )
 def test_an_output_file_that_is_a_folder_is_a_usage_error(
     command: list[str], option: str, tmp_path: Path

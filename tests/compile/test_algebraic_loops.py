@@ -54,6 +54,31 @@ def test_without_the_setting_a_loop_is_e035_with_a_hint_to_iterate(tmp_path: Pat
     assert "algebraic_loops" in error.hint
 
 
+def test_e035_marks_only_the_connections_of_the_loop(tmp_path: Path) -> None:
+    """``a.y -> sink.u`` leaves a port of the loop but is no edge of it: no caret, no note."""
+    result = _compile(tmp_path, "")
+    (error,) = [d for d in result.diagnostics if d.code == "E035"]
+    lines = (tmp_path / "system.yaml").read_text("utf-8").splitlines()
+    assert lines[error.span.line - 1].strip() == "- a.y -> b.u"
+    assert [lines[n.span.line - 1].strip() for n in error.notes if n.span] == ["- b.y -> a.u"]
+
+
+def test_e035_on_a_self_loop_marks_that_connection_alone(tmp_path: Path) -> None:
+    gain = build_fixture_fmu("Gain")
+    path = tmp_path / "system.yaml"
+    path.write_text(
+        "fmionnx: 1\nname: self_loop\nrun: {stop: 1, step: 0.1}\ncomponents:\n"
+        f"  pi: {{kind: fmu, path: {gain}}}\n  room: {{kind: fmu, path: {gain}}}\n"
+        "connections:\n  - pi.y -> room.u\n  - pi.y -> pi.u\n",
+        "utf-8",
+    )
+    result = api.compile_system(path)
+    (error,) = [d for d in result.diagnostics if d.code == "E035"]
+    assert error.message == "algebraic loop: pi.y -> pi.u -> pi.y"
+    assert error.span.line == 9  # `- pi.y -> pi.u`, not `- pi.y -> room.u` above it
+    assert not error.notes
+
+
 def test_a_loop_to_iterate_is_resolved_into_the_compiled_system(tmp_path: Path) -> None:
     system = _system(tmp_path, ", algebraic_loops: {solver: newton, relaxation: 0.5}")
     (loop,) = system.loops

@@ -225,3 +225,52 @@ def test_a_signal_a_time_plot_cannot_draw_is_e046(tmp_path: Path, signal: str, w
     assert [d.code for d in errors] == ["E046"], [str(d) for d in errors]
     assert why in errors[0].message
     assert (errors[0].span.line, errors[0].span.col) == (7, 31)  # type: ignore[union-attr]
+
+
+def test_the_scene_labels_its_boards_for_the_legend(reference: CompiledSystem) -> None:
+    trajectory = reference.plots[0]
+    assert trajectory.scene is not None
+    labels = {s.name: s.label for s in trajectory.scene.shapes if s.label}
+    assert labels == {
+        "sign_left_board": "blue board: turn left",
+        "sign_right_board": "green board: turn right",
+        "sign_stop_board": "red board: stop",
+    }
+    assert from_json(to_json(reference)) == reference  # labels and marks travel
+
+
+def _marks_errors(tmp_path: Path, plot: str) -> list[str]:
+    gain = build_fixture_fmu("Gain")
+    path = tmp_path / "marks.yaml"
+    path.write_text(
+        "fmionnx: 1\nname: marks\nrun: {stop: 1, step: 0.1}\n"
+        f"components:\n  g: {{kind: fmu, path: {gain}}}\nplots:\n  - {plot}\n",
+        encoding="utf-8",
+    )
+    result = api.compile_system(path)
+    return [f"{d.code} {d.message}" for d in result.diagnostics if d.code.startswith("E")]
+
+
+@pytest.mark.parametrize(
+    ("plot", "expected"),
+    [
+        (
+            "{xy: [g.y, g.u], marks: {of: g.y}}",
+            "E045 `marks` are drawn on a plot over time; this is an xy plot",
+        ),
+        (
+            "{y: [g.y], marks: {of: g.w}}",
+            "E046 plot marks: follow one signal; `g.w` has 3 elements",
+        ),
+        (
+            "{y: [g.y], marks: {of: g.z}}",
+            "E045 plot marks: component `g` (fmu) has no port `z`",
+        ),
+        (
+            "{y: [g.y], marks: {of: g.k}}",
+            "E046 plot: `g.k` is a parameter: it does not change during a run and is not recorded",
+        ),
+    ],
+)
+def test_marks_that_cannot_be_drawn_are_refused(tmp_path: Path, plot: str, expected: str) -> None:
+    assert _marks_errors(tmp_path, plot) == [expected]

@@ -121,7 +121,7 @@ def _column(line: str, needle: str) -> int:
             (
                 "E003",
                 "`components.s.outputs`: output name `9q` is not a port name: use letters, "
-                "digits and `_`, not starting with a digit (got {'9q': {'constant': 1}})",
+                "digits and `_`, not starting with a digit",
             ),
         ),
         (

@@ -59,6 +59,7 @@ def _driven(reference: CompiledSystem) -> RunResult:
             "odometry.posY": path[:, 1],
             "tracker.v": np.array([0.4, 0.4, 0.0, 0.4]),
             "tracker.w": np.array([0.0, 0.8, 0.0, 0.0]),
+            "tracker.state": np.array([1.0, 2.0, 2.0, 4.0]),
         },
         steps=len(path) - 1,
     )
@@ -72,7 +73,7 @@ def _drawn(plot_index: int, reference: CompiledSystem, result: RunResult) -> Fig
 
 def test_the_trajectory_is_drawn_over_the_map_with_a_and_b_named(reference: CompiledSystem) -> None:
     (axes,) = _drawn(0, reference, _driven(reference)).axes
-    texts = {t.get_text(): t.xy for t in axes.texts}
+    texts = {t.get_text(): t.xy for t in axes.texts if t.get_gid() != "time marks"}
     assert texts == {"A": (0.0, 0.0), "B": (6.0, 3.0)}
     boards = {p.get_gid(): p for p in axes.patches if str(p.get_gid()).endswith("_board")}
     colours = {gid: tuple(round(c, 2) for c in p.get_facecolor()) for gid, p in boards.items()}
@@ -98,8 +99,9 @@ def test_a_time_plot_has_a_panel_and_a_y_label_per_unit(reference: CompiledSyste
     figure = _drawn(1, reference, _driven(reference))
     assert [a.get_ylabel() for a in figure.axes] == ["tracker.v [m/s]", "tracker.w [rad/s]"]
     assert figure.axes[-1].get_xlabel() == "time [s]"
-    assert [len(a.lines) for a in figure.axes] == [1, 1]
-    np.testing.assert_array_equal(figure.axes[1].lines[0].get_ydata(), [0.0, 0.8, 0.0, 0.0])
+    plotted = [[line for line in a.lines if line.get_gid() != "marks"] for a in figure.axes]
+    assert [len(lines) for lines in plotted] == [1, 1]
+    np.testing.assert_array_equal(plotted[1][0].get_ydata(), [0.0, 0.8, 0.0, 0.0])
 
 
 def test_a_signal_missing_from_the_run_is_named_on_the_figure(
@@ -123,15 +125,16 @@ def test_written_plot_files_are_named_from_their_titles(
 
 def test_the_signals_figure_has_a_panel_per_port_with_its_unit(reference: CompiledSystem) -> None:
     result = _driven(reference)
-    result.signals["detector.blobX[0]"] = np.zeros(len(result.time))
-    result.signals["detector.blobX[1]"] = np.ones(len(result.time))
+    result.signals["detector.blobX[0,0]"] = np.zeros(len(result.time))
+    result.signals["detector.blobX[0,1]"] = np.ones(len(result.time))
     series = signal_series(result, reference)
     assert [(s.signal, s.columns, s.unit) for s in series] == [
         ("odometry.posX", ("odometry.posX",), "m"),
         ("odometry.posY", ("odometry.posY",), "m"),
         ("tracker.v", ("tracker.v",), "m/s"),
         ("tracker.w", ("tracker.w",), "rad/s"),
-        ("detector.blobX", ("detector.blobX[0]", "detector.blobX[1]"), None),
+        ("tracker.state", ("tracker.state",), None),
+        ("detector.blobX", ("detector.blobX[0,0]", "detector.blobX[0,1]"), None),
     ]
     figure = draw_signals(series, result, title="t")
     assert [a.get_ylabel() for a in figure.axes] == [
@@ -139,11 +142,12 @@ def test_the_signals_figure_has_a_panel_per_port_with_its_unit(reference: Compil
         "odometry.posY [m]",
         "tracker.v [m/s]",
         "tracker.w [rad/s]",
+        "tracker.state",
         "detector.blobX",
     ]
     assert [line.get_label() for line in figure.axes[-1].lines] == [
-        "detector.blobX[0]",
-        "detector.blobX[1]",
+        "detector.blobX[0,0]",
+        "detector.blobX[0,1]",
     ]
 
 
@@ -198,10 +202,70 @@ def test_a_one_element_onnx_port_is_plotted_as_one_signal_of_a_real_run(tmp_path
     assert axes.get_ylabel() == "net.y, net.z"
     assert [line.get_label() for line in axes.lines] == [
         "net.y",
-        "net.z[0]",
-        "net.z[1]",
-        "net.z[2]",
+        "net.z[0,0]",
+        "net.z[0,1]",
+        "net.z[0,2]",
     ]
     np.testing.assert_array_equal(axes.lines[0].get_ydata(), [3, 3, 3, 3])
     np.testing.assert_array_equal(axes.lines[3].get_ydata(), [1.5, 1.5, 1.5, 1.5])
     assert to_rgba(axes.lines[0].get_color()) != to_rgba(axes.lines[1].get_color())
+
+
+def test_the_trajectory_legend_says_what_the_boards_mean(reference: CompiledSystem) -> None:
+    """The scene labels its boards (``label:<geom>`` custom texts): the legend names each in
+    its colour (issue #34: the colours' meaning was nowhere on the plot)."""
+    (axes,) = _drawn(0, reference, _driven(reference)).axes
+    handles, labels = axes.get_legend_handles_labels()
+    meaning = {
+        label: tuple(round(c, 2) for c in handle.get_facecolor())
+        for handle, label in zip(handles, labels, strict=True)
+        if label.endswith(("left", "right", "stop"))
+    }
+    assert meaning == {
+        "blue board: turn left": (0.05, 0.05, 0.85, 1.0),
+        "green board: turn right": (0.05, 0.75, 0.05, 1.0),
+        "red board: stop": (0.85, 0.05, 0.05, 1.0),
+    }
+
+
+def test_the_trajectory_marks_the_time_along_the_run(reference: CompiledSystem) -> None:
+    steps = 40
+    t = np.arange(steps + 1) * 0.5  # 20 s: a mark every 5 s (at most 8 marks)
+    result = _result({"odometry.posX": t / 10, "odometry.posY": np.zeros_like(t)}, steps=steps)
+    (axes,) = _drawn(0, reference, result).axes
+    (dots,) = [line for line in axes.lines if line.get_gid() == "time marks"]
+    np.testing.assert_allclose(dots.get_xdata(), [0.5, 1.0, 1.5])  # x = t / 10 at 5, 10, 15 s
+    assert dots.get_label() == "every 5 s"
+    labels = [text.get_text() for text in axes.texts if text.get_gid() == "time marks"]
+    assert labels == ["5 s", "10 s", "15 s"]
+
+
+@pytest.mark.parametrize(
+    ("duration", "step"), [(32.0, 5.0), (20.0, 5.0), (8.0, 1.0), (1800.0, 500.0), (0.3, 0.05)]
+)
+def test_time_marks_fall_on_round_seconds(duration: float, step: float) -> None:
+    from fmionnx.results.plots import MOST_TIME_MARKS, time_step
+
+    assert time_step(duration) == pytest.approx(step)
+    assert duration / time_step(duration) <= MOST_TIME_MARKS
+
+
+def test_the_velocity_plot_marks_the_trackers_state_changes(reference: CompiledSystem) -> None:
+    """``marks: {of: tracker.state, labels: ...}``: a line on every panel where the state
+    changes, its new value named on the top one (issue #34)."""
+    figure = _drawn(1, reference, _driven(reference))
+    for axes in figure.axes:
+        marks = [line.get_xdata()[0] for line in axes.lines if line.get_gid() == "marks"]
+        assert marks == [0.5, 1.5]  # 1 -> 2 at t = 0.5, 2 -> 4 at t = 1.5
+    top = [t.get_text() for t in figure.axes[0].texts if t.get_gid() == "marks"]
+    assert top == ["turn left", "stop"]
+    assert not [t for t in figure.axes[1].texts if t.get_gid() == "marks"]
+
+
+def test_marks_are_resolved_and_recorded(reference: CompiledSystem) -> None:
+    marks = reference.plots[1].marks
+    assert marks is not None
+    assert (marks.signal, marks.column) == ("tracker.state", "tracker.state")
+    assert marks.label(2.0) == "turn left"
+    assert marks.label(7.0) == "tracker.state = 7"
+    assert "tracker.state" in [str(ref) for ref in reference.plots[1].refs]

@@ -40,7 +40,7 @@ def drawn(monkeypatch: pytest.MonkeyPatch) -> list[Any]:
 def test_a_heat_map_leaves_a_case_that_did_not_complete_grey_and_says_why(
     drawn: list[Any], tmp_path: Path
 ) -> None:
-    study_plots._heatmap(GRID, ["k", "x0"], "y_end", tmp_path)
+    study_plots._heatmap(GRID, ["k", "x0"], "y_end", {}, tmp_path)
     axes = drawn[0].axes[0]
     cells = axes.images[0].get_array()
     assert cells[0].tolist() == [1.0, 2.0]  # x0 = 0: both completed
@@ -56,7 +56,7 @@ def test_a_metric_against_a_target_marks_a_case_that_did_not_complete_at_the_foo
     drawn: list[Any], tmp_path: Path
 ) -> None:
     table = GRID[GRID["x0"] == 0.5].reset_index(drop=True)  # k = 1 faulted, k = 2 completed
-    study_plots._against(table, ["k"], "y_end", tmp_path)
+    study_plots._against(table, ["k"], "y_end", {}, tmp_path)
     axes = drawn[0].axes[0]
     values, crosses = axes.lines
     assert values.get_xdata().tolist() == [1.0, 2.0]
@@ -68,8 +68,64 @@ def test_a_metric_against_a_target_marks_a_case_that_did_not_complete_at_the_foo
 
 def test_completed_cases_only_draw_as_before(drawn: list[Any], tmp_path: Path) -> None:
     table = GRID.assign(status="ok")
-    study_plots._against(table, ["k", "x0"], "y_end", tmp_path)
+    study_plots._against(table, ["k", "x0"], "y_end", {}, tmp_path)
     for axes in drawn[0].axes:
         assert len(axes.lines) == 1  # no crosses, no legend
         assert axes.get_legend() is None
     assert sorted(drawn[0].axes[0].lines[0].get_ydata().tolist()) == [0.0, 1.0, 2.0, 3.0]
+
+
+#: A case that completed without a value (a ``first_time`` whose condition never held).
+NO_VALUE = GRID.assign(y_end=[1.0, 2.0, float("nan"), 3.0], status="ok")
+NAMES = {"k": "k [N/m]", "x0": "x0 [m]", "y_end": "y_end [m]"}
+
+
+def test_a_heat_map_labels_a_completed_case_without_a_value(
+    drawn: list[Any], tmp_path: Path
+) -> None:
+    study_plots._heatmap(NO_VALUE, ["k", "x0"], "y_end", NAMES, tmp_path)
+    axes = drawn[0].axes[0]
+    texts = {(t.get_position(), t.get_text()) for t in axes.texts}
+    assert ((0, 1), "no value") in texts
+
+
+def test_a_metric_against_a_target_marks_a_case_without_a_value(
+    drawn: list[Any], tmp_path: Path
+) -> None:
+    study_plots._against(NO_VALUE[NO_VALUE["x0"] == 0.5], ["k"], "y_end", NAMES, tmp_path)
+    axes = drawn[0].axes[0]
+    (cross,) = [line for line in axes.lines if line.get_gid() == "no value"]
+    assert cross.get_xdata().tolist() == [1.0]
+    assert cross.get_label() == "no value"
+
+
+def test_axes_and_colour_bars_carry_units(drawn: list[Any], tmp_path: Path) -> None:
+    study_plots._heatmap(GRID, ["k", "x0"], "y_end", NAMES, tmp_path)
+    axes, bar = drawn[0].axes
+    assert (axes.get_xlabel(), axes.get_ylabel()) == ("k [N/m]", "x0 [m]")
+    assert bar.get_ylabel() == "y_end [m]"
+    study_plots._against(GRID, ["k"], "y_end", NAMES, tmp_path)
+    assert (drawn[1].axes[0].get_xlabel(), drawn[1].axes[0].get_ylabel()) == (
+        "k [N/m]",
+        "y_end [m]",
+    )
+
+
+def test_units_of_targets_and_metrics_follow_the_models() -> None:
+    """The reference study: the tracker's parameters and three measures."""
+    from fmionnx.compile.study import compile_study
+    from fmionnx.core.diagnostics import DiagnosticBag
+    from fmionnx.results.study_units import plan_units
+    from fmionnx.spec.study import load_study
+    from tests.conftest import REPO
+
+    bag = DiagnosticBag()
+    plan = compile_study(load_study(REPO / "examples" / "sweep-tracker" / "study.yaml", bag), bag)
+    assert plan is not None, [str(d) for d in bag]
+    assert plan_units(plan) == {
+        "tracker.cruiseSpeed": "m/s",
+        "tracker.turnRate": "rad/s",
+        "distance_to_B": "m",
+        "time_to_B": "s",
+        "max_deviation": "m",
+    }

@@ -285,3 +285,22 @@ def test_header_samples_are_placed_by_their_header_not_the_source_timestamp() ->
     assert sync.use(1) == frames[1]
     assert sync.use(51) == frames[51]
     assert sync.finish().matched == 2
+
+
+def test_the_values_after_set_up_are_taken_for_the_start_without_counting_a_step() -> None:
+    """An ONNX node's outputs at the start time (issue #34) use the set-up sample; that is no
+    step, so a free run's counts stay those of its steps."""
+    sync = _stamped()
+    assert sync.take_start(0) is None  # not here (yet): the start values stay
+    _offer(sync, 0, 5)
+    assert sync.take_start(0) == b"s0"
+    assert sync.use(5) == b"s5"  # the first step's sample, as before
+    counts = sync.finish()
+    assert (counts.received, counts.matched, counts.stale, counts.dropped) == (2, 1, 0, 0)
+
+
+def test_a_topic_matched_by_arrival_keeps_its_newest_sample_for_the_first_step() -> None:
+    sync = _stamped(Match.ARRIVAL)
+    sync.offer(b"a", None)
+    assert sync.take_start(None) == b"a"
+    assert sync.use(None) == b"a"

@@ -16,6 +16,7 @@ from fmionnx.backends.ros2.env import from_environment
 from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.qos import PROFILES
+from fmionnx.results.csvfile import read_csv
 from tests.conftest import REPO, built_model
 from tests.ros2.test_run import fmionnx, processes_with
 from tests.ros2.test_wire import PEERS
@@ -27,8 +28,7 @@ GOAL_B = np.array([6.0, 3.0])
 
 
 def _csv(path: Path) -> dict[str, np.ndarray]:
-    table = np.genfromtxt(path, delimiter=",", names=True, deletechars="")
-    return {name: table[name] for name in table.dtype.names}
+    return read_csv(path)  # tensor columns are quoted (`"detector.blobX[0,2]"`)
 
 
 @pytest.fixture(scope="module")

@@ -44,3 +44,25 @@ def test_lazy_image_is_published_only_after_steps_a_reader_sees() -> None:
     assert [m for m in range(200) if early.published_at(m)] == [49, 99, 149, 199]
     assert early.count_before(0, 0) == 1
     assert early.count_before(50, 0) == 2
+
+
+def test_a_lazy_image_read_by_a_model_evaluated_at_start_is_published_after_set_up() -> None:
+    """An ONNX detector computes its start outputs from the initial frame (issue #34): the
+    camera publishes it after set-up, and the step-0 frame becomes the second sample."""
+    camera = TopicSchedule("/camera", 1, 0, lazy=True, readers=(Reader(50, 2, at_start=True),))
+    assert camera.published_at_init()
+    assert [m for m in range(200) if camera.published_at(m)] == [0, 50, 100, 150]
+    assert camera.count_before(0, 2) == 2  # the initial frame, then the one after step 0
+    assert camera.count_before(50, 2) == 3
+
+
+def test_the_reference_detector_reads_the_camera_at_start() -> None:
+    from fmionnx import api
+    from fmionnx.backends.ros2.loading import plan_for
+    from fmionnx.backends.ros2.schedule import topic_schedules
+    from tests.conftest import REPO
+
+    compiled = api.load(REPO / "systems" / "sign_follower.yaml").compiled
+    plan = plan_for(compiled)
+    schedules = topic_schedules(compiled, plan)
+    assert schedules["/camera/image_raw"].published_at_init()

@@ -399,7 +399,7 @@ def test_a_run_annotation_that_is_not_a_mapping_beside_an_omsimulator_step_is_e0
     spec, found = load(loose(ssd(f"<ssd:Elements>{gain('a')}</ssd:Elements>{step}", after=ours)))
     assert spec is None
     assert [(code, line) for code, line, _ in found] == [("E003", 6)]
-    assert "`run`: Input should be a valid dictionary" in found[0][2]
+    assert "`run` must be the run settings: a mapping (got 5)" in found[0][2]
 
 
 def test_validate_and_graph_commands_read_ssp(foreign_ssp: Path) -> None:

@@ -151,8 +151,8 @@ def test_a_study_moves_a_sign_of_the_reference_scene(tmp_path: Path, scheduler: 
         )
         refs = (PortRef("detector", "blobX"), PortRef("detector", "blobSize"))
         result = fmionnx.load(direct / "system.yaml").run(isolate="none", signals=refs)
-        assert row["blue_x"] == pytest.approx(result["detector.blobX[2]"][-1])
-        assert row["blue_size"] == pytest.approx(result["detector.blobSize[2]"][-1])
+        assert row["blue_x"] == pytest.approx(result["detector.blobX[0,2]"][-1])
+        assert row["blue_size"] == pytest.approx(result["detector.blobSize[0,2]"][-1])
 
 
 BAD_TARGETS = """\

@@ -213,6 +213,20 @@ class StampedInput:
             return True
         return any(stamp > expected for stamp in self.pending)
 
+    def take_start(self, stamp: int | None) -> bytes | None:
+        """The producer's values after set-up (stamped ``stamp``), if here, for a model's
+        outputs at the start time (``startinputs``).
+
+        That is no step: nothing is counted. A topic matched by arrival gives its newest
+        sample and keeps it for the first step.
+        """
+        if self.match is Match.ARRIVAL:
+            return self.newest
+        if stamp is None or stamp not in self.pending:
+            return None
+        self.current = stamp
+        return self.pending.pop(stamp)
+
     def use(self, expected: int | None) -> bytes | None:
         """The payload to load for a step expecting ``expected`` (None: keep the values held).
 

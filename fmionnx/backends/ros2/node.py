@@ -61,6 +61,7 @@ from fmionnx.backends.ros2.middleware import (
 )
 from fmionnx.backends.ros2.recording import NodeRecording, node_recording, record_refs, save_node
 from fmionnx.backends.ros2.schedule import TopicSchedule, topic_schedules
+from fmionnx.backends.ros2.startinputs import evaluate_at_start
 from fmionnx.backends.ros2.transport import Participant, RawReader, RawWriter
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
@@ -74,7 +75,7 @@ from fmionnx.core.types import Component, DType
 from fmionnx.kinds.base import SIMULATOR
 from fmionnx.kinds.registry import has_capability, make_runner
 from fmionnx.runtime.stepping import Work
-from fmionnx.runtime.transfer import make_transfer
+from fmionnx.runtime.transfer import Transfer, make_transfer
 
 log = logging.getLogger("fmionnx.node")
 
@@ -336,7 +337,8 @@ class Node:
         self.ending_step: int | None = None
         self.inboxes: list[Inbox] = []
         self.outboxes: list[Outbox] = []
-        #: This node's component as the stepping core's work (set when the node opens).
+        self.transfers: tuple[Transfer, ...] = ()
+        #: This node's component as the stepping core's work (set once its recording is).
         self.work: Work | None = None
         self.recording: NodeRecording | None = None
         self.runner: Runner | None = None
@@ -375,12 +377,7 @@ class Node:
             src = connection.src.component
             proxy = proxies.setdefault(src, ProxyRunner(system.component(src)))
             transfers.append(make_transfer(connection, proxy, runner))
-        recording = self.recording
-        self.work = Work(
-            name, tuple(transfers), runner.step, self.component.period_steps * system.run.step,
-            None if recording is None else recording.before,
-            None if recording is None else recording.after, (name,),
-        )  # fmt: skip
+        self.transfers = tuple(transfers)
         for topic_name in self.node_plan.subscribes:
             topic = plan.topic(topic_name)
             sinks: dict[tuple[str, str], tuple[str, Buffer]] = {}
@@ -415,6 +412,16 @@ class Node:
             self.outboxes.append(
                 Outbox(topic, writer, codec, schedules[topic_name], values, lazy, readers)
             )
+
+    def _work(self, runner: Runner) -> Work:
+        """The component's step for the stepping core: its transfers, its recorded tracks."""
+        recording, name = self.recording, self.component.name
+        return Work(
+            name, self.transfers, runner.step,
+            self.component.period_steps * self.system.run.step,
+            None if recording is None else recording.before,
+            None if recording is None else recording.after, (name,),
+        )  # fmt: skip
 
     def _dds_name(self, topic_name: str) -> str:
         """The DDS name of a plan topic after ``--remap``."""
@@ -582,7 +589,6 @@ class Node:
         try:
             runner.instantiate()
             runner.setup(self.system.run.start, self.system.run.stop)
-            self.recording = node_recording(self.system, runner, record_refs(self.system))
             self._open(participant, runner)
             clock_in = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
             done = participant.writer(DONE_DDS, DONE_TYPE, CONTROL_WRITER_QOS)
@@ -602,6 +608,12 @@ class Node:
                     )
                 )  # fmt: skip
             self._readers_matched()
+            evaluate_at_start(  # ONNX: outputs at the start time from the start inputs
+                runner, self.inboxes, self.transfers, self.system.run.start,
+                lockstep=opts.sync is SyncMode.LOCKSTEP,
+            )  # fmt: skip
+            self.recording = node_recording(self.system, runner, record_refs(self.system))
+            self.work = self._work(runner)
             self._publish(runner, None, self.system.run.start)
             if opts.supervised:
                 ready.wait_for_readers(1, MATCH_TIMEOUT)

@@ -1,7 +1,9 @@
 """Finding a usable rclpy: installed, loadable, which ROS 2 distribution, without crashing.
 
 rclpy comes either from a sourced ROS 2 installation or from the PyPI wheels of the ``rclpy``
-extra (``pip install 'fmionnx[rclpy]'``: Jazzy's rclpy 7.1 with Fast DDS). The wheels need
+extra (Jazzy's rclpy 7.1 with Fast DDS), installed from the clone fmionnx is installed from
+(``pip install -e '.[rclpy]'`` in its venv; ``make setup-test`` includes it: fmionnx is not
+published on PyPI, so ``pip install 'fmionnx[rclpy]'`` cannot work). The wheels need
 their shared libraries on ``LD_LIBRARY_PATH``; their ``ros-wheels-bootstrapper`` sets it and
 re-executes the interpreter at start-up, so nothing is needed in the user's shell.
 
@@ -31,8 +33,12 @@ from fmionnx.core.errors import FmionnxError
 #: rclpy's major version per distribution (Humble 3.3, Iron 4/5, Jazzy 7.1, Kilted 9.1).
 _RCLPY_MAJOR = {3: RosDistro.HUMBLE, 4: RosDistro.IRON, 5: RosDistro.IRON, 7: RosDistro.JAZZY,
                 9: RosDistro.KILTED}  # fmt: skip
-#: What to install when rclpy is missing (the project's extra: ROS 2 Jazzy wheels).
-INSTALL_HINT = "pip install 'fmionnx[rclpy]' (ROS 2 Jazzy wheels) or source a ROS 2 installation"
+#: What to install when rclpy is missing: the project's extra (ROS 2 Jazzy wheels), from the
+#: clone fmionnx is installed from, since fmionnx is not on PyPI.
+INSTALL_HINT = (
+    "in your clone of fmionnx run `.venv/bin/pip install -e '.[rclpy]'` (ROS 2 Jazzy wheels; "
+    "`make setup-test` installs them too), or source a ROS 2 installation"
+)
 
 
 class RclpyUnavailableError(FmionnxError):

@@ -21,6 +21,8 @@ from dataclasses import dataclass, field
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.fields import IMAGE_TYPE
 from fmionnx.compile.ros2.types import Ros2Plan, TopicPlan
+from fmionnx.kinds.base import EVALUATED_AT_START
+from fmionnx.kinds.registry import has_capability
 
 #: Rate of an image topic that nothing inside the run reads (for viewers such as rviz).
 UNREAD_IMAGE_RATE = 10.0
@@ -28,10 +30,15 @@ UNREAD_IMAGE_RATE = 10.0
 
 @dataclass(frozen=True, slots=True)
 class Reader:
-    """A consumer of a topic: its period in base steps and its position in the order."""
+    """A consumer of a topic: its period in base steps and its position in the order.
+
+    ``at_start``: it computes its outputs at the start time from its inputs there (an ONNX
+    model, ``kinds.base.EVALUATED_AT_START``), so it reads the values published after set-up.
+    """
 
     period: int
     position: int
+    at_start: bool = False
 
 
 @dataclass
@@ -51,7 +58,7 @@ class TopicSchedule:
         """Whether the values after set-up are published (always, unless lazy and unread)."""
         if not self.lazy:
             return True
-        return any(r.position < self.position for r in self.readers)
+        return any(r.position < self.position or r.at_start for r in self.readers)
 
     def published_at(self, m: int) -> bool:
         """Whether the producer publishes after its step at base step ``m`` (``m % period == 0``)."""
@@ -88,7 +95,11 @@ def topic_schedules(system: CompiledSystem, plan: Ros2Plan) -> dict[str, TopicSc
         producer = system.component(topic.publisher)
         readers = tuple(
             dict.fromkeys(
-                Reader(system.component(s.component).period_steps, position[s.component])
+                Reader(
+                    system.component(s.component).period_steps,
+                    position[s.component],
+                    has_capability(system.component(s.component), EVALUATED_AT_START),
+                )
                 for s in plan.subscriptions
                 if s.topic == topic.name
             )

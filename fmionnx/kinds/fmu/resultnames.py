@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+from fmionnx.core.signals import column_names
 from fmionnx.core.types import Causality, Component
 
 
@@ -22,14 +23,12 @@ def result_aliases(component: Component) -> dict[str, str]:
         names = {}
     aliases = {}
     for port in component.interface.with_causality(Causality.OUTPUT):
-        prefix = f"{component.name}.{port.name}"
+        columns = column_names(component.name, port)  # results.csv's names, tensors included
         if port.is_scalar:
-            aliases[prefix] = port.name
+            aliases[columns[0]] = port.name
             continue
-        size = port.size or 1
-        per_element = len(port.vrs) == size
-        for i in range(size):
-            fallback = f"{port.name}[{i}]"
-            name = names.get(port.vrs[i], fallback) if per_element else fallback
-            aliases[f"{prefix}[{i}]"] = name
+        per_element = len(port.vrs) == len(columns)
+        for i, column in enumerate(columns):
+            fallback = column.split(".", 1)[1]  # the port and its element, without the component
+            aliases[column] = names.get(port.vrs[i], fallback) if per_element else fallback
     return aliases

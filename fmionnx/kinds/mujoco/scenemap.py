@@ -7,6 +7,11 @@ itself and are left out; so are geoms in groups 3 to 5, which MuJoCo's viewer hi
 default (collision shapes, markers), and fully transparent ones. Anything on a body that can
 move (the robot) is no landmark.
 
+A scene says what a landmark means with a custom text named ``label:<geom name>``
+(``<custom><text name="label:sign_left_board" data="turn left"/></custom>``, MuJoCo's own
+element for user text): the shape carries it, and a trajectory plot's legend shows it in the
+shape's colour.
+
 Footprints are convex outlines of the geom's projection onto the ground plane, computed from
 the geom's own shape at the initial configuration: a box's corners, the rims of a cylinder, the
 ends of a capsule, a sphere's circle; a mesh by its bounding box. Coordinates are rounded to
@@ -51,6 +56,7 @@ def read_scene_map(path: Path) -> SceneMap:
             continue
         x, y = (round(float(v), DIGITS) for v in data.site_xpos[i][:2])
         sites.append(MapSite(name, x, y, _rgba(model.site_rgba[i])))
+    labels = _labels(model, mujoco)
     shapes = []
     for i in range(model.ngeom):
         if not _is_landmark(model, i, mujoco):
@@ -63,12 +69,32 @@ def read_scene_map(path: Path) -> SceneMap:
         if len(outline) < 3:
             continue
         top = round(max(z for _, _, z in points), DIGITS)
-        shapes.append(MapShape(name, tuple(outline), _geom_rgba(model, i), top))
+        label = labels.get(name)
+        shapes.append(MapShape(name, tuple(outline), _geom_rgba(model, i), top, label))
     if len(shapes) > MAX_SHAPES:
         largest = sorted(shapes, key=lambda shape: -area(shape.outline))[:MAX_SHAPES]
         shapes = [shape for shape in shapes if shape in largest]  # scene order kept
     shapes.sort(key=lambda shape: shape.top)  # stable: scene order among equal heights
     return SceneMap(tuple(sites), tuple(shapes))
+
+
+#: Custom texts naming what a geom means on the map: ``label:<geom name>``.
+LABEL_PREFIX = "label:"
+
+
+def _labels(model: Any, mujoco: Any) -> dict[str, str]:
+    """Geom name -> label, from the scene's ``<custom><text name="label:GEOM" data=...>``."""
+    labels = {}
+    for i in range(int(model.ntext)):
+        name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_TEXT, i) or ""
+        if not name.startswith(LABEL_PREFIX):
+            continue
+        start, size = int(model.text_adr[i]), int(model.text_size[i])
+        text = bytes(model.text_data[start : start + size]).split(b"\0", 1)[0]
+        label = text.decode("utf-8", errors="replace").strip()
+        if label:
+            labels[name.removeprefix(LABEL_PREFIX)] = label
+    return labels
 
 
 def _is_landmark(model: Any, geom: int, mujoco: Any) -> bool:

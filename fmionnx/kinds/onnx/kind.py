@@ -11,7 +11,7 @@ from pydantic import Field
 
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
-from fmionnx.kinds.base import TIMELESS, Display, KindProblem, RoleDefault
+from fmionnx.kinds.base import EVALUATED_AT_START, TIMELESS, Display, KindProblem, RoleDefault
 from fmionnx.kinds.onnx.units import unit_problems, with_units
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
@@ -55,7 +55,7 @@ class OnnxKind:
     suffixes = (".onnx",)
     summary = "ONNX model run by onnxruntime"
     mime_type = "application/x-onnx"
-    capabilities = frozenset({TIMELESS})
+    capabilities = frozenset({TIMELESS, EVALUATED_AT_START})
     libraries = ("onnxruntime",)
     display = Display(
         "ONNX",

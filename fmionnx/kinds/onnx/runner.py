@@ -137,8 +137,20 @@ class OnnxRunner:
             raise fault(self.component.name, f"onnxruntime failed: {text}", time=t) from None
         return results
 
+    def evaluate_at_start(self, start: float) -> None:
+        """Outputs at the start time from the connected inputs' start values (StartEvaluating).
+
+        :meth:`setup` ran the model on the inputs' own start values (often zeros) only to size
+        the outputs; the backend calls this once the connections have written their values.
+        """
+        self._compute(start)
+
     def step(self, t: float, h: float) -> None:
         """Run the model on the current inputs; outputs belong to time ``t + h``."""
+        self._compute(t)
+
+    def _compute(self, t: float) -> None:
+        """Run the model on the current inputs and copy the results into the output buffers."""
         results = self._run(t)
         outputs = self._outputs
         for name, value in zip(self._names, results, strict=True):

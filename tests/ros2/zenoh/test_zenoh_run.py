@@ -25,6 +25,7 @@ from fmionnx.backends.ros2.zenoh.router import InProcessRouter, free_port, reach
 from fmionnx.backends.ros2.zenoh.transport import ZenohTransport
 from fmionnx.compile.ros2.messages import RosDistro, deserialize
 from fmionnx.compile.ros2.qos import PROFILES
+from fmionnx.results.csvfile import read_csv
 from tests.conftest import REPO, built_model
 from tests.ros2.test_run import fmionnx, loop_system, processes_with, wait_for_nodes
 from tests.ros2.zenoh import checker
@@ -193,7 +194,7 @@ def test_free_run_over_zenoh_reaches_b_and_the_graph_command_sees_every_link(
     assert report["topics"]["/cmd_vel"]["types"] == ["geometry_msgs/msg/Twist"]
     assert report["topics"]["/cmd_vel"]["publishers"] == ["/fmu_sign_tracking_node"]
     assert run.returncode == 0, stderr
-    table = np.genfromtxt(out / "results.csv", delimiter=",", names=True, deletechars="")
+    table = read_csv(out / "results.csv")  # tensor columns are quoted
     end = np.array([table["odometry.posX"][-1], table["odometry.posY"][-1]])
     assert np.linalg.norm(end - GOAL_B) < 0.5
     assert processes_with(str(tmp_path)) == []
