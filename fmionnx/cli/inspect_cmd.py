@@ -16,6 +16,8 @@ from rich.table import Table
 from rich.text import Text
 
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.core import codes
+from fmionnx.core.codes import ErrorCode
 
 if TYPE_CHECKING:
     from fmionnx.core.types import ComponentInterface, Port
@@ -94,9 +96,9 @@ def render_rich(interface: ComponentInterface, console: Console) -> None:
     console.print(table)
 
 
-def _fail(code: str | None, message: str, hint: str | None = None) -> typer.Exit:
+def _fail(code: ErrorCode | None, message: str, hint: str | None = None) -> typer.Exit:
     err = Console(stderr=True, highlight=False)
-    label = f"error[{code}]" if code else "error"
+    label = f"error[{code.code}]" if code else "error"
     err.print(f"[bold red]{label}[/]: {escape(message)}", soft_wrap=True)
     if hint:
         err.print(f"  hint: {hint}", markup=False, soft_wrap=True)
@@ -127,10 +129,10 @@ def inspect(
     kind = kind_for_path(path)
     if kind is None:
         if not path.exists():
-            raise _fail("E010", f"`{path}` does not exist")
+            raise _fail(codes.FILE_NOT_FOUND, f"`{path}` does not exist")
         suffixes = sorted({s for k in COMPONENT_KINDS.values() for s in k.suffixes})
         raise _fail(
-            "E014",
+            codes.UNKNOWN_KIND,
             f"cannot tell what kind of model `{path}` is",
             f"expected a file ending in {', '.join(suffixes)} or an unpacked FMU folder",
         )

@@ -37,9 +37,7 @@ def lsp(
     try:
         import pygls  # noqa: F401 - only to know whether the extra is installed
     except ImportError:
-        from rich.markup import escape  # `[lsp]` is text, not a style
-
-        raise fail(escape(INSTALL_HINT), ExitCode.PROBLEMS) from None
+        raise fail(INSTALL_HINT, ExitCode.PROBLEMS) from None  # fail escapes the markup
     from fmionnx.lsp.server import serve
 
     serve()

@@ -41,6 +41,8 @@ from fmionnx.compile.expected_path import (
     read_expected_path,
 )
 from fmionnx.compile.scalarpos import position_in_value
+from fmionnx.core import codes
+from fmionnx.core.codes import ErrorCode
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.signals import column_names
@@ -90,7 +92,7 @@ class Type(enum.Enum):
 class _CheckError(Exception):
     """Stops resolving one check: ``code`` and message at ``start`` (an offset in the text)."""
 
-    def __init__(self, code: str, message: str, start: int, hint: str | None = None) -> None:
+    def __init__(self, code: ErrorCode, message: str, start: int, hint: str | None = None) -> None:
         super().__init__(message)
         self.code = code
         self.message = message
@@ -125,7 +127,7 @@ def compile_checks(
         name_span = sources.value(("checks", index, "name" if spec.name is not None else "expect"))
         if name in first_of:
             bag.emit(
-                "E094",
+                codes.DUPLICATE_CHECK,
                 f"two checks are called `{name}`",
                 name_span,
                 hint="give every check its own name: run.json and sweeps tell them apart by it",
@@ -141,7 +143,7 @@ def compile_checks(
             continue
         except ParseError as exc:
             span = position_in_value(value_span, spec.expect, exc.start)
-            bag.emit("E090", f"check `{name}`: {exc.message}", span, hint=exc.hint)
+            bag.emit(codes.CHECK_SYNTAX, f"check `{name}`: {exc.message}", span, hint=exc.hint)
         except _CheckError as exc:
             span = position_in_value(value_span, spec.expect, exc.start)
             bag.emit(exc.code, f"check `{name}`: {exc.message}", span, hint=exc.hint)
@@ -165,7 +167,7 @@ def compile_measure(
         expr = _Resolver(components).measure(raw)
     except ParseError as exc:
         where = position_in_value(span, raw, exc.start)
-        bag.emit("E090", f"{label}: {exc.message}", where, hint=exc.hint)
+        bag.emit(codes.CHECK_SYNTAX, f"{label}: {exc.message}", where, hint=exc.hint)
         return None
     except _CheckError as exc:
         where = position_in_value(span, raw, exc.start)
@@ -197,7 +199,7 @@ class _Resolver:
         if not (isinstance(node, BinaryOp) and node.operator in COMPARISONS):
             typed = self.value(node)
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 f"a check compares a measure with a bound, but this is {typed.type.value}",
                 node.start,
                 "write e.g. `max(abs(plant.y)) < 1.5`",
@@ -206,14 +208,14 @@ class _Resolver:
         if bound is None:
             if _constant(node.left) is not None:
                 raise _CheckError(
-                    "E093",
+                    codes.CHECK_MEANING,
                     "the bound comes after the comparison, the measure before it",
                     node.start,
                     "swap the sides (and the comparison): `max(plant.y) < 2` rather than "
                     "`2 > max(plant.y)`",
                 )
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 "the bound (right of the comparison) must be a number",
                 node.right.start,
                 "compare the measure with a constant; a difference of two measures can be "
@@ -221,11 +223,13 @@ class _Resolver:
             )
         measure = self.value(node.left)
         if measure.type is not Type.NUMBER:
-            raise _CheckError("E093", _not_a_number(measure.type), node.left.start, _REDUCE_HINT)
+            raise _CheckError(
+                codes.CHECK_MEANING, _not_a_number(measure.type), node.left.start, _REDUCE_HINT
+            )
         signals = ir.signals_of(measure.expr)
         if not signals:
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 "the measure reads no signal: the check would hold or fail whatever the run",
                 node.left.start,
                 "measure a signal, e.g. `final(plant.y)`",
@@ -239,17 +243,19 @@ class _Resolver:
         node = parse(raw)
         if isinstance(node, BinaryOp) and node.operator in COMPARISONS:
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 "a metric is a measure (one number), not a comparison",
                 node.start,
                 "keep the left side: `final(plant.y)` rather than `final(plant.y) < 1`",
             )
         typed = self.value(node)
         if typed.type is not Type.NUMBER:
-            raise _CheckError("E093", _not_a_number(typed.type), node.start, _REDUCE_HINT)
+            raise _CheckError(
+                codes.CHECK_MEANING, _not_a_number(typed.type), node.start, _REDUCE_HINT
+            )
         if not ir.signals_of(typed.expr):
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 "the measure reads no signal: it would be the same for every case",
                 node.start,
                 "measure a signal, e.g. `final(plant.y)`",
@@ -272,13 +278,13 @@ class _Resolver:
                 return self.call(node)
             case Group(bracket="("):
                 raise _CheckError(
-                    "E093",
+                    codes.CHECK_MEANING,
                     "a point `(x, y)` is only an argument: `distance(..., to=(x, y))`",
                     node.start,
                 )
             case Group():
                 raise _CheckError(
-                    "E093",
+                    codes.CHECK_MEANING,
                     "a path `[(x, y), ...]` is only an argument: `deviation(..., from=[...])`",
                     node.start,
                 )
@@ -292,7 +298,7 @@ class _Resolver:
         if "." not in text and not node.text.startswith("`"):
             hint = did_you_mean(text, [*FUNCTIONS, ir.TIME])
             raise _CheckError(
-                "E091",
+                codes.CHECK_SIGNAL,
                 f"`{text}` is not a signal: signals are written `component.port`",
                 node.start,
                 hint or "`time` is the time axis; functions are called with `(...)`",
@@ -307,29 +313,33 @@ class _Resolver:
             found = next(iter(scratch), None)
             if found is None:  # the component's model could not be read: reported already
                 raise _UnreadableError(text)
-            raise _CheckError("E091", found.message, start, found.hint)
+            raise _CheckError(codes.CHECK_SIGNAL, found.message, start, found.hint)
         port, ref = resolved.port, resolved.ref
         where = f"`{ref}`"
         if port.causality not in (Causality.OUTPUT, Causality.INPUT):
             raise _CheckError(
-                "E091",
+                codes.CHECK_SIGNAL,
                 f"{where} is a {port.causality.value}; checks read outputs and inputs (what is "
                 "recorded while the system runs)",
                 start,
             )
         if not port.dtype.is_numeric:
             raise _CheckError(
-                "E091", f"{where} is a {port.dtype.value}; checks measure numbers", start
+                codes.CHECK_SIGNAL,
+                f"{where} is a {port.dtype.value}; checks measure numbers",
+                start,
             )
         if ref.index is None and not port.is_scalar:
             raise _CheckError(
-                "E091",
+                codes.CHECK_SIGNAL,
                 f"{where} is an array of shape {port.shape_text()}; a check reads one element",
                 start,
                 f"pick an element: `{ref}[0]`",
             )
         if ref.index is not None and len(port.shape) >= 2 and port.dtype is DType.UINT8:
-            raise _CheckError("E091", f"{where} is an image: images are not recorded", start)
+            raise _CheckError(
+                codes.CHECK_SIGNAL, f"{where} is an image: images are not recorded", start
+            )
         # the column results.csv gives the element (``power[0]`` and ``power[0,0]`` are one)
         column = str(ref) if ref.index is None else column_names(ref.component, port, ref.index)[0]
         return ir.Signal(column, ref)
@@ -340,13 +350,13 @@ class _Resolver:
             return
         if parts[1] == EXPECTED_PATH:
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 f"`{text}` is a path: it is the `from=` of `deviation(x, y, from={text})`",
                 start,
             )
         if _SITE.match(text):
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 f"`{text}` is a point: it is the `to=` of `distance(x, y, to={text})`",
                 start,
             )
@@ -356,7 +366,9 @@ class _Resolver:
         if node.operator == "not":
             if operand.type not in (Type.CONDITION, Type.TRUTH):
                 raise _CheckError(
-                    "E093", f"`not` needs a condition, not {operand.type.value}", node.start
+                    codes.CHECK_MEANING,
+                    f"`not` needs a condition, not {operand.type.value}",
+                    node.start,
                 )
             return _Typed(ir.Unary("not", operand.expr), operand.type)
         _numeric(operand, node.operator, node.start)
@@ -373,7 +385,7 @@ class _Resolver:
             for side in (left, right):
                 if side.type not in (Type.CONDITION, Type.TRUTH):
                     raise _CheckError(
-                        "E093",
+                        codes.CHECK_MEANING,
                         f"`{operator}` joins conditions, not {side.type.value}",
                         node.at,
                         "compare first: `a.x > 1 and a.y < 2`",
@@ -398,7 +410,9 @@ class _Resolver:
         function = node.function
         if function not in FUNCTIONS:
             hint = did_you_mean(function, FUNCTIONS) or one_of(FUNCTIONS)
-            raise _CheckError("E090", f"unknown function `{function}`", node.start, hint)
+            raise _CheckError(
+                codes.CHECK_SYNTAX, f"unknown function `{function}`", node.start, hint
+            )
         if function in ("distance", "deviation"):
             return self.geometry(node)
         argument = _single(node, FUNCTIONS[function])
@@ -411,7 +425,7 @@ class _Resolver:
         if function == "first_time":
             if value.type is not Type.CONDITION:
                 raise _CheckError(
-                    "E093",
+                    codes.CHECK_MEANING,
                     f"`first_time` takes a condition, not {value.type.value}",
                     argument.start,
                     "write e.g. `first_time(plant.y > 1.0)`",
@@ -422,7 +436,7 @@ class _Resolver:
             if value.type is Type.NUMBER:
                 hint = f"`{function}` already has one number: drop it"
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 f"`{function}` takes a signal, not {value.type.value}",
                 argument.start,
                 hint,
@@ -440,24 +454,26 @@ class _Resolver:
                 continue
             if argument.keyword != keyword:
                 raise _CheckError(
-                    "E093",
+                    codes.CHECK_MEANING,
                     f"`{function}` has no argument `{argument.keyword}`",
                     argument.start,
                     f"write `{FUNCTIONS[function]}`",
                 )
             if argument.keyword in named:
-                raise _CheckError("E093", f"`{keyword}=` is given twice", argument.start)
+                raise _CheckError(
+                    codes.CHECK_MEANING, f"`{keyword}=` is given twice", argument.start
+                )
             named[argument.keyword] = argument
         if not 2 <= len(positional) <= 3:
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 f"`{function}` takes 2 or 3 coordinates (x, y[, z]), not {len(positional)}",
                 node.start,
                 f"write `{FUNCTIONS[function]}`",
             )
         if keyword not in named:
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 f"`{function}` needs `{keyword}=`",
                 node.start,
                 f"write `{FUNCTIONS[function]}`",
@@ -467,7 +483,7 @@ class _Resolver:
             value = self.value(argument.value)
             if value.type is not Type.SIGNAL:
                 raise _CheckError(
-                    "E093",
+                    codes.CHECK_MEANING,
                     f"a coordinate of `{function}` is a signal, not {value.type.value}",
                     argument.start,
                 )
@@ -485,7 +501,7 @@ class _Resolver:
             point = _numbers(node, "a point")
             if len(point) != dimensions:
                 raise _CheckError(
-                    "E093",
+                    codes.CHECK_MEANING,
                     f"the point has {len(point)} coordinates, the measured position {dimensions}",
                     node.start,
                 )
@@ -494,7 +510,7 @@ class _Resolver:
             position = self.site(node)
             return position[:dimensions]
         raise _CheckError(
-            "E093",
+            codes.CHECK_MEANING,
             "`to=` is a fixed point: `(x, y)`, `(x, y, z)` or a site `component.site.NAME`",
             node.start,
         )
@@ -503,7 +519,7 @@ class _Resolver:
         match = _SITE.match(node.text)
         if match is None:
             raise _CheckError(
-                "E092",
+                codes.CHECK_REFERENCE,
                 f"`{node.text}` is not a site: write `component.site.NAME` or a point `(x, y)`",
                 node.start,
             )
@@ -512,7 +528,7 @@ class _Resolver:
         kind = COMPONENT_KINDS[component.kind]
         if SITES not in kind.capabilities or not isinstance(kind, SiteSource):
             raise _CheckError(
-                "E092",
+                codes.CHECK_REFERENCE,
                 f"component `{name}` ({component.kind}) has no sites",
                 node.start,
                 "sites are named points of a simulator's scene; give a point `(x, y)` instead",
@@ -521,12 +537,12 @@ class _Resolver:
             sites: Mapping[str, Site] = kind.sites(component.path)
         except ModelError as exc:
             raise _CheckError(
-                "E092", f"the sites of `{name}` cannot be read: {exc}", node.start
+                codes.CHECK_REFERENCE, f"the sites of `{name}` cannot be read: {exc}", node.start
             ) from None
         if site_name not in sites:
             hint = did_you_mean(site_name, sites) or (one_of(sites) if sites else None)
             raise _CheckError(
-                "E092",
+                codes.CHECK_REFERENCE,
                 f"`{component.path.name}` has no site `{site_name}`",
                 node.start,
                 hint or "the scene names no site",
@@ -534,7 +550,7 @@ class _Resolver:
         site = sites[site_name]
         if site.moves_with is not None:
             raise _CheckError(
-                "E092",
+                codes.CHECK_REFERENCE,
                 f"site `{site_name}` moves with body `{site.moves_with}`; `to=` is a fixed point",
                 node.start,
                 "measure to a site fixed in the world, or give a point `(x, y)`",
@@ -547,24 +563,26 @@ class _Resolver:
             for item in node.items:
                 if not (isinstance(item, Group) and item.bracket == "("):
                     raise _CheckError(
-                        "E093", "a path is a list of points `[(x, y), ...]`", item.start
+                        codes.CHECK_MEANING,
+                        "a path is a list of points `[(x, y), ...]`",
+                        item.start,
                     )
                 point = _numbers(item, "a point")
                 if len(point) != dimensions:
                     raise _CheckError(
-                        "E093",
+                        codes.CHECK_MEANING,
                         f"the point has {len(point)} coordinates, the measured position "
                         f"{dimensions}",
                         item.start,
                     )
                 points.append(point)
             if len(points) < 2:
-                raise _CheckError("E093", "a path needs at least 2 points", node.start)
+                raise _CheckError(codes.CHECK_MEANING, "a path needs at least 2 points", node.start)
             return tuple(points)
         if isinstance(node, Name):
             return self.expected_path(node, dimensions)
         raise _CheckError(
-            "E093",
+            codes.CHECK_MEANING,
             "`from=` is a path: `component.expected_path` or a list of points `[(x, y), ...]`",
             node.start,
         )
@@ -573,7 +591,7 @@ class _Resolver:
         name, _, last = node.text.rpartition(".")
         if last != EXPECTED_PATH or not name:
             raise _CheckError(
-                "E092",
+                codes.CHECK_REFERENCE,
                 f"`{node.text}` is not a path: write `component.{EXPECTED_PATH}` or a list of "
                 "points `[(x, y), ...]`",
                 node.start,
@@ -582,7 +600,7 @@ class _Resolver:
         file = expected_path_file(component.path)
         if not file.is_file():
             raise _CheckError(
-                "E092",
+                codes.CHECK_REFERENCE,
                 f"component `{name}` has no expected path: `{file.name}` is not next to "
                 f"`{component.path.name}`",
                 node.start,
@@ -590,21 +608,21 @@ class _Resolver:
             )
         if dimensions != 2:
             raise _CheckError(
-                "E093",
+                codes.CHECK_MEANING,
                 f"`{node.text}` is a planar path (x, y); measure 2 coordinates, not {dimensions}",
                 node.start,
             )
         try:
             return read_expected_path(file)
         except PathFileError as exc:
-            raise _CheckError("E092", str(exc), node.start) from None
+            raise _CheckError(codes.CHECK_REFERENCE, str(exc), node.start) from None
 
     def _component(self, name: str, start: int) -> Component:
         if name in self.unreadable:
             raise _UnreadableError(name)
         if name not in self.components:
             hint = did_you_mean(name, self.components) or one_of(self.components)
-            raise _CheckError("E092", f"unknown component `{name}`", start, hint)
+            raise _CheckError(codes.CHECK_REFERENCE, f"unknown component `{name}`", start, hint)
         return self.components[name]
 
 
@@ -630,7 +648,7 @@ def _not_a_number(found: Type) -> str:
 def _numeric(value: _Typed, operator: str, start: int) -> None:
     if value.type not in (Type.NUMBER, Type.SIGNAL):
         raise _CheckError(
-            "E093",
+            codes.CHECK_MEANING,
             f"`{operator}` takes numbers or signals, not {value.type.value}",
             start,
         )
@@ -639,7 +657,7 @@ def _numeric(value: _Typed, operator: str, start: int) -> None:
 def _single(node: Call, signature: str) -> Argument:
     if len(node.arguments) != 1 or node.arguments[0].keyword is not None:
         raise _CheckError(
-            "E093",
+            codes.CHECK_MEANING,
             f"`{node.function}` takes one argument: `{signature}`",
             node.start,
         )
@@ -662,8 +680,12 @@ def _numbers(node: Group, what: str) -> tuple[float, ...]:
     for item in node.items:
         value = _constant(item)
         if value is None:
-            raise _CheckError("E093", f"the coordinates of {what} are numbers", item.start)
+            raise _CheckError(
+                codes.CHECK_MEANING, f"the coordinates of {what} are numbers", item.start
+            )
         values.append(value)
     if not 2 <= len(values) <= 3:
-        raise _CheckError("E093", f"{what} has 2 or 3 coordinates, not {len(values)}", node.start)
+        raise _CheckError(
+            codes.CHECK_MEANING, f"{what} has 2 or 3 coordinates, not {len(values)}", node.start
+        )
     return tuple(values)

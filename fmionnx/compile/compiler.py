@@ -25,6 +25,7 @@ from fmionnx.compile.resolve import read_interface, resolve_run
 from fmionnx.compile.sysinputs import compile_inputs
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
 from fmionnx.compile.unitcheck import check_units
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Severity, Span
 from fmionnx.core.signals import every_output
 from fmionnx.core.sourcetext import source_lines
@@ -189,7 +190,7 @@ def _connections(
         texts = _connection_texts(index, entry, sources)
         if texts is None:
             bag.emit(
-                "E023",
+                codes.BAD_ENDPOINT,
                 f"`{entry}` is not a connection",
                 span,
                 hint="write `source.port -> target.port`",
@@ -221,7 +222,7 @@ def _check_connection(
     bag: DiagnosticBag,
 ) -> Connection | None:
     if src.ref.component == dst.ref.component and src.ref.port == dst.ref.port:
-        bag.emit("E036", f"`{src.ref}` is connected to itself", span)
+        bag.emit(codes.SELF_CONNECTION, f"`{src.ref}` is connected to itself", span)
         return None
     if not check_causality(src, dst, span, bag):
         # A connection between the wrong ports is one mistake: its types and units would
@@ -273,7 +274,7 @@ def _check_drivers(connections: list[Connection], bag: DiagnosticBag) -> None:
             theirs = _covered(earlier)
             if mine is None or theirs is None or mine & theirs:
                 bag.emit(
-                    "E034",
+                    codes.MULTIPLE_DRIVERS,
                     f"`{connection.dst}` is already driven by `{earlier.src}`",
                     connection.span,
                     hint="an input takes one driver; remove one of the connections",
@@ -307,7 +308,7 @@ def _check_unconnected(
         for component in components:
             if component.name not in linked:
                 bag.emit(
-                    "W050",
+                    codes.ISOLATED_COMPONENT,
                     f"component `{component.name}` has no connections",
                     sources.key(("components", component.name)),
                 )
@@ -326,7 +327,7 @@ def _warn_unconnected(
     if len(ports) == 1:
         start = "its start value" if ports[0].start is not None else "zero"
         bag.emit(
-            "W030",
+            codes.UNCONNECTED_INPUT,
             f"input `{component}.{ports[0].name}` is not connected; {start} is used",
             where,
             hint=f"connect it, or set it under {parameters} to make the value explicit",
@@ -341,7 +342,7 @@ def _warn_unconnected(
     else:
         used = f"their start values are used (zero for {', '.join(zero)})"
     bag.emit(
-        "W030",
+        codes.UNCONNECTED_INPUT,
         f"{len(ports)} inputs of `{component}` are not connected: {names}; {used}",
         where,
         hint=f"connect them, or set them under {parameters} to make the values explicit",

@@ -11,6 +11,7 @@ from pathlib import Path
 
 from fmionnx.compile.ir import RunSettings
 from fmionnx.compile.resolve import entry_path, resolve_parameters
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.steps import count_problem
@@ -68,12 +69,12 @@ def _check_period(
     span = sources.value(("components", name, "period"))
     problem = count_problem(period, step, f"component `{name}`: period {period}")
     if problem is not None:
-        bag.emit("E041", problem, span, hint="a period is at most the length of the run")
+        bag.emit(codes.PERIOD, problem, span, hint="a period is at most the length of the run")
         return None
     steps = is_whole_multiple(period, step)
     if steps is None:
         bag.emit(
-            "E041",
+            codes.PERIOD,
             f"component `{name}`: period {period} is not a whole multiple of the base step {step}",
             span,
             hint=f"use e.g. {max(1, round(period / step)) * step:g}",
@@ -84,7 +85,7 @@ def _check_period(
         physics = float(timestep)
         if is_whole_multiple(period, physics) is None:
             bag.emit(
-                "E041",
+                codes.PERIOD,
                 f"component `{name}`: period {period} is not a whole multiple of the scene's "
                 f"physics timestep {physics}",
                 span,

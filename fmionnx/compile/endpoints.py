@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, did_you_mean, one_of
 from fmionnx.core.types import Causality, ComponentInterface, Port, PortRef
 from fmionnx.spec.runspec import ENDPOINT_RE
@@ -59,7 +60,7 @@ def resolve_endpoint(
     parts = split_endpoint(text, interfaces)
     if parts is None:
         bag.emit(
-            "E023",
+            codes.BAD_ENDPOINT,
             f"`{text.strip()}` is not an endpoint",
             span,
             hint="write `component.port`, or `component.port[i]` for one element",
@@ -68,7 +69,12 @@ def resolve_endpoint(
     component, port_name, index_text = parts
     if component not in interfaces:
         hint = did_you_mean(component, interfaces) or one_of(interfaces)
-        bag.emit("E020", f"unknown component `{component}` in `{text.strip()}`", span, hint=hint)
+        bag.emit(
+            codes.UNKNOWN_COMPONENT,
+            f"unknown component `{component}` in `{text.strip()}`",
+            span,
+            hint=hint,
+        )
         return None
     interface = interfaces[component]
     if interface is None:
@@ -77,7 +83,7 @@ def resolve_endpoint(
     unsupported = interface.fact(f"unsupported.{port_name}") if port is None else None
     if unsupported is not None:
         bag.emit(
-            "E025",
+            codes.UNSUPPORTED_VARIABLE,
             f"`{component}.{port_name}` is not supported yet: it is an {unsupported}",
             span,
             notes=[Note(f"read from `{interface.path.name}`")],
@@ -86,7 +92,7 @@ def resolve_endpoint(
     if port is None:
         hint = _port_hint(interface, component, port_name, role)
         bag.emit(
-            "E021",
+            codes.UNKNOWN_PORT,
             f"component `{component}` ({interface.kind}) has no port `{port_name}`",
             span,
             hint=hint,
@@ -127,13 +133,15 @@ def _index_ok(
 ) -> bool:
     where = f"`{component}.{port.name}`"
     if port.is_scalar:
-        bag.emit("E022", f"{where} is a scalar and cannot be indexed", span, hint="drop `[...]`")
+        bag.emit(
+            codes.BAD_INDEX, f"{where} is a scalar and cannot be indexed", span, hint="drop `[...]`"
+        )
         return False
     size = port.size
     if len(index) == 1:
         if size is not None and index[0] >= size:
             bag.emit(
-                "E022",
+                codes.BAD_INDEX,
                 f"index {index[0]} is out of range for {where} of shape {port.shape_text()}",
                 span,
                 hint=f"indices are 0-based: 0 to {size - 1}",
@@ -142,7 +150,7 @@ def _index_ok(
         return True
     if len(index) != len(port.shape):
         bag.emit(
-            "E022",
+            codes.BAD_INDEX,
             f"{where} has {len(port.shape)} dimensions but the index has {len(index)}",
             span,
             hint="give one flat index or one index per dimension",
@@ -151,7 +159,7 @@ def _index_ok(
     for axis, (i, dim) in enumerate(zip(index, port.shape, strict=True)):
         if isinstance(dim, int) and i >= dim:
             bag.emit(
-                "E022",
+                codes.BAD_INDEX,
                 f"index {i} on axis {axis} is out of range for {where} of shape {port.shape_text()}",
                 span,
             )

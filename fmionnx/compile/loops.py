@@ -17,6 +17,7 @@ from pathlib import Path
 
 from fmionnx.compile.graph import direct_inputs, find_algebraic_loops, loop_groups
 from fmionnx.compile.ir import AlgebraicLoop, Connection, LoopSolver
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.core.types import Component, PortRef
 from fmionnx.kinds.base import Repeatable
@@ -45,7 +46,7 @@ def compile_loops(
         for cycle in find_algebraic_loops(components, connections):
             spans = _cycle_spans(cycle, connections)
             bag.emit(
-                "E035",
+                codes.ALGEBRAIC_LOOP,
                 "algebraic loop: " + " -> ".join([*cycle, cycle[0]]),
                 spans[0] if spans else Span(system_file),
                 hint=ITERATE_HINT,
@@ -121,7 +122,7 @@ def _check_members(
         if problem is not None:
             ok = False
             bag.emit(
-                "E051",
+                codes.LOOP_ROLLBACK,
                 f"component `{name}` is part of the algebraic loop {loop.label}, which is to be "
                 f"solved by iteration, but it cannot repeat a step: {problem}",
                 component.span or where,
@@ -134,7 +135,7 @@ def _check_members(
         ok = False
         listed = ", ".join(f"`{n}` {by_name[n].period:g} s" for n in loop.members)
         bag.emit(
-            "E052",
+            codes.LOOP_PERIOD,
             f"the components of the algebraic loop {loop.label} have different periods "
             f"({listed}); an iterated loop steps its members together",
             where,
@@ -160,7 +161,7 @@ def _check_values(
             if not port.dtype.is_float:
                 ok = False
                 bag.emit(
-                    "E053",
+                    codes.LOOP_VALUES,
                     f"the algebraic loop {loop.label} is iterated on `{connection}`, but "
                     f"`{port.name}` is of type {port.dtype}: only floating-point values "
                     "can be iterated",

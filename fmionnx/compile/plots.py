@@ -23,6 +23,7 @@ from fmionnx.compile.expected_path import (
 )
 from fmionnx.compile.ir import Marks, Plot, Series, plot_file_problem
 from fmionnx.compile.plotfiles import derived_stem, slug, unique_name, with_suffix
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.signals import column_names, is_image
@@ -70,7 +71,7 @@ def compile_plots(
             resolved = resolve_endpoint(text, span, interfaces, scratch)
             if resolved is None:
                 for diagnostic in scratch:
-                    bag.emit("E045", f"plot: {diagnostic.message}", span, hint=diagnostic.hint)
+                    bag.emit(codes.PLOT, f"plot: {diagnostic.message}", span, hint=diagnostic.hint)
                 continue
             if _drawable(resolved, text, on_xy=plot.xy is not None, span=span, bag=bag):
                 refs.append(resolved.ref)
@@ -109,7 +110,7 @@ def _marks(
     span = sources.value(("plots", index, "marks", "of"))
     if plot.xy is not None:
         bag.emit(
-            "E045",
+            codes.PLOT,
             "`marks` are drawn on a plot over time; this is an xy plot",
             sources.key(("plots", index, "marks")),
             hint="move `marks` to a plot with `y: [...]`",
@@ -120,12 +121,12 @@ def _marks(
     resolved = resolve_endpoint(text, span, interfaces, scratch)
     if resolved is None:
         for diagnostic in scratch:
-            bag.emit("E045", f"plot marks: {diagnostic.message}", span, hint=diagnostic.hint)
+            bag.emit(codes.PLOT, f"plot marks: {diagnostic.message}", span, hint=diagnostic.hint)
         return None
     count = 1 if resolved.ref.index is not None else resolved.port.size
     if count != 1:
         bag.emit(
-            "E046",
+            codes.PLOT_SIGNAL,
             f"plot marks: follow one signal; `{text}` has {count or 'several'} elements",
             span,
             hint=f"select one element, e.g. `{text}[0]`",
@@ -171,7 +172,7 @@ def _drawable(
             hint = f"select elements, e.g. `{text}[0]`, each a signal of its own"
     if problem is None:
         return True
-    bag.emit("E046", f"plot: {problem}", span, hint=hint)
+    bag.emit(codes.PLOT_SIGNAL, f"plot: {problem}", span, hint=hint)
     return False
 
 
@@ -194,7 +195,7 @@ def _over(
     choices = f"`<component>.{EXPECTED_PATH}` or `<component>.{MAP_REFERENCE}`"
     if plot.xy is None:
         bag.emit(
-            "E045",
+            codes.PLOT,
             "`over` draws under an xy plot; this plot is over time",
             span,
             hint="remove `over`, or plot `xy: [x, y]`",
@@ -202,7 +203,7 @@ def _over(
         return (), None
     if owner not in components:
         bag.emit(
-            "E045",
+            codes.PLOT,
             f"plot reference `{plot.over}` names no component",
             span,
             hint=f"write {choices}",
@@ -210,7 +211,7 @@ def _over(
         return (), None
     if what not in (EXPECTED_PATH, MAP_REFERENCE):
         bag.emit(
-            "E045",
+            codes.PLOT,
             f"plot reference `{plot.over}`: `{what}` is neither the expected path nor the map",
             span,
             hint=f"write {choices}",
@@ -223,7 +224,7 @@ def _over(
     file = expected_path_file(component.path)
     if not file.is_file():
         bag.emit(
-            "E045",
+            codes.PLOT,
             f"component `{owner}` has no expected path: `{file.name}` is not next to "
             f"`{component.path.name}`",
             span,
@@ -233,7 +234,7 @@ def _over(
     try:
         points = read_expected_path(file)
     except PathFileError as exc:
-        bag.emit("E045", f"plot reference `{plot.over}`: {exc}", span)
+        bag.emit(codes.PLOT, f"plot reference `{plot.over}`: {exc}", span)
         return (), scene
     return tuple((x, y) for x, y in points), scene
 
@@ -247,7 +248,7 @@ def _scene_map(
     if MAP not in kind.capabilities or not isinstance(kind, MapSource):
         if required:
             bag.emit(
-                "E045",
+                codes.PLOT,
                 f"component `{component.name}` ({component.kind}) has no map",
                 span,
                 hint="a map is the fixed landmarks of a simulator's scene",
@@ -256,7 +257,7 @@ def _scene_map(
     try:
         return kind.scene_map(component.path)
     except ModelError as exc:
-        bag.emit("E045", f"plot reference `{over}`: the map cannot be read: {exc}", span)
+        bag.emit(codes.PLOT, f"plot reference `{over}`: the map cannot be read: {exc}", span)
         return None
 
 
@@ -274,7 +275,7 @@ def _file(
         span = sources.value(("plots", index, "file"))
         if (problem := plot_file_problem(plot.file)) is not None:
             bag.emit(
-                "E045",
+                codes.PLOT,
                 f"plot file `{plot.file}`: {problem}",
                 span,
                 hint="give a name such as `trajectory.png`; `--out` chooses the folder",
@@ -283,7 +284,7 @@ def _file(
         name = with_suffix(plot.file)
         if name in given:
             bag.emit(
-                "E045",
+                codes.PLOT,
                 f"plot file `{name}` is written by an earlier plot too",
                 span,
                 hint="give each plot a file of its own, or none (derived from the title)",

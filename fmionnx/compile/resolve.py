@@ -8,6 +8,7 @@ from pathlib import Path
 
 from fmionnx.compile.ir import Origin, RunSettings
 from fmionnx.compile.typecheck import declared_note
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.specbase import ComponentSpecBase, ParameterLiteral
@@ -78,7 +79,11 @@ def read_interface(
         bag.emit(exc.code, f"component `{name}`: {exc}", span, hint=exc.hint)
         return None
     except OSError as exc:  # a name too long, a loop of links: the file cannot be looked at
-        bag.emit("E010", f"component `{name}`: `{path}` cannot be read: {exc.strerror}", span)
+        bag.emit(
+            codes.FILE_NOT_FOUND,
+            f"component `{name}`: `{path}` cannot be read: {exc.strerror}",
+            span,
+        )
         return None
     for problem in kind.check(spec, interface):
         where = sources.value(("components", name, problem.key))
@@ -126,12 +131,15 @@ def resolve_parameters(
         if port is None:
             hint = did_you_mean(key, settable) or one_of(settable)
             bag.emit(
-                "E042", f"component `{name}` has no parameter or input `{key}`", span, hint=hint
+                codes.UNKNOWN_PARAMETER,
+                f"component `{name}` has no parameter or input `{key}`",
+                span,
+                hint=hint,
             )
             continue
         if port.causality not in SETTABLE:
             bag.emit(
-                "E044",
+                codes.PARAMETER_CAUSALITY,
                 f"`{name}.{key}` is an {port.causality.value} and cannot be set"
                 if port.causality.value[0] in "aeiou"
                 else f"`{name}.{key}` is a {port.causality.value} and cannot be set",
@@ -167,7 +175,7 @@ def _in_port_unit(
     if target is None:
         if port.unit != unit.name:
             bag.emit(
-                "W070",
+                codes.SSP_IGNORED,
                 f"`{name}.{port.name}` is given in `{unit.name}`, but the model defines no unit "
                 f"for it (`{port.unit or ''}`); the value is used as written",
                 span,
@@ -175,7 +183,7 @@ def _in_port_unit(
         return flat
     if not unit.same_dimension(target):
         bag.emit(
-            "E033",
+            codes.UNIT,
             f"`{name}.{port.name}` is given in `{unit.name}` ({unit.dimension()}), but the "
             f"model measures it in `{target.name}` ({target.dimension()})",
             span,
@@ -202,7 +210,7 @@ def _check_value(
     size = port.size
     if size is not None and len(flat) != size:
         bag.emit(
-            "E043",
+            codes.PARAMETER_VALUE,
             f"`{name}.{port.name}` has shape {port.shape_text()} ({size} element"
             f"{'s' if size != 1 else ''}) but {len(flat)} value{'s are' if len(flat) != 1 else ' is'} given",
             span,
@@ -212,7 +220,7 @@ def _check_value(
     bad = [v for v in flat if not _fits(port.dtype, v)]
     if bad:
         bag.emit(
-            "E043",
+            codes.PARAMETER_VALUE,
             f"`{name}.{port.name}` is of type {port.dtype}; {bad[0]!r} does not fit",
             span,
             hint="write true/false for booleans and whole numbers for integers"
@@ -225,7 +233,7 @@ def _check_value(
         problem = port.dtype.out_of_range(value)
         if problem is not None:
             bag.emit(
-                "E043",
+                codes.PARAMETER_VALUE,
                 f"`{name}.{port.name}`: {number_text(value)} {problem}",
                 span,
                 notes=declared_note(port),
@@ -260,7 +268,7 @@ def resolve_run(
             origins.append(("stop", Origin.MODEL_DEFAULT))
         else:
             bag.emit(
-                "E004",
+                codes.MISSING_KEY,
                 "missing `run.stop`: no single model default experiment gives a stop time",
                 sources.key(("run",)),
                 hint="add `run: {stop: 10, step: 0.01}`",
@@ -282,7 +290,7 @@ def resolve_run(
             origins.append(("step", Origin.BUILTIN_DEFAULT))
         else:
             bag.emit(
-                "E004",
+                codes.MISSING_KEY,
                 "missing `run.step`: no component period or model default experiment gives one",
                 sources.key(("run",)),
                 hint="add `step:` under `run:` (seconds between two communication points)",
@@ -290,11 +298,11 @@ def resolve_run(
             return None
     problem = step_problem(step)
     if problem is not None:  # a model's default step; the system file's is checked on load
-        bag.emit("E040", f"the base step {problem}", sources.value(("run", "step")))
+        bag.emit(codes.RUN_SETTINGS, f"the base step {problem}", sources.value(("run", "step")))
         return None
     if stop <= run.start:
         bag.emit(
-            "E040",
+            codes.RUN_SETTINGS,
             f"`run.stop` ({stop}) must be greater than `run.start` ({run.start})",
             sources.value(("run", "stop")),
         )
@@ -304,7 +312,7 @@ def resolve_run(
     if problem is not None:
         key = "stop" if not math.isfinite(stop - run.start) else "step"
         bag.emit(
-            "E040",
+            codes.RUN_SETTINGS,
             problem,
             sources.value(("run", key)),
             hint="use a shorter run or a longer step",
@@ -312,7 +320,7 @@ def resolve_run(
         return None
     if is_whole_multiple(stop - run.start, step, rel=1e-6) is None:
         bag.emit(
-            "E040",
+            codes.RUN_SETTINGS,
             f"the run from {run.start} to {stop} is not a whole number of steps of {step}",
             sources.value(("run", "step")),
             hint="choose a step that divides the run length",
@@ -323,7 +331,7 @@ def resolve_run(
         problem = output_interval_problem(interval, step)
         if problem is not None:
             bag.emit(
-                "E047",
+                codes.OUTPUT_INTERVAL,
                 f"`run.output_interval` {problem}",
                 sources.value(("run", "output_interval")),
                 hint="use a whole multiple of the step, e.g. "
@@ -334,7 +342,7 @@ def resolve_run(
     settings = RunSettings(run.start, stop, step, tuple(origins), interval)
     if settings.steps > WARN_STEPS:
         bag.emit(
-            "W040",
+            codes.LONG_RUN,
             f"the run is {settings.steps:.3g} base steps of {step} s (more than "
             f"{WARN_STEPS:.0e}); it may take hours",
             sources.value(("run", "step")),

@@ -16,6 +16,7 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import CompiledSystem, Origin
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.steps import step_problem
 
@@ -47,10 +48,14 @@ def apply_run_flags(loaded: LoadedSpec, flags: RunFlags, bag: DiagnosticBag) -> 
     if flags.step is not None:
         problem = step_problem(flags.step)
         if problem is not None:
-            bag.emit("E040", f"--step {problem}", where)
+            bag.emit(codes.RUN_SETTINGS, f"--step {problem}", where)
             return LoadedSpec(None, loaded.sources, loaded.path)
     if flags.start is not None and not math.isfinite(flags.start):
-        bag.emit("E040", f"--start-time {flags.start} is not a finite number of seconds", where)
+        bag.emit(
+            codes.RUN_SETTINGS,
+            f"--start-time {flags.start} is not a finite number of seconds",
+            where,
+        )
         return LoadedSpec(None, loaded.sources, loaded.path)
     update = {key: getattr(flags, key) for key in flags.keys}
     run = spec.run.model_copy(update=update)

@@ -18,6 +18,7 @@ from pathlib import Path
 from typing import Literal
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Span
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.steps import step_problem
@@ -26,7 +27,7 @@ from fmionnx.spec.runspec import RunSpec
 
 #: Lone-model warnings not worth showing: unconnected inputs and no connections are the
 #: normal state of a model outside a system.
-_LONE_MODEL_WARNINGS = ("W030", "W050")
+_LONE_MODEL_WARNINGS = (codes.UNCONNECTED_INPUT, codes.ISOLATED_COMPONENT)
 
 
 def _component_name(path: Path) -> str:
@@ -49,10 +50,14 @@ def compile_single_model(
     """
     problem = step_problem(step) if step is not None else None
     if problem is not None:  # checked here: RunSpec would raise a bare ValidationError
-        bag.emit("E040", f"--step {problem}", Span(path))
+        bag.emit(codes.RUN_SETTINGS, f"--step {problem}", Span(path))
         return None
     if start is not None and not math.isfinite(start):
-        bag.emit("E040", f"--start-time {start} is not a finite number of seconds", Span(path))
+        bag.emit(
+            codes.RUN_SETTINGS,
+            f"--start-time {start} is not a finite number of seconds",
+            Span(path),
+        )
         return None
     from fmionnx.kinds.base import TIMELESS
     from fmionnx.kinds.registry import kind_for_path
@@ -88,7 +93,7 @@ def check_single_model(path: Path, bag: DiagnosticBag) -> CompiledSystem | None:
     if kind is None:
         suffixes = sorted({s for k in COMPONENT_KINDS.values() for s in k.suffixes})
         bag.emit(
-            "E013",
+            codes.UNSUPPORTED_MODEL,
             f"`{path.name}` is not a model fmionnx reads",
             Span(path),
             hint="models end in " + ", ".join(f"`{s}`" for s in suffixes),
@@ -147,7 +152,11 @@ def _compile_alone(
 
     scratch = DiagnosticBag()
     compiled = compile_lone(_component_name(path), spec, run, path, scratch)
-    bag.extend(_whole_file(d, path) for d in scratch if d.code not in _LONE_MODEL_WARNINGS)
+    bag.extend(
+        _whole_file(d, path)
+        for d in scratch
+        if d.code not in {c.code for c in _LONE_MODEL_WARNINGS}
+    )
     return compiled
 
 

@@ -34,6 +34,7 @@ from fmionnx.compile.studyir import (
     StudyPlan,
     apply_setting,
 )
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality
@@ -67,7 +68,7 @@ def compile_study(loaded: LoadedStudy, bag: DiagnosticBag) -> StudyPlan | None:
         problem = f"cannot be read: {exc.strerror}"
     if problem is not None:
         bag.emit(
-            "E101",
+            codes.STUDY_SYSTEM,
             f"the study's system file `{spec.system}` {problem}",
             sources.value(("system",)),
             hint="`system:` is relative to the study file",
@@ -79,7 +80,7 @@ def compile_study(loaded: LoadedStudy, bag: DiagnosticBag) -> StudyPlan | None:
     bag.extend(system_bag.sorted())
     if system is None or system_bag.has_errors:
         bag.emit(
-            "E101",
+            codes.STUDY_SYSTEM,
             f"the study's system `{spec.system}` does not compile (errors above)",
             sources.value(("system",)),
         )
@@ -108,7 +109,7 @@ def resolve_study(
     if sampled and spec.sampling is None:
         first = next(iter(sampled))
         bag.emit(
-            "E103",
+            codes.STUDY_VALUES,
             f"`{first}` is sampled, but the study has no `sampling: {{samples: N, seed: S}}`",
             sources.value(("parameters", first)),
             hint="add `sampling: {samples: 20, seed: 1}`: the number of rows and the seed",
@@ -118,7 +119,7 @@ def resolve_study(
     count = math.prod(len(v) for v in grid.values()) * samples
     if count > MAX_CASES:
         bag.emit(
-            "E106",
+            codes.STUDY_SIZE,
             f"the study has {count} cases, more than {MAX_CASES}",
             sources.key(("parameters",)),
             hint="use fewer values per grid axis, or sample (`random`, `latin_hypercube`)",
@@ -165,7 +166,7 @@ def _target_kind(
         candidates = [*names, *(i.name for i in system.inputs)]
         if head == "run":
             bag.emit(
-                "E102",
+                codes.STUDY_TARGET,
                 f"`{target}` is not a run setting a study can vary",
                 span,
                 hint=did_you_mean(target, RUN_TARGETS) or one_of(RUN_TARGETS),
@@ -173,7 +174,7 @@ def _target_kind(
             return None
         hint = did_you_mean(head, candidates) or did_you_mean(target, candidates)
         bag.emit(
-            "E102",
+            codes.STUDY_TARGET,
             f"`{target}`: the system has no component `{head}`",
             span,
             hint=hint or (one_of(candidates) + " (a target is `component.parameter`)"),
@@ -191,7 +192,7 @@ def _target_kind(
     kind = COMPONENT_KINDS[component.kind]
     if not isinstance(kind, Settable):
         bag.emit(
-            "E102",
+            codes.STUDY_TARGET,
             f"`{target}`: `{component.name}` has no parameter `{port_name}`",
             span,
             hint=did_you_mean(port_name, settable) or one_of(settable),
@@ -200,14 +201,18 @@ def _target_kind(
     try:
         settings = kind.settings(component)
     except ModelError as exc:
-        bag.emit("E107", f"`{target}`: cannot read the settings of `{component.name}`: {exc}", span)
+        bag.emit(
+            codes.STUDY_SETTING,
+            f"`{target}`: cannot read the settings of `{component.name}`: {exc}",
+            span,
+        )
         return None
     if port_name in settings:
         return "setting"
     names = [*settable, *settings]
     hint = kind.setting_hint(component, port_name)
     bag.emit(
-        "E107",
+        codes.STUDY_SETTING,
         f"`{target}`: `{component.name}` has no parameter or setting `{port_name}`",
         span,
         hint=hint or did_you_mean(port_name, names) or one_of(names),
@@ -232,7 +237,7 @@ def _check_values(
             apply_setting(system, Setting(target, kind, value))
         except SettingError as exc:
             bag.emit(
-                "E108",
+                codes.STUDY_SETTING_VALUE,
                 f"`{target}`: {exc}",
                 loaded.sources.value(("parameters", target)),
             )
@@ -243,7 +248,7 @@ def _check_values(
                 "--output-interval", "run.output_interval"
             )
             bag.emit(
-                "E103",
+                codes.STUDY_VALUES,
                 f"`{target}`: {detail}",
                 loaded.sources.value(("parameters", target)),
             )
@@ -331,7 +336,7 @@ def _metrics(
         span = loaded.sources.value(("metrics", name))
         if name in checks:
             bag.emit(
-                "E104",
+                codes.STUDY_METRIC,
                 f"metric `{name}` has the name of one of the system's checks",
                 loaded.sources.key(("metrics", name)),
                 hint="the table has a column per check and per metric: give the metric another name",
@@ -356,7 +361,7 @@ def _objective(spec: StudySpec, loaded: LoadedStudy, bag: DiagnosticBag) -> Obje
     name = spec.objective.metric
     if name not in spec.metrics:
         bag.emit(
-            "E105",
+            codes.STUDY_OBJECTIVE,
             f"the objective names no metric `{name}`",
             loaded.sources.value(("objective", sense)),
             hint=did_you_mean(name, spec.metrics) or one_of(spec.metrics),
@@ -374,7 +379,7 @@ def _isolation(
     for word in spec.isolate:
         if word not in words:
             bag.emit(
-                "E102",
+                codes.STUDY_TARGET,
                 f"`isolate`: no component `{word}`",
                 loaded.sources.value(("isolate",)),
                 hint=did_you_mean(word, words) or one_of(words),

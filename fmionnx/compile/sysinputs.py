@@ -15,6 +15,7 @@ from fmionnx.compile.endpoints import resolve_endpoint
 from fmionnx.compile.ir import InputTarget, SystemInput
 from fmionnx.compile.resolve import SETTABLE
 from fmionnx.compile.typecheck import declared_note
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.core.types import ComponentInterface
 from fmionnx.spec.model import InputTargetSpec, SystemSpec
@@ -40,7 +41,7 @@ def compile_inputs(
             port, ref = resolved.port, resolved.ref
             if port.causality not in SETTABLE:
                 bag.emit(
-                    "E044",
+                    codes.PARAMETER_CAUSALITY,
                     f"system input `{name}` reaches `{ref}`, a {port.causality.value}, which "
                     "cannot be set",
                     span,
@@ -50,7 +51,7 @@ def compile_inputs(
                 continue
             if ref.index is not None or (port.size or 1) != 1:
                 bag.emit(
-                    "E044",
+                    codes.PARAMETER_CAUSALITY,
                     f"system input `{name}` reaches `{ref}`: a system input sets one value on "
                     "a port of one element",
                     span,

@@ -9,6 +9,7 @@ their own type.
 from __future__ import annotations
 
 from fmionnx.compile.endpoints import ResolvedEndpoint
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.core.types import Causality, DType, Port
 
@@ -72,7 +73,7 @@ def check_causality(
     """
     if src.port.causality is Causality.INPUT and dst.port.causality is Causality.OUTPUT:
         bag.emit(
-            "E030",
+            codes.CAUSALITY,
             f"the connection runs backwards: `{src.ref}` is an input and `{dst.ref}` an "
             "output; a connection goes from an output to an input",
             span,
@@ -84,7 +85,7 @@ def check_causality(
     if src.port.causality not in SOURCE_CAUSALITIES:
         hint = None
         bag.emit(
-            "E030",
+            codes.CAUSALITY,
             f"`{src.ref}` is {_a(src.port.causality.value)}, but a connection must start at an output",
             span,
             hint=hint,
@@ -97,7 +98,7 @@ def check_causality(
         else:
             hint = None
         bag.emit(
-            "E030",
+            codes.CAUSALITY,
             f"`{dst.ref}` is {_a(dst.port.causality.value)}, but a connection must end at an input",
             span,
             hint=hint,
@@ -117,14 +118,14 @@ def check_dtype(
     if a.is_numeric and b.is_numeric:
         if is_lossy(a, b):
             bag.emit(
-                "W031",
+                codes.LOSSY_CONVERSION,
                 f"`{src.ref}` ({a}) -> `{dst.ref}` ({b}) may lose precision or range",
                 span,
                 hint="convert in the model, or accept the truncation",
             )
         return True
     bag.emit(
-        "E031",
+        codes.DTYPE,
         f"cannot connect `{src.ref}` of type {a} to `{dst.ref}` of type {b}",
         span,
         hint="numeric types convert into each other; strings and binaries only to their own type",
@@ -150,7 +151,7 @@ def check_count(
             fixed *= dim
     if known is None:
         bag.emit(
-            "E032",
+            codes.SHAPE,
             f"both `{src.ref}` and `{dst.ref}` have symbolic shapes; the element count is unknown",
             span,
             hint="give the model a fixed shape",
@@ -176,7 +177,7 @@ def _count_error(
     elif dst.ref.index is None and dst.count and dst.count > 1 and src.count == 1:
         hint = f"drive one element, e.g. `{dst.ref}[0]`"
     bag.emit(
-        "E032",
+        codes.SHAPE,
         f"`{src.ref}` carries {described(src)} but `{dst.ref}` takes {described(dst)}",
         span,
         hint=hint,

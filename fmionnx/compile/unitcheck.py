@@ -29,6 +29,7 @@ from dataclasses import dataclass
 
 from fmionnx.compile.endpoints import ResolvedEndpoint
 from fmionnx.compile.typecheck import declared_note
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.units import Unit, UnitConversion, compose, conversion, linear_text
 
@@ -71,7 +72,7 @@ def check_units(
             return given
         undefined = a if first is None else b
         bag.emit(
-            "E033",
+            codes.UNIT,
             f"unit mismatch: `{src.ref}` is in `{a}` but `{dst.ref}` expects `{b}`; "
             f"`{undefined}` has no definition, so the two cannot be compared",
             span,
@@ -89,7 +90,7 @@ def check_units(
     same_name = " (same name, different definitions)" if a == b else ""
     if not convert:
         bag.emit(
-            "I033",
+            codes.UNIT_CONVERSION,
             f"`{src.ref}` is in `{a}` and `{dst.ref}` in `{b}`{same_name}; no automatic "
             f"conversion (`convert_units: false`): the connection's {linear_text(factor, offset)} "
             "is the whole transformation",
@@ -98,7 +99,7 @@ def check_units(
         return given
     if explicit and _repeats(units, factor, offset):
         bag.emit(
-            "W033",
+            codes.UNIT_SUSPICIOUS,
             f"the connection's factor and offset repeat the conversion from `{a}` to `{b}` "
             "that fmionnx applies itself: values would be converted twice",
             span,
@@ -109,7 +110,7 @@ def check_units(
     differ = first.offset != second.offset
     kind = " (relative quantity: offsets ignored)" if relative and differ else ""
     bag.emit(
-        "I033",
+        codes.UNIT_CONVERSION,
         f"`{src.ref}` -> `{dst.ref}`: converts `{a}` to `{b}`{same_name}{kind} "
         f"({linear_text(units.factor, units.offset)}){then}",
         span,
@@ -136,14 +137,14 @@ def _different_quantities(
             else "values pass without automatic conversion (`convert_units: false`)"
         )
         bag.emit(
-            "W033",
+            codes.UNIT_SUSPICIOUS,
             f"`{src.ref}` in {_described(first)} drives `{dst.ref}` in {_described(second)}: "
             f"different quantities; {how}",
             span,
         )
         return given
     bag.emit(
-        "E033",
+        codes.UNIT,
         f"unit mismatch: `{src.ref}` is in {_described(first)} but `{dst.ref}` expects "
         f"{_described(second)}: different quantities",
         span,

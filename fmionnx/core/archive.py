@@ -18,6 +18,7 @@ import zipfile
 import zlib
 from pathlib import Path, PurePosixPath
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.resources import ARCHIVE_BYTES, ARCHIVE_MEMBERS, ARCHIVE_RATIO, MiB
 from fmionnx.core.safewrite import atomic_binary
@@ -50,13 +51,13 @@ def check_member_name(name: str) -> PurePosixPath:
     path = PurePosixPath(normalized)
     if normalized.startswith("/") or (len(normalized) > 1 and normalized[1] == ":"):
         msg = f"archive member `{name}` has an absolute path"
-        raise ModelError("E017", msg)
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg)
     if any(part == ".." for part in path.parts):
         msg = f"archive member `{name}` points outside the archive (`..`)"
-        raise ModelError("E017", msg)
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg)
     if any(len(part.encode("utf-8", "surrogateescape")) > MAX_NAME_BYTES for part in path.parts):
         msg = f"archive member `{name[:80]}...` has a name longer than {MAX_NAME_BYTES} bytes"
-        raise ModelError("E017", msg)
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg)
     return path
 
 
@@ -64,21 +65,21 @@ def open_zip(path: Path) -> zipfile.ZipFile:
     """Open ``path`` as a zip, turning every failure into a ModelError with a code."""
     if not path.exists():
         msg = f"`{path}` does not exist"
-        raise ModelError("E010", msg)
+        raise ModelError(codes.FILE_NOT_FOUND, msg)
     if not path.is_file():
         msg = f"`{path}` is a directory or special file, not an archive"
-        raise ModelError("E011", msg)
+        raise ModelError(codes.NOT_A_FILE, msg)
     try:
         return zipfile.ZipFile(path)
     except FileNotFoundError as exc:
         msg = f"cannot read `{path}`: {exc.strerror}"
-        raise ModelError("E010", msg) from None
+        raise ModelError(codes.FILE_NOT_FOUND, msg) from None
     except zipfile.BadZipFile:
         msg = f"`{path}` is not a zip archive (corrupt or not an FMU/SSP)"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
     except CORRUPT_ZIP_ERRORS as exc:
         msg = f"`{path}` is a damaged zip archive: {exc}"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
 
 
 def check_archive(archive: zipfile.ZipFile) -> None:
@@ -91,7 +92,7 @@ def check_archive(archive: zipfile.ZipFile) -> None:
     most = ARCHIVE_MEMBERS.value()
     if len(members) > most:
         msg = f"archive has {len(members)} members (more than {most})"
-        raise ModelError("E017", msg, hint=ARCHIVE_MEMBERS.hint())
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=ARCHIVE_MEMBERS.hint())
     ratio = ARCHIVE_RATIO.value()
     total = 0
     compressed = 0
@@ -100,7 +101,7 @@ def check_archive(archive: zipfile.ZipFile) -> None:
         mode = info.external_attr >> 16
         if stat.S_ISLNK(mode):
             msg = f"archive member `{info.filename}` is a symbolic link"
-            raise ModelError("E017", msg)
+            raise ModelError(codes.UNSAFE_ARCHIVE, msg)
         total += info.file_size
         compressed += info.compress_size
         if info.file_size > RATIO_FLOOR_BYTES and info.file_size > ratio * max(
@@ -110,18 +111,18 @@ def check_archive(archive: zipfile.ZipFile) -> None:
                 f"archive member `{info.filename}` expands "
                 f"{info.file_size // max(info.compress_size, 1)}x (zip bomb?)"
             )
-            raise ModelError("E017", msg, hint=ARCHIVE_RATIO.hint())
+            raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=ARCHIVE_RATIO.hint())
     largest = ARCHIVE_BYTES.value()
     if total > largest:
         msg = f"archive expands to {total} bytes (more than {largest})"
-        raise ModelError("E017", msg, hint=ARCHIVE_BYTES.hint())
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=ARCHIVE_BYTES.hint())
     packed = max(1, min(compressed, _archive_size(archive) or compressed))
     if total > RATIO_FLOOR_BYTES and total > ratio * packed:
         msg = (
             f"archive expands {total // packed}x, to {total} bytes from {packed} "
             f"(zip bomb? {len(members)} members)"
         )
-        raise ModelError("E017", msg, hint=ARCHIVE_RATIO.hint())
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=ARCHIVE_RATIO.hint())
 
 
 def _archive_size(archive: zipfile.ZipFile) -> int:
@@ -149,7 +150,7 @@ def safe_extract(path: Path, destination: Path) -> Path:
             target = (root / relative).resolve()
             if not target.is_relative_to(root):
                 msg = f"archive member `{info.filename}` points outside the archive"
-                raise ModelError("E017", msg)
+                raise ModelError(codes.UNSAFE_ARCHIVE, msg)
             if info.is_dir():
                 target.mkdir(parents=True, exist_ok=True)
                 continue
@@ -160,11 +161,11 @@ def safe_extract(path: Path, destination: Path) -> Path:
                         budget -= len(chunk)
                         if budget < 0:
                             msg = f"archive `{path.name}` expands beyond {largest} bytes"
-                            raise ModelError("E017", msg, hint=ARCHIVE_BYTES.hint())
+                            raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=ARCHIVE_BYTES.hint())
                         sink.write(chunk)
             except CORRUPT_ZIP_ERRORS as exc:
                 msg = f"`{path}` is corrupt: member `{info.filename[:80]}`: {exc}"
-                raise ModelError("E012", msg) from None
+                raise ModelError(codes.BAD_MODEL, msg) from None
     return root
 
 

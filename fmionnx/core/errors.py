@@ -6,7 +6,7 @@ failed run. Structured fields carry what a message needs (see FMPy ``FMICallExce
 
 from __future__ import annotations
 
-from fmionnx.core.diagnostics import Diagnostic
+from fmionnx.core.diagnostics import Diagnostic, ErrorCode
 
 
 class FmionnxError(Exception):
@@ -29,7 +29,7 @@ class ModelError(FmionnxError):
     exception into a diagnostic at the system file's location.
     """
 
-    def __init__(self, code: str, message: str, *, hint: str | None = None) -> None:
+    def __init__(self, code: ErrorCode, message: str, *, hint: str | None = None) -> None:
         self.code = code
         self.hint = hint
         super().__init__(message)

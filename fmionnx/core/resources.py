@@ -17,10 +17,11 @@ from __future__ import annotations
 import os
 from dataclasses import dataclass
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 
 #: The diagnostic code of a model that exceeds a resource limit.
-LIMIT_CODE = "E008"
+LIMIT_CODE = codes.RESOURCE_LIMIT
 
 
 @dataclass(frozen=True, slots=True)

@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from lxml import etree
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 
 _SAFE_PARSER_OPTIONS = {
@@ -34,12 +35,12 @@ def parse_safely(data: bytes, label: str) -> etree._Element:
     except etree.XMLSyntaxError as exc:
         line = f" (line {exc.lineno})" if exc.lineno else ""
         msg = f"`{label}` is not well-formed XML{line}: {exc.msg}"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
     tree = root.getroottree()
     if tree.docinfo.doctype or tree.docinfo.internalDTD is not None:
         msg = f"`{label}` declares a DTD (<!DOCTYPE ...>); model files must not"
         raise ModelError(
-            "E017",
+            codes.UNSAFE_ARCHIVE,
             msg,
             hint="DTDs can define entities that read local files or expand without bound; "
             "fmionnx refuses them",

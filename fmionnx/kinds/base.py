@@ -13,6 +13,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
+from fmionnx.core.codes import ErrorCode
 from fmionnx.core.errors import FmionnxError
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig, Scalar
@@ -50,7 +51,7 @@ EVALUATED_AT_START = "evaluated-at-start"
 class KindProblem:
     """A problem a kind finds in a component entry; ``key`` is the entry key to point at."""
 
-    code: str
+    code: ErrorCode
     message: str
     key: str
     hint: str | None = None

@@ -18,6 +18,7 @@ from pathlib import Path
 
 from fmionnx import api
 from fmionnx.compile.resolve import read_interface
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
 from fmionnx.core.safewrite import refuse, write_text_atomic
 from fmionnx.lock.diff import LockContext, compare
@@ -115,7 +116,7 @@ def check_lock(system: Path) -> list[Diagnostic]:
         entry = locked.lock.components.get(name)
         if entry is None:
             bag.emit(
-                "E081",
+                codes.LOCK_MISSING,
                 f"component `{name}` is not in the lock `{locked.path.name}`",
                 span,
                 hint=f"run `fmionnx lock {system}` to add it, and commit the lock file",

@@ -12,6 +12,7 @@ from __future__ import annotations
 import difflib
 from dataclasses import dataclass
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, Note, Span, make
 from fmionnx.core.types import ComponentInterface, Port
 from fmionnx.lock.model import UNLOCKED, LockedComponent, LockedPort
@@ -167,7 +168,7 @@ def compare(
     if notes:
         count = f"{len(notes)} change" + ("s" if len(notes) != 1 else "")
         return make(
-            "E080",
+            codes.LOCK_INTERFACE_CHANGED,
             f"component `{name}`: the interface of {_model(locked)} changed since it was locked "
             f"in `{lock_file}` ({count})",
             span,
@@ -191,7 +192,7 @@ def compare(
             ),
         )
     return make(
-        "I080",
+        codes.LOCK_BINARY_CHANGED,
         f"component `{name}`: {_model(locked)} changed since it was locked in `{lock_file}`, "
         "its interface did not",
         span,

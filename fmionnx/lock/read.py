@@ -19,6 +19,7 @@ from pydantic import ValidationError
 from ruamel.yaml import YAML
 from ruamel.yaml.error import YAMLError
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.lock.model import LOCK_VERSION, LockFile
 from fmionnx.spec.limits import check_limits
@@ -71,7 +72,7 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
     """Read ``path``; None with E081 (missing) or E082 (unreadable) diagnostics in ``bag``."""
     if not path.exists():
         bag.emit(
-            "E081",
+            codes.LOCK_MISSING,
             f"no interface lock `{path.name}` beside `{system.name}`",
             Span(system),
             hint=f"run `fmionnx lock {system}` and commit `{path.name}`",
@@ -80,7 +81,7 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
     regenerate = f"regenerate it with `fmionnx lock {system}`"
     if path.is_symlink():
         bag.emit(
-            "E082",
+            codes.LOCK_INVALID,
             f"lock file `{path.name}` is a symbolic link; a lock is read only as a regular file "
             "beside its system",
             Span(path),
@@ -98,14 +99,14 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
     sources = SourceMap(path)
     data = parse_yaml(text, path, sources, scratch) if text is not None else None
     if data is not None and not isinstance(data, dict):
-        scratch.emit("E003", "a lock file is a mapping", Span(path, 1, 1))
+        scratch.emit(codes.INVALID_VALUE, "a lock file is a mapping", Span(path, 1, 1))
         data = None
     lock = None
     if data is not None:
         version = data.get("fmionnx-lock")
         if version != LOCK_VERSION:
             bag.emit(
-                "E082",
+                codes.LOCK_INVALID,
                 f"lock file version `{version}` is not supported (this release writes "
                 f"`fmionnx-lock: {LOCK_VERSION}`)",
                 sources.value(("fmionnx-lock",)),
@@ -118,7 +119,7 @@ def read_lock(path: Path, system: Path, bag: DiagnosticBag) -> LoadedLock | None
             report_validation_error(exc, data, sources, scratch, root=LockFile)
     for diagnostic in scratch:
         bag.emit(
-            "E082",
+            codes.LOCK_INVALID,
             f"lock file `{path.name}`: {diagnostic.message}",
             diagnostic.span,
             hint=regenerate,
@@ -134,7 +135,7 @@ def _named_plainly(loaded: LoadedLock, bag: DiagnosticBag, regenerate: str) -> L
     if name and name not in (".", "..") and "/" not in name and "\\" not in name:
         return loaded
     bag.emit(
-        "E082",
+        codes.LOCK_INVALID,
         f"lock file `{loaded.path.name}` names the system `{name}`, not a file name "
         "(a lock lies beside its system and names it without a folder)",
         loaded.sources.value(("system",)),

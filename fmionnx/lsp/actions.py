@@ -20,6 +20,7 @@ from typing import Any
 
 from lsprotocol import types
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
 from fmionnx.lsp.diagnostics import Published
 from fmionnx.lsp.positions import value_end
@@ -58,7 +59,7 @@ def actions(
             edit = _quote(lines, lsp.range, quote["token"])
             if edit is not None:
                 edits.append(edit)
-        if diagnostic.code in ("E033", "W033"):
+        if diagnostic.code in (codes.UNIT.code, codes.UNIT_SUSPICIOUS.code):
             if parsed is None:
                 sources = SourceMap(path)
                 parsed = (parse_yaml(text, path, sources, DiagnosticBag()), sources)
@@ -141,16 +142,16 @@ def _unit_fixes(
         return []
     index, value = entry
     hint = diagnostic.hint or ""
-    if diagnostic.code == "E033" and "factor" in hint:
+    if diagnostic.code == codes.UNIT.code and "factor" in hint:
         keys = {"factor": 1.0, "offset": 0.0}
         return _long_form(
             index, value, keys, (), lines, sources, "Convert with a factor and offset (long form)"
         )
-    if diagnostic.code == "E033" and "convert_units" in hint:
+    if diagnostic.code == codes.UNIT.code and "convert_units" in hint:
         keys = {"convert_units": False}
         title = "Pass the values unconverted (`convert_units: false`)"
         return _long_form(index, value, keys, (), lines, sources, title)
-    if diagnostic.code == "W033" and "drop" in hint and isinstance(value, dict):
+    if diagnostic.code == codes.UNIT_SUSPICIOUS.code and "drop" in hint and isinstance(value, dict):
         drop = _long_form(index, value, {}, ("factor", "offset"), lines, sources,
                           "Drop `factor`/`offset`: fmionnx converts the units")  # fmt: skip
         keep = _long_form(index, value, {"convert_units": False}, (), lines, sources,

@@ -21,15 +21,20 @@ from collections.abc import Sequence
 
 from lsprotocol import types
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span
 
 #: Codes whose span is a position inside a value (an endpoint, a name in an expression, a
 #: syntax error's character): the range is the token there, never the whole value that
 #: starts at the same column.
 INSIDE_VALUE_CODES = frozenset(
-    {"E001", "E020", "E021", "E022", "E023", "E025", "E045", "E046"}
-    | {"E090", "E091", "E092", "E093"}
-)
+    entry.code
+    for entry in (
+        codes.SYNTAX, codes.UNKNOWN_COMPONENT, codes.UNKNOWN_PORT, codes.BAD_INDEX,
+        codes.BAD_ENDPOINT, codes.UNSUPPORTED_VARIABLE, codes.PLOT, codes.PLOT_SIGNAL,
+        codes.CHECK_SYNTAX, codes.CHECK_SIGNAL, codes.CHECK_REFERENCE, codes.CHECK_MEANING,
+    )
+)  # fmt: skip
 
 
 def token_end(text: str, start: int) -> int:

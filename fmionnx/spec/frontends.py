@@ -5,6 +5,7 @@ from __future__ import annotations
 from collections.abc import Callable, Mapping
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.spec.yaml import LoadedSpec, load_yaml_system
 
@@ -37,7 +38,7 @@ def load_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
     suffixes = ", ".join(f"`{s}`" for s in sorted(FRONTENDS))
     if frontend is None and path.is_dir():
         bag.emit(
-            "E011",
+            codes.NOT_A_FILE,
             f"`{path}` is a folder, not a system file",
             Span(path),
             hint=f"name the system files (ending in {suffixes}), e.g. `{path / '*.yaml'}`",
@@ -45,7 +46,7 @@ def load_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
         return LoadedSpec(None, SourceMap(path), path)
     if frontend is None:
         bag.emit(
-            "E013",
+            codes.UNSUPPORTED_MODEL,
             f"`{path.name or path}` is not a system file fmionnx reads",
             Span(path),
             hint=f"system files end in {suffixes}",

@@ -30,6 +30,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 
 if TYPE_CHECKING:  # ruamel is imported when a document is checked: a lone model reads none
@@ -78,7 +79,7 @@ class _Counter:
         return Span(self.path, mark.line + 1, mark.column + 1)
 
     def fail(self, event: Any, message: str, hint: str) -> None:
-        self.bag.emit("E003", message, self.span(event), hint=hint)
+        self.bag.emit(codes.INVALID_VALUE, message, self.span(event), hint=hint)
         raise _LimitError
 
     def add(self, nodes: int) -> None:
@@ -169,7 +170,7 @@ def check_size(size: int, path: Path, bag: DiagnosticBag) -> bool:
     if size <= MAX_DOCUMENT_BYTES:
         return True
     bag.emit(
-        "E003",
+        codes.INVALID_VALUE,
         f"`{path.name}` is {size} bytes, more than the {MAX_DOCUMENT_BYTES} bytes "
         f"({MAX_DOCUMENT_BYTES // (1024 * 1024)} MiB) a YAML file may have",
         Span(path, 1, 1),

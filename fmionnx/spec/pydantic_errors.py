@@ -14,6 +14,7 @@ from typing import Any
 
 from pydantic import BaseModel, ValidationError
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
 from fmionnx.spec.sourcemap import SourceMap
 
@@ -59,19 +60,21 @@ def _emit(
         fields = _field_names(model) if model is not None else []
         hint = did_you_mean(key, fields) or (one_of(fields) if fields else None)
         owner = _dotted(data_loc[:-1]) or "the top level"
-        bag.emit("E002", f"unknown key `{key}` in {owner}", sources.key(data_loc), hint=hint)
+        bag.emit(
+            codes.UNKNOWN_KEY, f"unknown key `{key}` in {owner}", sources.key(data_loc), hint=hint
+        )
         return
     if kind == "missing":
         key = str(data_loc[-1])
         owner = _dotted(data_loc[:-1]) or "the top level"
-        bag.emit("E004", f"missing key `{key}` in {owner}", sources.key(data_loc[:-1]))
+        bag.emit(codes.MISSING_KEY, f"missing key `{key}` in {owner}", sources.key(data_loc[:-1]))
         return
     if kind in {"union_tag_invalid", "union_tag_not_found"}:
         from fmionnx.kinds.registry import COMPONENT_KINDS
 
         if kind == "union_tag_not_found":
             bag.emit(
-                "E004",
+                codes.MISSING_KEY,
                 f"component `{data_loc[-1]}` has no `kind`",
                 sources.key(data_loc),
                 hint=one_of(COMPONENT_KINDS),
@@ -80,7 +83,7 @@ def _emit(
         value = _value_at(data, (*data_loc, "kind"))
         hint = did_you_mean(str(value), COMPONENT_KINDS) or one_of(COMPONENT_KINDS)
         bag.emit(
-            "E014",
+            codes.UNKNOWN_KIND,
             f"unknown component kind `{value}`",
             sources.value((*data_loc, "kind")),
             hint=hint,
@@ -88,7 +91,7 @@ def _emit(
         return
     if data_loc == ("fmionnx",):
         bag.emit(
-            "E005",
+            codes.FORMAT_VERSION,
             f"format version `{_short(_value_at(data, data_loc))}` is not supported",
             sources.value(data_loc),
             hint="this release reads `fmionnx: 1`",
@@ -107,7 +110,7 @@ def _emit(
     cause = context.get("error")
     if isinstance(cause, InvalidKeyError):  # the key itself is wrong: point at it
         bag.emit(
-            "E003",
+            codes.INVALID_VALUE,
             f"`{where}`: {message}",
             sources.key((*data_loc, cause.key)),
             hint=f"e.g. `{_as_name(cause.key)}`",
@@ -117,15 +120,17 @@ def _emit(
         written, example = _WRITTEN_AS.get(
             str(context.get("class_name")), ("a mapping (`key: value` pairs)", "`key: value`")
         )
-        bag.emit("E003", f"`{where}` must be {written}{shown}", span, hint=f"e.g. {example}")
+        bag.emit(
+            codes.INVALID_VALUE, f"`{where}` must be {written}{shown}", span, hint=f"e.g. {example}"
+        )
         return
     if kind == "string_pattern_mismatch":
         pattern = str(context.get("pattern", ""))
         meaning = PATTERN_MEANINGS.get(pattern, f"text of the form `{pattern}`")
         hint = f"e.g. `{_as_name(str(value), dots=False)}`" if pattern in PATTERN_MEANINGS else None
-        bag.emit("E003", f"`{where}` must be {meaning}{shown}", span, hint=hint)
+        bag.emit(codes.INVALID_VALUE, f"`{where}` must be {meaning}{shown}", span, hint=hint)
         return
-    bag.emit("E003", f"`{where}`: {message}{shown}", span)
+    bag.emit(codes.INVALID_VALUE, f"`{where}`: {message}{shown}", span)
 
 
 #: pydantic error types that mean "a mapping was expected here".

@@ -17,6 +17,7 @@ from typing import Any
 
 from pydantic import ValidationError
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Severity, Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import ValueSource
@@ -57,7 +58,7 @@ def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
         ssd = root / SSD_NAME
         if not ssd.is_file():
             bag.emit(
-                "E072",
+                codes.SSP_REFERENCE,
                 f"`{path.name}` has no `{SSD_NAME}` at its root",
                 Span(path),
                 hint="an SSP archive holds the system structure as SystemStructure.ssd",
@@ -66,7 +67,7 @@ def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
     else:
         root, ssd = None, path
         if not path.is_file():
-            code = "E010" if not path.exists() else "E011"
+            code = codes.FILE_NOT_FOUND if not path.exists() else codes.NOT_A_FILE
             bag.emit(code, f"system file `{path}` does not exist or is not a file", Span(path))
             return LoadedSpec(None, sources, path)
     sources = SourceMap(ssd)
@@ -97,10 +98,12 @@ def _json_object(annotation: Annotation, ssd: Path, bag: DiagnosticBag) -> dict[
     try:
         value = json.loads(annotation.text) if annotation.text else {}
     except json.JSONDecodeError as exc:
-        bag.emit("E003", f"the `org.fmionnx` annotation is not valid JSON: {exc.msg}", span)
+        bag.emit(
+            codes.INVALID_VALUE, f"the `org.fmionnx` annotation is not valid JSON: {exc.msg}", span
+        )
         return None
     if not isinstance(value, dict):
-        bag.emit("E003", "the `org.fmionnx` annotation must hold a JSON object", span)
+        bag.emit(codes.INVALID_VALUE, "the `org.fmionnx` annotation must hold a JSON object", span)
         return None
     return value
 
@@ -111,7 +114,7 @@ def system_name(text: str, span: Span, bag: DiagnosticBag) -> str:
     if not re.match(r"[A-Za-z_]", name):
         name = "_" + name
     if name != text:
-        bag.emit("W070", f"system name `{text}` is used as `{name}`", span)
+        bag.emit(codes.SSP_IGNORED, f"system name `{text}` is used as `{name}`", span)
     return name
 
 
@@ -136,7 +139,7 @@ def _system_data(
     for key in annotation:
         if key not in SYSTEM_ANNOTATION_KEYS:
             bag.emit(
-                "E002",
+                codes.UNKNOWN_KEY,
                 f"unknown key `{key}` in the system's `org.fmionnx` annotation",
                 annotation_span,
                 hint=f"expected one of {', '.join(SYSTEM_ANNOTATION_KEYS)}",
@@ -202,20 +205,24 @@ def _component(
     kind = KIND_BY_MIME.get(element.type)
     if kind is None:
         bag.emit(
-            "E071",
+            codes.SSP_UNSUPPORTED,
             f"component `{name}` has type `{element.type}`, which fmionnx cannot run",
             span,
             hint=f"supported types: {', '.join(KIND_BY_MIME)}",
         )
         return None
     if element.source is None:
-        bag.emit("E072", f"component `{name}` has no `source`", span)
+        bag.emit(codes.SSP_REFERENCE, f"component `{name}` has no `source`", span)
         return None
     entry: dict[str, Any] = {"kind": kind}
     # `source=""` refers to the SSD itself: a component defined by its annotation, with no
     # model file. Only kinds whose entry may omit `path` accept that.
     if not element.source and COMPONENT_KINDS[kind].spec_model.model_fields["path"].is_required():
-        bag.emit("E072", f"component `{name}` has an empty `source`: it needs a model file", span)
+        bag.emit(
+            codes.SSP_REFERENCE,
+            f"component `{name}` has an empty `source`: it needs a model file",
+            span,
+        )
         return None
     if element.source:
         model = resolve_uri(element.source, ssd.parent, root, span, bag)
@@ -238,7 +245,7 @@ def _component(
         for option in options:
             if option in _STRUCTURAL_KEYS:
                 bag.emit(
-                    "E002",
+                    codes.UNKNOWN_KEY,
                     f"`{option}` of component `{name}` comes from the SSD element, not from "
                     "the annotation",
                     option_span,
@@ -275,7 +282,7 @@ def _inputs(flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag)
             continue
         if not DOTTED_NAME.fullmatch(name):
             bag.emit(
-                "W070",
+                codes.SSP_IGNORED,
                 f"open system connector `{name}` cannot be named on the command line (letters, "
                 "digits, `_`, `-` only); the ports it reaches keep their start values",
                 span,

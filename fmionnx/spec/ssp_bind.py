@@ -34,6 +34,7 @@ from __future__ import annotations
 from dataclasses import replace
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.specbase import ScalarLiteral
 from fmionnx.spec.ssp_graph import Pin, Reached, SystemGraph, system_text
 from fmionnx.spec.ssp_params import BoundValue, binding_values
@@ -87,7 +88,7 @@ def _assign(
     target = _resolve(graph, path, value.name)
     if target is None:
         graph.bag.emit(
-            "E072",
+            codes.SSP_REFERENCE,
             f"parameter `{value.name}` bound on system `{element.name}` names no component "
             "or system connector inside it",
             value.span,
@@ -105,7 +106,7 @@ def _assign(
         kept[pin] = value  # a top-level connector bound to a value: a system input
     elif not reached and not graph.broken:
         graph.bag.emit(
-            "W070",
+            codes.SSP_IGNORED,
             f"`{value.name}` sets connector `{pin[1]}` of "
             f"{system_text(pin[0], graph.root_name)}, which leads to no component connector; "
             "the value is not used",
@@ -138,7 +139,7 @@ def _in_connector_unit(graph: SystemGraph, pin: Pin, value: BoundValue) -> Bound
         return value
     if unit.exponents != target.exponents:
         graph.bag.emit(
-            "E033",
+            codes.UNIT,
             f"`{value.name}` is given in `{unit.name}`, which measures another quantity than "
             f"connector `{pin[1]}` (`{connector.unit if connector else ''}`)",
             value.span,
@@ -179,7 +180,7 @@ def _transformed(graph: SystemGraph, value: BoundValue, end: Reached) -> ScalarL
     number = value.value
     if isinstance(number, bool) or not isinstance(number, int | float):
         graph.bag.emit(
-            "E071",
+            codes.SSP_UNSUPPORTED,
             f"`{value.name}` reaches `{'.'.join(end.pin[0])}.{end.pin[1]}` through a linear "
             "transformation, which applies to Real and Integer values only",
             value.span,

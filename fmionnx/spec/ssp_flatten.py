@@ -26,6 +26,7 @@ from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.spec.ssp_bind import bind_parameters
 from fmionnx.spec.ssp_graph import Pin, Reached, SystemGraph, pin_text, system_text
@@ -88,7 +89,7 @@ def endpoint_text(graph: SystemGraph, pin: Pin, line: int) -> str | None:
         shifted = fmi_to_port_label(label)
         if shifted is None:
             graph.bag.emit(
-                "E072",
+                codes.SSP_REFERENCE,
                 f"connector `{label}` of FMU component `{'.'.join(pin[0])}`: FMI element "
                 "names count from 1",
                 graph.span(line),
@@ -146,7 +147,7 @@ def _open_connectors(graph: SystemGraph, covered: set[Pin], flat: FlatSystem) ->
             message = (
                 f"{where} is driven by no component; the inputs it feeds keep their start values"
             )
-        graph.bag.emit("W070", message, graph.span(first.line))
+        graph.bag.emit(codes.SSP_IGNORED, message, graph.span(first.line))
 
 
 def _target(graph: SystemGraph, reached: Reached) -> FlatTarget | None:
@@ -179,7 +180,7 @@ def _check_duplicates(flat: FlatSystem, ssd: Path, bag: DiagnosticBag) -> None:
         key = (connection.src, connection.dst)
         if key in seen:
             bag.emit(
-                "W070",
+                codes.SSP_IGNORED,
                 f"`{connection.src}` reaches `{connection.dst}` along two paths; one is kept",
                 Span(ssd, connection.line),
                 notes=[Note("first path ends here", Span(ssd, seen[key].line))],

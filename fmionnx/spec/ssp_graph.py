@@ -17,6 +17,7 @@ from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
 from fmionnx.spec.ssp_tree import Connection, Connector, Document, Element, Unit
 
@@ -126,7 +127,7 @@ class SystemGraph:
         for pin, role in ((start, "start"), (end, "end")):
             if pin[0] not in self.paths:
                 self.bag.emit(
-                    "E072",
+                    codes.SSP_REFERENCE,
                     f"connection {role} element `{pin[0][-1]}` does not exist in system "
                     f"`{'.'.join(path) or self.root_name}`",
                     self.span(connection.line),
@@ -134,7 +135,7 @@ class SystemGraph:
                 return None
             if pin[0] not in self.components and pin not in self.connectors:
                 self.bag.emit(
-                    "E072",
+                    codes.SSP_REFERENCE,
                     f"system `{'.'.join(pin[0]) or self.root_name}` has no connector `{pin[1]}`",
                     self.span(connection.line),
                 )
@@ -163,7 +164,7 @@ class SystemGraph:
         if source is None or target is None:
             missing = first.unit if source is None else second.unit
             self.bag.emit(
-                "W070",
+                codes.SSP_IGNORED,
                 f"unit `{missing}` is not declared in `ssd:Units`; the units of the ports "
                 f"themselves decide the conversion from `{first.unit}` to `{second.unit}`",
                 self.span(connection.line),
@@ -171,7 +172,7 @@ class SystemGraph:
             return 1.0, 0.0
         if source.exponents != target.exponents:
             self.bag.emit(
-                "E033",
+                codes.UNIT,
                 f"connector units `{first.unit}` and `{second.unit}` measure different quantities",
                 self.span(connection.line),
                 hint="connect compatible signals, or set suppressUnitConversion with a "
@@ -189,7 +190,7 @@ class SystemGraph:
             first, second = edges[0], edges[1]
             self.broken = True
             self.bag.emit(
-                "E073",
+                codes.SSP_JUNCTION,
                 f"connector `{pin[1]}` of {system_text(pin[0], self.root_name)} is driven by "
                 f"{len(edges)} connections; a system connector passes on one signal",
                 self.span(second.line),
@@ -233,7 +234,7 @@ class SystemGraph:
         names = " -> ".join(shown)
         closing = next(e for e in self.edges[loop[-1]] if e.end == back)
         self.bag.emit(
-            "E073",
+            codes.SSP_JUNCTION,
             f"connections through system connectors form a cycle: {names}",
             self.span(closing.line),
             hint="a system connector is a junction between component connectors; remove one "

@@ -13,6 +13,7 @@ from pathlib import Path
 from typing import Any
 from urllib.parse import unquote, urlparse
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.specbase import ScalarLiteral
 from fmionnx.core.types import ValueSource
@@ -50,7 +51,7 @@ def resolve_uri(
     parsed = urlparse(text)
     if parsed.scheme or parsed.netloc:
         bag.emit(
-            "E071",
+            codes.SSP_UNSUPPORTED,
             f"`{text}`: only relative references into the SSP are supported (no URI schemes)",
             span,
         )
@@ -58,13 +59,13 @@ def resolve_uri(
     try:
         path = (base / unquote(parsed.path)).resolve()
     except (ValueError, OSError):
-        bag.emit("E072", f"`{text}` is not a usable file reference", span)
+        bag.emit(codes.SSP_REFERENCE, f"`{text}` is not a usable file reference", span)
         return None
     boundary = (root if root is not None else base).resolve()
     if not path.is_relative_to(boundary):
         where = "the SSP archive" if root is not None else "the folder of the .ssd"
         bag.emit(
-            "E017",
+            codes.UNSAFE_ARCHIVE,
             f"`{text}` points outside {where}",
             span,
             hint="SSP resources are referenced relative to the SSD, inside its archive or folder",
@@ -75,7 +76,7 @@ def resolve_uri(
     except OSError:  # a name longer than the file system allows: no such resource either
         exists = False
     if not exists:
-        bag.emit("E072", f"`{text[:200]}` does not exist in the SSP", span)
+        bag.emit(codes.SSP_REFERENCE, f"`{text[:200]}` does not exist in the SSP", span)
         return None
     return path
 
@@ -92,13 +93,13 @@ def _scalar(node: Any, span: Span, bag: DiagnosticBag) -> ScalarLiteral | None:
             if kind == "Integer":
                 return int(text)
         except ValueError:
-            bag.emit("E003", f"`{text}` is not a valid {kind} value", span)
+            bag.emit(codes.INVALID_VALUE, f"`{text}` is not a valid {kind} value", span)
             return None
         if kind == "Boolean":
             return text.strip() in {"true", "1"}
         return text
     bag.emit(
-        "E071",
+        codes.SSP_UNSUPPORTED,
         "only Real, Integer, Boolean and String parameter values are supported",
         span,
         hint="enumeration and binary values are not supported yet",
@@ -145,7 +146,7 @@ def _value_unit(node: Any, units: dict[str, Unit], span: Span, bag: DiagnosticBa
     unit = units.get(name) or builtin_unit(name)
     if unit is None:
         bag.emit(
-            "W070",
+            codes.SSP_IGNORED,
             f"unit `{name}` of parameter `{node.get('name')}` is not defined in the parameter "
             "set's `ssv:Units`; the value is used as written",
             span,
@@ -176,7 +177,9 @@ def read_mapping(element: Any, file: Path, bag: DiagnosticBag) -> dict[str, list
                 float(linear.get("factor", "1")), float(linear.get("offset", "0"))
             )
         elif len(node):
-            bag.emit("E071", "only linear transformations are supported in mappings", span)
+            bag.emit(
+                codes.SSP_UNSUPPORTED, "only linear transformations are supported in mappings", span
+            )
             continue
         entries.setdefault(node.get("source"), []).append(
             _Entry(node.get("target"), transformation, span)
@@ -191,7 +194,7 @@ def _apply(value: BoundValue, entry: _Entry | None, bag: DiagnosticBag) -> Bound
     if entry.transformation is not None:
         if isinstance(result, bool) or not isinstance(result, int | float):
             bag.emit(
-                "E071",
+                codes.SSP_UNSUPPORTED,
                 f"a linear transformation applies to Real values, not to `{value.name}`",
                 entry.span,
             )

@@ -12,6 +12,7 @@ from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.spec.ssp_xml import NS as _NS
 from fmionnx.spec.ssp_xml import short, tag
@@ -347,13 +348,13 @@ def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
         if kind is not None and kind not in _READ_ANNOTATIONS and kind not in warned:
             warned.add(kind)
             bag.emit(
-                "W070",
+                codes.SSP_IGNORED,
                 f"annotations of type `{kind}` are ignored",
                 Span(file, node.sourceline),
             )
         elif local in _UNSUPPORTED:
             bag.emit(
-                "E071",
+                codes.SSP_UNSUPPORTED,
                 f"{_UNSUPPORTED[local]} are not supported yet (`{short(node.tag)}`)",
                 Span(file, node.sourceline),
                 hint="see docs/ssp.md for what fmionnx reads",
@@ -363,20 +364,20 @@ def report_unread(tree: Any, file: Path, bag: DiagnosticBag) -> None:
         elif local in _HARMLESS and local not in warned:
             warned.add(local)
             bag.emit(
-                "W070",
+                codes.SSP_IGNORED,
                 f"`{short(node.tag)}` is ignored (layout or documentation only)",
                 Span(file, node.sourceline),
             )
         elif local not in _UNDERSTOOD and local not in _HARMLESS:
             bag.emit(
-                "W070",
+                codes.SSP_IGNORED,
                 f"`{short(node.tag)}` is not read by fmionnx and is ignored",
                 Span(file, node.sourceline),
             )
     if layout:
         kinds = ", ".join(sorted({f"`{etree_local(n.tag)}`" for n in layout}))
         bag.emit(
-            "I070",
+            codes.SSP_LAYOUT,
             f"the diagram layout ({len(layout)} elements: {kinds}) is not used: it does not "
             "change what the system computes",
             Span(file, layout[0].sourceline),

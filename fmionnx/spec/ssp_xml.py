@@ -16,6 +16,7 @@ from typing import Any
 
 from lxml import etree
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.resources import SSP_XML_BYTES
@@ -72,7 +73,7 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
     try:
         size = path.stat().st_size if data is None else len(data)
     except OSError:
-        bag.emit("E010", f"`{path.name}` does not exist", Span(path))
+        bag.emit(codes.FILE_NOT_FOUND, f"`{path.name}` does not exist", Span(path))
         return None
     # Checked before parsing: SSDs of large systems are a few MB, and lxml's tree of a huge
     # file takes several times its size in memory.
@@ -83,7 +84,7 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
         return None
     if size > largest:
         bag.emit(
-            "E008",
+            codes.RESOURCE_LIMIT,
             f"`{path.name}` is {size} bytes, larger than {largest}",
             Span(path),
             hint=SSP_XML_BYTES.hint(),
@@ -95,10 +96,12 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
         return etree.parse(str(path), _parser())
     except etree.XMLSyntaxError as exc:
         line, col = exc.position if exc.position else (1, 0)
-        bag.emit("E001", f"`{path.name}` is not well-formed XML: {exc.msg}", Span(path, line, col))
+        bag.emit(
+            codes.SYNTAX, f"`{path.name}` is not well-formed XML: {exc.msg}", Span(path, line, col)
+        )
         return None
     except OSError as exc:
-        bag.emit("E010", f"cannot read `{path.name}`: {exc}", Span(path))
+        bag.emit(codes.FILE_NOT_FOUND, f"cannot read `{path.name}`: {exc}", Span(path))
         return None
 
 
@@ -118,7 +121,7 @@ def major_version(root: Any, path: Path, bag: DiagnosticBag) -> str | None:
     major = version.split(".", 1)[0]
     if major not in _VERSION_FOLDERS:
         bag.emit(
-            "E071",
+            codes.SSP_UNSUPPORTED,
             f"SSP version `{version}` of `{path.name}` is not supported",
             Span(path, root.sourceline or 1),
             hint="fmionnx reads SSP 1.0 and 2.0 files",
@@ -154,7 +157,7 @@ def _valid(node: Any, kind: str, major: str, path: Path, bag: DiagnosticBag) -> 
         return True
     for entry in xsd.error_log:
         bag.emit(
-            "E070",
+            codes.SSP_SCHEMA,
             f"{path.name} does not follow the SSP {major}.0 schema: {short(entry.message)}",
             Span(path, entry.line, 0),
             hint="fix the file in the tool that wrote it, or by hand",

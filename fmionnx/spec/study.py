@@ -21,6 +21,7 @@ from typing import Any, Literal
 
 from pydantic import Field, ValidationError, field_validator, model_validator
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.specbase import ScalarLiteral, StrictModel
 from fmionnx.spec.model import known_format
@@ -228,7 +229,7 @@ def load_study(path: Path, bag: DiagnosticBag) -> LoadedStudy:
     sources = SourceMap(path)
     if not path.is_file():
         what = "does not exist" if not path.exists() else "is not a file"
-        bag.emit("E100", f"study file `{path}` {what}", Span(path))
+        bag.emit(codes.STUDY_FILE, f"study file `{path}` {what}", Span(path))
         return LoadedStudy(None, sources, path)
     text = read_text(path, bag)
     if text is None:
@@ -238,7 +239,7 @@ def load_study(path: Path, bag: DiagnosticBag) -> LoadedStudy:
         return LoadedStudy(None, sources, path)
     if not isinstance(data, dict) or ("system" not in data and "components" in data):
         bag.emit(
-            "E100",
+            codes.STUDY_FILE,
             "a study file is a mapping with keys `fmionnx`, `system`, `parameters` ...",
             Span(path, 1, 1),
             hint="this looks like a system file: a study names one with `system: FILE`"

@@ -16,6 +16,8 @@ from typing import TYPE_CHECKING, Any
 
 from pydantic import ValidationError
 
+from fmionnx.core import codes
+from fmionnx.core.codes import ErrorCode
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.sourcetext import edited_text
 from fmionnx.spec.limits import MAX_DOCUMENT_BYTES, check_limits, check_size
@@ -68,10 +70,12 @@ def read_text(path: Path, bag: DiagnosticBag) -> str | None:
         size = len(edited.encode("utf-8", "surrogatepass"))
         return edited if check_size(size, path, bag) else None
     if not path.exists():
-        bag.emit("E010", f"system file `{path}` does not exist", span)
+        bag.emit(codes.FILE_NOT_FOUND, f"system file `{path}` does not exist", span)
         return None
     if not path.is_file():
-        bag.emit("E011", f"`{path}` is a directory or special file, not a system file", span)
+        bag.emit(
+            codes.NOT_A_FILE, f"`{path}` is a directory or special file, not a system file", span
+        )
         return None
     try:
         # The size is checked before reading, so a huge file is never loaded into memory.
@@ -80,7 +84,7 @@ def read_text(path: Path, bag: DiagnosticBag) -> str | None:
         with path.open("rb") as stream:
             data = stream.read(MAX_DOCUMENT_BYTES + 1)
     except OSError as exc:
-        bag.emit("E010", f"cannot read `{path}`: {exc.strerror}", span)
+        bag.emit(codes.FILE_NOT_FOUND, f"cannot read `{path}`: {exc.strerror}", span)
         return None
     if not check_size(len(data), path, bag):
         return None
@@ -90,7 +94,7 @@ def read_text(path: Path, bag: DiagnosticBag) -> str | None:
         line = data[: exc.start].count(b"\n") + 1
         col = exc.start - (data.rfind(b"\n", 0, exc.start) + 1) + 1
         bag.emit(
-            "E006",
+            codes.ENCODING,
             f"the file is not UTF-8 text (byte 0x{data[exc.start]:02x})",
             Span(path, line, col),
             hint="save the file as UTF-8",
@@ -136,7 +140,7 @@ def load_yaml_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
         return LoadedSpec(None, sources, path)
     if not isinstance(data, dict):
         bag.emit(
-            "E003",
+            codes.INVALID_VALUE,
             "a system file must be a mapping with keys `fmionnx`, `name`, `components` ...",
             Span(path, 1, 1),
             hint="start the file with `fmionnx: 1`",
@@ -144,7 +148,7 @@ def load_yaml_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
         return LoadedSpec(None, sources, path)
     if is_study_document(data):
         bag.emit(
-            "E003",
+            codes.INVALID_VALUE,
             f"`{path.name}` is a study file (it names a `system:` to vary), not a system file",
             Span(path, 1, 1),
             hint=f"run its cases with `fmionnx sweep {path.name} --out DIR`; "
@@ -183,7 +187,7 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
             node = yaml.load(text)
     except TypeError:  # ruamel hashes every key: a mapping or list as a key cannot be
         bag.emit(
-            "E001",
+            codes.SYNTAX,
             "invalid YAML: a mapping key is itself a mapping or a list",
             Span(path, 1, 1),
             hint="keys of a system file are plain names",
@@ -196,31 +200,34 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
         tag = _first_tag(text, path)
         if tag is not None:
             bag.emit(
-                "E001",
+                codes.SYNTAX,
                 "invalid YAML: a tag does not fit the value it is put on",
                 tag,
                 hint="system and study files hold plain maps, lists, strings and numbers, no tags",
             )
         else:
             bag.emit(
-                "E001",
+                codes.SYNTAX,
                 f"invalid YAML: a value the YAML reader cannot build: {exc}",
                 Span(path, 1, 1),
                 hint='quote a value meant as text (`"2020-02-30"`): YAML reads some as dates',
             )
         return None
     except DuplicateKeyError as exc:
-        _report_marked(exc, path, bag, "E007")
+        _report_marked(exc, path, bag, codes.DUPLICATE_KEY)
         return None
     except MarkedYAMLError as exc:
-        _report_marked(exc, path, bag, "E001", text=text)
+        _report_marked(exc, path, bag, codes.SYNTAX, text=text)
         return None
     except YAMLError as exc:
-        bag.emit("E001", f"invalid YAML: {exc}", Span(path, 1, 1))
+        bag.emit(codes.SYNTAX, f"invalid YAML: {exc}", Span(path, 1, 1))
         return None
     if node is None:
         bag.emit(
-            "E004", "the system file is empty", Span(path, 1, 1), hint="start with `fmionnx: 1`"
+            codes.MISSING_KEY,
+            "the system file is empty",
+            Span(path, 1, 1),
+            hint="start with `fmionnx: 1`",
         )
         return None
     sources.record((), Span(path, 1, 1))
@@ -228,14 +235,14 @@ def parse_yaml(text: str, path: Path, sources: SourceMap, bag: DiagnosticBag) ->
         return _plain(node, (), sources)
     except _TagError as exc:
         bag.emit(
-            "E003",
+            codes.INVALID_VALUE,
             f"YAML tag `{exc.tag}` is not allowed in a system file",
             sources.value(exc.path),
             hint="system files hold plain maps, lists, strings and numbers",
         )
         return None
     except _StructureError as exc:
-        bag.emit("E003", exc.message, sources.value(exc.path), hint=exc.hint)
+        bag.emit(codes.INVALID_VALUE, exc.message, sources.value(exc.path), hint=exc.hint)
         return None
 
 
@@ -252,7 +259,7 @@ def _first_tag(text: str, path: Path) -> Span | None:
 
 
 def _report_marked(
-    exc: MarkedYAMLError, path: Path, bag: DiagnosticBag, code: str, *, text: str = ""
+    exc: MarkedYAMLError, path: Path, bag: DiagnosticBag, code: ErrorCode, *, text: str = ""
 ) -> None:
     mark = exc.problem_mark or exc.context_mark
     if exc.problem and "<stream end>" in exc.problem and exc.context_mark is not None:
@@ -260,7 +267,7 @@ def _report_marked(
         mark = exc.context_mark
     span = Span(path, mark.line + 1, mark.column + 1) if mark is not None else Span(path, 1, 1)
     problem = exc.problem or "invalid YAML"
-    if code == "E007":
+    if code is codes.DUPLICATE_KEY:
         message = problem.split(" with value")[0]
         problem = message.replace("found duplicate key", "duplicate key")
         bag.emit(code, problem, span, hint="each key may appear once in a mapping")

@@ -15,6 +15,7 @@ from pathlib import Path
 import pytest
 
 import fmionnx
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError, RunError
 from fmionnx.kinds.fmu.loading import load_library
 from fmionnx.runtime.result import RunStatus
@@ -138,7 +139,7 @@ def test_a_load_that_fails_midway_puts_the_working_folder_back(tmp_path: Path) -
 
 def test_fmionnx_own_errors_on_the_way_pass_unchanged(tmp_path: Path) -> None:
     """The check that the library lies inside the FMU (E017) runs as fmpy's object is made."""
-    problem = ModelError("E017", "outside")
+    problem = ModelError(codes.UNSAFE_ARCHIVE, "outside")
 
     def refused() -> None:
         raise problem

@@ -86,7 +86,8 @@ def test_a_stop_signal_writes_the_results_recorded_so_far(
     assert info["interrupted_by"] == signum.name
     with (tmp_path / "out" / "results.csv").open(encoding="utf-8") as stream:
         rows = list(csv.reader(stream))
-    assert rows[0] == ["time", "integ.x"]
+    # every output is recorded by default, the gain's unconnected ones too
+    assert rows[0] == ["time", "integ.x", "gain.y", "gain.w[0]", "gain.w[1]", "gain.w[2]"]
     assert len(rows) - 1 == info["steps"] + 1 > 2  # every completed step, and the start
     last = float(rows[-1][0])
     assert 0 < last < 5000

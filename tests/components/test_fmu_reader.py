@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, DType, Experiment
@@ -287,19 +288,19 @@ def test_fmi3_dimension_from_structural_parameter(tmp_path: Path) -> None:
 def _code(path: Path) -> str:
     with pytest.raises(ModelError) as info:
         FMU_KIND.read_interface(path, None)
-    return info.value.code
+    return info.value.code.code
 
 
 def test_missing_file_is_e010(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="does not exist") as info:
         FMU_KIND.read_interface(tmp_path / "nope.fmu", None)
-    assert info.value.code == "E010"
+    assert info.value.code is codes.FILE_NOT_FOUND
 
 
 def test_folder_without_model_description_is_e011(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match=r"without modelDescription\.xml") as info:
         FMU_KIND.read_interface(tmp_path, None)
-    assert info.value.code == "E011"
+    assert info.value.code is codes.NOT_A_FILE
 
 
 def test_non_zip_fmu_is_e012(tmp_path: Path) -> None:
@@ -307,14 +308,14 @@ def test_non_zip_fmu_is_e012(tmp_path: Path) -> None:
     path.write_text("not a zip")
     with pytest.raises(ModelError, match="not a zip archive") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL
 
 
 def test_zip_without_model_description_is_e012(tmp_path: Path) -> None:
     path = fmu_zip(tmp_path / "empty.fmu", {"readme.txt": b"hello"})
     with pytest.raises(ModelError, match=r"has no modelDescription\.xml") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL
 
 
 def test_fmi1_model_description_is_unsupported_e013(tmp_path: Path) -> None:
@@ -325,7 +326,7 @@ def test_fmi1_model_description_is_unsupported_e013(tmp_path: Path) -> None:
     path = fmu_zip(tmp_path / "old.fmu", {"modelDescription.xml": xml.encode()})
     with pytest.raises(ModelError, match=r"FMI 1\.0 FMU") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E013"
+    assert info.value.code is codes.UNSUPPORTED_MODEL
     assert info.value.hint is not None
 
 
@@ -338,7 +339,7 @@ def test_hostile_member_names_are_e017(tmp_path: Path, member: str, message: str
     path = fmu_zip(tmp_path / "evil.fmu", {"modelDescription.xml": xml, member: b"x"})
     with pytest.raises(ModelError, match=message) as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
 
 
 def test_symlink_member_is_e017(tmp_path: Path) -> None:
@@ -347,7 +348,7 @@ def test_symlink_member_is_e017(tmp_path: Path) -> None:
     path = fmu_zip(tmp_path / "link.fmu", members, links=("resources/link",))
     with pytest.raises(ModelError, match="symbolic link") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
 
 
 def test_zip_bomb_ratio_is_e017(tmp_path: Path) -> None:
@@ -356,7 +357,7 @@ def test_zip_bomb_ratio_is_e017(tmp_path: Path) -> None:
     path = fmu_zip(tmp_path / "bomb.fmu", members)
     with pytest.raises(ModelError, match="zip bomb") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
 
 
 def test_dtd_with_external_entity_is_refused_e017(tmp_path: Path) -> None:
@@ -369,14 +370,14 @@ def test_dtd_with_external_entity_is_refused_e017(tmp_path: Path) -> None:
     folder = fmu_folder(tmp_path, "T", xml)
     with pytest.raises(ModelError, match="declares a DTD") as info:
         FMU_KIND.read_interface(folder, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
 
 
 def test_malformed_xml_is_e012_with_line(tmp_path: Path) -> None:
     folder = fmu_folder(tmp_path, "T", '<?xml version="1.0"?>\n<fmiModelDescription\n<oops')
     with pytest.raises(ModelError, match=r"not well-formed XML \(line \d+\)") as info:
         FMU_KIND.read_interface(folder, None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL
 
 
 def test_schema_violation_is_e012(tmp_path: Path) -> None:
@@ -389,7 +390,7 @@ def test_schema_violation_is_e012(tmp_path: Path) -> None:
     folder = fmu_folder(tmp_path, "T", xml)
     with pytest.raises(ModelError, match="does not conform to the FMI schema") as info:
         FMU_KIND.read_interface(folder, None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL
 
 
 def test_other_root_element_is_e012(tmp_path: Path) -> None:
@@ -408,4 +409,4 @@ def test_corrupt_member_is_e012(tmp_path: Path) -> None:
     path.write_bytes(bytes(data))
     with pytest.raises(ModelError, match="is corrupt") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL

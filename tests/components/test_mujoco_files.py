@@ -8,6 +8,7 @@ import pytest
 from typer.testing import CliRunner
 
 from fmionnx.cli import app
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.kinds.mujoco.files import check_scene_files
 from fmionnx.kinds.mujoco.interface import read_mujoco_interface
@@ -47,7 +48,7 @@ def test_a_path_leaving_the_folder_is_refused_before_mujoco_reads_it(
     scene = _scene(tmp_path / "scene", body, head)
     with pytest.raises(ModelError, match="lies outside the scene's folder") as info:
         read_mujoco_interface(scene, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
     assert what in str(info.value)
 
 

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, DType
 from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, CameraSpec, MujocoSpec
@@ -77,7 +78,7 @@ def test_facts(rover_scene: Path) -> None:
 def test_unknown_camera_is_e018_with_suggestion(rover_scene: Path) -> None:
     with pytest.raises(ModelError, match="camera `frnt` is not in the scene") as info:
         MUJOCO_KIND.read_interface(rover_scene, _spec(frnt=CameraSpec()))
-    assert info.value.code == "E018"
+    assert info.value.code is codes.UNKNOWN_OPTION
     assert info.value.hint == "did you mean `front`?"
 
 
@@ -94,13 +95,13 @@ def test_bad_xml_is_e012_naming_the_line(tmp_path: Path, text: str) -> None:
     scene.write_text(text)
     with pytest.raises(ModelError, match=r"not a valid MuJoCo scene: .*[Ll]ine\D*\d") as info:
         MUJOCO_KIND.read_interface(scene, None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL
 
 
 def test_missing_scene_is_e010(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="does not exist") as info:
         MUJOCO_KIND.read_interface(tmp_path / "none.xml", None)
-    assert info.value.code == "E010"
+    assert info.value.code is codes.FILE_NOT_FOUND
 
 
 def test_same_name_on_sensor_and_actuator_is_e013(tmp_path: Path) -> None:
@@ -113,7 +114,7 @@ def test_same_name_on_sensor_and_actuator_is_e013(tmp_path: Path) -> None:
     )
     with pytest.raises(ModelError, match="`j_out` is used by") as info:
         MUJOCO_KIND.read_interface(scene, None)
-    assert info.value.code == "E013"
+    assert info.value.code is codes.UNSUPPORTED_MODEL
 
 
 def test_content_hash_follows_included_files(tmp_path: Path) -> None:

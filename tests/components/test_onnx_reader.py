@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, DType
 from fmionnx.kinds.onnx.kind import ONNX_KIND
@@ -57,7 +58,7 @@ def test_facts_name_ir_opset_producer_and_metadata(onnx_models: dict[str, Path])
 def test_non_tensor_input_is_unsupported_e013(onnx_models: dict[str, Path]) -> None:
     with pytest.raises(ModelError, match="`items` is not a tensor") as info:
         ONNX_KIND.read_interface(onnx_models["sequence_input"], None)
-    assert info.value.code == "E013"
+    assert info.value.code is codes.UNSUPPORTED_MODEL
 
 
 def test_bad_protobuf_is_e012(tmp_path: Path) -> None:
@@ -65,13 +66,13 @@ def test_bad_protobuf_is_e012(tmp_path: Path) -> None:
     path.write_bytes(b"\x08\x07\x12\xff\xff\xff this is not protobuf")
     with pytest.raises(ModelError, match="not an ONNX model") as info:
         ONNX_KIND.read_interface(path, None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL
 
 
 def test_missing_model_is_e010(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="does not exist") as info:
         ONNX_KIND.read_interface(tmp_path / "none.onnx", None)
-    assert info.value.code == "E010"
+    assert info.value.code is codes.FILE_NOT_FOUND
 
 
 def test_directory_is_e011(tmp_path: Path) -> None:
@@ -79,4 +80,4 @@ def test_directory_is_e011(tmp_path: Path) -> None:
     folder.mkdir()
     with pytest.raises(ModelError, match="directory") as info:
         ONNX_KIND.read_interface(folder, None)
-    assert info.value.code == "E011"
+    assert info.value.code is codes.NOT_A_FILE

@@ -6,6 +6,7 @@ from pathlib import Path
 
 import pytest
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Note, Span, make
 from fmionnx.reporters import FileResult
 
@@ -19,19 +20,23 @@ def two_files(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> list[FileResul
     model = tmp_path / "models" / "modelDescription.xml"
     first = (
         make(
-            "E031",
+            codes.DTYPE,
             "cannot connect `net.label_out` (string) to `gain.u` (float64)",
             Span(a, 7, 5),
             hint="connect a numeric output",
             notes=[Note("`u` is declared here", Span(model, 36, 12))],
         ),
-        make("W030", "input `gain.v` is not connected; its start value is used", Span(a, 5, 3)),
+        make(
+            codes.UNCONNECTED_INPUT,
+            "input `gain.v` is not connected; its start value is used",
+            Span(a, 5, 3),
+        ),
     )
     second = (
-        make("E021", "component `plant` has no port `y2`, value: 50%", Span(b, 9, 13)),
-        make("E010", "system file problem without a position", None),
+        make(codes.UNKNOWN_PORT, "component `plant` has no port `y2`, value: 50%", Span(b, 9, 13)),
+        make(codes.FILE_NOT_FOUND, "system file problem without a position", None),
         make(
-            "I080",
+            codes.LOCK_BINARY_CHANGED,
             "component `plant`: the model file changed, its interface did not",
             Span(b, 4, 3),
         ),

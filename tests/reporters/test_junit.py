@@ -4,6 +4,7 @@ import io
 import xml.etree.ElementTree as ET
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span, make
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 from fmionnx.reporters.junit import CHECKS
@@ -50,7 +51,7 @@ def test_errors_fail_their_check_warnings_go_to_system_out(two_files: list[FileR
 
 
 def test_lock_check_is_skipped_unless_locked(tmp_path: Path) -> None:
-    info = make("I080", "binary changed", Span(tmp_path / "s.yaml", 3, 3))
+    info = make(codes.LOCK_BINARY_CHANGED, "binary changed", Span(tmp_path / "s.yaml", 3, 3))
     unlocked = parse([FileResult(tmp_path / "s.yaml", (), document="study")])
     locked = parse([FileResult(tmp_path / "s.yaml", (info,), locked=True, document="study")])
     assert unlocked.find("testsuite/testcase[@name='lock']/skipped") is not None
@@ -63,7 +64,7 @@ def test_lock_check_is_skipped_unless_locked(tmp_path: Path) -> None:
 
 
 def test_characters_xml_cannot_carry_are_replaced(tmp_path: Path) -> None:
-    bad = make("E001", "invalid YAML: found \x07 character", Span(tmp_path / "s.yaml", 1, 1))
+    bad = make(codes.SYNTAX, "invalid YAML: found \x07 character", Span(tmp_path / "s.yaml", 1, 1))
     root = parse([FileResult(tmp_path / "s.yaml", (bad,))])
     failure = root.find("testsuite/testcase[@name='syntax']/failure")
     assert failure is not None

@@ -12,6 +12,7 @@ from pathlib import Path
 
 import pytest
 
+from fmionnx.core import codes
 from fmionnx.core.archive import RATIO_FLOOR_BYTES, safe_extract
 from fmionnx.core.errors import ModelError
 from fmionnx.kinds.fmu.kind import FMU_KIND
@@ -40,7 +41,7 @@ def test_many_small_members_of_zeros_are_a_bomb(tmp_path: Path) -> None:
     assert all(i.file_size < RATIO_FLOOR_BYTES for i in zipfile.ZipFile(path).infolist())
     with pytest.raises(ModelError, match=r"archive expands \d+x") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
     assert "FMIONNX_MAX_COMPRESSION_RATIO" in (info.value.hint or "")
     target = tmp_path / "out"
     with pytest.raises(ModelError, match="zip bomb"):
@@ -59,7 +60,7 @@ def test_member_count_is_bounded(tmp_path: Path, monkeypatch: pytest.MonkeyPatch
     path = _archive(tmp_path / "many.fmu", {f"resources/{i}.txt": b"x" for i in range(10)})
     with pytest.raises(ModelError, match="11 members") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
     assert "FMIONNX_MAX_ARCHIVE_MEMBERS" in (info.value.hint or "")
 
 
@@ -69,7 +70,7 @@ def test_total_unpacked_size_is_bounded(tmp_path: Path, monkeypatch: pytest.Monk
     path = _archive(tmp_path / "big.fmu", {"resources/data.bin": noise}, stored=True)
     with pytest.raises(ModelError, match="expands to") as info:
         safe_extract(path, tmp_path / "out")
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
     assert not (tmp_path / "out" / "resources" / "data.bin").exists()
 
 
@@ -80,7 +81,7 @@ def test_a_malformed_limit_setting_is_e019_not_ignored(
     path = _archive(tmp_path / "ok.fmu", {})
     with pytest.raises(ModelError, match="FMIONNX_MAX_ARCHIVE_MEMBERS") as info:
         FMU_KIND.read_interface(path, None)
-    assert info.value.code == "E008"
+    assert info.value.code is codes.RESOURCE_LIMIT
 
 
 def test_real_fmus_stay_within_the_default_limits(fixture_fmu) -> None:  # type: ignore[no-untyped-def]

@@ -11,6 +11,7 @@ import pytest
 
 import fmionnx
 from fmionnx import api
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.core.errors import DiagnosticError, ModelError
 from fmionnx.kinds.fmu.kind import FMU_KIND
@@ -88,7 +89,7 @@ def _damaged(tmp_path: Path, damage: str) -> Path:
 def test_a_damaged_fmu_zip_is_e012(tmp_path: Path, damage: str) -> None:
     with pytest.raises(ModelError) as info:
         FMU_KIND.read_interface(_damaged(tmp_path, damage), None)
-    assert info.value.code == "E012"
+    assert info.value.code is codes.BAD_MODEL
 
 
 def test_a_model_path_longer_than_the_file_system_allows_is_e010(tmp_path: Path) -> None:

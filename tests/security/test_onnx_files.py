@@ -13,6 +13,7 @@ import pytest
 from onnx import TensorProto, helper, numpy_helper
 
 from fmionnx.compile.single import compile_single_model
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag
 from fmionnx.core.errors import ModelError
 from fmionnx.core.runner import Wiring
@@ -78,7 +79,7 @@ def test_external_data_outside_the_folder_is_e017(
     path = _save(_scale(where), tmp_path / "model" / "scale.onnx")
     with pytest.raises(ModelError, match=message) as info:
         ONNX_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
     assert "tensor `w`" in str(info.value)
 
 
@@ -86,7 +87,7 @@ def test_external_data_in_a_node_attribute_is_checked_too(tmp_path: Path, secret
     path = _save(_scale("../secret.bin", in_constant=True), tmp_path / "model" / "scale.onnx")
     with pytest.raises(ModelError, match="outside the model's folder") as info:
         ONNX_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
 
 
 def test_external_data_through_a_link_out_of_the_folder_is_e017(
@@ -97,7 +98,7 @@ def test_external_data_through_a_link_out_of_the_folder_is_e017(
     (folder / "weights.bin").symlink_to(secret)
     with pytest.raises(ModelError, match="a link to a file outside") as info:
         ONNX_KIND.read_interface(path, None)
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
 
 
 def _runner(path: Path):  # type: ignore[no-untyped-def]
@@ -130,7 +131,7 @@ def test_a_model_changed_after_compiling_is_checked_before_onnxruntime_loads_it(
     _save(_scale("../secret.bin"), path)  # rewritten between compile and run
     with pytest.raises(ModelError, match="outside the model's folder") as info:
         runner.instantiate()
-    assert info.value.code == "E017"
+    assert info.value.code is codes.UNSAFE_ARCHIVE
 
 
 def test_a_tensor_of_a_trillion_elements_is_e019(tmp_path: Path) -> None:
@@ -141,5 +142,5 @@ def test_a_tensor_of_a_trillion_elements_is_e019(tmp_path: Path) -> None:
     path = _save(model, tmp_path / "huge.onnx")
     with pytest.raises(ModelError, match=r"input `x` of shape \[1000, 1000, 1000, 1000\]") as info:
         ONNX_KIND.read_interface(path, None)
-    assert info.value.code == "E008"
+    assert info.value.code is codes.RESOURCE_LIMIT
     assert "FMIONNX_MAX_ARRAY_ELEMENTS" in (info.value.hint or "")

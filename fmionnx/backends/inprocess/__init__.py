@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from typing import Self
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, make
 from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
 from fmionnx.runtime.result import RunOptions, RunResult, Schedule
@@ -181,7 +182,7 @@ class InProcessBackend(Backend):
             if component.external:
                 problems.append(
                     make(
-                        "E018",
+                        codes.UNKNOWN_OPTION,
                         f"component `{component.name}` is `external: true`, which only the ROS 2 "
                         "backend can provide",
                         component.span,

@@ -48,6 +48,8 @@ from fmionnx.compile.ros2.names import (
 )
 from fmionnx.compile.ros2.qos import PROFILES, QosProfile
 from fmionnx.compile.ros2.types import NodePlan, Ros2Plan, Subscription, TopicPlan
+from fmionnx.core import codes
+from fmionnx.core.codes import ErrorCode
 from fmionnx.core.diagnostics import Diagnostic, Span, did_you_mean, make, one_of
 from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.base import SIMULATOR, RoleDefault
@@ -110,7 +112,7 @@ class _Builder:
             return Span(self.system.source)
         return self.sources.key(("ros2", *path))
 
-    def emit(self, code: str, message: str, span: Span, hint: str | None = None) -> None:
+    def emit(self, code: ErrorCode, message: str, span: Span, hint: str | None = None) -> None:
         self.diagnostics.append(make(code, message, span, hint=hint))
 
     def component(self, name: str) -> Component | None:
@@ -133,7 +135,9 @@ class _Builder:
         problem = namespace_problem(self.namespace)
         if problem is not None:
             self.emit(
-                "E062", f"ros2 namespace `{self.namespace}`: {problem}", self.span("namespace")
+                codes.ROS2_NAME,
+                f"ros2 namespace `{self.namespace}`: {problem}",
+                self.span("namespace"),
             )
             self.namespace = "/"
 
@@ -148,13 +152,13 @@ class _Builder:
             problem = node_name_problem(name)
             if problem is not None:
                 self.emit(
-                    "E062",
+                    codes.ROS2_NAME,
                     f"node name `{name}` of component `{component.name}`: {problem}",
                     self.span("nodes", component.name),
                 )
             elif name in used and not component.external:
                 self.emit(
-                    "E062",
+                    codes.ROS2_NAME,
                     f"node name `{name}` is used by `{used[name]}` and `{component.name}`",
                     self.span("nodes", component.name),
                     hint="give each component its own node name under `ros2.nodes`",
@@ -165,7 +169,7 @@ class _Builder:
     def unknown_component(self, name: str, path: tuple[str | int, ...]) -> None:
         names = [c.name for c in self.system.components]
         self.emit(
-            "E065",
+            codes.ROS2_REFERENCE,
             f"the ros2 section names component `{name}`, which the system does not have",
             self.key_span(*path),
             hint=did_you_mean(name, names) or one_of(names),
@@ -177,7 +181,7 @@ class _Builder:
         if component is None:
             if not dot:
                 self.emit(
-                    "E065",
+                    codes.ROS2_REFERENCE,
                     f"`{key}` in ros2.{section} is not `component.port`",
                     self.key_span(section, key),
                 )
@@ -188,7 +192,7 @@ class _Builder:
         if port is None:
             names = [p.name for p in component.interface.ports]
             self.emit(
-                "E065",
+                codes.ROS2_REFERENCE,
                 f"component `{component.name}` has no port `{port_name}` (in ros2.{section})",
                 self.key_span(section, key),
                 hint=did_you_mean(port_name, names) or one_of(names),
@@ -215,7 +219,7 @@ class _Builder:
                 ]
                 if driven:
                     self.emit(
-                        "E064",
+                        codes.ROS2_UNMAPPED,
                         f"`{key}` is an input driven by `{driven[0].src}`; its topic is that "
                         "output's topic",
                         span,
@@ -229,7 +233,7 @@ class _Builder:
             name = expand_topic(topic_text, self.namespace, self.node_names[component.name])
             problem = topic_problem(name)
             if problem is not None:
-                self.emit("E062", f"topic `{spec.topic}` of `{key}`: {problem}", span)
+                self.emit(codes.ROS2_NAME, f"topic `{spec.topic}` of `{key}`: {problem}", span)
                 continue
             msgtype = (
                 normalize_type(spec.type) if spec.type else self.implied_type(component, port, name)
@@ -308,7 +312,7 @@ class _Builder:
             msgtype = default_type(port)
             if msgtype is None:
                 self.emit(
-                    "E064",
+                    codes.ROS2_UNMAPPED,
                     f"port `{label}` ({port.dtype.value} {port.shape_text()}) has no default "
                     "ROS 2 message type",
                     span,
@@ -317,7 +321,7 @@ class _Builder:
                 return
         elif msgtype not in self.known_types:
             self.emit(
-                "E060",
+                codes.ROS2_TYPE,
                 f"unknown ROS 2 message type `{msgtype}` for `{label}`",
                 span,
                 hint=did_you_mean(msgtype, self.known_types)
@@ -334,7 +338,7 @@ class _Builder:
             self.drafts[topic] = draft
         elif draft.msgtype != msgtype:
             self.emit(
-                "E064",
+                codes.ROS2_UNMAPPED,
                 f"topic `{topic}` would carry both `{draft.msgtype}` and `{msgtype}`",
                 span,
                 hint="a topic has one message type; use another topic name",
@@ -342,7 +346,7 @@ class _Builder:
             return
         elif draft.publisher != publisher:
             self.emit(
-                "E064",
+                codes.ROS2_UNMAPPED,
                 f"topic `{topic}` would be published by both `{draft.publisher}` and `{publisher}`",
                 span,
                 hint="ports of different components need different topics",
@@ -351,7 +355,7 @@ class _Builder:
         clash = [f for f in draft.fields if set(f.paths) & set(mapped.paths)]
         if clash:
             self.emit(
-                "E061",
+                codes.ROS2_FIELD,
                 f"`{label}` and `{clash[0].port}` both write `{', '.join(mapped.paths)}` of "
                 f"`{topic}`",
                 span,
@@ -373,7 +377,7 @@ class _Builder:
         shape = tuple(int(d) for d in port.shape) if size is not None else ()
         if size is None:
             self.emit(
-                "E064",
+                codes.ROS2_UNMAPPED,
                 f"port `{label}` has a symbolic shape {port.shape_text()}; ROS 2 mapping needs "
                 "fixed sizes",
                 span,
@@ -382,7 +386,7 @@ class _Builder:
         if isinstance(paths, tuple) and len(paths) > 1:
             if len(paths) != size:
                 self.emit(
-                    "E061",
+                    codes.ROS2_FIELD,
                     f"`{label}` has {size} elements but {len(paths)} fields are mapped",
                     span,
                 )
@@ -412,7 +416,7 @@ class _Builder:
             resolve_field(msgtype, "data", self.distro)
         except FieldError:
             self.emit(
-                "E061",
+                codes.ROS2_FIELD,
                 f"`{label}` maps onto `{msgtype}` without a field and the type has no `data`",
                 span,
                 hint="write the field after the topic, e.g. `/cmd_vel.linear.x`, or use `field:`",
@@ -428,13 +432,13 @@ class _Builder:
             last = path.rsplit(".", maxsplit=1)[-1]
             if exc.valid:
                 hint = did_you_mean(last, exc.valid) or one_of(exc.valid)
-            self.emit("E061", f"`{label}` -> `{msgtype}`: {exc}", span, hint=hint)
+            self.emit(codes.ROS2_FIELD, f"`{label}` -> `{msgtype}`: {exc}", span, hint=hint)
             return None
 
     def scalar_fits(self, info: FieldInfo, port: Port, path: str, span: Span, label: str) -> bool:
         if info.kind is not FieldKind.SCALAR:
             self.emit(
-                "E061",
+                codes.ROS2_FIELD,
                 f"`{path}` is a {info.kind.value} of `{info.base}`; an element of `{label}` "
                 "needs a scalar field",
                 span,
@@ -449,7 +453,7 @@ class _Builder:
         )
         if not ok:
             self.emit(
-                "E061",
+                codes.ROS2_FIELD,
                 f"field `{path}` holds `{info.base}`, port `{label}` is {port.dtype.value}",
                 span,
                 hint="map the port onto a field of a matching element type",
@@ -470,7 +474,7 @@ class _Builder:
         if info.kind is FieldKind.SCALAR:
             if size != 1:
                 self.emit(
-                    "E061",
+                    codes.ROS2_FIELD,
                     f"`{label}` has {size} elements, field `{path}` ({info.base}) holds one",
                     span,
                     hint="map one element (`port[i]` in a connection) or use an array field",
@@ -482,7 +486,7 @@ class _Builder:
             if leaves is None or len(leaves) != size:
                 count = "non-numeric members" if leaves is None else f"{len(leaves)} members"
                 self.emit(
-                    "E061",
+                    codes.ROS2_FIELD,
                     f"field `{path}` is a `{info.base}` with {count}; `{label}` has {size} elements",
                     span,
                 )
@@ -490,19 +494,21 @@ class _Builder:
             return mapped
         if info.element_is_message:
             self.emit(
-                "E061", f"field `{path}` is a {info.kind.value} of messages `{info.base}`", span
+                codes.ROS2_FIELD,
+                f"field `{path}` is a {info.kind.value} of messages `{info.base}`",
+                span,
             )
             return None
         if info.kind is FieldKind.ARRAY and info.length != size:
             self.emit(
-                "E061",
+                codes.ROS2_FIELD,
                 f"field `{path}` is an array of {info.length}, `{label}` has {size} elements",
                 span,
             )
             return None
         if info.kind is FieldKind.SEQUENCE and info.length and size > info.length:
             self.emit(
-                "E061",
+                codes.ROS2_FIELD,
                 f"field `{path}` holds at most {info.length} elements, `{label}` has {size}",
                 span,
             )
@@ -513,7 +519,7 @@ class _Builder:
         profile = resolve_qos(value)
         if profile is None:
             self.emit(
-                "E063",
+                codes.ROS2_QOS,
                 f"unknown QoS profile `{value}`",
                 self.span(*path),
                 hint=did_you_mean(str(value), PROFILES) or one_of(PROFILES),
@@ -524,7 +530,7 @@ class _Builder:
             return
         if draft.qos is not None and draft.qos != profile:
             self.emit(
-                "E063",
+                codes.ROS2_QOS,
                 f"topic `{topic}` gets two different QoS profiles ({draft.qos.describe()} and "
                 f"{profile.describe()})",
                 self.span(*path),
@@ -542,7 +548,7 @@ class _Builder:
                 topic = expand_topic(key, self.namespace)
                 if topic not in self.drafts:
                     self.emit(
-                        "E065",
+                        codes.ROS2_REFERENCE,
                         f"ros2.qos names topic `{key}`, which no port is mapped onto",
                         self.key_span("qos", key),
                         hint=did_you_mean(topic, self.drafts) or one_of(self.drafts),
@@ -555,7 +561,7 @@ class _Builder:
                 found = self.port_topics.get((resolved[0].name, resolved[1].name))
                 if found is None:
                     self.emit(
-                        "E064",
+                        codes.ROS2_UNMAPPED,
                         f"ros2.qos names `{key}`, which is not published on a topic",
                         self.key_span("qos", key),
                     )

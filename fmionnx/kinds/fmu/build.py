@@ -14,6 +14,7 @@ import shutil
 import subprocess
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.archive import safe_extract, write_deterministic_zip
 from fmionnx.core.errors import BuildError, ModelError
 from fmionnx.core.scratch import scratch
@@ -94,15 +95,15 @@ def build_fmu(source: Path, output: Path | None = None) -> Path:
             safe_extract(source, unpacked)
         else:
             msg = f"`{source}` does not exist"
-            raise ModelError("E010", msg)
+            raise ModelError(codes.FILE_NOT_FOUND, msg)
         if not (unpacked / "modelDescription.xml").is_file():
             msg = f"`{source}` has no modelDescription.xml"
             raise ModelError(
-                "E012", msg, hint="a source FMU holds modelDescription.xml and sources/"
+                codes.BAD_MODEL, msg, hint="a source FMU holds modelDescription.xml and sources/"
             )
         if not (unpacked / "sources").is_dir():
             msg = f"`{source}` has no sources/ folder: there is nothing to compile"
-            raise ModelError("E015", msg)
+            raise ModelError(codes.NO_BINARY, msg)
         check_build_inputs(unpacked)
         shutil.rmtree(unpacked / "binaries", ignore_errors=True)
         recipe = read_recipe(unpacked)

@@ -20,6 +20,7 @@ from __future__ import annotations
 
 from pathlib import Path, PurePosixPath
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.xmlsafe import parse_safely
 from fmionnx.kinds.fmu.files import MODEL_DESCRIPTION, check_model_identifier
@@ -31,7 +32,7 @@ _INTERFACES = ("CoSimulation", "ModelExchange", "ScheduledExecution")
 def _plain_text(value: str, what: str, label: str) -> None:
     if any(ord(c) < 32 or c == "\x7f" for c in value):
         msg = f"`{label}`: {what} `{value!r}` holds a control character"
-        raise ModelError("E017", msg)
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg)
 
 
 def _inside_sources(name: str, sources: Path, what: str, label: str) -> None:
@@ -45,7 +46,7 @@ def _inside_sources(name: str, sources: Path, what: str, label: str) -> None:
         or not (sources / normal).resolve().is_relative_to(sources.resolve())
     ):
         msg = f"`{label}`: {what} `{name}` lies outside the FMU's sources folder"
-        raise ModelError("E017", msg)
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg)
 
 
 def check_build_inputs(unpacked: Path) -> None:

@@ -18,6 +18,7 @@ import re
 from dataclasses import dataclass
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.xmlsafe import parse_safely
 from fmionnx.kinds.fmu.buildcheck import BUILD_DESCRIPTION
@@ -63,12 +64,12 @@ class BuildRecipe:
 def _definition(name: str, value: str | None, label: str) -> str:
     if not _IDENTIFIER.match(name):
         msg = f"`{label}`: preprocessor definition `{name}` is not a C identifier"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     if value is None:
         return name
     if ";" in value:
         msg = f"`{label}`: the value of preprocessor definition `{name}` holds a `;`"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     return f"{name}={value}"
 
 
@@ -85,7 +86,7 @@ def read_recipe(unpacked: Path) -> BuildRecipe:
     identifier = next((e.get("modelIdentifier") for e in present if e.get("modelIdentifier")), "")
     if not identifier:
         msg = f"`{MODEL_DESCRIPTION}` names no co-simulation or model exchange model identifier"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     sources: dict[str, None] = {}
     includes: dict[str, None] = {"": None}  # sources/ itself, first
     definitions: dict[str, None] = {FMI3_NO_PREFIX: None} if major == 3 else {}
@@ -116,7 +117,7 @@ def read_recipe(unpacked: Path) -> BuildRecipe:
     if not sources:
         msg = "the source FMU names no source file to compile"
         raise ModelError(
-            "E012",
+            codes.BAD_MODEL,
             msg,
             hint=f"list them in `{BUILD_DESCRIPTION}` (FMI 3) or <SourceFiles> (FMI 2)",
         )
@@ -124,7 +125,7 @@ def read_recipe(unpacked: Path) -> BuildRecipe:
     for language in languages:
         if language not in LANGUAGES:
             msg = f"`{BUILD_DESCRIPTION}`: language `{language}` cannot be compiled here"
-            raise ModelError("E012", msg, hint=f"known: {', '.join(LANGUAGES)}")
+            raise ModelError(codes.BAD_MODEL, msg, hint=f"known: {', '.join(LANGUAGES)}")
         cmake_language, standard = LANGUAGES[language]
         standards.setdefault(cmake_language, standard)
     return BuildRecipe(

@@ -18,6 +18,7 @@ from __future__ import annotations
 
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.kinds.base import KindProblem
 
 #: Fact key prefix of a name that looks like a port but is not one (kind-independent).
@@ -89,7 +90,7 @@ def clock_problems(facts: tuple[tuple[str, str], ...]) -> list[KindProblem]:
             name = key[len(UNSUPPORTED_PREFIX) :]
             problems.append(
                 KindProblem(
-                    "E025",
+                    codes.UNSUPPORTED_VARIABLE,
                     f"the FMU has the input clock `{name}`, which the importer must activate: "
                     "clocks are not supported yet",
                     "path",
@@ -100,7 +101,7 @@ def clock_problems(facts: tuple[tuple[str, str], ...]) -> list[KindProblem]:
             names = ", ".join(f"`{n}`" for n in value.split(","))
             problems.append(
                 KindProblem(
-                    "E025",
+                    codes.UNSUPPORTED_VARIABLE,
                     f"the ports {names} change only when a clock ticks: clocks are not "
                     "supported yet",
                     "path",

@@ -20,6 +20,7 @@ from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Component
 from fmionnx.core.xmlsafe import parse_safely
@@ -92,7 +93,9 @@ def parse_model_description(data: bytes, xml_file: Path) -> Any:
         more = len(exc.problems) - _MAX_PROBLEMS
         tail = f" (and {more} more)" if more > 0 else ""
         msg = f"`{xml_file}` does not conform to the FMI schema: {problems}{tail}"
-        raise ModelError("E012", msg, hint="`fmpy validate <fmu>` lists every problem") from None
+        raise ModelError(
+            codes.BAD_MODEL, msg, hint="`fmpy validate <fmu>` lists every problem"
+        ) from None
     except Exception as exc:  # fmpy raises bare Exception for semantic errors
         msg = f"`{xml_file}` cannot be read: {exc}"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None

@@ -18,6 +18,7 @@ import zipfile
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from fmionnx.core import codes
 from fmionnx.core.archive import CORRUPT_ZIP_ERRORS, check_archive, open_zip
 from fmionnx.core.errors import ModelError
 from fmionnx.kinds.cache import sha256_file, sha256_tree
@@ -75,15 +76,15 @@ def _read_archive(path: Path, archive: zipfile.ZipFile) -> FmuFiles:
         info = archive.getinfo(MODEL_DESCRIPTION)
     except KeyError:
         msg = f"`{path.name}` has no {MODEL_DESCRIPTION}: it is not an FMU"
-        raise ModelError("E012", msg, hint=_NO_DESCRIPTION_HINT) from None
+        raise ModelError(codes.BAD_MODEL, msg, hint=_NO_DESCRIPTION_HINT) from None
     if info.file_size > MAX_MODEL_DESCRIPTION_BYTES:
         msg = f"`{path.name}`: {MODEL_DESCRIPTION} is {info.file_size} bytes, too large"
-        raise ModelError("E017", msg)
+        raise ModelError(codes.UNSAFE_ARCHIVE, msg)
     try:
         data = archive.read(info)
     except CORRUPT_ZIP_ERRORS as exc:
         msg = f"`{path.name}` is corrupt: {exc}"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
     platforms: set[str] = set()
     has_sources = False
     for member in archive.infolist():
@@ -101,12 +102,12 @@ def _read_folder(path: Path) -> FmuFiles:
     description = path / MODEL_DESCRIPTION
     if not description.is_file():
         msg = f"`{path}` is a folder without {MODEL_DESCRIPTION}, not an unpacked FMU"
-        raise ModelError("E011", msg, hint=_NO_DESCRIPTION_HINT)
+        raise ModelError(codes.NOT_A_FILE, msg, hint=_NO_DESCRIPTION_HINT)
     try:
         data = description.read_bytes()
     except OSError as exc:
         msg = f"cannot read `{description}`: {exc.strerror}"
-        raise ModelError("E010", msg) from None
+        raise ModelError(codes.FILE_NOT_FOUND, msg) from None
     binaries = path / "binaries"
     platforms = (
         tuple(
@@ -140,7 +141,9 @@ def check_model_identifier(identifier: str) -> None:
             f"modelIdentifier `{identifier}` is not a plain name: the shared library it names "
             "would lie outside the FMU's binaries folder"
         )
-        raise ModelError("E017", msg, hint="FMI requires the model identifier to be a C identifier")
+        raise ModelError(
+            codes.UNSAFE_ARCHIVE, msg, hint="FMI requires the model identifier to be a C identifier"
+        )
 
 
 def contained_library(root: Path, identifier: str) -> None:
@@ -158,4 +161,4 @@ def contained_library(root: Path, identifier: str) -> None:
                 inside
             ):
                 msg = f"`{library.relative_to(root)}` is a link to a file outside the FMU"
-                raise ModelError("E017", msg)
+                raise ModelError(codes.UNSAFE_ARCHIVE, msg)

@@ -15,6 +15,7 @@ from typing import TYPE_CHECKING, Any, Literal
 
 from pydantic import Field
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, Experiment, KindConfig
@@ -128,7 +129,7 @@ class FmuKind:
         if wanted is not None and wanted not in offered:
             problems.append(
                 KindProblem(
-                    "E016",
+                    codes.INTERFACE_TYPE,
                     f"the FMU does not offer {wanted.upper()} "
                     f"(it offers {', '.join(o.upper() for o in offered if o) or 'nothing'})",
                     "interface",
@@ -145,7 +146,7 @@ class FmuKind:
             )
             problems.append(
                 KindProblem(
-                    "E015",
+                    codes.NO_BINARY,
                     f"the FMU has no binary for linux x86-64 (it has: {shipped})",
                     "path",
                     hint,
@@ -218,7 +219,7 @@ class FmuKind:
         """
         if not path.exists():
             msg = f"`{path}` does not exist"
-            raise ModelError("E010", msg)
+            raise ModelError(codes.FILE_NOT_FOUND, msg)
         identity_of = identity_file(path)
         if path.is_dir() and not identity_of.is_file():
             read_fmu_files(path)  # raises the folder's error
@@ -245,7 +246,7 @@ def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindP
     library = f"binaries/{PLATFORM_FOLDER[major]}/{identifier}.so"
     return [
         KindProblem(
-            "E024",
+            codes.MISSING_FUNCTION,
             describe_missing(missing, library, function_prefix(interface.path, major, identifier)),
             "path",
             "rebuild the FMU (`fmionnx build-fmu` if it ships sources); a shared library "
@@ -265,16 +266,18 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
     root = parse_safely(files.model_description, str(xml_file))
     if root.tag != "fmiModelDescription":
         msg = f"`{xml_file}`: root element is <{root.tag}>, not <fmiModelDescription>"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     version = root.get("fmiVersion") or ""
     if version.startswith("1."):
         msg = f"`{path.name}` is an FMI {version} FMU; fmionnx supports FMI 2.0 and 3.0"
         raise ModelError(
-            "E013", msg, hint="export the model as FMI 2.0 or 3.0 (most tools offer both)"
+            codes.UNSUPPORTED_MODEL,
+            msg,
+            hint="export the model as FMI 2.0 or 3.0 (most tools offer both)",
         )
     if version != "2.0" and not version.startswith("3."):
         msg = f"`{path.name}` declares fmiVersion `{version}`; fmionnx supports 2.0 and 3.0"
-        raise ModelError("E013", msg)
+        raise ModelError(codes.UNSUPPORTED_MODEL, msg)
     key = description_key(path, files.content_hash)
     model_description = shared_description(
         key, lambda: parse_model_description(files.model_description, xml_file)

@@ -32,6 +32,7 @@ from dataclasses import dataclass, replace
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.resources import ARRAY_ELEMENTS
@@ -225,7 +226,7 @@ def _check_shape(variable: Any, shape: tuple[int, ...], xml_file: Path, line: in
     """E012 for a negative dimension, E008 for more elements than the limit allows."""
     if any(d < 0 for d in shape):
         msg = f"{xml_file}:{line}: `{variable.name}` has a negative dimension {list(shape)}"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     elements = math.prod(shape)
     if elements > ARRAY_ELEMENTS.value():
         msg = (
@@ -247,7 +248,7 @@ def _parse_start(
         values = tuple(_scalar(token, dtype) for token in str(text).split())
     except ValueError:
         msg = f"{xml_file}:{line}: start value `{text}` of `{variable.name}` is not a {dtype}"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
     size = math.prod(shape)
     if len(values) == 1 and size > 1:  # one value for a whole FMI 3 array
         values = values * size

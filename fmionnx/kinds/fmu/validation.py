@@ -15,6 +15,7 @@ import copy
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.core.archive import check_archive, open_zip
 from fmionnx.core.types import ComponentInterface
 from fmionnx.kinds.base import KindProblem
@@ -55,10 +56,14 @@ def validate_fmu_model(path: Path, interface: ComponentInterface) -> tuple[KindP
         )
     except Exception as exc:  # FMPy's checks assume a sane description; this one is not
         found = [f"the validation stopped: {exc}"]
-    problems = [KindProblem("E019", f"FMPy: {_first_line(text)}", "path") for text in found]
+    problems = [
+        KindProblem(codes.INVALID_MODEL, f"FMPy: {_first_line(text)}", "path") for text in found
+    ]
     members = _member_names(path)
     problems += [
-        KindProblem("E019", f"FMPy: the file path `{name}` contains a backslash", "path")
+        KindProblem(
+            codes.INVALID_MODEL, f"FMPy: the file path `{name}` contains a backslash", "path"
+        )
         for name in members
         if "\\" in name
     ]
@@ -111,7 +116,7 @@ def _missing_exports(path: Path, interface: ComponentInterface) -> list[KindProb
             what = _INTERFACE_NAMES[short.upper()]
             prefix = function_prefix(path, major, identifier)
             text = describe_missing(missing, library, prefix)
-            problems.append(KindProblem("E024", f"{text} ({what})", "path"))
+            problems.append(KindProblem(codes.MISSING_FUNCTION, f"{text} ({what})", "path"))
     return problems
 
 
@@ -132,7 +137,7 @@ def _missing_libraries(interface: ComponentInterface, members: list[str]) -> lis
             if library not in files:
                 problems.append(
                     KindProblem(
-                        "E015",
+                        codes.NO_BINARY,
                         f"`binaries/{folder}/` has no `{library.name}`, the library of the "
                         f"model identifier `{identifier}` ({what})",
                         "path",

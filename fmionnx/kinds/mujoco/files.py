@@ -18,6 +18,7 @@ from collections.abc import Iterator
 from dataclasses import dataclass, field
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.modelfiles import ModelFile, ShippingError, model_file_alone, regular_file
 from fmionnx.core.xmlsafe import parse_safely
@@ -42,7 +43,7 @@ def _inside(path: Path, folder: Path) -> bool:
 def _refuse(scene: Path, where: Path, what: str, value: str) -> ModelError:
     shown = where.name if where == scene else f"{scene.name} (in {where.name})"
     return ModelError(
-        "E017",
+        codes.UNSAFE_ARCHIVE,
         f"`{shown}`: {what} `{value}` lies outside the scene's folder",
         hint="keep the scene and every file it names (includes, meshes, textures) in one "
         "folder, named by relative paths inside it",
@@ -78,7 +79,7 @@ def _read(scene: Path) -> _Reading:
             raise _refuse(scene, current, "included file", current.name)
         if len(seen) > MAX_INCLUDES:
             msg = f"`{scene.name}` includes more than {MAX_INCLUDES} files"
-            raise ModelError("E017", msg)
+            raise ModelError(codes.UNSAFE_ARCHIVE, msg)
         try:
             data = current.read_bytes()
         except OSError:
@@ -87,7 +88,7 @@ def _read(scene: Path) -> _Reading:
         try:
             root = parse_safely(data, current.name)
         except ModelError as exc:
-            if exc.code == "E012":
+            if exc.code == codes.BAD_MODEL:
                 reading.whole = False
                 return reading  # not well-formed: MuJoCo refuses it (naming the line) first
             raise

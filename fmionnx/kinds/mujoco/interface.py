@@ -13,6 +13,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
@@ -64,10 +65,10 @@ def load_model(path: Path) -> tuple[Any, str]:
     """The compiled MjModel of the scene at ``path`` and the scene's content hash (cached)."""
     if not path.exists():
         msg = f"`{path}` does not exist"
-        raise ModelError("E010", msg)
+        raise ModelError(codes.FILE_NOT_FOUND, msg)
     if not path.is_file():
         msg = f"`{path}` is a directory or special file, not a MuJoCo scene"
-        raise ModelError("E011", msg)
+        raise ModelError(codes.NOT_A_FILE, msg)
     stat = path.stat()
     key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
     if key not in _MODELS:
@@ -84,7 +85,7 @@ def load_model(path: Path) -> tuple[Any, str]:
         except ValueError as exc:
             text = " ".join(str(exc).split())
             msg = f"`{path}` is not a valid MuJoCo scene: {text}"
-            raise ModelError("E012", msg) from None
+            raise ModelError(codes.BAD_MODEL, msg) from None
         _MODELS[key] = (model, _compiled_digest(model, path))
     return _MODELS[key]
 
@@ -123,7 +124,7 @@ def _relocatable(path: Path) -> Any:
         return mujoco.MjModel.from_xml_string(path.read_text(encoding="utf-8"), assets)
     except (OSError, UnicodeDecodeError, ValueError, ShippingError) as exc:
         msg = f"`{path}` cannot be read with the files it names: {exc}"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
 
 
 def read_mujoco_interface(
@@ -185,7 +186,7 @@ def read_mujoco_interface(
         if camera not in names:
             hint = did_you_mean(camera, names) or one_of(names)
             msg = f"camera `{camera}` is not in the scene `{path.name}`"
-            raise ModelError("E018", msg, hint=hint)
+            raise ModelError(codes.UNKNOWN_OPTION, msg, hint=hint)
         ports.append(
             Port(
                 camera,
@@ -217,5 +218,5 @@ def _check_unique(ports: list[Port], path: Path) -> None:
                 f"`{path.name}`: the name `{port.name}` is used by a {seen[port.name]} and a "
                 f"{port.description}; port names must be unique"
             )
-            raise ModelError("E013", msg, hint="rename one of them in the scene")
+            raise ModelError(codes.UNSUPPORTED_MODEL, msg, hint="rename one of them in the scene")
         seen[port.name] = port.description

@@ -19,6 +19,7 @@ from collections.abc import Iterator
 from pathlib import Path, PurePosixPath
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 
 #: ``TensorProto.DataLocation.EXTERNAL``.
@@ -76,13 +77,13 @@ def check_external_data(model: Any, path: Path) -> None:
         normal = PurePosixPath(location.replace("\\", "/"))
         if not location or normal.is_absolute() or (len(location) > 1 and location[1] == ":"):
             msg = f"{where}: not a path relative to the model's folder"
-            raise ModelError("E017", msg, hint=_HINT)
+            raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=_HINT)
         if ".." in normal.parts:
             msg = f"{where}, outside the model's folder (`..`)"
-            raise ModelError("E017", msg, hint=_HINT)
+            raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=_HINT)
         if not (folder / normal).resolve().is_relative_to(folder):
             msg = f"{where}, a link to a file outside the model's folder"
-            raise ModelError("E017", msg, hint=_HINT)
+            raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=_HINT)
 
 
 _HINT = (

@@ -12,6 +12,7 @@ import math
 from pathlib import Path
 from typing import Any
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
 from fmionnx.core.resources import ARRAY_ELEMENTS
@@ -40,10 +41,10 @@ def read_onnx_interface(path: Path) -> ComponentInterface:
     """The ports and facts of the ONNX model at ``path``."""
     if not path.exists():
         msg = f"`{path}` does not exist"
-        raise ModelError("E010", msg)
+        raise ModelError(codes.FILE_NOT_FOUND, msg)
     if not path.is_file():
         msg = f"`{path}` is a directory or special file, not an ONNX model"
-        raise ModelError("E011", msg)
+        raise ModelError(codes.NOT_A_FILE, msg)
     return cached_interface(("onnx", *file_identity(path)), path, lambda: _read(path))
 
 
@@ -59,12 +60,12 @@ def load_checked_model(path: Path) -> tuple[Any, bytes]:
         data = path.read_bytes()
     except OSError as exc:
         msg = f"cannot read `{path}`: {exc.strerror}"
-        raise ModelError("E010", msg) from None
+        raise ModelError(codes.FILE_NOT_FOUND, msg) from None
     try:
         model = onnx.load_model_from_string(data)
     except (DecodeError, ValueError, RuntimeError) as exc:
         msg = f"`{path}` is not an ONNX model (protobuf could not be decoded: {exc})"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
     check_external_data(model, path)
     return model, data
 
@@ -74,7 +75,7 @@ def _read(path: Path) -> ComponentInterface:
     graph = model.graph
     if not graph.output:
         msg = f"`{path}` is not an ONNX model with a graph (no outputs)"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     initializers = {i.name for i in graph.initializer}
     inputs = [v for v in graph.input if v.name not in initializers]
     input_names = tuple(v.name for v in inputs)
@@ -103,7 +104,9 @@ def _port(value: Any, causality: Causality, path: Path, depends: tuple[str, ...]
     tensor = value.type.tensor_type
     if not value.type.HasField("tensor_type") or tensor.elem_type not in _DTYPES:
         msg = f"`{path}`: {causality.value} `{value.name}` is not a tensor of a supported type"
-        raise ModelError("E013", msg, hint="fmionnx connects tensor inputs and outputs")
+        raise ModelError(
+            codes.UNSUPPORTED_MODEL, msg, hint="fmionnx connects tensor inputs and outputs"
+        )
     shape: list[int | str] = []
     for dim in tensor.shape.dim:
         if dim.HasField("dim_value"):
@@ -133,7 +136,7 @@ def _check_shape(name: str, causality: Causality, shape: list[int | str], path: 
     fixed = [d for d in shape if isinstance(d, int)]
     if any(d < 0 for d in fixed):
         msg = f"`{path.name}`: {causality.value} `{name}` has a negative dimension {shape}"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     elements = math.prod(fixed)
     if elements > ARRAY_ELEMENTS.value():
         msg = f"`{path.name}`: {causality.value} `{name}` of shape {shape} has {elements} elements"

@@ -11,6 +11,7 @@ from __future__ import annotations
 import dataclasses
 from collections.abc import Mapping
 
+from fmionnx.core import codes
 from fmionnx.core.diagnostics import did_you_mean, one_of
 from fmionnx.core.types import ComponentInterface
 from fmionnx.core.units import builtin_unit
@@ -40,7 +41,7 @@ def unit_problems(
         if port not in names:
             problems.append(
                 KindProblem(
-                    "E018",
+                    codes.UNKNOWN_OPTION,
                     f"`units`: the model has no port `{port}`",
                     "units",
                     hint=did_you_mean(port, names) or one_of(names),
@@ -48,6 +49,8 @@ def unit_problems(
             )
         elif not unit.strip():
             problems.append(
-                KindProblem("E018", f"`units`: port `{port}` is given an empty unit", "units")
+                KindProblem(
+                    codes.UNKNOWN_OPTION, f"`units`: port `{port}` is given an empty unit", "units"
+                )
             )
     return tuple(problems)

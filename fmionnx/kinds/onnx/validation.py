@@ -11,6 +11,7 @@ from __future__ import annotations
 
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.kinds.base import KindProblem
 
 #: A checker message is a paragraph; its first lines say what is wrong.
@@ -26,14 +27,18 @@ def validate_onnx_model(path: Path) -> tuple[KindProblem, ...]:
     try:
         onnx.checker.check_model(model)
     except ValidationError as exc:
-        return (KindProblem("E019", f"the ONNX checker refuses the model: {_text(exc)}", "path"),)
+        return (
+            KindProblem(
+                codes.INVALID_MODEL, f"the ONNX checker refuses the model: {_text(exc)}", "path"
+            ),
+        )
     except Exception as exc:  # the checker's C++ core may raise others: still the model's fault
-        return (KindProblem("E019", f"the ONNX checker fails: {_text(exc)}", "path"),)
+        return (KindProblem(codes.INVALID_MODEL, f"the ONNX checker fails: {_text(exc)}", "path"),)
     try:
         onnx.shape_inference.infer_shapes(model, check_type=True, strict_mode=True)
     except Exception as exc:  # InferenceError, or another error of the C++ core
         message = f"ONNX shape inference fails: {_text(exc)}"
-        return (KindProblem("E019", message, "path"),)
+        return (KindProblem(codes.INVALID_MODEL, message, "path"),)
     return ()
 
 

@@ -6,6 +6,7 @@ from collections.abc import Mapping
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from fmionnx.core import codes
 from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
 from fmionnx.core.units import builtin_unit
@@ -75,14 +76,14 @@ class SignalKind:
         if spec.has_model_file and spec.outputs:
             message = "has both `outputs:` and a table at `path:`"
             hint = "use one of them; two components give both"
-            return (KindProblem("E003", message, "outputs", hint),)
+            return (KindProblem(codes.INVALID_VALUE, message, "outputs", hint),)
         if not spec.has_model_file and not spec.outputs:
             message = "needs `outputs:` (waveforms by port name) or `path:` (a CSV table)"
             hint = "e.g. `outputs: {v: {step: {time: 1, final: 2}}}`"
-            return (KindProblem("E004", message, "kind", hint),)
+            return (KindProblem(codes.MISSING_KEY, message, "kind", hint),)
         if not spec.has_model_file and "interpolation" in spec.model_fields_set:
             message = "`interpolation` applies to a table (`path:`), not to `outputs:`"
-            return (KindProblem("E003", message, "interpolation"),)
+            return (KindProblem(codes.INVALID_VALUE, message, "interpolation"),)
         return ()
 
     def validate_model(self, path: Path, interface: ComponentInterface) -> tuple[KindProblem, ...]:

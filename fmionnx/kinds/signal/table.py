@@ -12,6 +12,7 @@ import math
 from dataclasses import dataclass
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.kinds.cache import sha256_file
@@ -28,7 +29,7 @@ class Table:
 
 
 def _bad(where: str, message: str, hint: str | None = None) -> ModelError:
-    return ModelError("E012", f"`{where}`: {message}", hint=hint)
+    return ModelError(codes.BAD_MODEL, f"`{where}`: {message}", hint=hint)
 
 
 def _number(where: str, column: str, cell: str) -> float:
@@ -76,19 +77,19 @@ def read_table(path: Path) -> Table:
     """
     if not path.exists():
         msg = f"`{path}` does not exist"
-        raise ModelError("E010", msg)
+        raise ModelError(codes.FILE_NOT_FOUND, msg)
     if not path.is_file():
         msg = f"`{path}` is not a file"
-        raise ModelError("E011", msg)
+        raise ModelError(codes.NOT_A_FILE, msg)
     file = path.name
     try:
         text = path.read_text(encoding="utf-8-sig")
     except UnicodeDecodeError:
         msg = f"`{file}` is not UTF-8 text"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
     except OSError as exc:
         msg = f"`{file}` cannot be read: {exc.strerror or exc}"
-        raise ModelError("E012", msg) from None
+        raise ModelError(codes.BAD_MODEL, msg) from None
     records: list[tuple[int, list[str]]] = []
     reader = csv.reader(text.splitlines(), strict=True)
     try:
@@ -100,11 +101,13 @@ def read_table(path: Path) -> Table:
         raise _bad(f"{file}:{reader.line_num}", str(exc)) from None
     if not records:
         msg = f"`{file}` is empty"
-        raise ModelError("E012", msg, hint="write a header line (`time,<port>,...`), then rows")
+        raise ModelError(
+            codes.BAD_MODEL, msg, hint="write a header line (`time,<port>,...`), then rows"
+        )
     names = _header(file, *records[0])
     if len(records) == 1:
         msg = f"`{file}` has a header but no rows"
-        raise ModelError("E012", msg)
+        raise ModelError(codes.BAD_MODEL, msg)
     times: list[float] = []
     rows: list[tuple[float, ...]] = []
     previous = 0
