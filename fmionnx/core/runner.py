@@ -95,6 +95,22 @@ class StateSaving(Protocol):
         ...
 
 
+@runtime_checkable
+class Interruptible(Protocol):
+    """A runner whose calls can be stopped from another thread (onnxruntime's terminate flag).
+
+    The step-timeout watchdog (:mod:`fmionnx.runtime.watchdog`) asks such a runner to stop a
+    call that overran instead of abandoning the whole process: the call under way then raises
+    a RunError whose message is ``reason``, and the run ends as a fault like any other (its
+    results written, the process kept). Native code that never looks at the request is
+    abandoned as before.
+    """
+
+    def interrupt(self, reason: str) -> None:
+        """Make the call under way (or the next one) raise a fault saying ``reason``."""
+        ...
+
+
 class OutputCopies:
     """Copies of a runner's output buffers, for :class:`StateSaving` runners to restore."""
 

@@ -43,7 +43,14 @@ from fmionnx.runtime.recorder import Recorder, Track
 from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import shield_begin, shield_end, stop_reason
 from fmionnx.runtime.transfer import Transfer, make_transfer
-from fmionnx.runtime.watchdog import Marker, Watchdog
+from fmionnx.runtime.watchdog import (
+    Interrupter,
+    Marker,
+    Phase,
+    Watchdog,
+    overrun_text,
+    timed_phases,
+)
 
 if TYPE_CHECKING:
     from fmionnx.runtime.loops import IteratedLoop
@@ -118,6 +125,13 @@ class Master:
             runner_factory = make_runner
         self.system = system
         self.options = options or RunOptions()
+        self.runners: dict[str, Runner] = {}
+        self._clock = [0]
+        if self.options.step_timeout is not None:  # loading, initializing, terminating too
+            runner_factory = timed_phases(
+                runner_factory, self.options.step_timeout, self.runners, self._abandon,
+                lambda: system.run.start + self._clock[0] * system.run.step,
+            )  # fmt: skip
         if self.options.isolate:
             from fmionnx.runtime.isolated.factory import isolating_factory
             from fmionnx.runtime.isolated.proxy import IsolationSettings
@@ -125,7 +139,6 @@ class Master:
             settings = IsolationSettings(self.options.step_timeout, self.options.sandbox)
             runner_factory = isolating_factory(runner_factory, self.options.isolate, settings)
         self.make_runner = runner_factory
-        self.runners: dict[str, Runner] = {}
         self.recorder = Recorder()
         self._table: list[tuple[_Due, ...]] = []
         self._fallback: list[tuple[_Due, int]] = []
@@ -133,7 +146,6 @@ class Master:
         self._tracks: dict[str, tuple[Track | None, Track | None]] = {}
         #: Steps done per component with lazy outputs, and the step each lazy port was made at.
         self._stamps: dict[str, int] = {}
-        self._clock = [0]
         #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
         self.native = NativeStatus(used=False, reason="not prepared")
         self._watchdog: Watchdog | None = None
@@ -281,7 +293,8 @@ class Master:
         local = [due for due, _ in entries if due.name not in self.options.isolate]
         if timeout is None or not local:
             return
-        self._watchdog = Watchdog(timeout, self._marker, local, self._abandon)
+        interrupt = Interrupter(self.runners)
+        self._watchdog = Watchdog(timeout, self._marker, local, self._abandon, interrupt)
 
     def _wiring(self, component: Component) -> Wiring:
         incoming = self.system.inputs_of(component.name)
@@ -700,19 +713,21 @@ class Master:
         """A step in this process overran the step timeout: write what we have, then exit.
 
         Called on the watchdog's thread while the main thread is stuck in the model; ``work``
-        is the scheduled work (a :class:`_Due`) the loop marked before the step.
+        is the scheduled work (a :class:`_Due`) the loop marked before the step, or the
+        :class:`~.watchdog.Phase` (loading, initializing, terminating) of one component.
         """
-        assert isinstance(work, _Due)
+        assert isinstance(work, _Due | Phase)
         label = work.name
         timeout = self.options.step_timeout
+        assert timeout is not None
         error = fault(
             label,
-            f"a step did not return within {timeout:g} s (the step timeout); the component runs "
-            "in fmionnx's own process, so the run was abandoned (`--isolate` runs a model in a "
-            "process of its own, which can be stopped)",
+            f"{overrun_text(work, timeout)}; the component runs in fmionnx's own process, so "
+            "the run was abandoned (`--isolate` runs a model in a process of its own, which "
+            "can be stopped)",
             time=t,
         )
-        busy = self._abandon_concurrent(work) if self._issues else set()
+        busy = self._abandon_concurrent(work) if self._issues and isinstance(work, _Due) else set()
         try:
             result = self._partial(RunStatus.FAULT, error)
             if self.options.abandon is not None:

@@ -18,21 +18,36 @@ worker kept the other core busy (``Thread.start`` waits until the new thread has
 same reason a run that starts does not wake the thread when it will look soon enough anyway:
 waking it hands it the GIL, and with every core busy the run then waits for the woken thread
 to be scheduled (an eighth of a short case's time on a two-core sweep).
+
+The timeout holds for every phase of a component, not only its steps (docs/security.md):
+:func:`timed_phases` wraps the runner factory so that loading a model, instantiating,
+initializing and terminating it are watched too, each call marked on a marker of its own
+while it runs (a handful of stores per component and run, none per step). A runner that can
+be stopped from another thread (:class:`~fmionnx.core.runner.Interruptible`: onnxruntime's
+terminate flag) is asked to stop first; the call then raises a fault and the run ends as
+any other faulted run does, in this process. Only native code that cannot be stopped makes
+the run be abandoned.
 """
 
 from __future__ import annotations
 
+import contextlib
 import math
 import threading
 import time
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Mapping
+from typing import Any
 
 from fmionnx.core.processlocal import ProcessLocal
+from fmionnx.core.runner import Interruptible, Runner, RunnerFactory, Wiring
+from fmionnx.core.types import Component
 
 #: How often the watchdog looks, at most (seconds).
 POLL = 0.25
 #: Rounds of :data:`POLL` the watch thread stays awake with nothing to watch.
 IDLE_POLLS = 8
+#: Seconds an interrupted call has to come back (with its fault) before the run is abandoned.
+INTERRUPT_GRACE = 2.0
 
 
 class Marker:
@@ -63,6 +78,9 @@ class Watchdog:
     """Calls ``on_expiry(work, t)`` once when the marked work stays the same too long.
 
     Only the work in ``watched`` is timed (isolated components time their own steps).
+    ``interrupt(work, timeout)``, when given, is tried first: True when the work was asked to
+    stop (:class:`Interrupter`); ``on_expiry`` is then called only if it has not come back
+    within :data:`INTERRUPT_GRACE` seconds.
     """
 
     def __init__(
@@ -71,6 +89,7 @@ class Watchdog:
         marker: Marker,
         watched: Collection[object],
         on_expiry: Callable[[object, float], None],
+        interrupt: Callable[[object, float], bool] | None = None,
     ) -> None:
         self.timeout = timeout
         #: Seconds between looks.
@@ -78,11 +97,17 @@ class Watchdog:
         self._marker = marker
         self._watched = {id(work) for work in watched}
         self._on_expiry = on_expiry
+        self._interrupt = interrupt
         self._seen: tuple[int, float] | None = None
         self._since = 0.0
         #: When this watchdog looks next (monotonic seconds).
         self.due = 0.0
         self._overrun: tuple[object, float] | None = None
+        self._stopped = threading.Event()
+
+    def watch(self, work: object) -> None:
+        """Time ``work`` too (a phase made after the watchdog was)."""
+        self._watched.add(id(work))
 
     def start(self) -> None:
         """Start watching, on this process's watch thread (a daemon: it never keeps the
@@ -90,11 +115,13 @@ class Watchdog:
         self._seen = None
         self._since = time.monotonic()
         self.due = self._since + self.interval
+        self._stopped.clear()
         _watcher().add(self)
 
     def stop(self) -> None:
         """Stop watching: :meth:`look` is not called again once this returns."""
         _watcher().discard(self)
+        self._stopped.set()
 
     def look(self, now: float) -> bool:
         """One look at the marker at ``now``; True when the work has overrun (fire)."""
@@ -109,9 +136,119 @@ class Watchdog:
         return False
 
     def fire(self) -> None:
-        """Report the overrun :meth:`look` saw (the master's handler ends the process)."""
+        """Stop the overrun :meth:`look` saw, or report it (the master's handler then ends
+        the process)."""
         assert self._overrun is not None
-        self._on_expiry(*self._overrun)
+        work, t = self._overrun
+        interrupted = self._interrupt is not None and self._interrupt(work, self.timeout)
+        if interrupted and self._came_back(work, t):
+            return
+        self._on_expiry(work, t)
+
+    def _came_back(self, work: object, t: float) -> bool:
+        """Whether the interrupted work ended (the marker moved on, or the watching was
+        stopped: the run is ending with the fault) within :data:`INTERRUPT_GRACE`."""
+        deadline = time.monotonic() + INTERRUPT_GRACE
+        while time.monotonic() < deadline:
+            if self._stopped.wait(0.01):
+                return True
+            if self._marker.work is not work or self._marker.t != t:
+                return True
+        return False
+
+
+class Phase:
+    """One component's call outside the loop: loading, instantiating, initializing or
+    terminating it (what :func:`timed_phases` marks while the call runs)."""
+
+    __slots__ = ("name", "what")
+
+    def __init__(self, name: str, what: str) -> None:
+        #: The component's name.
+        self.name = name
+        #: The call, as the subject of a sentence (``its initialization``).
+        self.what = what
+
+
+#: The runner calls timed besides the steps: (method, what the call is, said of the model).
+PHASES = (
+    ("instantiate", "its loading and instantiation"),
+    ("setup", "its initialization"),
+    ("terminate", "its termination"),
+)
+#: What making the runner is (a kind may load the model there already).
+LOADING = "its loading"
+
+
+def overrun_text(work: object, timeout: float) -> str:
+    """The start of a fault about ``work`` overrunning ``timeout`` (a step or a phase)."""
+    what = work.what if isinstance(work, Phase) else "a step"
+    return f"{what} did not return within {timeout:g} s (the step timeout)"
+
+
+class Interrupter:
+    """``interrupt(work, timeout)`` for a :class:`Watchdog`: asks the runners doing ``work``
+    to stop, when every one of them can (:class:`~fmionnx.core.runner.Interruptible`)."""
+
+    def __init__(self, runners: Mapping[str, Runner]) -> None:
+        self._runners = runners
+
+    def __call__(self, work: object, timeout: float) -> bool:
+        names = tuple(getattr(work, "members", ()) or ()) or (getattr(work, "name", ""),)
+        stoppable: list[Interruptible] = []
+        for name in names:
+            runner: object = self._runners.get(name)
+            if not isinstance(runner, Interruptible):
+                return False
+            stoppable.append(runner)
+        reason = f"{overrun_text(work, timeout)}; it was stopped"
+        for each in stoppable:
+            each.interrupt(reason)
+        return True
+
+
+def timed_phases(
+    make: RunnerFactory,
+    timeout: float,
+    runners: Mapping[str, Runner],
+    on_expiry: Callable[[object, float], None],
+    clock: Callable[[], float],
+) -> RunnerFactory:
+    """``make``, whose runners' loading, ``instantiate``, ``setup`` and ``terminate`` are
+    timed against ``timeout`` like steps (``on_expiry(phase, t)`` as for a step; ``clock``:
+    the simulated time of a call, ``runners``: the runners made, to interrupt).
+
+    Each call starts and stops watching around itself, so nothing is watched between calls
+    and a watchdog that fired (and stopped its call) is ready for the next one.
+    """
+    marker = Marker()
+    watchdog = Watchdog(timeout, marker, (), on_expiry, Interrupter(runners))
+
+    def timed(phase: Phase, call: Callable[..., Any], *args: Any) -> Any:
+        watchdog.watch(phase)
+        marker.work, marker.t = phase, clock()
+        watchdog.start()
+        try:
+            return call(*args)
+        finally:
+            watchdog.stop()
+            marker.work = None
+
+    def make_timed(component: Component, wiring: Wiring) -> Runner:
+        name = component.name
+        runner: Runner = timed(Phase(name, LOADING), make, component, wiring)
+        for method, what in PHASES:
+            call = getattr(runner, method)
+            phase = Phase(name, what)
+
+            def timed_call(*args: Any, phase: Phase = phase, call: Any = call) -> Any:
+                return timed(phase, call, *args)
+
+            with contextlib.suppress(AttributeError, TypeError):  # slots: left untimed
+                setattr(runner, method, timed_call)
+        return runner
+
+    return make_timed
 
 
 class _Watcher:

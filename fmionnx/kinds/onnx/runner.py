@@ -58,6 +58,10 @@ class OnnxRunner:
         self._outputs: dict[str, Buffer] = {}
         self._names: list[str] = []
         self._saved: OutputCopies | None = None
+        #: The options of every run: their terminate flag stops a run from another thread.
+        self._run_options: Any = None
+        #: Why the run was stopped (see :meth:`interrupt`), once it was.
+        self._stopped: str | None = None
 
     def instantiate(self) -> None:
         """Create the onnxruntime session with the spec's providers and thread count.
@@ -87,6 +91,9 @@ class OnnxRunner:
         options.log_severity_level = 3
         options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_EXTENDED
         providers = list(config.providers)
+        self._run_options = ort.RunOptions()
+        # Errors come back as exceptions (and become faults); a stopped run is not logged.
+        self._run_options.log_severity_level = 4
         try:
             self._session = ort.InferenceSession(
                 str(self.component.path), sess_options=options, providers=providers
@@ -129,10 +136,21 @@ class OnnxRunner:
         """Flat copy of the newest value of output ``port``."""
         return self._outputs[port]
 
+    def interrupt(self, reason: str) -> None:
+        """Stop the run under way from another thread (the step-timeout watchdog): it raises
+        a fault saying ``reason``. onnxruntime looks at the flag before each node and each
+        iteration of a ``Loop``, so a model that never ends is stopped; one kernel that runs
+        for ever is not (the watchdog then abandons the run)."""
+        self._stopped = reason
+        if self._run_options is not None:
+            self._run_options.terminate = True
+
     def _run(self, t: float) -> list[Any]:
         try:
-            results: list[Any] = self._session.run(self._names, self._feeds)
+            results: list[Any] = self._session.run(self._names, self._feeds, self._run_options)
         except Exception as exc:
+            if self._stopped is not None:
+                raise fault(self.component.name, self._stopped, time=t) from None
             text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise fault(self.component.name, f"onnxruntime failed: {text}", time=t) from None
         return results
