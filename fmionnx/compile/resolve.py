@@ -10,6 +10,7 @@ from fmionnx.compile.ir import Origin, RunSettings
 from fmionnx.compile.typecheck import declared_note
 from fmionnx.core.diagnostics import DiagnosticBag, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
+from fmionnx.core.resources import PORT_ELEMENTS
 from fmionnx.core.specbase import ComponentSpecBase, ParameterLiteral
 from fmionnx.core.steps import (
     MAX_RUN_STEPS,
@@ -73,6 +74,7 @@ def read_interface(
     span = sources.value(("components", name, "path"))
     try:
         interface = kind.read_interface(path, spec)
+        check_port_total(interface)
     except ModelError as exc:
         bag.emit(exc.code, f"component `{name}`: {exc}", span, hint=exc.hint)
         return None
@@ -83,6 +85,23 @@ def read_interface(
         where = sources.value(("components", name, problem.key))
         bag.emit(problem.code, f"component `{name}`: {problem.message}", where, hint=problem.hint)
     return interface
+
+
+def check_port_total(interface: ComponentInterface) -> None:
+    """E008 when the ports of one model hold more elements together than allowed: each
+    port's buffer is allocated when the run starts, so sixteen ports at the per-port limit
+    would take gigabytes. A symbolic dimension counts 1 here, as in the runner (a
+    connection that fills it is bounded by the port on its other end)."""
+    largest = PORT_ELEMENTS.value()
+    total = 0
+    for port in interface.ports:
+        total += math.prod(d for d in port.shape if isinstance(d, int))
+        if total > largest:
+            msg = (
+                f"`{interface.path.name}`: its ports hold more than {largest} elements "
+                f"together (at port `{port.name}`)"
+            )
+            raise PORT_ELEMENTS.exceeded(msg)
 
 
 def _flatten(value: ParameterLiteral) -> list[Scalar] | None:

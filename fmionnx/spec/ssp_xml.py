@@ -18,6 +18,7 @@ from lxml import etree
 
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import SSP_XML_BYTES
 
 SSD_NS = "http://ssp-standard.org/SSP1/SystemStructureDescription"
@@ -82,8 +83,16 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
             hint=SSP_XML_BYTES.hint(),
         )
         return None
+    try:  # only a regular file: a FIFO or a device would never end (E011)
+        data = read_regular(path, SSP_XML_BYTES, f"`{path.name}`")
+    except ModelError as exc:
+        bag.emit(exc.code, str(exc), Span(path), hint=exc.hint)
+        return None
+    except OSError as exc:
+        bag.emit("E010", f"cannot read `{path.name}`: {exc}", Span(path))
+        return None
     try:
-        return etree.parse(str(path), _parser())
+        return etree.fromstring(data, _parser(), base_url=str(path)).getroottree()
     except etree.XMLSyntaxError as exc:
         line, col = exc.position if exc.position else (1, 0)
         bag.emit("E001", f"`{path.name}` is not well-formed XML: {exc.msg}", Span(path, line, col))

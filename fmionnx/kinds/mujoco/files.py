@@ -12,6 +12,8 @@ from __future__ import annotations
 from pathlib import Path
 
 from fmionnx.core.errors import ModelError
+from fmionnx.core.regularfile import read_regular
+from fmionnx.core.resources import MODEL_FILE_BYTES
 from fmionnx.core.xmlsafe import parse_safely
 
 #: ``<compiler>`` attributes that are folders the ``file`` attributes are joined to.
@@ -52,8 +54,8 @@ def check_scene_files(scene: Path) -> None:
         if len(seen) > MAX_INCLUDES:
             msg = f"`{scene.name}` includes more than {MAX_INCLUDES} files"
             raise ModelError("E017", msg)
-        try:
-            data = current.read_bytes()
+        try:  # a FIFO or a device as an include would never end (E011)
+            data = read_regular(current, MODEL_FILE_BYTES, f"the scene file `{current.name}`")
         except OSError:
             return  # MuJoCo reports the missing or unreadable file with its own message
         try:
