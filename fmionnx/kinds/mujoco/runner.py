@@ -49,10 +49,20 @@ class MujocoRunner:
                 choose_gl(self.config.gl)
             except RuntimeError as exc:
                 raise fault(self.component.name, str(exc), time=0.0) from None
-        import mujoco
+        from fmionnx.core.errors import ModelError
+        from fmionnx.kinds.mujoco.budget import check_compiled_memory
+        from fmionnx.kinds.mujoco.interface import check_scene_before_loading
+        from fmionnx.kinds.mujoco.library import mujoco_module
 
+        mujoco = mujoco_module()
         self._mj = mujoco
         path = str(self.component.path)
+        try:  # the file may have changed since it was compiled
+            check_scene_before_loading(self.component.path)
+        except (ModelError, OSError) as exc:
+            hint = f" ({exc.hint})" if isinstance(exc, ModelError) and exc.hint else ""
+            msg = f"cannot load the scene: {exc}{hint}"
+            raise fault(self.component.name, msg, time=0.0) from None
         try:
             if path.endswith(".mjb"):
                 self._model = mujoco.MjModel.from_binary_path(path)
@@ -68,6 +78,10 @@ class MujocoRunner:
             except KeyError as exc:
                 msg = f"the scene has no value {exc} any more (it changed since compiling)"
                 raise fault(self.component.name, msg, time=0.0) from None
+        try:
+            check_compiled_memory(self._model, self.component.path)
+        except ModelError as exc:
+            raise fault(self.component.name, f"{exc} ({exc.hint})", time=0.0) from None
         self._data = mujoco.MjData(self._model)
 
     def setup(self, start: float, stop: float) -> None:
