@@ -426,6 +426,21 @@ CODES: dict[str, ErrorCode] = _codes(
         "study",
         "A value that a component's setting refuses (a signal's or a scene's).",
     ),
+    ErrorCode(
+        "E109",
+        "study-column",
+        _E,
+        "study",
+        "A target or metric name the study's table cannot take as a column (one of its own "
+        "columns, another's name, not a short plain name).",
+    ),
+    ErrorCode(
+        "W100",
+        "study-plots",
+        _W,
+        "study",
+        "More metrics than the study's summary plots draw (the table has them all).",
+    ),
 )
 
 

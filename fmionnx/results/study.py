@@ -22,7 +22,7 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fmionnx.compile.studyir import StudyPlan
+from fmionnx.compile.studyir import CHECK_PREFIX, TABLE_COLUMNS, StudyPlan
 from fmionnx.core.errors import FmionnxError
 from fmionnx.core.safewrite import atomic_binary, atomic_text
 
@@ -35,8 +35,6 @@ if TYPE_CHECKING:
 FORMAT = "fmionnx-study"
 #: Columns that differ between two runs of the same study.
 VOLATILE = ("wall_time", "worker")
-#: Prefix of a check's column (the check's name follows).
-CHECK_PREFIX = "check: "
 
 
 class StudyFolderError(FmionnxError):
@@ -171,15 +169,13 @@ class StudyFolder:
             row["wall_time"] = float(record.get("wall_time", 0.0))
             row["worker"] = str(record.get("worker", ""))
             rows.append(row)
+        first, *last = TABLE_COLUMNS  # `case`, then the values, then the outcome
         columns = [
-            "case",
+            first,
             *self.plan.targets,
             *(m.name for m in self.plan.metrics),
             *(CHECK_PREFIX + n for n in self.plan.check_names),
-            "status",
-            "message",
-            "wall_time",
-            "worker",
+            *last,
         ]
         return pd.DataFrame(rows, columns=columns)
 

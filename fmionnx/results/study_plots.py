@@ -15,9 +15,8 @@ import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fmionnx.compile.studyir import StudyPlan
+from fmionnx.compile.studyir import CHECK_PREFIX, StudyPlan
 from fmionnx.results.plots import DPI, save_figure
-from fmionnx.results.study import CHECK_PREFIX
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -40,7 +39,7 @@ def write_study_plots(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[P
     written: list[Path] = []
     if table.empty or not numeric:
         return written
-    for metric in plan.metrics:
+    for metric in plan.plotted_metrics:  # at most PLOTTED_METRICS (W100 says so)
         if len(numeric) == 2 and _is_grid(table, numeric):
             written.append(_heatmap(table, numeric, metric.name, out))
         else:
