@@ -20,7 +20,7 @@ from onnx import TensorProto, helper
 
 #: What a run may leave outside its output folder: (folder, path pattern relative to it).
 ALLOWED = (
-    ("home", ".cache/fmionnx"),  # ours: compiled systems, unpacked SSPs, built kernels
+    ("home", ".cache/fmionnx"),  # ours: unpacked SSPs, native kernels built here
     ("home", ".cache/matplotlib"),  # matplotlib's font list, built once
     ("home", ".config/matplotlib"),  # matplotlib's configuration folder (made empty)
 )
