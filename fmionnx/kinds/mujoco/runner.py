@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.types import Causality, Component, is_whole_multiple
 from fmionnx.kinds.mujoco.gl import choose_gl
@@ -130,8 +131,18 @@ class MujocoRunner:
             adr, dim = int(model.sensor_adr[sensor]), int(model.sensor_dim[sensor])
             self._outputs[port.name] = data.sensordata[adr : adr + dim]
         self._apply_ctrl()
-        mj.mj_forward(model, data)
+        try:
+            mj.mj_forward(model, data)
+        except mj.FatalError as exc:
+            raise self._stopped(exc, start) from None
         self._warnings = self._warning_count()
+
+    def _stopped(self, error: Exception, t: float) -> RunError:
+        """The fault of a MuJoCo call that stopped with a fatal error (its arena too small
+        for the model: ``<size memory>``; found by fuzzing: it was a traceback)."""
+        text = " ".join(str(error).split())
+        hint = " (raise the scene's `<size memory>`)" if "out of memory" in text else ""
+        return fault(self.component.name, f"MuJoCo stopped: {text}{hint}", time=t)
 
     def _add_camera(self, port: str, start: float) -> None:
         mj, model = self._mj, self._model
@@ -178,14 +189,17 @@ class MujocoRunner:
         """``k`` physics steps with the held controls; then check the state is sane."""
         mj, model, data = self._mj, self._model, self._data
         self._apply_ctrl()
-        if self._split:
-            for _ in range(self._substeps):
-                mj.mj_step2(model, data)
-                mj.mj_step1(model, data)
-        else:
-            for _ in range(self._substeps):
-                mj.mj_step(model, data)
-            mj.mj_forward(model, data)
+        try:
+            if self._split:
+                for _ in range(self._substeps):
+                    mj.mj_step2(model, data)
+                    mj.mj_step1(model, data)
+            else:
+                for _ in range(self._substeps):
+                    mj.mj_step(model, data)
+                mj.mj_forward(model, data)
+        except mj.FatalError as exc:
+            raise self._stopped(exc, t) from None
         count = self._warning_count()
         if count != self._warnings or not np.isfinite(data.qpos).all():
             self._warnings = count
