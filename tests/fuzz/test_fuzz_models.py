@@ -27,6 +27,8 @@ from onnx import TensorProto, helper, numpy_helper
 
 from fmionnx import api
 from fmionnx.core.errors import DiagnosticError, ModelError, RunError
+from fmionnx.kinds.mujoco.library import mujoco_module
+from fmionnx.kinds.onnx.ortsetup import onnxruntime_module
 from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 from fmionnx.runtime.result import RunOptions
 from tests.fuzz.harness import (
@@ -151,7 +153,10 @@ BIG = st.sampled_from(
 @pytest.fixture(scope="module", autouse=True)
 def capped_address_space() -> Iterator[None]:
     """This process may grow by :data:`HEADROOM` while the module runs (soft limit only,
-    restored after it)."""
+    restored after it). MuJoCo and onnxruntime are imported first: importing is not the
+    models' doing, and the runs' step timeout (which times loading) must not count it."""
+    mujoco_module()
+    onnxruntime_module()
     soft, hard = resource.getrlimit(resource.RLIMIT_AS)
     with Path("/proc/self/status").open(encoding="ascii") as status:
         size = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmSize:"))

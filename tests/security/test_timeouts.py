@@ -19,6 +19,7 @@ from pathlib import Path
 import pytest
 
 import fmionnx
+from fmionnx.kinds.onnx.ortsetup import onnxruntime_module
 from fmionnx.runtime.result import RunOptions, RunStatus
 from tests.security.hostile import endless_loop
 
@@ -47,6 +48,14 @@ connections:
   - source.x -> net.x
 record: [source.x, net.y]
 """
+
+
+@pytest.fixture(autouse=True)
+def _onnxruntime_imported() -> None:
+    """onnxruntime imported before the in-process runs: its first import (a second or more on
+    a loaded machine) happens while the model loads, which the short step timeout here
+    times."""
+    onnxruntime_module()
 
 
 def _cli(*args: str | Path, cwd: Path) -> subprocess.CompletedProcess[str]:
