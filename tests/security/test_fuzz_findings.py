@@ -204,3 +204,16 @@ def test_a_scene_whose_arena_is_too_small_is_a_fault_naming_it(tmp_path: Path) -
     assert result.error is not None
     assert "MuJoCo stopped: mj_stackAlloc: out of memory" in str(result.error)
     assert "raise the scene's `<size memory>`" in str(result.error)
+
+
+def test_a_scene_memory_of_thousands_of_digits_is_e008(tmp_path: Path) -> None:
+    # found by fuzzing scenes (issue 38): Python refuses to read an integer of more than 4300
+    # digits (a ValueError, a traceback)
+    path = tmp_path / "scene.xml"
+    path.write_text(
+        f'<mujoco><size memory="1{"0" * 5000}"/><worldbody><geom size="1"/></worldbody></mujoco>',
+        "utf-8",
+    )
+    result = api.check_model(path)
+    (error,) = [d for d in result.diagnostics if d.code == "E008"]
+    assert "takes the scene's memory to" in error.message

@@ -48,6 +48,9 @@ _FILE_ATTRIBUTES = (
 )  # fmt: skip
 #: ``<size memory>`` suffixes (MuJoCo's: powers of 1024).
 _SUFFIXES = {"": 1, "K": 1024, "M": 1024**2, "G": 1024**3, "T": 1024**4, "P": 1024**5, "E": 1024**6}
+#: Digits of a number read as it is written; a longer one is taken as 10^this (found by
+#: fuzzing: `<size memory="1000...0">` of 5001 digits raised Python's ValueError).
+_DIGITS = 30
 _MEMORY = re.compile(r"\s*(\d+)\s*([KMGTPE]?)\s*", re.IGNORECASE)
 _PNG = b"\x89PNG\r\n\x1a\n"
 #: ``<size>`` attributes that are counts of something allocated per model.
@@ -236,7 +239,9 @@ class _Scene:
         if memory is not None:
             matched = _MEMORY.fullmatch(memory)
             if matched is not None:
-                amount = int(matched.group(1)) * _SUFFIXES[matched.group(2).upper()]
+                digits = matched.group(1)  # Python refuses to read over 4300 digits
+                amount = int(digits) if len(digits) <= _DIGITS else 10**_DIGITS
+                amount *= _SUFFIXES[matched.group(2).upper()]
                 self.declare(amount, f'`<size memory="{memory}">`', element, file)
         user = _number(element.get("nuserdata"))
         self.declare(8 * user, f'`<size nuserdata="{user}">`', element, file)
