@@ -47,9 +47,9 @@ from fmionnx.runtime.watchdog import (
     Interrupter,
     Marker,
     Phase,
+    PhaseWatch,
     Watchdog,
     overrun_text,
-    timed_phases,
 )
 
 if TYPE_CHECKING:
@@ -127,11 +127,17 @@ class Master:
         self.options = options or RunOptions()
         self.runners: dict[str, Runner] = {}
         self._clock = [0]
-        if self.options.step_timeout is not None:  # loading, initializing, terminating too
-            runner_factory = timed_phases(
-                runner_factory, self.options.step_timeout, self.runners, self._abandon,
-                lambda: system.run.start + self._clock[0] * system.run.step,
+        #: The step under way, for the watchdog (one store per step in the loop).
+        self._marker = Marker()
+        #: Times the steps, and loading, initializing and terminating too, in this process.
+        self._watchdog: Watchdog | None = None
+        if self.options.step_timeout is not None:
+            self._watchdog = Watchdog(
+                self.options.step_timeout, self._marker, (), self._abandon,
+                Interrupter(self.runners),
             )  # fmt: skip
+            clock = lambda: system.run.start + self._clock[0] * system.run.step  # noqa: E731
+            runner_factory = PhaseWatch(self._watchdog, self._marker, clock).factory(runner_factory)
         if self.options.isolate:
             from fmionnx.runtime.isolated.factory import isolating_factory
             from fmionnx.runtime.isolated.proxy import IsolationSettings
@@ -148,9 +154,6 @@ class Master:
         self._stamps: dict[str, int] = {}
         #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
         self.native = NativeStatus(used=False, reason="not prepared")
-        self._watchdog: Watchdog | None = None
-        #: The step under way, for the watchdog (one store per step in the loop).
-        self._marker = Marker()
         #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
         self.ended_by: EndedBy | None = None
         self._started = _time.perf_counter()
@@ -289,12 +292,11 @@ class Master:
 
         Isolated components time their own steps (their proxy kills a hung child).
         """
-        timeout = self.options.step_timeout
-        local = [due for due, _ in entries if due.name not in self.options.isolate]
-        if timeout is None or not local:
+        if self._watchdog is None:
             return
-        interrupt = Interrupter(self.runners)
-        self._watchdog = Watchdog(timeout, self._marker, local, self._abandon, interrupt)
+        for due, _ in entries:
+            if due.name not in self.options.isolate:
+                self._watchdog.watch(due)
 
     def _wiring(self, component: Component) -> Wiring:
         incoming = self.system.inputs_of(component.name)
@@ -421,10 +423,10 @@ class Master:
         reason: str | None = None
         started = _time.perf_counter()
         try:
+            if self._watchdog is not None:  # loading and initializing are timed too
+                self._watchdog.start()
             self.prepare()
             started = self._started = _time.perf_counter()
-            if self._watchdog is not None:
-                self._watchdog.start()
             self._loop()
         except RunError as exc:
             status, error = RunStatus.FAULT, exc
@@ -432,9 +434,9 @@ class Master:
             status, reason = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = _time.perf_counter() - started
-            if self._watchdog is not None:
-                self._watchdog.stop()
             self._terminate(skip=self._close_lanes())
+            if self._watchdog is not None:  # after terminating, which is timed too
+                self._watchdog.stop()
         n = self._clock[0]
         return RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,

@@ -20,10 +20,10 @@ waking it hands it the GIL, and with every core busy the run then waits for the 
 to be scheduled (an eighth of a short case's time on a two-core sweep).
 
 The timeout holds for every phase of a component, not only its steps (docs/security.md):
-:func:`timed_phases` wraps the runner factory so that loading a model, instantiating,
-initializing and terminating it are watched too, each call marked on a marker of its own
-while it runs (a handful of stores per component and run, none per step). A runner that can
-be stopped from another thread (:class:`~fmionnx.core.runner.Interruptible`: onnxruntime's
+:class:`PhaseWatch` wraps the runner factory so that loading a model, instantiating,
+initializing and terminating it are watched too, by the same watchdog, each call marked on
+the run's marker while it runs (two stores per call, none per step). A runner that can be
+stopped from another thread (:class:`~fmionnx.core.runner.Interruptible`: onnxruntime's
 terminate flag) is asked to stop first; the call then raises a fault and the run ends as
 any other faulted run does, in this process. Only native code that cannot be stopped makes
 the run be abandoned.
@@ -31,7 +31,6 @@ the run be abandoned.
 
 from __future__ import annotations
 
-import contextlib
 import math
 import threading
 import time
@@ -103,7 +102,9 @@ class Watchdog:
         #: When this watchdog looks next (monotonic seconds).
         self.due = 0.0
         self._overrun: tuple[object, float] | None = None
-        self._stopped = threading.Event()
+        #: Set by :meth:`stop` (a plain flag, not an Event: an Event's lock and condition
+        #: cost a short sweep case more than the watching itself).
+        self._stopped = False
 
     def watch(self, work: object) -> None:
         """Time ``work`` too (a phase made after the watchdog was)."""
@@ -115,13 +116,13 @@ class Watchdog:
         self._seen = None
         self._since = time.monotonic()
         self.due = self._since + self.interval
-        self._stopped.clear()
+        self._stopped = False
         _watcher().add(self)
 
     def stop(self) -> None:
         """Stop watching: :meth:`look` is not called again once this returns."""
+        self._stopped = True  # first: a fire that re-adds this watchdog sees it (see fire)
         _watcher().discard(self)
-        self._stopped.set()
 
     def look(self, now: float) -> bool:
         """One look at the marker at ``now``; True when the work has overrun (fire)."""
@@ -142,6 +143,12 @@ class Watchdog:
         work, t = self._overrun
         interrupted = self._interrupt is not None and self._interrupt(work, self.timeout)
         if interrupted and self._came_back(work, t):
+            # The run goes on (its work raised a fault, which it is handling): watch on,
+            # unless the watching was stopped meanwhile (checked after adding, so that a
+            # stop between the two cannot leave this watchdog watching).
+            _watcher().add(self)
+            if self._stopped:
+                _watcher().discard(self)
             return
         self._on_expiry(work, t)
 
@@ -150,10 +157,9 @@ class Watchdog:
         stopped: the run is ending with the fault) within :data:`INTERRUPT_GRACE`."""
         deadline = time.monotonic() + INTERRUPT_GRACE
         while time.monotonic() < deadline:
-            if self._stopped.wait(0.01):
+            if self._stopped or self._marker.work is not work or self._marker.t != t:
                 return True
-            if self._marker.work is not work or self._marker.t != t:
-                return True
+            time.sleep(0.01)
         return False
 
 
@@ -207,48 +213,54 @@ class Interrupter:
         return True
 
 
-def timed_phases(
-    make: RunnerFactory,
-    timeout: float,
-    runners: Mapping[str, Runner],
-    on_expiry: Callable[[object, float], None],
-    clock: Callable[[], float],
-) -> RunnerFactory:
-    """``make``, whose runners' loading, ``instantiate``, ``setup`` and ``terminate`` are
-    timed against ``timeout`` like steps (``on_expiry(phase, t)`` as for a step; ``clock``:
-    the simulated time of a call, ``runners``: the runners made, to interrupt).
+class PhaseWatch:
+    """Marks the calls of in-process runners outside the loop for the run's watchdog:
+    loading a model (making its runner), ``instantiate``, ``setup`` and ``terminate``.
 
-    Each call starts and stops watching around itself, so nothing is watched between calls
-    and a watchdog that fired (and stopped its call) is ready for the next one.
+    :meth:`factory` wraps a runner factory; every call it times stores a :class:`Phase` and
+    the simulated time (``clock()``) on the run's marker and clears the work when the call
+    returns: two stores and no lock, so a sweep's short cases pay next to nothing. The
+    run's watchdog (started before the first of these calls, stopped after the last) then
+    times them as it times steps: interrupted when the runner can be, else reported.
     """
-    marker = Marker()
-    watchdog = Watchdog(timeout, marker, (), on_expiry, Interrupter(runners))
 
-    def timed(phase: Phase, call: Callable[..., Any], *args: Any) -> Any:
-        watchdog.watch(phase)
-        marker.work, marker.t = phase, clock()
-        watchdog.start()
+    def __init__(self, watchdog: Watchdog, marker: Marker, clock: Callable[[], float]) -> None:
+        self._watchdog = watchdog
+        self._marker = marker
+        self._clock = clock
+        #: Every call's phase, kept: the watchdog tells calls apart by their phase's id.
+        self._calls: list[Phase] = []
+
+    def factory(self, make: RunnerFactory) -> RunnerFactory:
+        """``make``, with its runners' loading and life-cycle calls marked."""
+
+        def make_timed(component: Component, wiring: Wiring) -> Runner:
+            name = component.name
+            runner: Runner = self._timed(name, LOADING, make, component, wiring)
+            for method, what in PHASES:
+                call = getattr(runner, method)
+
+                def timed_call(*args: Any, what: str = what, call: Any = call) -> Any:
+                    return self._timed(name, what, call, *args)
+
+                try:
+                    setattr(runner, method, timed_call)
+                except (AttributeError, TypeError):  # a runner with slots: left untimed
+                    continue
+            return runner
+
+        return make_timed
+
+    def _timed(self, name: str, what: str, call: Callable[..., Any], *args: Any) -> Any:
+        phase = Phase(name, what)
+        self._calls.append(phase)
+        self._watchdog.watch(phase)
+        marker = self._marker
+        marker.work, marker.t = phase, self._clock()
         try:
             return call(*args)
         finally:
-            watchdog.stop()
             marker.work = None
-
-    def make_timed(component: Component, wiring: Wiring) -> Runner:
-        name = component.name
-        runner: Runner = timed(Phase(name, LOADING), make, component, wiring)
-        for method, what in PHASES:
-            call = getattr(runner, method)
-            phase = Phase(name, what)
-
-            def timed_call(*args: Any, phase: Phase = phase, call: Any = call) -> Any:
-                return timed(phase, call, *args)
-
-            with contextlib.suppress(AttributeError, TypeError):  # slots: left untimed
-                setattr(runner, method, timed_call)
-        return runner
-
-    return make_timed
 
 
 class _Watcher:
