@@ -75,8 +75,9 @@ SCENE_NUMBERS = (
 SIZING = frozenset({"count", "nrow", "ncol", "width", "height", "memory", "nuserdata", "nkey"})
 #: How MuJoCo and onnxruntime say they ran out of memory (under this module's cap): a
 #: limit that should have refused the model first did not. (MuJoCo's "mj_stackAlloc: out
-#: of memory" is not one: it is its arena, of the size the scene declares, being too small.)
-EXHAUSTED = ("could not allocate", "bad_alloc", "unknown exception", "failed to allocate")
+#: of memory" and "could not allocate mjData arena" are not: the arena, of the size the scene
+#: declares (`memory="0"`), is too small.)
+EXHAUSTED = ("could not allocate memory", "bad_alloc", "unknown exception", "failed to allocate")
 #: Base steps a model that validates is run for.
 STEPS = 5
 #: Seconds a step (or a model's loading, initialization) of such a run may take, by kind.
