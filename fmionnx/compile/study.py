@@ -18,6 +18,7 @@ from __future__ import annotations
 
 import itertools
 import math
+import re
 from collections.abc import Sequence
 from typing import Literal
 
@@ -25,6 +26,10 @@ from fmionnx.compile.checks import compile_measure
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.overrides import OverrideError
 from fmionnx.compile.studyir import (
+    CHECK_PREFIX,
+    METRIC_NAME_LENGTH,
+    PLOTTED_METRICS,
+    TABLE_COLUMNS,
     Case,
     Metric,
     Objective,
@@ -101,7 +106,8 @@ def resolve_study(
     metrics = _metrics(spec, system, loaded, bag)
     objective = _objective(spec, loaded, bag)
     isolate = _isolation(spec, system, loaded, bag)
-    if len(kinds) != len(spec.parameters):
+    columns_ok = _columns(spec, loaded, bag)
+    if len(kinds) != len(spec.parameters) or not columns_ok:
         return None
     axes = spec.parameters
     grid = {t: a.grid_values() for t, a in axes.items() if a.sampled is None}
@@ -350,6 +356,72 @@ def _metrics(
         text = " ".join(expression.split())
         metrics.append(Metric(name, text, resolved[0], resolved[1]))
     return tuple(metrics) if ok else None
+
+
+def _columns(spec: StudySpec, loaded: LoadedStudy, bag: DiagnosticBag) -> bool:
+    """Every target and metric can be a column of the study's table (E109), checked before
+    the first case: the table is written after the last one, and a name it cannot take (two
+    columns of one name, a metric called `status`) lost every case's row. A metric name also
+    names a plot's file, so it is a short plain name. More metrics than the plots draw is a
+    warning (W100)."""
+    ok = True
+    reserved = set(TABLE_COLUMNS)
+    for target in spec.parameters:
+        if target in reserved:
+            bag.emit(
+                codes.STUDY_COLUMN,
+                f"the target `{target}` has the name of a column of the study's table",
+                loaded.sources.key(("parameters", target)),
+                hint="the table has the columns "
+                + ", ".join(f"`{c}`" for c in TABLE_COLUMNS)
+                + "; rename the system input",
+            )
+            ok = False
+    for name in spec.metrics:
+        where = loaded.sources.key(("metrics", name))
+        problem = _metric_name_problem(name, spec)
+        if problem is not None:
+            bag.emit(
+                codes.STUDY_COLUMN,
+                f"metric `{_shortened(name)}`: {problem}",
+                where,
+                hint=_NAME_HINT,
+            )
+            ok = False
+    if len(spec.metrics) > PLOTTED_METRICS:
+        bag.emit(
+            codes.STUDY_PLOTS,
+            f"the study has {len(spec.metrics)} metrics: its summary plots draw {PLOTTED_METRICS} "
+            "of them (the objective's first); the table has every one",
+            loaded.sources.key(("metrics",)),
+            hint="plot the others from `cases.parquet`",
+        )
+    return ok
+
+
+_NAME_HINT = (
+    f"a metric is named like `time_to_B`: a letter or `_`, then letters, digits, `_`, `.` or "
+    f"`-`, at most {METRIC_NAME_LENGTH} characters"
+)
+_METRIC_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_.-]*")
+
+
+def _metric_name_problem(name: str, spec: StudySpec) -> str | None:
+    if len(name) > METRIC_NAME_LENGTH:
+        return f"the name has {len(name)} characters, more than {METRIC_NAME_LENGTH}"
+    if name.startswith(CHECK_PREFIX.strip()):
+        return "the name would be taken for a check's column (`check: NAME`)"
+    if not _METRIC_NAME.fullmatch(name):
+        return "the name is not a plain name (it names a column and a plot's file)"
+    if name in TABLE_COLUMNS:
+        return "the name is one of the study table's own columns"
+    if name in spec.parameters:
+        return "the name is also a target of the study (the table has a column for each)"
+    return None
+
+
+def _shortened(name: str) -> str:
+    return name if len(name) <= 40 else f"{name[:24]}...{name[-8:]} ({len(name)} characters)"
 
 
 def _objective(spec: StudySpec, loaded: LoadedStudy, bag: DiagnosticBag) -> Objective | None:

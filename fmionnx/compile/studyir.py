@@ -29,6 +29,16 @@ from fmionnx.compile.overrides import (
 )
 from fmionnx.core.types import PortRef, Scalar, ValueSource
 
+#: The study table's own columns (besides one per target, metric and check): a target or a
+#: metric of the same name would make two columns of one name, which the table refuses.
+TABLE_COLUMNS = ("case", "status", "message", "wall_time", "worker")
+#: Prefix of a check's column in the table (the check's name follows).
+CHECK_PREFIX = "check: "
+#: Most metrics drawn in the study's summary plots (one figure each); the table has them all.
+PLOTTED_METRICS = 24
+#: Longest metric name: it names a column and, in a plot's file name, a file.
+METRIC_NAME_LENGTH = 64
+
 #: What a setting changes: a parameter (or system input), the stop time, the output interval,
 #: or a setting of a component's kind (``setting``: a signal's amplitude, a scene value).
 SettingKind = Literal["parameter", "stop", "output_interval", "setting"]
@@ -90,6 +100,14 @@ class StudyPlan:
     timeout: float | None = None
     #: Seconds one step may take (None: ``timeout``).
     step_timeout: float | None = None
+
+    @property
+    def plotted_metrics(self) -> tuple[Metric, ...]:
+        """The metrics the summary plots draw: the objective's first, at most
+        :data:`PLOTTED_METRICS` (compiling warns, W100, when there are more)."""
+        first = [m for m in self.metrics if self.objective and m.name == self.objective.metric]
+        rest = [m for m in self.metrics if m not in first]
+        return tuple([*first, *rest][:PLOTTED_METRICS])
 
     @property
     def check_names(self) -> tuple[str, ...]:

@@ -31,10 +31,12 @@ from pathlib import Path
 from typing import Any
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.resolve import check_port_total
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.modelfiles import ShippingError, copy_model_files
-from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES
+from fmionnx.core.regularfile import read_regular
+from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES, LIMIT_CODE
 from fmionnx.core.safewrite import refuse, write_text_atomic
 from fmionnx.core.specbase import NO_MODEL_FILE
 from fmionnx.core.steps import (
@@ -273,6 +275,11 @@ def _check_port_sizes(component: Component, origin: str) -> None:
                 f"{list(port.shape)} is out of range ({ARRAY_ELEMENTS.hint()})"
             )
             raise CompiledFileError(msg)
+    try:
+        check_port_total(component.interface)
+    except ModelError as exc:
+        msg = f"{origin}: component `{component.name}`: {exc} ({exc.hint})"
+        raise CompiledFileError(msg) from None
 
 
 def write_compiled(system: CompiledSystem, path: Path) -> None:
@@ -315,16 +322,13 @@ def read_compiled(path: Path, *, models: Path | None = None) -> CompiledSystem:
     """
     try:
         largest = COMPILED_FILE_BYTES.value()
-        with path.open("rb") as stream:
-            data = stream.read(largest + 1)
-        if len(data) > largest:
-            msg = (
-                f"{path}: the compiled system is larger than {largest} bytes "
-                f"({COMPILED_FILE_BYTES.hint()})"
-            )
-            raise CompiledFileError(msg)
+        # A FIFO or a device would never end: only a regular file is read (E011).
+        data = read_regular(path, COMPILED_FILE_BYTES, "the file")
         text = data.decode("utf-8")
-    except ModelError as exc:  # a malformed FMIONNX_MAX_COMPILED_BYTES
+    except ModelError as exc:  # not a regular file, too large, a malformed limit setting
+        if exc.code == LIMIT_CODE and "bytes, more than" in str(exc):
+            msg = f"{path}: the compiled system is larger than {largest} bytes ({exc.hint})"
+            raise CompiledFileError(msg) from None
         raise CompiledFileError(f"{path}: {exc}") from None
     except (OSError, UnicodeDecodeError) as exc:
         msg = f"{path}: cannot read the compiled system: {exc}"

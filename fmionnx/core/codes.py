@@ -448,6 +448,23 @@ STUDY_SETTING_VALUE = ErrorCode(
 )
 
 
+STUDY_COLUMN = ErrorCode(
+    "E109",
+    "study-column",
+    _E,
+    "study",
+    "A target or metric name the study's table cannot take as a column (one of its own "
+    "columns, another's name, not a short plain name).",
+)
+STUDY_PLOTS = ErrorCode(
+    "W100",
+    "study-plots",
+    _W,
+    "study",
+    "More metrics than the study's summary plots draw (the table has them all).",
+)
+
+
 #: The table of every code, by its code string (``E035``).
 CODES: dict[str, ErrorCode] = _codes(
     SYNTAX,
@@ -529,4 +546,6 @@ CODES: dict[str, ErrorCode] = _codes(
     STUDY_SIZE,
     STUDY_SETTING,
     STUDY_SETTING_VALUE,
+    STUDY_COLUMN,
+    STUDY_PLOTS,
 )

@@ -65,6 +65,12 @@ class ResourceLimit:
 
 MiB = 1024**2
 
+#: Dimensions of one port. Every port's buffer is a numpy array, and numpy makes arrays of at
+#: most 32 dimensions in its 1.x versions (64 since 2.0): a model declaring more would pass
+#: the compiler and fail when its run starts. Not changeable: it is numpy's, not a budget.
+MAX_RANK = 32
+RANK_HINT = "reshape the tensor in the model; no real model needs more dimensions"
+
 #: Bytes all members of one archive (FMU, SSP) may expand to together.
 ARCHIVE_BYTES = ResourceLimit(
     "FMIONNX_MAX_ARCHIVE_BYTES", 2 * 1024 * MiB, "bytes", "unpacked size of one archive"
@@ -92,6 +98,11 @@ SSP_XML_BYTES = ResourceLimit(
 COMPILED_FILE_BYTES = ResourceLimit(
     "FMIONNX_MAX_COMPILED_BYTES", 64 * MiB, "bytes", "size of one *.fmionnx.json file"
 )
+#: Size of one file of a study's results folder fmionnx reads back (``study.json``, a case's
+#: record): a million cases' ``study.json`` stays below it.
+STUDY_FILE_BYTES = ResourceLimit(
+    "FMIONNX_MAX_STUDY_FILE_BYTES", 1024 * MiB, "bytes", "size of study.json or a case record"
+)
 #: Size of the SSP unpack cache; least recently used archives are removed beyond it.
 CACHE_BYTES = ResourceLimit(
     "FMIONNX_CACHE_MAX_BYTES", 4 * 1024 * MiB, "bytes", "size of the SSP unpack cache"
@@ -101,14 +112,77 @@ CACHE_DAYS = ResourceLimit(
     "FMIONNX_CACHE_MAX_DAYS", 30, "days", "age of an unused SSP unpack cache entry"
 )
 
+#: Size of one file a model names or is: a MuJoCo scene, include, mesh, texture or height
+#: field, an ONNX model or its external data, a signal's table.
+MODEL_FILE_BYTES = ResourceLimit(
+    "FMIONNX_MAX_MODEL_FILE_BYTES",
+    2 * 1024 * MiB,
+    "bytes",
+    "size of one model file or file a model names",
+)
+#: Elements of all ports of one component together: each port's buffer is allocated at
+#: setup, so 16 ports at the per-array limit would take gigabytes.
+PORT_ELEMENTS = ResourceLimit(
+    "FMIONNX_MAX_PORT_ELEMENTS",
+    128 * MiB,
+    "elements",
+    "elements of all ports of one component together",
+)
+#: Elements of all tensors an ONNX model stores (initializers, constants, external data).
+MODEL_ELEMENTS = ResourceLimit(
+    "FMIONNX_MAX_MODEL_ELEMENTS",
+    256 * MiB,
+    "elements",
+    "elements of all tensors one ONNX model stores together",
+)
+#: Memory onnxruntime's allocator may hold in one process (every session's tensors).
+ONNX_BYTES = ResourceLimit(
+    "FMIONNX_MAX_ONNX_BYTES",
+    4 * 1024 * MiB,
+    "bytes",
+    "memory onnxruntime may allocate in one process, all ONNX models together",
+)
+#: Elements of a MuJoCo scene once ``replicate``, includes, flexcomp and composite are
+#: expanded. MuJoCo's compiler takes time quadratic in them (10 000 geoms: about 1 s).
+SCENE_ELEMENTS = ResourceLimit(
+    "FMIONNX_MAX_SCENE_ELEMENTS",
+    10_000,
+    "elements",
+    "bodies, geoms, joints, sites and other elements of one MuJoCo scene",
+)
+#: Memory a MuJoCo scene declares: height fields, textures, ``<size memory>``, user data,
+#: and the simulation's arena MuJoCo sizes from the model.
+SCENE_BYTES = ResourceLimit(
+    "FMIONNX_MAX_SCENE_BYTES",
+    1024 * MiB,
+    "bytes",
+    "memory of one MuJoCo scene's height fields, textures and simulation data",
+)
+#: Address space of an isolated model's process (``RLIMIT_AS``): virtual memory, so the
+#: interpreter, the libraries and every thread's stack count, far below it for a real model.
+ISOLATED_BYTES = ResourceLimit(
+    "FMIONNX_MAX_ISOLATED_BYTES",
+    8 * 1024 * MiB,
+    "bytes",
+    "address space of one isolated model's process",
+)
+
 #: Every limit, in the order ``docs/security.md`` lists them.
 LIMITS = (
     ARCHIVE_BYTES,
     ARCHIVE_MEMBERS,
     ARCHIVE_RATIO,
     ARRAY_ELEMENTS,
+    PORT_ELEMENTS,
+    MODEL_ELEMENTS,
+    ONNX_BYTES,
+    SCENE_ELEMENTS,
+    SCENE_BYTES,
+    ISOLATED_BYTES,
+    MODEL_FILE_BYTES,
     SSP_XML_BYTES,
     COMPILED_FILE_BYTES,
+    STUDY_FILE_BYTES,
     CACHE_BYTES,
     CACHE_DAYS,
 )

@@ -110,6 +110,21 @@ class StartEvaluating(Protocol):
 
     def evaluate_at_start(self, start: float) -> None:
         """Compute the outputs from the inputs now in the input buffers (time ``start``)."""
+
+
+@runtime_checkable
+class Interruptible(Protocol):
+    """A runner whose calls can be stopped from another thread (onnxruntime's terminate flag).
+
+    The step-timeout watchdog (:mod:`fmionnx.runtime.watchdog`) asks such a runner to stop a
+    call that overran instead of abandoning the whole process: the call under way then raises
+    a RunError whose message is ``reason``, and the run ends as a fault like any other (its
+    results written, the process kept). Native code that never looks at the request is
+    abandoned as before.
+    """
+
+    def interrupt(self, reason: str) -> None:
+        """Make the call under way (or the next one) raise a fault saying ``reason``."""
         ...
 
 

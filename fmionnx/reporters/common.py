@@ -8,6 +8,7 @@ is written relative to it (POSIX separators), and only paths outside it stay abs
 from __future__ import annotations
 
 import os
+from collections.abc import Iterable, Iterator
 from pathlib import Path
 
 from fmionnx.core.diagnostics import Diagnostic, Span
@@ -62,3 +63,36 @@ def detail_lines(diagnostic: Diagnostic) -> list[str]:
 def full_text(diagnostic: Diagnostic) -> str:
     """Message, then notes and hint on their own lines."""
     return "\n".join([diagnostic.message, *detail_lines(diagnostic)])
+
+
+#: Diagnostics of one code shown per file by the reports people read (text, GitHub
+#: annotations); the rest are counted in one line. A generated or hostile file can hold
+#: hundreds of thousands of the same mistake: the first ones say what is wrong.
+SHOWN_PER_CODE = 20
+
+
+def capped(diagnostics: Iterable[Diagnostic]) -> Iterator[Diagnostic | tuple[str, int]]:
+    """``diagnostics`` in order, at most :data:`SHOWN_PER_CODE` of each code; then, for each
+    code with more, ``(code, how many were left out)``."""
+    seen: dict[str, int] = {}
+    for diagnostic in diagnostics:
+        count = seen.get(diagnostic.code, 0) + 1
+        seen[diagnostic.code] = count
+        if count <= SHOWN_PER_CODE:
+            yield diagnostic
+    for code, count in seen.items():
+        if count > SHOWN_PER_CODE:
+            yield code, count - SHOWN_PER_CODE
+
+
+def left_out(code: str, count: int) -> str:
+    """The line that stands for ``count`` diagnostics of ``code`` not shown."""
+    from fmionnx.core.diagnostics import CODES
+
+    entry = CODES.get(code)
+    name = f" {entry.name}" if entry is not None else ""
+    what = "diagnostic" if count == 1 else "diagnostics"
+    return (
+        f"... and {count} more {what} [{code}{name}] in this file, not shown (the first "
+        f"{SHOWN_PER_CODE} are; `--format json` lists every one)"
+    )

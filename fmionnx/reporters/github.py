@@ -13,7 +13,7 @@ from typing import TextIO
 
 from fmionnx.core.diagnostics import Diagnostic, Severity
 from fmionnx.reporters.base import FileResult, Reporter
-from fmionnx.reporters.common import display_path, full_text, located
+from fmionnx.reporters.common import capped, display_path, full_text, left_out, located
 from fmionnx.reporters.text import summary
 
 _COMMAND = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.INFO: "notice"}
@@ -43,7 +43,8 @@ def annotation(diagnostic: Diagnostic, result: FileResult) -> str:
 
 
 class GithubReporter(Reporter):
-    """One workflow command per diagnostic, then the plain summary line for the log."""
+    """One workflow command per diagnostic (at most :data:`~.common.SHOWN_PER_CODE` of a
+    code per file), then the plain summary line for the log."""
 
     name = "github"
 
@@ -51,6 +52,9 @@ class GithubReporter(Reporter):
         """Write annotations (never coloured: the runner parses them)."""
         del color
         for result in results:
-            for diagnostic in result.diagnostics:
+            for diagnostic in capped(result.diagnostics):
+                if isinstance(diagnostic, tuple):  # a plain log line, not an annotation
+                    stream.write(left_out(*diagnostic) + "\n")
+                    continue
                 stream.write(annotation(diagnostic, result) + "\n")
         stream.write(summary(results) + "\n")

@@ -10,6 +10,7 @@ from rich.markup import escape
 from fmionnx.core.diagnostics import Diagnostic, Severity, Span
 from fmionnx.core.sourcetext import source_lines
 from fmionnx.reporters.base import FileResult, Reporter, count
+from fmionnx.reporters.common import capped, left_out
 
 _STYLE = {Severity.ERROR: "bold red", Severity.WARNING: "bold yellow", Severity.INFO: "bold cyan"}
 
@@ -65,12 +66,16 @@ class TextReporter(Reporter):
     name = "text"
 
     def render(self, results: list[FileResult], stream: TextIO, *, color: bool) -> None:
-        """Write every diagnostic, then a one-line summary."""
+        """Write the diagnostics (at most :data:`~.common.SHOWN_PER_CODE` of one code per
+        file, then a line counting the others), then a one-line summary of all."""
         console = Console(
             file=stream, force_terminal=color, no_color=not color, highlight=False, soft_wrap=True
         )
         for result in results:
-            for diagnostic in result.diagnostics:
+            for diagnostic in capped(result.diagnostics):
+                if isinstance(diagnostic, tuple):
+                    console.print(escape(left_out(*diagnostic)), style="bold")
+                    continue
                 lines = format_plain(diagnostic)
                 style = _STYLE[diagnostic.severity]
                 label = f"{diagnostic.severity.label}[{diagnostic.code} {diagnostic.name}]"

@@ -27,9 +27,11 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fmionnx.compile.studyir import StudyPlan
-from fmionnx.core.errors import FmionnxError
+from fmionnx.compile.studyir import CHECK_PREFIX, TABLE_COLUMNS, StudyPlan
+from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.owned import OwnedFolder, safe_folder
+from fmionnx.core.regularfile import read_regular
+from fmionnx.core.resources import STUDY_FILE_BYTES
 from fmionnx.core.safewrite import atomic_binary, atomic_text
 
 if TYPE_CHECKING:
@@ -39,10 +41,11 @@ if TYPE_CHECKING:
 
 #: The ``format`` of ``study.json``.
 FORMAT = "fmionnx-study"
+#: A case's statuses (``fmionnx.backends.sweep.case.CaseStatus``); anything else a record
+#: says is taken as ``failed``.
+STATUSES = ("ok", "fault", "timeout", "failed")
 #: Columns that differ between two runs of the same study.
 VOLATILE = ("wall_time", "worker")
-#: Prefix of a check's column (the check's name follows).
-CHECK_PREFIX = "check: "
 #: The study's description, and the folders it writes into.
 DESCRIPTION, RECORDS, CASES = "study.json", "records", "cases"
 
@@ -118,6 +121,11 @@ class StudyFolder:
                     f"`{self.out}` already holds a study's results: --resume finishes it, "
                     "--force starts afresh"
                 )
+            if marker.is_symlink() or not marker.is_file():
+                return (
+                    f"`{marker}` is a link or a special file, not the description a study "
+                    "writes: remove it or choose a new folder"
+                )
             previous = _read_description(marker)
             if previous.get("fingerprint") != self.plan.fingerprint:
                 return (
@@ -162,8 +170,8 @@ class StudyFolder:
         done = set()
         for path in self.records.glob("*.json"):
             record = _read(path)
-            if record is not None and record.get("id") in ids and path.stem == record["id"]:
-                done.add(str(record["id"]))
+            if record is not None and record["id"] in ids and path.stem == record["id"]:
+                done.add(record["id"])
         return done
 
     def record(self, outcome: CaseOutcome) -> None:
@@ -193,27 +201,25 @@ class StudyFolder:
             row: dict[str, Any] = {"case": case.id}
             for setting in case.settings:
                 row[setting.target] = _cell(setting.value)
-            metrics = record.get("metrics", {})
+            metrics = _mapping(record.get("metrics"))
             for metric in self.plan.metrics:
-                value = metrics.get(metric.name)
-                row[metric.name] = float(value) if isinstance(value, int | float) else math.nan
-            checks = record.get("checks", {})
+                row[metric.name] = _number(metrics.get(metric.name))
+            checks = _mapping(record.get("checks"))
             for name in self.plan.check_names:
-                row[CHECK_PREFIX + name] = bool(checks.get(name, False))
-            row["status"] = record.get("status", "failed")
+                row[CHECK_PREFIX + name] = checks.get(name) is True
+            status = record.get("status")
+            row["status"] = status if status in STATUSES else "failed"
             row["message"] = _message(record)
-            row["wall_time"] = float(record.get("wall_time", 0.0))
+            row["wall_time"] = _number(record.get("wall_time", 0.0))
             row["worker"] = str(record.get("worker", ""))
             rows.append(row)
+        first, *last = TABLE_COLUMNS  # `case`, then the values, then the outcome
         columns = [
-            "case",
+            first,
             *self.plan.targets,
             *(m.name for m in self.plan.metrics),
             *(CHECK_PREFIX + n for n in self.plan.check_names),
-            "status",
-            "message",
-            "wall_time",
-            "worker",
+            *last,
         ]
         return pd.DataFrame(rows, columns=columns)
 
@@ -257,27 +263,50 @@ def _cell(value: object) -> object:
 
 def _message(record: dict[str, Any]) -> str:
     message = str(record.get("message", ""))
-    notes = record.get("notes", {})
+    notes = _mapping(record.get("notes"))
     if not message and isinstance(notes, dict) and notes:
         message = "; ".join(f"{k}: {v}" for k, v in sorted(notes.items()))
     return message
 
 
-def _read(path: Path) -> dict[str, Any] | None:
+def _load(path: Path) -> object:
+    """The JSON in ``path``, or None where there is none to read.
+
+    A study folder may have been tampered with between a run and its ``--resume``: a record
+    or ``study.json`` that is a FIFO (a read that never starts), a link to ``/dev/zero`` (one
+    that never ends), a file of gigabytes. Only a regular file within
+    :data:`~fmionnx.core.resources.STUDY_FILE_BYTES` is read (:mod:`fmionnx.core.regularfile`).
+    """
     try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
+        text = read_regular(path, STUDY_FILE_BYTES, f"`{path.name}`")
+        return json.loads(text.decode("utf-8"))
+    except (OSError, ValueError, ModelError, RecursionError):
         return None
-    return data if isinstance(data, dict) and "id" in data else None
+
+
+def _read(path: Path) -> dict[str, Any] | None:
+    """A case's record, or None where ``path`` holds none (then the case runs again)."""
+    data = _load(path)
+    if isinstance(data, dict) and isinstance(data.get("id"), str):
+        return data
+    return None
 
 
 def _read_description(path: Path) -> dict[str, Any]:
     """``study.json`` (empty when it is no JSON object: it then matches no plan)."""
-    try:
-        data = json.loads(path.read_text(encoding="utf-8"))
-    except (OSError, ValueError):
-        return {}
+    data = _load(path)
     return data if isinstance(data, dict) else {}
+
+
+def _number(value: object) -> float:
+    """A number of a record as a float (NaN for anything else: a record may be edited)."""
+    if isinstance(value, int | float) and not isinstance(value, bool):
+        return float(value)
+    return math.nan
+
+
+def _mapping(value: object) -> dict[str, Any]:
+    return value if isinstance(value, dict) else {}
 
 
 def _write_results(path: Path, signals: dict[str, Any]) -> Path:

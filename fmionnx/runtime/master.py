@@ -45,7 +45,7 @@ from fmionnx.runtime.startvalues import evaluate_at_start
 from fmionnx.runtime.stepping import Work
 from fmionnx.runtime.stopping import shield_begin, shield_end, stop_reason
 from fmionnx.runtime.transfer import make_transfer
-from fmionnx.runtime.watchdog import Watchdog
+from fmionnx.runtime.watchdog import Interrupter, Phase, PhaseWatch, Watchdog, overrun_text
 
 if TYPE_CHECKING:
     from fmionnx.runtime.loops import IteratedLoop
@@ -96,17 +96,29 @@ class Master:
             runner_factory = make_runner
         self.system = system
         self.options = options or RunOptions()
+        instruments = self.options.instruments or PLAIN
+        self.runners: dict[str, Runner] = {}
+        self._clock = [0]
+        #: The step under way, for the watchdog (one store per step in the loop).
+        self._marker = instruments.marker()
+        #: Times the steps, and loading, initializing and terminating too, in this process.
+        self._watchdog: Watchdog | None = None
+        if self.options.step_timeout is not None:
+            self._watchdog = Watchdog(
+                self.options.step_timeout, self._marker, (), self._abandon,
+                Interrupter(self.runners),
+            )  # fmt: skip
+            clock = lambda: system.run.start + self._clock[0] * system.run.step  # noqa: E731
+            runner_factory = PhaseWatch(self._watchdog, self._marker, clock).factory(runner_factory)
         if self.options.isolate:
             from fmionnx.runtime.isolated.factory import isolating_factory
             from fmionnx.runtime.isolated.proxy import IsolationSettings
 
             settings = IsolationSettings(self.options.step_timeout, self.options.sandbox)
             runner_factory = isolating_factory(runner_factory, self.options.isolate, settings)
-        instruments = self.options.instruments or PLAIN
         if instruments.runners is not None:
             runner_factory = instruments.runners(runner_factory)
         self.make_runner = runner_factory
-        self.runners: dict[str, Runner] = {}
         self.recorder = instruments.recorder()
         self._table: list[tuple[Work, ...]] = []
         self._fallback: list[tuple[Work, int]] = []
@@ -114,12 +126,8 @@ class Master:
         self._tracks: dict[str, tuple[Track | None, Track | None]] = {}
         #: Steps done per component with lazy outputs, and the step each lazy port was made at.
         self._stamps: dict[str, int] = {}
-        self._clock = [0]
         #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
         self.native = NativeStatus(used=False, reason="not prepared")
-        self._watchdog: Watchdog | None = None
-        #: The step under way, for the watchdog (one store per step in the loop).
-        self._marker = instruments.marker()
         #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
         self.ended_by: EndedBy | None = None
         self._started = _time.perf_counter()
@@ -259,11 +267,11 @@ class Master:
 
         Isolated components time their own steps (their proxy kills a hung child).
         """
-        timeout = self.options.step_timeout
-        local = [due for due, _ in entries if due.name not in self.options.isolate]
-        if timeout is None or not local:
+        if self._watchdog is None:
             return
-        self._watchdog = Watchdog(timeout, self._marker, local, self._abandon)
+        for due, _ in entries:
+            if due.name not in self.options.isolate:
+                self._watchdog.watch(due)
 
     def _wiring(self, component: Component) -> Wiring:
         incoming = self.system.inputs_of(component.name)
@@ -390,10 +398,10 @@ class Master:
         reason: str | None = None
         started = _time.perf_counter()
         try:
+            if self._watchdog is not None:  # loading and initializing are timed too
+                self._watchdog.start()
             self.prepare()
             started = self._started = _time.perf_counter()
-            if self._watchdog is not None:
-                self._watchdog.start()
             self._loop()
         except RunError as exc:
             status, error = RunStatus.FAULT, exc
@@ -401,9 +409,9 @@ class Master:
             status, reason = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = _time.perf_counter() - started
-            if self._watchdog is not None:
-                self._watchdog.stop()
             self._terminate(skip=self._close_lanes())
+            if self._watchdog is not None:  # after terminating, which is timed too
+                self._watchdog.stop()
         n = self._clock[0]
         return RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
@@ -670,19 +678,21 @@ class Master:
         """A step in this process overran the step timeout: write what we have, then exit.
 
         Called on the watchdog's thread while the main thread is stuck in the model; ``work``
-        is the scheduled work (a :class:`Work`) the loop marked before the step.
+        is the scheduled work (a :class:`Work`) the loop marked before the step, or the
+        :class:`~.watchdog.Phase` (loading, initializing, terminating) of one component.
         """
-        assert isinstance(work, Work)
+        assert isinstance(work, Work | Phase)
         label = work.name
         timeout = self.options.step_timeout
+        assert timeout is not None
         error = fault(
             label,
-            f"a step did not return within {timeout:g} s (the step timeout); the component runs "
-            "in fmionnx's own process, so the run was abandoned (`--isolate` runs a model in a "
-            "process of its own, which can be stopped)",
+            f"{overrun_text(work, timeout)}; the component runs in fmionnx's own process, so "
+            "the run was abandoned (`--isolate` runs a model in a process of its own, which "
+            "can be stopped)",
             time=t,
         )
-        busy = self._abandon_concurrent(work) if self._issues else set()
+        busy = self._abandon_concurrent(work) if self._issues and isinstance(work, Work) else set()
         try:
             result = self._partial(RunStatus.FAULT, error)
             if self.options.abandon is not None:

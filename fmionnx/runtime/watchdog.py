@@ -18,6 +18,15 @@ worker kept the other core busy (``Thread.start`` waits until the new thread has
 same reason a run that starts does not wake the thread when it will look soon enough anyway:
 waking it hands it the GIL, and with every core busy the run then waits for the woken thread
 to be scheduled (an eighth of a short case's time on a two-core sweep).
+
+The timeout holds for every phase of a component, not only its steps (docs/security.md):
+:class:`PhaseWatch` wraps the runner factory so that loading a model, instantiating,
+initializing and terminating it are watched too, by the same watchdog, each call marked on
+the run's marker while it runs (two stores per call, none per step). A runner that can be
+stopped from another thread (:class:`~fmionnx.core.runner.Interruptible`: onnxruntime's
+terminate flag) is asked to stop first; the call then raises a fault and the run ends as
+any other faulted run does, in this process. Only native code that cannot be stopped makes
+the run be abandoned.
 """
 
 from __future__ import annotations
@@ -25,14 +34,19 @@ from __future__ import annotations
 import math
 import threading
 import time
-from collections.abc import Callable, Collection
+from collections.abc import Callable, Collection, Mapping
+from typing import Any
 
 from fmionnx.core.processlocal import ProcessLocal
+from fmionnx.core.runner import Interruptible, Runner, RunnerFactory, Wiring
+from fmionnx.core.types import Component
 
 #: How often the watchdog looks, at most (seconds).
 POLL = 0.25
 #: Rounds of :data:`POLL` the watch thread stays awake with nothing to watch.
 IDLE_POLLS = 8
+#: Seconds an interrupted call has to come back (with its fault) before the run is abandoned.
+INTERRUPT_GRACE = 2.0
 
 
 class Marker:
@@ -63,6 +77,9 @@ class Watchdog:
     """Calls ``on_expiry(work, t)`` once when the marked work stays the same too long.
 
     Only the work in ``watched`` is timed (isolated components time their own steps).
+    ``interrupt(work, timeout)``, when given, is tried first: True when the work was asked to
+    stop (:class:`Interrupter`); ``on_expiry`` is then called only if it has not come back
+    within :data:`INTERRUPT_GRACE` seconds.
     """
 
     def __init__(
@@ -71,6 +88,7 @@ class Watchdog:
         marker: Marker,
         watched: Collection[object],
         on_expiry: Callable[[object, float], None],
+        interrupt: Callable[[object, float], bool] | None = None,
     ) -> None:
         self.timeout = timeout
         #: Seconds between looks.
@@ -78,11 +96,19 @@ class Watchdog:
         self._marker = marker
         self._watched = {id(work) for work in watched}
         self._on_expiry = on_expiry
+        self._interrupt = interrupt
         self._seen: tuple[int, float] | None = None
         self._since = 0.0
         #: When this watchdog looks next (monotonic seconds).
         self.due = 0.0
         self._overrun: tuple[object, float] | None = None
+        #: Set by :meth:`stop` (a plain flag, not an Event: an Event's lock and condition
+        #: cost a short sweep case more than the watching itself).
+        self._stopped = False
+
+    def watch(self, work: object) -> None:
+        """Time ``work`` too (a phase made after the watchdog was)."""
+        self._watched.add(id(work))
 
     def start(self) -> None:
         """Start watching, on this process's watch thread (a daemon: it never keeps the
@@ -90,10 +116,12 @@ class Watchdog:
         self._seen = None
         self._since = time.monotonic()
         self.due = self._since + self.interval
+        self._stopped = False
         _watcher().add(self)
 
     def stop(self) -> None:
         """Stop watching: :meth:`look` is not called again once this returns."""
+        self._stopped = True  # first: a fire that re-adds this watchdog sees it (see fire)
         _watcher().discard(self)
 
     def look(self, now: float) -> bool:
@@ -109,9 +137,130 @@ class Watchdog:
         return False
 
     def fire(self) -> None:
-        """Report the overrun :meth:`look` saw (the master's handler ends the process)."""
+        """Stop the overrun :meth:`look` saw, or report it (the master's handler then ends
+        the process)."""
         assert self._overrun is not None
-        self._on_expiry(*self._overrun)
+        work, t = self._overrun
+        interrupted = self._interrupt is not None and self._interrupt(work, self.timeout)
+        if interrupted and self._came_back(work, t):
+            # The run goes on (its work raised a fault, which it is handling): watch on,
+            # unless the watching was stopped meanwhile (checked after adding, so that a
+            # stop between the two cannot leave this watchdog watching).
+            _watcher().add(self)
+            if self._stopped:
+                _watcher().discard(self)
+            return
+        self._on_expiry(work, t)
+
+    def _came_back(self, work: object, t: float) -> bool:
+        """Whether the interrupted work ended (the marker moved on, or the watching was
+        stopped: the run is ending with the fault) within :data:`INTERRUPT_GRACE`."""
+        deadline = time.monotonic() + INTERRUPT_GRACE
+        while time.monotonic() < deadline:
+            if self._stopped or self._marker.work is not work or self._marker.t != t:
+                return True
+            time.sleep(0.01)
+        return False
+
+
+class Phase:
+    """One component's call outside the loop: loading, instantiating, initializing or
+    terminating it (what :func:`timed_phases` marks while the call runs)."""
+
+    __slots__ = ("name", "what")
+
+    def __init__(self, name: str, what: str) -> None:
+        #: The component's name.
+        self.name = name
+        #: The call, as the subject of a sentence (``its initialization``).
+        self.what = what
+
+
+#: The runner calls timed besides the steps: (method, what the call is, said of the model).
+PHASES = (
+    ("instantiate", "its loading and instantiation"),
+    ("setup", "its initialization"),
+    ("terminate", "its termination"),
+)
+#: What making the runner is (a kind may load the model there already).
+LOADING = "its loading"
+
+
+def overrun_text(work: object, timeout: float) -> str:
+    """The start of a fault about ``work`` overrunning ``timeout`` (a step or a phase)."""
+    what = work.what if isinstance(work, Phase) else "a step"
+    return f"{what} did not return within {timeout:g} s (the step timeout)"
+
+
+class Interrupter:
+    """``interrupt(work, timeout)`` for a :class:`Watchdog`: asks the runners doing ``work``
+    to stop, when every one of them can (:class:`~fmionnx.core.runner.Interruptible`)."""
+
+    def __init__(self, runners: Mapping[str, Runner]) -> None:
+        self._runners = runners
+
+    def __call__(self, work: object, timeout: float) -> bool:
+        names = tuple(getattr(work, "members", ()) or ()) or (getattr(work, "name", ""),)
+        stoppable: list[Interruptible] = []
+        for name in names:
+            runner: object = self._runners.get(name)
+            if not isinstance(runner, Interruptible):
+                return False
+            stoppable.append(runner)
+        reason = f"{overrun_text(work, timeout)}; it was stopped"
+        for each in stoppable:
+            each.interrupt(reason)
+        return True
+
+
+class PhaseWatch:
+    """Marks the calls of in-process runners outside the loop for the run's watchdog:
+    loading a model (making its runner), ``instantiate``, ``setup`` and ``terminate``.
+
+    :meth:`factory` wraps a runner factory; every call it times stores a :class:`Phase` and
+    the simulated time (``clock()``) on the run's marker and clears the work when the call
+    returns: two stores and no lock, so a sweep's short cases pay next to nothing. The
+    run's watchdog (started before the first of these calls, stopped after the last) then
+    times them as it times steps: interrupted when the runner can be, else reported.
+    """
+
+    def __init__(self, watchdog: Watchdog, marker: Marker, clock: Callable[[], float]) -> None:
+        self._watchdog = watchdog
+        self._marker = marker
+        self._clock = clock
+        #: Every call's phase, kept: the watchdog tells calls apart by their phase's id.
+        self._calls: list[Phase] = []
+
+    def factory(self, make: RunnerFactory) -> RunnerFactory:
+        """``make``, with its runners' loading and life-cycle calls marked."""
+
+        def make_timed(component: Component, wiring: Wiring) -> Runner:
+            name = component.name
+            runner: Runner = self._timed(name, LOADING, make, component, wiring)
+            for method, what in PHASES:
+                call = getattr(runner, method)
+
+                def timed_call(*args: Any, what: str = what, call: Any = call) -> Any:
+                    return self._timed(name, what, call, *args)
+
+                try:
+                    setattr(runner, method, timed_call)
+                except (AttributeError, TypeError):  # a runner with slots: left untimed
+                    continue
+            return runner
+
+        return make_timed
+
+    def _timed(self, name: str, what: str, call: Callable[..., Any], *args: Any) -> Any:
+        phase = Phase(name, what)
+        self._calls.append(phase)
+        self._watchdog.watch(phase)
+        marker = self._marker
+        marker.work, marker.t = phase, self._clock()
+        try:
+            return call(*args)
+        finally:
+            marker.work = None
 
 
 class _Watcher:

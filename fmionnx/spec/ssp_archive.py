@@ -19,10 +19,13 @@ import shutil
 import tempfile
 from pathlib import Path
 
+from fmionnx.core import codes
 from fmionnx.core.archive import safe_extract
 from fmionnx.core.cachedir import cache_folder, evict, touch, work_prefix
+from fmionnx.core.errors import ModelError
 from fmionnx.core.pathnames import remember_archive
-from fmionnx.core.resources import CACHE_BYTES, CACHE_DAYS
+from fmionnx.core.regularfile import regular_size
+from fmionnx.core.resources import CACHE_BYTES, CACHE_DAYS, MODEL_FILE_BYTES
 
 #: Name of the system structure inside an SSP archive (SSP 1.0, section 7).
 SSD_NAME = "SystemStructure.ssd"
@@ -48,6 +51,12 @@ def unpack_ssp(path: Path) -> Path:
     Raises :class:`fmionnx.core.errors.ModelError` (E010/E012/E017) for missing, corrupt or
     hostile archives.
     """
+    # Hashed before anything else: only a regular file (a FIFO or a device never ends, E011).
+    try:
+        regular_size(path, MODEL_FILE_BYTES, f"the archive `{path.name}`")
+    except OSError as exc:
+        msg = f"cannot read `{path}`: {exc.strerror}"
+        raise ModelError(codes.FILE_NOT_FOUND, msg) from None
     folder = cache_root() / file_digest(path)[:24]
     if folder.is_dir():
         touch(folder)

@@ -19,6 +19,7 @@ from lxml import etree
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.errors import ModelError
+from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import SSP_XML_BYTES
 from fmionnx.core.sourcetext import edited_text
 
@@ -90,10 +91,17 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
             hint=SSP_XML_BYTES.hint(),
         )
         return None
+    if data is None:
+        try:  # only a regular file: a FIFO or a device would never end (E011)
+            data = read_regular(path, SSP_XML_BYTES, f"`{path.name}`")
+        except ModelError as exc:
+            bag.emit(exc.code, str(exc), Span(path), hint=exc.hint)
+            return None
+        except OSError as exc:
+            bag.emit(codes.FILE_NOT_FOUND, f"cannot read `{path.name}`: {exc}", Span(path))
+            return None
     try:
-        if data is not None:
-            return etree.ElementTree(etree.fromstring(data, _parser(), base_url=str(path)))
-        return etree.parse(str(path), _parser())
+        return etree.fromstring(data, _parser(), base_url=str(path)).getroottree()
     except etree.XMLSyntaxError as exc:
         line, col = exc.position if exc.position else (1, 0)
         bag.emit(

@@ -65,7 +65,7 @@ def test_a_run_starting_while_the_thread_looks_soon_enough_does_not_wake_it(
     _settle(counted.watcher, time.monotonic())  # idle, waking every POLL by itself
     dog, fired, seen = _stuck(timeout=1.0)  # looks every POLL: not sooner than the thread
     dog.start()
-    assert fired.wait(5), "the overrun was never reported"
+    assert fired.wait(30), "the overrun was never reported"
     assert counted.notified == 0
     assert seen[0][1] == 1.5
 
@@ -77,11 +77,11 @@ def test_an_overrun_sooner_than_the_threads_next_look_wakes_it(
     counted = _Counted(monkeypatch)
     _settle(counted.watcher, float("inf"))
     dog, fired, _ = _stuck(timeout=0.2)
-    began = time.monotonic()
     dog.start()
-    assert fired.wait(5), "a sleeping watch thread was not woken for a new run"
+    # Not woken, the thread would sleep for ever (IDLE_POLLS is 0): firing at all is the proof
+    # (a bound on how soon failed on a loaded machine, where the thread waits for a core).
+    assert fired.wait(30), "a sleeping watch thread was not woken for a new run"
     assert counted.notified == 1
-    assert time.monotonic() - began < 2
 
 
 def test_a_stopped_watchdog_never_fires(monkeypatch: pytest.MonkeyPatch) -> None:

@@ -487,19 +487,21 @@ def mutated_xml(
     seed: bytes,
     max_ops: int = 3,
     ops: Sequence[str] = ("drop", "duplicate", "move", "tag", "attr", "delattr", "text"),
+    extra: Sequence[str] = (),
 ) -> bytes:
     """An XML seed with 1 to ``max_ops`` structural edits, serialised again.
 
     Edits: drop an element, duplicate it, move it under another element, rename its tag (to
     another tag of the seed), set an attribute (existing or another one of the seed) to a drawn
-    value, delete an attribute, set an element's text; ``ops`` chooses among them.
+    value, delete an attribute, set an element's text; ``ops`` chooses among them. ``extra``
+    adds values to the pool attributes are drawn from (a format's own hostile values).
     """
     parser = etree.XMLParser(resolve_entities=False, no_network=True)
     root = etree.fromstring(seed, parser)
     elements = list(root.iter(etree.Element))
     tags = sorted({e.tag for e in elements})
     names = sorted({k for e in elements for k in e.attrib})
-    values = sorted({v for e in elements for v in e.attrib.values()})
+    values = sorted({v for e in elements for v in e.attrib.values()} | set(extra))
     for _ in range(draw(st.integers(1, max_ops))):
         elements = list(root.iter(etree.Element))
         element = draw(st.sampled_from(elements))

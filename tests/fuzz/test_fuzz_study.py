@@ -14,6 +14,7 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
+import pandas as pd
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -21,9 +22,11 @@ from hypothesis import strategies as st
 from fmionnx import api
 from fmionnx.compile.studyir import apply_case
 from fmionnx.pipeline.sweep import plan_study
+from fmionnx.results.study import StudyFolder
+from fmionnx.results.study_plots import write_study_plots
 from tests.conftest import build_fixture_fmu
 from tests.fuzz.harness import check_diagnostics, fuzz_settings, guarded, record, write_input
-from tests.fuzz.mutations import YAML_TOKENS, load_yaml, mutated_bytes, mutated_yaml
+from tests.fuzz.mutations import YAML_TOKENS, dump_yaml, load_yaml, mutated_bytes, mutated_yaml
 
 SYSTEM = """\
 fmionnx: 1
@@ -144,3 +147,60 @@ def test_structure_mutated_study_files_end_in_diagnostics(
     misspelt and duplicated keys, values moved elsewhere."""
     mutated = data.draw(mutated_yaml(DOCUMENTS[seed]), label="study file")
     check_study(write(folder, mutated), mutated)
+
+
+#: Names a metric may be given that the study's table or its plot files may choke on.
+METRIC_NAMES = (
+    "case", "status", "message", "wall_time", "worker", "check: small", "check: x", "gain.k",
+    "integ.x0", "run.stop", "y_end", "Y_END", "y end", "y/end", "../y", "m" * 65, "m" * 400,
+    "é", "\u202e", "1st", "_", "a.b", "a-b", "a:b", "",
+)  # fmt: skip
+
+
+@given(
+    st.sampled_from(sorted(SEEDS)),
+    st.lists(
+        st.one_of(st.sampled_from(METRIC_NAMES), st.text(max_size=70)), min_size=1, max_size=3
+    ),
+)
+@fuzz_settings(60)
+def test_metric_names_end_in_diagnostics_or_a_table_that_can_be_written(
+    folder: Path, seed: str, names: list[str]
+) -> None:
+    """A study whose metrics get any names either is refused when it is compiled, or its
+    table (parquet and CSV, one column per metric) and its plots (a file per metric) can be
+    written: what was lost after every case had run (issue #38)."""
+    document = load_yaml(SEEDS[seed])
+    document["metrics"] = dict.fromkeys(names, "final(gain.y)")
+    document.pop("objective", None)
+    text = dump_yaml(document)
+    path = write(folder, text)
+    result = guarded("check_study", text, lambda: api.check_study(path))
+    check_diagnostics(result, text)
+    if not result.ok:
+        return
+    plan, _ = guarded("plan_study", text, lambda: plan_study(path))
+    out = folder / "table"
+    shutil.rmtree(out, ignore_errors=True)
+    out.mkdir()
+
+    def write_results() -> None:
+        results = StudyFolder(out, plan)
+        empty = results.table()
+        rows = [
+            [case.id, *(_plain_cell(s.value) for s in case.settings)]
+            + [float(i) for i in range(len(plan.metrics))]
+            + [True] * len(plan.check_names)
+            + ["ok", "", 0.0, ""]
+            for case in plan.cases[:2]
+        ]
+        table = pd.DataFrame(rows, columns=empty.columns)
+        results.write_table(table)
+        write_study_plots(table, plan, out)
+
+    guarded("write the table and plots", text, write_results)
+    record("table written")
+
+
+def _plain_cell(value: object) -> object:
+    return list(value) if isinstance(value, tuple) else value

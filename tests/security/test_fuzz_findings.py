@@ -179,3 +179,42 @@ def test_a_model_path_of_no_users_home_is_not_found(tmp_path: Path) -> None:
     result = api.compile_system(system)
     [problem] = [d for d in result.diagnostics if d.code == "E010"]
     assert problem.message.endswith("/~no-such-user-here/Gain.fmu` does not exist")
+
+
+def test_a_scene_whose_arena_is_too_small_is_a_fault_naming_it(tmp_path: Path) -> None:
+    # found by fuzzing scenes (issue 38): `<size memory="11650"/>` compiles, then MuJoCo's
+    # first forward pass raised mujoco.FatalError out of the run (a traceback).
+    (tmp_path / "scene.xml").write_text(
+        '<mujoco><size memory="11650"/><asset><hfield name="ground" nrow="8" ncol="8" '
+        'size="1 1 0.1 0.1"/></asset><worldbody><geom type="hfield" hfield="ground"/>'
+        '<replicate count="3" offset="0.3 0 0"><body pos="0 0 0.5"><joint type="hinge"/>'
+        '<geom size="0.05"/></body></replicate>'
+        '<flexcomp name="cloth" type="grid" count="2 2 1" spacing="0.1 0.1 0.1" dim="2" '
+        'pos="1 1 1"/><body pos="0 0 1"><freejoint/><geom size="0.1"/></body>'
+        "</worldbody></mujoco>",
+        "utf-8",
+    )
+    system = tmp_path / "system.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: tiny\nrun: {stop: 0.01, step: 0.002}\n"
+        "components:\n  world: {kind: mujoco, path: scene.xml}\n",
+        "utf-8",
+    )
+    result = fmionnx.load(system).run()
+    assert result.status.value == "fault"
+    assert result.error is not None
+    assert "MuJoCo stopped: mj_stackAlloc: out of memory" in str(result.error)
+    assert "raise the scene's `<size memory>`" in str(result.error)
+
+
+def test_a_scene_memory_of_thousands_of_digits_is_e008(tmp_path: Path) -> None:
+    # found by fuzzing scenes (issue 38): Python refuses to read an integer of more than 4300
+    # digits (a ValueError, a traceback)
+    path = tmp_path / "scene.xml"
+    path.write_text(
+        f'<mujoco><size memory="1{"0" * 5000}"/><worldbody><geom size="1"/></worldbody></mujoco>',
+        "utf-8",
+    )
+    result = api.check_model(path)
+    (error,) = [d for d in result.diagnostics if d.code == "E008"]
+    assert "takes the scene's memory to" in error.message

@@ -21,6 +21,8 @@ from pathlib import Path
 from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.modelfiles import ModelFile, ShippingError, model_file_alone, regular_file
+from fmionnx.core.regularfile import read_regular
+from fmionnx.core.resources import MODEL_FILE_BYTES
 from fmionnx.core.xmlsafe import parse_safely
 
 #: ``<compiler>`` attributes that are folders the ``file`` attributes are joined to.
@@ -80,8 +82,8 @@ def _read(scene: Path) -> _Reading:
         if len(seen) > MAX_INCLUDES:
             msg = f"`{scene.name}` includes more than {MAX_INCLUDES} files"
             raise ModelError(codes.UNSAFE_ARCHIVE, msg)
-        try:
-            data = current.read_bytes()
+        try:  # a FIFO or a device as an include would never end (E011)
+            data = read_regular(current, MODEL_FILE_BYTES, f"the scene file `{current.name}`")
         except OSError:
             reading.whole = False
             return reading  # MuJoCo reports the missing or unreadable file with its own message

@@ -16,9 +16,13 @@ from typing import Any
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
+from fmionnx.core.regularfile import regular_size
+from fmionnx.core.resources import MODEL_FILE_BYTES
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.core.units import builtin_unit
+from fmionnx.kinds.mujoco.budget import check_compiled_memory, check_scene_budget
 from fmionnx.kinds.mujoco.files import check_scene_files, scene_files
+from fmionnx.kinds.mujoco.library import mujoco_module
 
 #: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case); every
 #: name is a built-in unit (:data:`fmionnx.core.units.BUILTIN_UNITS`), so it has a definition.
@@ -72,11 +76,8 @@ def load_model(path: Path) -> tuple[Any, str]:
     stat = path.stat()
     key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
     if key not in _MODELS:
-        import mujoco
-
-        if path.suffix != ".mjb":
-            check_scene_files(path)  # before MuJoCo reads anything the scene names
-
+        mujoco = mujoco_module()
+        check_scene_before_loading(path)
         try:
             if path.suffix == ".mjb":
                 model = mujoco.MjModel.from_binary_path(str(path))
@@ -86,8 +87,20 @@ def load_model(path: Path) -> tuple[Any, str]:
             text = " ".join(str(exc).split())
             msg = f"`{path}` is not a valid MuJoCo scene: {text}"
             raise ModelError(codes.BAD_MODEL, msg) from None
+        check_compiled_memory(model, path)
         _MODELS[key] = (model, _compiled_digest(model, path))
     return _MODELS[key]
+
+
+def check_scene_before_loading(path: Path) -> None:
+    """Everything checked before MuJoCo reads the scene at ``path``: the files it names stay
+    in its folder (E017) and are regular files, and what it would cost is bounded (E008,
+    E011; :mod:`.budget`). A compiled ``.mjb`` is bounded by its file's size."""
+    if path.suffix == ".mjb":
+        regular_size(path, MODEL_FILE_BYTES, f"the MuJoCo model `{path.name}`")
+        return
+    check_scene_files(path)  # before anything the scene names is read
+    check_scene_budget(path)
 
 
 def _compiled_digest(model: Any, path: Path) -> str:

@@ -15,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.types import Causality, Component, is_whole_multiple
 from fmionnx.kinds.mujoco.gl import choose_gl
@@ -49,10 +50,20 @@ class MujocoRunner:
                 choose_gl(self.config.gl)
             except RuntimeError as exc:
                 raise fault(self.component.name, str(exc), time=0.0) from None
-        import mujoco
+        from fmionnx.core.errors import ModelError
+        from fmionnx.kinds.mujoco.budget import check_compiled_memory
+        from fmionnx.kinds.mujoco.interface import check_scene_before_loading
+        from fmionnx.kinds.mujoco.library import mujoco_module
 
+        mujoco = mujoco_module()
         self._mj = mujoco
         path = str(self.component.path)
+        try:  # the file may have changed since it was compiled
+            check_scene_before_loading(self.component.path)
+        except (ModelError, OSError) as exc:
+            hint = f" ({exc.hint})" if isinstance(exc, ModelError) and exc.hint else ""
+            msg = f"cannot load the scene: {exc}{hint}"
+            raise fault(self.component.name, msg, time=0.0) from None
         try:
             if path.endswith(".mjb"):
                 self._model = mujoco.MjModel.from_binary_path(path)
@@ -68,6 +79,10 @@ class MujocoRunner:
             except KeyError as exc:
                 msg = f"the scene has no value {exc} any more (it changed since compiling)"
                 raise fault(self.component.name, msg, time=0.0) from None
+        try:
+            check_compiled_memory(self._model, self.component.path)
+        except ModelError as exc:
+            raise fault(self.component.name, f"{exc} ({exc.hint})", time=0.0) from None
         self._data = mujoco.MjData(self._model)
 
     def setup(self, start: float, stop: float) -> None:
@@ -116,8 +131,18 @@ class MujocoRunner:
             adr, dim = int(model.sensor_adr[sensor]), int(model.sensor_dim[sensor])
             self._outputs[port.name] = data.sensordata[adr : adr + dim]
         self._apply_ctrl()
-        mj.mj_forward(model, data)
+        try:
+            mj.mj_forward(model, data)
+        except mj.FatalError as exc:
+            raise self._stopped(exc, start) from None
         self._warnings = self._warning_count()
+
+    def _stopped(self, error: Exception, t: float) -> RunError:
+        """The fault of a MuJoCo call that stopped with a fatal error (its arena too small
+        for the model: ``<size memory>``; found by fuzzing: it was a traceback)."""
+        text = " ".join(str(error).split())
+        hint = " (raise the scene's `<size memory>`)" if "out of memory" in text else ""
+        return fault(self.component.name, f"MuJoCo stopped: {text}{hint}", time=t)
 
     def _add_camera(self, port: str, start: float) -> None:
         mj, model = self._mj, self._model
@@ -164,14 +189,17 @@ class MujocoRunner:
         """``k`` physics steps with the held controls; then check the state is sane."""
         mj, model, data = self._mj, self._model, self._data
         self._apply_ctrl()
-        if self._split:
-            for _ in range(self._substeps):
-                mj.mj_step2(model, data)
-                mj.mj_step1(model, data)
-        else:
-            for _ in range(self._substeps):
-                mj.mj_step(model, data)
-            mj.mj_forward(model, data)
+        try:
+            if self._split:
+                for _ in range(self._substeps):
+                    mj.mj_step2(model, data)
+                    mj.mj_step1(model, data)
+            else:
+                for _ in range(self._substeps):
+                    mj.mj_step(model, data)
+                mj.mj_forward(model, data)
+        except mj.FatalError as exc:
+            raise self._stopped(exc, t) from None
         count = self._warning_count()
         if count != self._warnings or not np.isfinite(data.qpos).all():
             self._warnings = count

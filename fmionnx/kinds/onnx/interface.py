@@ -15,10 +15,12 @@ from typing import Any
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.errors import ModelError
-from fmionnx.core.resources import ARRAY_ELEMENTS
+from fmionnx.core.regularfile import read_regular
+from fmionnx.core.resources import ARRAY_ELEMENTS, MODEL_FILE_BYTES
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.onnx.external import check_external_data
+from fmionnx.kinds.onnx.sizes import check_model_sizes
 
 #: ONNX ``TensorProto.DataType`` numbers -> fmionnx dtypes.
 _DTYPES = {
@@ -51,13 +53,14 @@ def read_onnx_interface(path: Path) -> ComponentInterface:
 def load_checked_model(path: Path) -> tuple[Any, bytes]:
     """The ``onnx.ModelProto`` at ``path`` and its bytes, external data checked (not loaded).
 
-    Raises ModelError: E012 not a model, E017 external data outside the model's folder.
+    Raises ModelError: E012 not a model, E017 external data outside the model's folder, E011
+    a model file that is not a regular file, E008 one too large.
     """
     import onnx
     from google.protobuf.message import DecodeError
 
     try:
-        data = path.read_bytes()
+        data = read_regular(path, MODEL_FILE_BYTES, f"the ONNX model `{path.name}`")
     except OSError as exc:
         msg = f"cannot read `{path}`: {exc.strerror}"
         raise ModelError(codes.FILE_NOT_FOUND, msg) from None
@@ -81,6 +84,7 @@ def _read(path: Path) -> ComponentInterface:
     input_names = tuple(v.name for v in inputs)
     ports = [_port(v, Causality.INPUT, path, None) for v in inputs]
     ports += [_port(v, Causality.OUTPUT, path, input_names) for v in graph.output]
+    check_model_sizes(model, path)  # what it stores and computes (E008, E011)
     opset = next((o.version for o in model.opset_import if o.domain in ("", "ai.onnx")), 0)
     facts = [
         ("irVersion", str(model.ir_version)),

@@ -9,6 +9,7 @@ the connection determines. Outputs are copied into flat buffers after each run.
 from __future__ import annotations
 
 import math
+import re
 from typing import Any
 
 import numpy as np
@@ -41,6 +42,23 @@ def concrete_shape(port: Port, size: int | None) -> tuple[int, ...]:
     return tuple(shape)
 
 
+#: How onnxruntime's arena refuses an allocation beyond its ceiling (bfc_arena.cc).
+_CEILING = re.compile(r"Available memory of (\d+) is smaller than requested bytes of (\d+)")
+
+
+def _over_the_ceiling(text: str) -> str | None:
+    """The fault of a run refused by the capped arena (:mod:`.ortsetup`), else None."""
+    matched = _CEILING.search(text)
+    if matched is None:
+        return None
+    from fmionnx.core.resources import ONNX_BYTES
+
+    return (
+        f"the model needs a tensor of {matched.group(2)} bytes, more than onnxruntime may "
+        f"allocate ({ONNX_BYTES.hint()})"
+    )
+
+
 class OnnxRunner:
     """Runs an ONNX model once per step of its component."""
 
@@ -58,12 +76,17 @@ class OnnxRunner:
         self._outputs: dict[str, Buffer] = {}
         self._names: list[str] = []
         self._saved: OutputCopies | None = None
+        #: The options of every run: their terminate flag stops a run from another thread.
+        self._run_options: Any = None
+        #: Why the run was stopped (see :meth:`interrupt`), once it was.
+        self._stopped: str | None = None
 
     def instantiate(self) -> None:
         """Create the onnxruntime session with the spec's providers and thread count.
 
-        The model's external data is checked again first (E017): the file may have changed
-        since it was compiled, and onnxruntime opens whatever its locations name.
+        The model's external data is checked again first (E017), and the sizes of what it
+        stores and computes (E008, :mod:`.sizes`): the file may have changed since it was
+        compiled, and onnxruntime opens whatever its locations name.
 
         Graph optimisation stops at ``ORT_ENABLE_EXTENDED`` (constant folding, Conv+activation
         and other fusions) instead of onnxruntime's default ``ORT_ENABLE_ALL``, whose extra
@@ -71,15 +94,16 @@ class OnnxRunner:
         such as the reference sign detector the reorders it inserts made a run several times
         slower (docs/performance.md, "Sign detector and camera rendering").
         """
-        import onnxruntime as ort
-
         from fmionnx.kinds.onnx.interface import load_checked_model
+        from fmionnx.kinds.onnx.ortsetup import onnxruntime_module, session_options
+        from fmionnx.kinds.onnx.sizes import check_model_sizes
 
-        load_checked_model(self.component.path)
-
+        model, _ = load_checked_model(self.component.path)
+        check_model_sizes(model, self.component.path)  # it may have changed since compiling
+        ort = onnxruntime_module()
         config = self.component.config
         assert isinstance(config, OnnxConfig)
-        options = ort.SessionOptions()
+        options = session_options(ort)
         threads = config.threads if config.threads is not None else _default_threads[0]
         if threads is not None:
             options.intra_op_num_threads = threads
@@ -87,6 +111,9 @@ class OnnxRunner:
         options.log_severity_level = 3
         options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_EXTENDED
         providers = list(config.providers)
+        self._run_options = ort.RunOptions()
+        # Errors come back as exceptions (and become faults); a stopped run is not logged.
+        self._run_options.log_severity_level = 4
         try:
             self._session = ort.InferenceSession(
                 str(self.component.path), sess_options=options, providers=providers
@@ -129,10 +156,24 @@ class OnnxRunner:
         """Flat copy of the newest value of output ``port``."""
         return self._outputs[port]
 
+    def interrupt(self, reason: str) -> None:
+        """Stop the run under way from another thread (the step-timeout watchdog): it raises
+        a fault saying ``reason``. onnxruntime looks at the flag before each node and each
+        iteration of a ``Loop``, so a model that never ends is stopped; one kernel that runs
+        for ever is not (the watchdog then abandons the run)."""
+        self._stopped = reason
+        if self._run_options is not None:
+            self._run_options.terminate = True
+
     def _run(self, t: float) -> list[Any]:
         try:
-            results: list[Any] = self._session.run(self._names, self._feeds)
+            results: list[Any] = self._session.run(self._names, self._feeds, self._run_options)
         except Exception as exc:
+            if self._stopped is not None:
+                raise fault(self.component.name, self._stopped, time=t) from None
+            over = _over_the_ceiling(str(exc))
+            if over is not None:
+                raise fault(self.component.name, over, time=t) from None
             text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise fault(self.component.name, f"onnxruntime failed: {text}", time=t) from None
         return results

@@ -23,7 +23,21 @@ def validate_onnx_model(path: Path) -> tuple[KindProblem, ...]:
     import onnx
     from onnx.checker import ValidationError
 
-    model = onnx.load_model_from_string(path.read_bytes())
+    from fmionnx.core.errors import ModelError
+    from fmionnx.core.regularfile import read_regular
+    from fmionnx.core.resources import MODEL_FILE_BYTES
+
+    # The interface was read first (and refused a special or oversized file); read the same
+    # way again, since the file may have been swapped meanwhile.
+    try:
+        data = read_regular(path, MODEL_FILE_BYTES, f"the ONNX model `{path.name}`")
+    except ModelError as exc:
+        return (KindProblem(exc.code, str(exc), "path", exc.hint),)
+    except OSError as exc:
+        return (
+            KindProblem(codes.FILE_NOT_FOUND, f"cannot read `{path.name}`: {exc.strerror}", "path"),
+        )
+    model = onnx.load_model_from_string(data)
     try:
         onnx.checker.check_model(model)
     except ValidationError as exc:

@@ -14,6 +14,8 @@ from pathlib import Path
 
 from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
+from fmionnx.core.regularfile import read_regular
+from fmionnx.core.resources import MODEL_FILE_BYTES
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.kinds.cache import sha256_file
 from fmionnx.kinds.signal.spec import NAME, PORT_NAME
@@ -82,8 +84,8 @@ def read_table(path: Path) -> Table:
         msg = f"`{path}` is not a file"
         raise ModelError(codes.NOT_A_FILE, msg)
     file = path.name
-    try:
-        text = path.read_text(encoding="utf-8-sig")
+    try:  # a regular file of bounded size, even if swapped since the look above
+        text = read_regular(path, MODEL_FILE_BYTES, f"`{file}`").decode("utf-8-sig")
     except UnicodeDecodeError:
         msg = f"`{file}` is not UTF-8 text"
         raise ModelError(codes.BAD_MODEL, msg) from None

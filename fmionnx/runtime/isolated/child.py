@@ -61,7 +61,10 @@ def _serve(argv: list[str]) -> int:
             missing = [str(exc)]
         if missing:
             refusal = "this system cannot confine the model: it lacks " + "; ".join(missing)
+    from fmionnx.runtime.isolated.limits import limit_address_space
     from fmionnx.runtime.isolated.server import Child
+
+    limit_address_space()  # before the model is loaded (after the sandbox's namespaces)
 
     Child(commands, replies, shared, refusal, spin=spin).serve()
     return 0

@@ -37,6 +37,7 @@ from fmionnx.core.types import Component
 from fmionnx.runtime.isolated import channel, launcher
 from fmionnx.runtime.isolated.channel import Control
 from fmionnx.runtime.isolated.launcher import ChildProcess
+from fmionnx.runtime.isolated.limits import memory_note
 from fmionnx.runtime.parallel import on_lane
 
 #: Seconds a child gets to terminate its model and exit before it is killed.
@@ -322,7 +323,8 @@ class IsolatedRunner:
             how = "ended its process"
         raise fault(
             self.component.name,
-            f"the model {how} in {self._phase_label()} (it ran isolated in its own process)",
+            f"the model {how} in {self._phase_label()} (it ran isolated in its own process"
+            f"{memory_note()})",
             time=self._time_of_phase(t, h),
         )
 

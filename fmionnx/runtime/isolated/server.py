@@ -14,6 +14,7 @@ from fmionnx.core.runner import Buffer, Runner, StateSaving
 from fmionnx.core.types import Causality
 from fmionnx.runtime.isolated import channel
 from fmionnx.runtime.isolated.channel import Control, Layout, Slot
+from fmionnx.runtime.isolated.limits import memory_note
 
 Phase = tuple[str, Callable[[float, float], None]]
 
@@ -78,6 +79,8 @@ class Child:
                 self._replied()
             except Exception as exc:
                 detail = f"{type(exc).__name__}: {exc}"
+                if isinstance(exc, MemoryError):  # perhaps the process's memory limit
+                    detail += memory_note()
                 channel.reply(self.replies, channel.ERROR, [detail, None, None])
                 self._replied()
 

@@ -1,0 +1,90 @@
+"""Read a file only when it is a regular file of bounded size.
+
+Every file fmionnx reads may have been named by someone else: a scene's include, a compiled
+system from another host, a resource of an SSP, an ONNX model's external data. A name can
+point at a FIFO (``open`` waits for ever for a writer, and Ctrl-C does not help while it
+waits in the kernel), at ``/dev/zero`` or ``/dev/urandom`` (a read never ends), or at a
+device whose opening has effects of its own. So a file is looked at before it is opened
+(``stat``, links followed: a link to a device is refused like the device), opened without
+waiting (``O_NONBLOCK``), looked at again through the open descriptor (the name may have been
+swapped meanwhile) and read up to its limit and not a byte further.
+
+Refusals are :class:`~fmionnx.core.errors.ModelError`: E011 for a file that is not a regular
+file, E008 for one larger than its limit. A missing or unreadable file raises ``OSError`` as
+``open`` does, for the caller to report in its own words.
+"""
+
+from __future__ import annotations
+
+import os
+import stat
+from pathlib import Path
+
+from fmionnx.core import codes
+from fmionnx.core.errors import ModelError
+from fmionnx.core.resources import ResourceLimit
+
+
+def _kind(mode: int) -> str:
+    if stat.S_ISDIR(mode):
+        return "a directory"
+    if stat.S_ISFIFO(mode):
+        return "a FIFO (named pipe)"
+    if stat.S_ISCHR(mode) or stat.S_ISBLK(mode):
+        return "a device"
+    if stat.S_ISSOCK(mode):
+        return "a socket"
+    return "a special file"
+
+
+def _refused(what: str, mode: int) -> ModelError:
+    msg = f"{what} is {_kind(mode)}, not a regular file"
+    return ModelError(
+        codes.NOT_A_FILE,
+        msg,
+        hint="fmionnx reads only regular files (a FIFO or a device would never end or never start)",
+    )
+
+
+def _too_large(what: str, size: int, limit: ResourceLimit) -> ModelError:
+    return limit.exceeded(f"{what} is {size} bytes, more than {limit.value()}")
+
+
+def regular_size(path: Path, limit: ResourceLimit, what: str) -> int:
+    """The size of ``path`` (links followed) when it is a regular file within ``limit``.
+
+    ``what`` names the file in messages, as the subject of a sentence (``the include
+    `parts.xml```). Raises ModelError (E011, E008) or OSError (missing, unreadable).
+    """
+    info = path.stat()
+    if not stat.S_ISREG(info.st_mode):
+        raise _refused(what, info.st_mode)
+    if info.st_size > limit.value():
+        raise _too_large(what, info.st_size, limit)
+    return info.st_size
+
+
+def read_regular(path: Path, limit: ResourceLimit, what: str) -> bytes:
+    """The bytes of ``path`` when it is a regular file of at most ``limit`` bytes.
+
+    Checked before it is opened and again through the open descriptor; never more than the
+    limit is read, even from a file that grows meanwhile. Raises ModelError (E011, E008) or
+    OSError (missing, unreadable).
+    """
+    regular_size(path, limit, what)
+    largest = limit.value()
+    handle = os.open(path, os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC)
+    try:
+        info = os.fstat(handle)
+        if not stat.S_ISREG(info.st_mode):  # swapped for a special file since the stat
+            raise _refused(what, info.st_mode)
+        chunks: list[bytes] = []
+        size = 0
+        while chunk := os.read(handle, min(1 << 20, largest + 1 - size)):
+            chunks.append(chunk)
+            size += len(chunk)
+            if size > largest:
+                raise _too_large(what, size, limit)
+        return b"".join(chunks)
+    finally:
+        os.close(handle)
