@@ -79,7 +79,7 @@ schema: $(DEMO_STAMP)
 	$(VENV)/bin/fmionnx schema --study -o schemas/study.schema.json
 
 test: $(TEST_STAMP) models lint examples
-	$(VENV)/bin/pytest -q -p no:cacheprovider
+	$(VENV)/bin/pytest -q -p no:cacheprovider --durations=30
 
 bench: $(TEST_STAMP) models
 	$(PY) benchmarks/run.py
