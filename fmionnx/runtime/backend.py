@@ -118,6 +118,8 @@ class RunContext:
 
     #: Camera frames and signals go to a recording (``--record``).
     recording: bool = False
+    #: Camera frames and signals go to a live view while the run goes (``--view``, ``--rrd``).
+    viewing: bool = False
 
 
 class Backend(abc.ABC):

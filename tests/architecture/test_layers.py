@@ -28,6 +28,7 @@ LAYER_OF = {
     "backends": "backends",
     "pipeline": "pipeline",
     "results": "pipeline",
+    "views": "pipeline",  # live views: observers of the pipeline (Rerun, Foxglove)
     "api": "surface",
     "cli": "surface",
     "export": "surface",

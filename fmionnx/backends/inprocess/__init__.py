@@ -7,7 +7,7 @@ how steps are scheduled (``schedule``) and whether they are paced to the wall cl
 
 - a system whose only component is one FMU runs under the **guardian** (the whole run in one
   forked child, about as fast as in-process), when a fork is safe here: Linux, no
-  ``sandbox``, no recording, and no other Python thread in this process (a thread holding a
+  ``sandbox``, no recording or live view, and no other Python thread in this process (a thread holding a
   lock at the fork would leave it held in the child for good: a notebook, a program with
   threads of its own);
 - anything else runs every FMU in a process of its own (``fmus``): with several components
@@ -157,7 +157,8 @@ class InProcessBackend(Backend):
 
         assert isinstance(options, InProcessOptions)
         if options.isolate is None:
-            word = default_isolation(system, sandbox=options.sandbox, recording=context.recording)
+            watched = context.recording or context.viewing  # frames leave the loop's process
+            word = default_isolation(system, sandbox=options.sandbox, recording=watched)
             options = dataclasses.replace(options, isolate=(word,), isolate_default=True)
         chosen, unknown = isolation_targets(system, _component_words(options))
         if unknown:
@@ -181,6 +182,12 @@ class InProcessBackend(Backend):
                 msg = (
                     "--isolate guardian does not combine with --record (the frames would be "
                     "recorded in the guarded process); isolate components by name instead"
+                )
+                raise OptionsError(msg)
+            if context.viewing:
+                msg = (
+                    "--isolate guardian does not combine with --view or --rrd (the frames and "
+                    "rows would stay in the guarded process); isolate components by name instead"
                 )
                 raise OptionsError(msg)
         return options
