@@ -52,6 +52,7 @@ def print_statistics(console: Console, statistics: Mapping[str, Detail]) -> None
         left = column == "component"
         table.add_column(column, justify="left" if left else "right", no_wrap=left)
     components = statistics.get("components")
+    inferring = False
     for name, entry in components.items() if isinstance(components, dict) else ():
         if not isinstance(entry, dict):
             continue
@@ -59,6 +60,7 @@ def print_statistics(console: Console, statistics: Mapping[str, Detail]) -> None
         phases = phases if isinstance(phases, dict) else {}
         step = phases.get("step", phases.get("infer"))
         label = name if "infer" not in phases else f"{name}*"
+        inferring = inferring or "infer" in phases
         share = entry.get("share")
         table.add_row(
             label, f"{share:.1%}" if isinstance(share, float) else "",
@@ -72,7 +74,7 @@ def print_statistics(console: Console, statistics: Mapping[str, Detail]) -> None
         rest = ", ".join(f"{k.replace('_', ' ')} {_ms(v)}" for k, v in other.items() if v)
         if rest:
             notes.append(f"outside the components: {rest}")
-    if any(name.endswith("*") for name in (row for row in table.columns[0].cells)):
+    if inferring:
         notes.append("* its step is an inference (infer)")
     if statistics.get("concurrent"):
         notes.append("steps ran on worker threads too: shares can add up to more than 100 %")
