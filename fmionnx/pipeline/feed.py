@@ -1,6 +1,7 @@
 """The live feed: what a run hands its live views while it goes (frames and recorded rows).
 
-A view (:mod:`fmionnx.views`) is an observer that :attr:`~.observers.RunObserver.wants_feed`.
+A view (:mod:`fmionnx.pipeline.views`) is an observer that
+:attr:`~.observers.RunObserver.wants_feed`.
 The pipeline then gives the master a recorder of its own making (through the master's
 injection point, :class:`~fmionnx.runtime.instruments.Instruments`) and a frame sink, and
 adds a :class:`Feeder` to the run's observers: riding on the loop's progress call, it reads

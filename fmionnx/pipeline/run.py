@@ -196,7 +196,7 @@ def _views(request: RunRequest) -> list[RunObserver]:
     missing one is refused before anything is compiled."""
     if not request.watch.live:
         return []
-    from fmionnx.views import ViewUnavailableError, make_views
+    from fmionnx.pipeline.views import ViewUnavailableError, make_views
 
     try:
         return make_views(request.watch.views, request.watch.rrd)

@@ -28,7 +28,6 @@ LAYER_OF = {
     "backends": "backends",
     "pipeline": "pipeline",
     "results": "pipeline",
-    "views": "pipeline",  # live views: observers of the pipeline (Rerun, Foxglove)
     "api": "surface",
     "cli": "surface",
     "export": "surface",

@@ -19,8 +19,8 @@ from typing import TYPE_CHECKING, Any
 import foxglove
 
 from fmionnx.pipeline.observers import Rows, RunObserver, RunStart
+from fmionnx.pipeline.views.course import Course
 from fmionnx.results import channels as ch
-from fmionnx.views.course import Course
 
 if TYPE_CHECKING:
     from fmionnx.compile.ir import CompiledSystem

@@ -41,13 +41,13 @@ def make_views(targets: Sequence[ViewTarget], rrd: Path | None) -> list[RunObser
     rerun = [t for t in targets if t.kind == "rerun"]
     if rerun or rrd is not None:
         _require("rerun", "rerun-sdk", "--rrd" if not rerun else "--view rerun")
-        from fmionnx.views.rerun_view import RerunView
+        from fmionnx.pipeline.views.rerun_view import RerunView
 
         views.append(RerunView(rerun[0] if rerun else None, rrd))
     for target in targets:
         if target.kind == "foxglove":
             _require("foxglove", "foxglove-sdk", "--view foxglove")
-            from fmionnx.views.foxglove_view import FoxgloveView
+            from fmionnx.pipeline.views.foxglove_view import FoxgloveView
 
             views.append(FoxgloveView(target.port))
     return views

@@ -38,9 +38,9 @@ import rerun as rr
 import rerun.blueprint as rrb
 
 from fmionnx.pipeline.observers import Rows, RunObserver, RunStart
+from fmionnx.pipeline.views.course import Course
 from fmionnx.pipeline.viewspec import RERUN_PORT, ViewTarget
 from fmionnx.results.channels import graph_of
-from fmionnx.views.course import Course
 
 if TYPE_CHECKING:
     from fmionnx.compile.ir import CompiledSystem
