@@ -49,8 +49,10 @@ def print_statistics(console: Console, statistics: Mapping[str, Detail]) -> None
         collapse_padding=True,
     )
     for column in ("component", "share", "steps", "mean", "max", *LOOP_COLUMNS, "setup"):
-        left = column == "component"
-        table.add_column(column, justify="left" if left else "right", no_wrap=left)
+        if column == "component":  # a long name folds; numbers and headers stay whole
+            table.add_column(column, overflow="fold", ratio=1)
+        else:
+            table.add_column(column, justify="right", no_wrap=True, min_width=len(column))
     components = statistics.get("components")
     inferring = False
     for name, entry in components.items() if isinstance(components, dict) else ():
