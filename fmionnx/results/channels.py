@@ -1,6 +1,6 @@
 """The channels a run is shown on: one description for the MCAP recording and Foxglove live.
 
-``--record run.mcap`` (:mod:`.mcap_record`) and ``--view foxglove`` (:mod:`fmionnx.views`)
+``--record run.mcap`` (:mod:`.mcap_record`) and ``--view foxglove`` (:mod:`fmionnx.pipeline.views`)
 publish the same topics, with the same schemas and the same bytes, made here:
 
 ========================  ====================================  ================================
@@ -42,6 +42,7 @@ if TYPE_CHECKING:
     from collections.abc import Mapping, Sequence
 
     from fmionnx.compile.ir import CompiledSystem, Plot
+    from fmionnx.core.types import PortRef
     from fmionnx.runtime.checks import CheckOutcome
 
 #: Signals are thinned to at most this many rows per simulated second.
@@ -282,3 +283,49 @@ def checks_channel() -> ChannelSpec:
 def encode_checks(time: float, outcomes: Sequence[CheckOutcome]) -> bytes:
     """One ``/checks`` message: run.json's entries for ``outcomes``."""
     return _encode({"time": time, "checks": [outcome.as_json() for outcome in outcomes]})
+
+
+def cameras(system: CompiledSystem) -> list[tuple[str, str]]:
+    """(component, port) of each image output that feeds a connection: the frames a run
+    renders."""
+    from fmionnx.core.signals import is_image
+
+    found: dict[tuple[str, str], None] = {}
+    for connection in system.connections:
+        if is_image(connection.src_port):
+            found[(connection.src.component, connection.src.port)] = None
+    return list(found)
+
+
+def recorded_columns(system: CompiledSystem, record: Sequence[PortRef] | None = None) -> list[str]:
+    """The results columns a run of ``system`` records (``record``: the run's own choice),
+    as the master chooses them: images and ports of unknown size left out."""
+    from fmionnx.core.signals import column_names, is_image
+    from fmionnx.runtime.master import default_record, required_refs
+
+    refs = (
+        record
+        if record is not None
+        else (*(system.record or default_record(system)), *required_refs(system))
+    )
+    names: dict[str, None] = {}
+    for ref in refs:
+        port = system.component(ref.component).port(ref.port)
+        if is_image(port) or port.size is None:
+            continue
+        names.update(dict.fromkeys(column_names(ref.component, port, ref.index)))
+    return list(names)
+
+
+def planned(
+    system: CompiledSystem, images: ImageCodec, record: Sequence[PortRef] | None = None
+) -> list[ChannelSpec]:
+    """Every channel a run of ``system`` publishes, known before it starts: a live client
+    that connects early is told of them all at once."""
+    found = [graph_channel(), signals_channel(recorded_columns(system, record))]
+    found += [images.channel(component, port) for component, port in cameras(system)]
+    if map_plot(system) is not None:
+        found += [map_channel(), trajectory_channel()]
+    if system.checks:
+        found.append(checks_channel())
+    return found

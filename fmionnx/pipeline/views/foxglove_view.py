@@ -5,8 +5,10 @@ The channels, their schemas and their bytes are :mod:`fmionnx.results.channels`'
 Foxglove WebSocket) and the same layout shows the live run and, later, its recording. Frames
 go out as they are rendered, rows at most 100 per simulated second as the run hands them on;
 the map and the graph are sent again every :data:`REPEAT` seconds of wall time, for a client
-that connects while the run goes (the protocol keeps no message for late subscribers). The
-server stops when the run has ended and its checks are sent.
+that connects while the run goes (the protocol keeps no message for late subscribers). Every
+channel is made before the server starts (:func:`fmionnx.results.channels.planned`), so a
+client learns of all of them when it connects. The server stops when the run has ended and
+its checks are sent.
 """
 
 from __future__ import annotations
@@ -53,11 +55,13 @@ class FoxgloveView(RunObserver):
         system = start.system.compiled
         self._system = system
         self._context = foxglove.Context()
+        self._images = ch.ImageCodec()
+        for spec in ch.planned(system, self._images, start.system.record):
+            self._channel(spec)  # before the server: a client is told of every channel at once
         self._server = foxglove.start_server(
             name=f"fmionnx {system.name}", host="127.0.0.1", port=self.port,
             context=self._context,
         )  # fmt: skip
-        self._images = ch.ImageCodec()
         self._course = Course(system)
         self._time = system.run.start
         print(f"foxglove: serving ws://127.0.0.1:{self._server.port}", file=sys.stderr, flush=True)
