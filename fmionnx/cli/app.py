@@ -71,8 +71,10 @@ QuietOption = Annotated[bool, typer.Option("--quiet", "-q", help="Print only err
 def fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
     """Print ``error: message`` on stderr and return the Exit to raise (usage error by default)."""
     from rich.console import Console
+    from rich.markup import escape
 
-    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {message}")
+    # escaped: a message may hold brackets (`x[0]`, `.[view]`) that are not markup
+    Console(stderr=True, highlight=False).print(f"[bold red]error:[/] {escape(message)}")
     return typer.Exit(code)
 
 

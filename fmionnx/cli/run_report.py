@@ -12,6 +12,7 @@ import time
 from pathlib import Path
 
 from rich.console import Console
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
 from fmionnx.cli.checks_report import print_checks
@@ -121,7 +122,7 @@ class TerminalReport(RunObserver):
                 print_statistics(self.console, result.statistics)
             self._summary(outcome)
         for warning in result.warnings:  # never silent, even with --quiet: run.json has them too
-            self.console.print(f"[yellow]warning:[/] {warning}", soft_wrap=True)
+            self.console.print(f"[yellow]warning:[/] {escape(warning)}", soft_wrap=True)
         print_checks(self.console, outcome.checks, quiet=self.quiet)
         if result.status is RunStatus.FAULT and result.error is not None:
             self.console.print(f"[bold red]fault:[/] {result.error}")
@@ -157,7 +158,7 @@ class TerminalReport(RunObserver):
         table.add_row("wall time", f"{result.wall_time:.3f} s")
         table.add_row("real-time factor", f"{result.real_time_factor:.2f}x")
         if result.pacing is not None:
-            table.add_row("pacing", pacing_text(result.pacing))
+            table.add_row("pacing", pacing_text(result.pacing))  # escapes the names
         table.add_row("signals", str(len(result.signals)))
         router = result.details.get("zenoh_router")
         if router:
@@ -185,7 +186,7 @@ def pacing_text(pacing: dict[str, Detail]) -> str:
             f"{name} {_seconds(value)}"
             for name, value in (by.items() if isinstance(by, dict) else ())
         )
-        text += f"; longest step {_seconds(worst.get('took'))} at t={worst.get('time')} s: {spent}"
+        text += f"; longest step {_seconds(worst.get('took'))} at t={worst.get('time')} s: {escape(spent)}"
     return text
 
 
