@@ -11,9 +11,9 @@ abandoned at the step timeout ends the process: :meth:`~RunObserver.abandoned` i
 word, after its results are written.
 
 A live view (:mod:`fmionnx.pipeline.views`) also :attr:`~RunObserver.wants_feed`: the run
-then hands it each camera frame as it is rendered (:meth:`~RunObserver.frame`) and the recorded signals
-in batches of rows while it goes (:meth:`~RunObserver.rows`, :mod:`fmionnx.pipeline.feed`);
-a run nobody watches this way records as it always does.
+then hands it each camera frame as it is rendered (:meth:`~RunObserver.frame`) and the
+recorded signals in batches of rows while it goes (:meth:`~RunObserver.rows`,
+:mod:`fmionnx.pipeline.feed`); a run nobody watches this way records as it always does.
 """
 
 from __future__ import annotations

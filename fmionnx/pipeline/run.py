@@ -66,6 +66,7 @@ def execute(
     _check_outputs(request)
     views = _views(request)
     watch = Observers([*views, *observers])  # a view's files are closed before they are named
+    fed = [o for o in (*views, *observers) if o.wants_feed]  # a caller's own view too
     if system is None:
         system = load_request(request)
     watch.loaded(system)
@@ -73,11 +74,9 @@ def execute(
     out = _results_folder(system, request)
     backend = backend_entry(request.backend)()
     recorder = _mcap_recorder(request, backend, system)
-    options = _prepared(
-        backend, system, request, recording=recorder is not None, viewing=bool(views)
-    )
+    options = _prepared(backend, system, request, recording=recorder is not None, viewing=bool(fed))
     ahead = _csv_ahead(system, options, out)
-    feeder = _feeder(system, views)
+    feeder = _feeder(system, fed)
     if feeder is not None:
         watch = Observers([watch, feeder])
     run = _run_options(request, system, options, out, watch, signals)

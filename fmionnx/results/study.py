@@ -5,6 +5,7 @@ Layout of ``DIR``::
     study.json            what was run: the plan's fingerprint, targets, metrics, checks, cases
     records/<case>.json   one per finished case, written atomically as it finishes
     cases/<case>/results.csv   with --keep-results
+    cases/<case>/run.rrd       with --rrd: the case's Rerun recording
     cases.parquet, cases.csv   one row per case (written at the end, from the records)
     *.png                 summary plots
 
@@ -24,7 +25,7 @@ from typing import TYPE_CHECKING, Any
 
 from fmionnx.compile.studyir import StudyPlan
 from fmionnx.core.errors import FmionnxError
-from fmionnx.core.safewrite import atomic_binary, atomic_text
+from fmionnx.core.safewrite import atomic_binary, atomic_text, write_bytes_atomic
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -143,6 +144,10 @@ class StudyFolder:
         either whole or absent."""
         if outcome.signals is not None:
             _write_results(self.out / "cases" / outcome.id / "results.csv", outcome.signals)
+        if outcome.rrd is not None:  # sweep --rrd: the case's recording, made on its worker
+            folder = self.out / "cases" / outcome.id
+            folder.mkdir(parents=True, exist_ok=True)
+            write_bytes_atomic(folder / "run.rrd", outcome.rrd)
         with atomic_text(self.records / f"{outcome.id}.json") as stream:
             json.dump(outcome.as_json(), stream, indent=1, sort_keys=True)
             stream.write("\n")

@@ -35,6 +35,11 @@ def _require(module: str, distribution: str, what: str) -> None:
         raise ViewUnavailableError(msg) from None
 
 
+def require_rerun(option: str) -> None:
+    """Raise :class:`ViewUnavailableError` (naming ``option``) when Rerun is not installed."""
+    _require("rerun", "rerun-sdk", option)
+
+
 def make_views(targets: Sequence[ViewTarget], rrd: Path | None) -> list[RunObserver]:
     """The observers showing a run on ``targets`` (and recording it to ``rrd``)."""
     views: list[RunObserver] = []

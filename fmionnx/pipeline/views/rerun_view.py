@@ -69,9 +69,16 @@ class RerunView(RunObserver):
 
     wants_feed = True
 
-    def __init__(self, target: ViewTarget | None, rrd: Path | None) -> None:
+    def __init__(
+        self, target: ViewTarget | None, rrd: Path | None, *, memory: bool = False
+    ) -> None:
         self.target = target
         self.rrd = rrd
+        #: ``memory``: the recording is kept in memory; :attr:`data` holds its bytes (an
+        #: ``.rrd`` file's) once the run has ended (a study's case, made on a worker).
+        self.memory = memory
+        self.data: bytes | None = None
+        self._buffer: Any = None
         self._partial: Path | None = None
         self._stream: Any = None
         self._course: Course | None = None
@@ -99,7 +106,11 @@ class RerunView(RunObserver):
             os.close(descriptor)
             self._partial = Path(name)
             sinks.append(rr.FileSink(str(self._partial)))
-        stream.set_sinks(*sinks, default_blueprint=self._blueprint(system))
+        if self.memory:
+            self._buffer = rr.binary_stream(recording=stream)
+            stream.send_blueprint(self._blueprint(system))
+        else:
+            stream.set_sinks(*sinks, default_blueprint=self._blueprint(system))
         stream.send_recording_name(system.name)
         self._stream = stream
         self._course = Course(system)
@@ -163,6 +174,9 @@ class RerunView(RunObserver):
         stream, self._stream = self._stream, None
         if stream is None:
             return
+        if self._buffer is not None:
+            self.data = self._buffer.read(flush=True)
+            self._buffer = None
         stream.flush()
         stream.disconnect()
         if self._partial is not None and self.rrd is not None:
