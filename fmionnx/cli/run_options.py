@@ -213,8 +213,8 @@ Isolate = Annotated[
         help="In-process: components whose models run in a process of their own, so a crash or "
         "hang cannot take the run down: `fmus` (every FMU), `all`, `none`, or component names "
         "(repeat the option or separate by commas); `guardian`: the whole run in one guarded "
-        "process instead. Default: `guardian` for a lone FMU (on Linux, without --sandbox or "
-        "--record), else `fmus` (docs/running.md).",
+        "process instead. Default: `guardian` for a lone FMU (on Linux, without --sandbox, "
+        "--record, --view or --rrd), else `fmus` (docs/running.md).",
     ),
 ]
 Sandbox = Annotated[
