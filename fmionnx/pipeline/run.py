@@ -63,8 +63,8 @@ def execute(
 ) -> RunOutcome:
     """Run ``request`` through every stage (module docstring); ``system`` skips loading (a
     system already loaded, ``System.run``); ``signals`` narrows what is recorded."""
+    views = _views(request)  # a missing library or viewer: refused before any folder is made
     _check_outputs(request)
-    views = _views(request)
     watch = Observers([*views, *observers])  # a view's files are closed before they are named
     fed = [o for o in (*views, *observers) if o.wants_feed]  # a caller's own view too
     if system is None:
@@ -195,12 +195,14 @@ def _views(request: RunRequest) -> list[RunObserver]:
     missing one is refused before anything is compiled."""
     if not request.watch.live:
         return []
-    from fmionnx.pipeline.views import ViewUnavailableError, make_views
+    from fmionnx.pipeline.views import ViewerUnreachableError, ViewUnavailableError, make_views
 
     try:
         return make_views(request.watch.views, request.watch.rrd)
     except ViewUnavailableError as exc:
         raise RequestError(str(exc)) from None
+    except ViewerUnreachableError as exc:
+        raise RefusedError(str(exc)) from None
 
 
 def _feeder(system: System, views: list[RunObserver]) -> Feeder | None:

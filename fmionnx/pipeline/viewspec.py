@@ -40,6 +40,8 @@ class ViewTarget:
     url: str | None = None
     #: Foxglove: the WebSocket port (0: any free one).
     port: int = FOXGLOVE_PORT
+    #: The ``--view`` value as given (messages quote it).
+    given: str = ""
 
     def describe(self) -> str:
         """How the run's first lines name it."""
@@ -52,21 +54,21 @@ def parse_view(text: str) -> ViewTarget:
     """One ``--view`` value (module docstring); ViewSpecError when it names no view."""
     word = text.strip()
     if word == "rerun":
-        return ViewTarget("rerun")
+        return ViewTarget("rerun", given=word)
     remote = _REMOTE.match(word)
     if remote is not None:
         port = int(remote["port"])
         if not 0 < port < 65536:
             msg = f"--view `{text}`: the port must be 1..65535"
             raise ViewSpecError(msg)
-        return ViewTarget("rerun", url=f"rerun+http://{remote['host']}:{port}/proxy")
+        return ViewTarget("rerun", url=f"rerun+http://{remote['host']}:{port}/proxy", given=word)
     foxglove = _FOXGLOVE.match(word)
     if foxglove is not None:
         port = FOXGLOVE_PORT if foxglove["port"] is None else int(foxglove["port"])
         if not 0 <= port < 65536:
             msg = f"--view `{text}`: the port must be 0..65535 (0: any free one)"
             raise ViewSpecError(msg)
-        return ViewTarget("foxglove", port=port)
+        return ViewTarget("foxglove", port=port, given=word)
     msg = (
         f"--view takes `rerun`, `rerun+tcp://HOST:PORT`, `foxglove` or `foxglove:PORT`, "
         f"not `{text}`"

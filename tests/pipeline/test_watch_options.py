@@ -9,6 +9,7 @@ refused with one. The MCAP recording carries the channels the live server publis
 from __future__ import annotations
 
 import json
+import socket
 import subprocess
 import sys
 from pathlib import Path
@@ -161,3 +162,39 @@ def test_the_mcap_recording_carries_the_live_channels(tmp_path: Path) -> None:
     assert {n["id"] for n in graph["nodes"]} == {"world", "odometry", "detector", "tracker"}
     checks = json.loads(by_topic["/checks"][0])
     assert [c["name"] for c in checks["checks"]] == ["reaches B", "stops", "stays on the path"]
+
+
+def test_an_unreachable_viewer_is_refused_before_the_run(
+    monkeypatch: pytest.MonkeyPatch, tmp_path: Path
+) -> None:
+    monkeypatch.setattr("fmionnx.pipeline.views.VIEWER_WAIT", 0.5)
+    with socket.socket() as probe:  # a port nothing listens on
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    result = CliRunner().invoke(
+        app,
+        ["run", str(REPO / "systems" / "sign_follower.yaml"), "--out", str(tmp_path / "out"),
+         "--view", f"rerun+tcp://127.0.0.1:{port}"],
+    )  # fmt: skip
+    assert result.exit_code == 1
+    text = " ".join(result.output.split())
+    assert (
+        f"--view rerun+tcp://127.0.0.1:{port}: no Rerun viewer answers at 127.0.0.1:{port}" in text
+    )
+    assert not (tmp_path / "out").exists()  # refused before anything ran
+
+
+def test_a_foxglove_port_in_use_is_refused_with_the_way_out(tmp_path: Path) -> None:
+    with socket.socket() as taken:
+        taken.bind(("127.0.0.1", 0))
+        taken.listen()
+        port = taken.getsockname()[1]
+        result = CliRunner().invoke(
+            app,
+            ["run", str(REPO / "systems" / "sign_follower.yaml"), "--no-out", "--no-checks",
+             "--stop-time", "0.1", "--view", f"foxglove:{port}"],
+        )  # fmt: skip
+    assert result.exit_code == 1
+    text = " ".join(result.output.split())
+    assert f"--view foxglove: cannot serve on 127.0.0.1:{port}" in text
+    assert "choose another port with --view foxglove:PORT (0: any free one)" in text

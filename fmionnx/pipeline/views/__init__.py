@@ -22,7 +22,15 @@ INSTALL_HINT = "pip install -e '.[view]' (from the fmionnx clone; or pip install
 
 
 class ViewUnavailableError(FmionnxError):
-    """A view whose library is not installed."""
+    """A view whose library is not installed (a usage error)."""
+
+
+class ViewerUnreachableError(FmionnxError):
+    """A viewer that cannot be reached or started (the run is refused before it starts)."""
+
+
+#: Seconds a spawned Rerun viewer gets to listen, and a remote one to answer.
+VIEWER_WAIT = 10.0
 
 
 def _require(module: str, distribution: str, what: str) -> None:
@@ -46,8 +54,10 @@ def make_views(targets: Sequence[ViewTarget], rrd: Path | None) -> list[RunObser
     rerun = [t for t in targets if t.kind == "rerun"]
     if rerun or rrd is not None:
         _require("rerun", "rerun-sdk", "--rrd" if not rerun else "--view rerun")
-        from fmionnx.pipeline.views.rerun_view import RerunView
+        from fmionnx.pipeline.views.rerun_view import RerunView, reach_viewer
 
+        if rerun:
+            reach_viewer(rerun[0], VIEWER_WAIT)
         views.append(RerunView(rerun[0] if rerun else None, rrd))
     for target in targets:
         if target.kind == "foxglove":

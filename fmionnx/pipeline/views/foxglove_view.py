@@ -20,6 +20,7 @@ from typing import TYPE_CHECKING, Any
 
 import foxglove
 
+from fmionnx.pipeline.errors import RefusedError
 from fmionnx.pipeline.observers import Rows, RunObserver, RunStart
 from fmionnx.pipeline.views.course import Course
 from fmionnx.results import channels as ch
@@ -58,10 +59,17 @@ class FoxgloveView(RunObserver):
         self._images = ch.ImageCodec()
         for spec in ch.planned(system, self._images, start.system.record):
             self._channel(spec)  # before the server: a client is told of every channel at once
-        self._server = foxglove.start_server(
-            name=f"fmionnx {system.name}", host="127.0.0.1", port=self.port,
-            context=self._context,
-        )  # fmt: skip
+        try:
+            self._server = foxglove.start_server(
+                name=f"fmionnx {system.name}", host="127.0.0.1", port=self.port,
+                context=self._context,
+            )  # fmt: skip
+        except Exception as exc:  # the SDK's own error type (a port in use, say)
+            msg = (
+                f"--view foxglove: cannot serve on 127.0.0.1:{self.port} ({exc}); choose another "
+                "port with --view foxglove:PORT (0: any free one)"
+            )
+            raise RefusedError(msg) from None
         self._course = Course(system)
         self._time = system.run.start
         print(f"foxglove: serving ws://127.0.0.1:{self._server.port}", file=sys.stderr, flush=True)

@@ -28,7 +28,10 @@ from __future__ import annotations
 
 import contextlib
 import os
+import socket
+import sys
 import tempfile
+import time
 import uuid
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -47,8 +50,51 @@ if TYPE_CHECKING:
     from fmionnx.pipeline.outcome import RunOutcome
 
 TIMELINE = "sim_time"
+#: Seconds the end of a run waits for the viewer to take what was sent.
+FLUSH_TIMEOUT = 10.0
 #: JPEG quality of logged frames (a raw 640x480 frame is 0.9 MB; compressed about 40 kB).
 JPEG_QUALITY = 85
+
+
+def _listening(host: str, port: int, wait: float) -> bool:
+    """Whether ``host:port`` accepts a TCP connection within ``wait`` seconds."""
+    deadline = time.monotonic() + wait
+    while True:
+        try:
+            with socket.create_connection((host.strip("[]"), port), timeout=1.0):
+                return True
+        except OSError:
+            if time.monotonic() >= deadline:
+                return False
+            time.sleep(0.2)
+
+
+def reach_viewer(target: ViewTarget, wait: float) -> None:
+    """Make sure the viewer of ``target`` listens: spawn the local one (or find it running),
+    or find the remote one answering; ViewerUnreachableError naming what to do otherwise."""
+    from fmionnx.pipeline.views import ViewerUnreachableError
+
+    if target.url is None:
+        if not _listening("127.0.0.1", RERUN_PORT, 0.0):
+            rr.spawn(port=RERUN_PORT, connect=False)
+        if not _listening("127.0.0.1", RERUN_PORT, wait):
+            msg = (
+                f"--view rerun: the Rerun viewer did not start (nothing listens on port "
+                f"{RERUN_PORT} after {wait:g} s; a machine without a display cannot show it): "
+                "write a recording with --rrd FILE instead, or connect to a viewer elsewhere "
+                "with --view rerun+tcp://HOST:PORT"
+            )
+            raise ViewerUnreachableError(msg)
+        return
+    where = target.url.removeprefix("rerun+http://").removesuffix("/proxy")
+    host, _, port = where.rpartition(":")
+    if not _listening(host, int(port), wait):
+        msg = (
+            f"--view {target.given or target.url}: no Rerun viewer answers at {host}:{port} "
+            "(start one there "
+            f"with `rerun`, which listens on port {RERUN_PORT})"
+        )
+        raise ViewerUnreachableError(msg)
 
 
 def entity(column: str) -> str:
@@ -92,11 +138,8 @@ class RerunView(RunObserver):
         self._components = tuple(c.name for c in system.components)
         stream = rr.RecordingStream("fmionnx", recording_id=uuid.uuid4())
         sinks: list[Any] = []
-        if self.target is not None:
-            url = self.target.url
-            if url is None:
-                rr.spawn(port=RERUN_PORT, connect=False)  # or the viewer already there
-                url = f"rerun+http://127.0.0.1:{RERUN_PORT}/proxy"
+        if self.target is not None:  # a viewer found listening (``reach_viewer``)
+            url = self.target.url or f"rerun+http://127.0.0.1:{RERUN_PORT}/proxy"
             sinks.append(rr.GrpcSink(url))
         if self.rrd is not None:
             self.rrd.parent.mkdir(parents=True, exist_ok=True)
@@ -177,7 +220,10 @@ class RerunView(RunObserver):
         if self._buffer is not None:
             self.data = self._buffer.read(flush=True)
             self._buffer = None
-        stream.flush()
+        try:
+            stream.flush(timeout_sec=FLUSH_TIMEOUT)
+        except RuntimeError as exc:  # the viewer went away during the run: the results stand
+            print(f"rerun: not everything reached the viewer: {exc}", file=sys.stderr)
         stream.disconnect()
         if self._partial is not None and self.rrd is not None:
             with contextlib.suppress(FileNotFoundError):
