@@ -102,3 +102,60 @@ def test_the_graph_names_every_component(tmp_path: Path) -> None:
         ("detector", "tracker"), ("odometry", "tracker"), ("tracker", "world"),
         ("world", "detector"), ("world", "odometry"),
     ]  # one edge per pair of components a connection joins  # fmt: skip
+
+
+def test_a_remote_viewer_takes_the_run(tmp_path: Path) -> None:
+    """`--view rerun+tcp://HOST:PORT` against a real, headless Rerun server (`rerun --port P
+    --save FILE`: it takes SDK connections as a viewer does and writes what reaches it): the
+    run streams to it, ends normally, and everything it sent arrived (0.3 s: frames at t = 0,
+    0.1, 0.2 and 31 rows of each signal)."""
+    import shutil
+    import signal
+    import socket
+    import subprocess
+    import sys
+    import time
+    import warnings
+
+    from tests.conftest import finish
+
+    rerun = shutil.which("rerun", path=str(Path(sys.executable).parent))
+    assert rerun is not None
+    with socket.socket() as probe:
+        probe.bind(("127.0.0.1", 0))
+        port = probe.getsockname()[1]
+    received = tmp_path / "received.rrd"
+    log = (tmp_path / "server.log").open("w")  # a pipe nobody reads would fill and block it
+    server = subprocess.Popen(
+        [rerun, "--port", str(port), "--save", str(received)], stdout=log,
+        stderr=subprocess.STDOUT, text=True,
+    )  # fmt: skip
+    try:
+        deadline = time.monotonic() + 60
+        while True:
+            with socket.socket() as client:
+                if client.connect_ex(("127.0.0.1", port)) == 0:
+                    break
+            assert time.monotonic() < deadline, "the Rerun server did not start listening"
+            time.sleep(0.2)
+        run = subprocess.run(
+            [sys.executable, "-m", "fmionnx", "run", str(REPO / "systems" / "sign_follower.yaml"),
+             "--stop-time", "0.3", "--no-out", "--no-checks", "-q",
+             "--view", f"rerun+tcp://127.0.0.1:{port}"],
+            capture_output=True, text=True, timeout=300, check=False,
+        )  # fmt: skip
+    finally:
+        server.send_signal(signal.SIGINT)  # its Ctrl-C: it ends the file it writes
+        finish(server, 30)
+        log.close()
+    assert run.returncode == 0, run.stderr[-3000:]
+    assert "not everything reached the viewer" not in run.stderr
+    rows: Counter[str] = Counter()
+    with warnings.catch_warnings():  # a streamed file has no index at its end: Rerun says so
+        warnings.simplefilter("ignore")
+        reader = rerun_chunk.RrdReader(received)
+    for chunk in reader.stream().collect().stream():
+        rows[str(chunk.entity_path)] += chunk.num_rows
+    assert rows["/world/front"] == 3
+    assert rows["/odometry/posX"] == rows["/tracker/v"] == 31
+    assert rows["/graph"] == rows["/map/sites"] == rows["/run"] == 1
