@@ -43,6 +43,7 @@ EXTERNAL_PATTERNS = (
     "native_reach.py",
     "startup.py",
     "sweep.py",
+    "watching.py",
 )
 #: Seconds each of those scripts may take (the sweep benchmark alone: about 280 s on 2 cores).
 EXTERNAL_TIMEOUT = 600.0
