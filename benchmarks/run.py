@@ -44,6 +44,7 @@ EXTERNAL_PATTERNS = (
     "startup.py",
     "sweep.py",
     "lsp.py",
+    "watching.py",
 )
 #: Seconds each of those scripts may take (the sweep benchmark alone: about 280 s on 2 cores).
 EXTERNAL_TIMEOUT = 600.0

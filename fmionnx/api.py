@@ -100,13 +100,15 @@ def sweep(
     force: bool = False,
     progress: SweepProgress | None = None,
     batch: int | None = None,
+    rrd: bool = False,
 ) -> pd.DataFrame:
     """Run a study file's cases (``fmionnx sweep``) and return its table, one row per case.
 
     ``scheduler`` is an existing Dask cluster (``tcp://host:8786``); without it a local
     cluster of ``workers`` processes (default: one per core) runs the cases. Results go to
     ``out`` (docs/sweep.md); ``resume`` finishes an interrupted study there, ``force``
-    replaces an earlier study's results there. ``batch`` fixes the cases per Dask task (1: one
+    replaces an earlier study's results there; ``rrd`` keeps each case's Rerun recording
+    (``cases/<id>/run.rrd``). ``batch`` fixes the cases per Dask task (1: one
     each; default: short cases are batched by their measured time). Raises
     DiagnosticError for a study (or system) file with errors, before anything runs.
     A script calling it must do so under ``if __name__ == "__main__":``: the local cluster's
@@ -118,6 +120,6 @@ def sweep(
     refuse_in_starting_worker()
     result = sweep_study(
         study, Path(out), scheduler=scheduler, workers=workers, resume=resume,
-        keep_results=keep_results, force=force, progress=progress, batch=batch,
+        keep_results=keep_results, force=force, progress=progress, batch=batch, rrd=rrd,
     )  # fmt: skip
     return result.table

@@ -105,7 +105,9 @@ def test_test_lints_and_runs_the_examples_before_the_suite(tree: Path) -> None:
     assert "ruff check fmionnx tests models benchmarks examples" in lines
     assert "ruff format --check fmionnx tests models benchmarks examples" in lines
     assert "mypy examples" in lines
-    assert lines.index("python examples/run_all.py") < lines.index("pytest -q -p no:cacheprovider --durations=30")
+    assert lines.index("python examples/run_all.py") < lines.index(
+        "pytest -q -p no:cacheprovider --durations=30"
+    )
 
 
 def test_examples_need_the_demo_set_only(tree: Path) -> None:

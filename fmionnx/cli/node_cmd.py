@@ -16,7 +16,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, app
-from fmionnx.cli.run_options import MaxSteps, Param, RosDistro, StopTime
+from fmionnx.cli.run_options import MaxSteps, OnNonfinite, Param, Profile, RosDistro, StopTime
 from fmionnx.core.steps import MAX_RUN_STEPS
 
 if TYPE_CHECKING:
@@ -125,6 +125,8 @@ def node(
     zenoh_router: NodeRouter = "",
     models: Models = None,
     max_steps: MaxSteps = MAX_RUN_STEPS,
+    profile: Profile = False,
+    on_nonfinite: OnNonfinite = None,
 ) -> None:
     """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time,
     1 on a fault, 3 when its model ended the simulation (docs/ros2.md)."""
@@ -153,9 +155,13 @@ def node(
         raise _fail(str(exc), ExitCode.USAGE) from None
     if max_steps < 1:
         raise _fail("--max-steps must be at least 1", ExitCode.USAGE)
+    if on_nonfinite not in (None, "fault", "warn"):
+        raise _fail(
+            f"--on-nonfinite must be `fault` or `warn`, not `{on_nonfinite}`", ExitCode.USAGE
+        )
     request = _NodeRequest(
         sync, ros_distro, middleware, record_dir, supervised, rtf, input_wait, zenoh_router,
-        _remaps(remap or []),
+        _remaps(remap or []), profile, on_nonfinite or "fault",
     )  # fmt: skip
     logging.basicConfig(
         level=logging.INFO,
@@ -180,6 +186,8 @@ class _NodeRequest:
     input_wait: float
     zenoh_router: str
     remaps: tuple[tuple[str, str], ...]
+    profile: bool = False
+    on_nonfinite: str = "fault"
 
 
 def _run_node(
@@ -250,5 +258,6 @@ def _made_node(compiled: CompiledSystem, component: str, request: _NodeRequest) 
     options = NodeOptions(
         mode, distro, request.record_dir, request.supervised, request.rtf, transport,
         input_wait=request.input_wait, remap=request.remaps, zenoh_router=request.zenoh_router,
+        profile=request.profile, on_nonfinite=request.on_nonfinite,
     )  # fmt: skip
     return Node(compiled, plan_for(compiled, distro), component, options)

@@ -31,13 +31,16 @@ from fmionnx.cli.run_options import (
     MaxSteps,
     Middleware,
     NoOut,
+    OnNonfinite,
     Out,
     OutputInterval,
     Param,
     Plot,
+    Profile,
     Quiet,
     Record,
     RosDistro,
+    Rrd,
     Rtf,
     Sandbox,
     Schedule,
@@ -47,6 +50,7 @@ from fmionnx.cli.run_options import (
     StopTime,
     Sync,
     Target,
+    View,
     ZenohRouter,
 )
 
@@ -64,6 +68,8 @@ if TYPE_CHECKING:  # the pipeline loads when a command runs, not for --help
     "  fmionnx run model.fmu -p k=2                      # a single FMU: bare variable names\n\n"
     "  fmionnx run model.fmu --plot                      # and signals.png of its outputs\n\n"
     "  fmionnx run detector.onnx --input image=frame.npy --out out/detector\n\n"
+    "  fmionnx run systems/sign_follower.yaml --view rerun        # live in Rerun\n\n"
+    "  fmionnx run systems/sign_follower.yaml --profile --rtf 1   # statistics, real time\n\n"
     "  fmionnx run systems/sign_follower.yaml --backend ros2 --sync lockstep --out out/ros2",
 )
 def run(
@@ -95,6 +101,10 @@ def run(
     checks: Checks = True,
     max_steps: MaxSteps = MAX_RUN_STEPS,
     plot: Plot = False,
+    profile: Profile = False,
+    on_nonfinite: OnNonfinite = None,
+    view: View = None,
+    rrd: Rrd = None,
 ) -> None:
     """Run a system in-process or as ROS 2 nodes (--backend ros2), or a single FMU / ONNX model.
 
@@ -112,7 +122,8 @@ def run(
             middleware=middleware, zenoh_router=zenoh_router, rtf=rtf, input_wait=input_wait,
             step_timeout=step_timeout, isolate=isolate, sandbox=sandbox or None,
             schedule=schedule, checkpoint_every=checkpoint_every, force=force, checks=checks,
-            max_steps=max_steps, plot=plot,
+            max_steps=max_steps, plot=plot, profile=profile, on_nonfinite=on_nonfinite,
+            view=view, rrd=rrd,
         )  # fmt: skip
         if request.kind == "inference":
             _infer(request, quiet=quiet)

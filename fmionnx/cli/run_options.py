@@ -149,7 +149,45 @@ ZenohRouter = Annotated[
 Rtf = Annotated[
     float | None,
     typer.Option(
-        "--rtf", help="With --backend ros2 --sync free: simulator pace (x real time; 0: fast)."
+        "--rtf",
+        help="Pace the run to X times real time (0: as fast as it goes). In-process: every base "
+        "step waits for its moment; late steps, the largest lateness and where an overrun's time "
+        "went are reported, and a run that falls behind says so (default 0). With --backend "
+        "ros2 --sync free: the simulator's pace (default 1).",
+    ),
+]
+Profile = Annotated[
+    bool,
+    typer.Option(
+        "--profile",
+        help="Time every component's phases (instantiate, initialize, transfer, render, step or "
+        "infer, record): a table sorted by share of the loop, and run.json's `statistics`.",
+    ),
+]
+OnNonfinite = Annotated[
+    str | None,
+    typer.Option(
+        "--on-nonfinite",
+        help="A NaN or infinity leaving a component on a connection: `fault` (default: the run "
+        "stops, naming component, port and time) or `warn` (noted once per connection, passed on).",
+    ),
+]
+View = Annotated[
+    list[str] | None,
+    typer.Option(
+        "--view",
+        help="Show the run live: `rerun` (spawns a Rerun viewer, or connects to the local one), "
+        "`rerun+tcp://HOST:PORT` (a remote viewer), `foxglove` (Foxglove WebSocket on "
+        "localhost:8765) or `foxglove:PORT`; repeatable. Needs the `view` extra "
+        "(docs/viewing.md).",
+    ),
+]
+Rrd = Annotated[
+    Path | None,
+    typer.Option(
+        "--rrd",
+        help="Write the run as a Rerun recording (.rrd) without a viewer: frames, signals, the "
+        "course, the graph and the checks on the simulation timeline.",
     ),
 ]
 InputWait = Annotated[
@@ -175,8 +213,8 @@ Isolate = Annotated[
         help="In-process: components whose models run in a process of their own, so a crash or "
         "hang cannot take the run down: `fmus` (every FMU), `all`, `none`, or component names "
         "(repeat the option or separate by commas); `guardian`: the whole run in one guarded "
-        "process instead. Default: `guardian` for a lone FMU (on Linux, without --sandbox or "
-        "--record), else `fmus` (docs/running.md).",
+        "process instead. Default: `guardian` for a lone FMU (on Linux, without --sandbox, "
+        "--record, --view or --rrd), else `fmus` (docs/running.md).",
     ),
 ]
 Sandbox = Annotated[

@@ -11,6 +11,7 @@ import sys
 import time
 from pathlib import Path
 
+from rich.markup import escape
 from rich.progress import BarColumn, Progress, TaskID, TextColumn, TimeElapsedColumn
 
 from fmionnx.cli.checks_report import print_checks
@@ -19,7 +20,7 @@ from fmionnx.core.diagnostics import Diagnostic, Severity
 from fmionnx.pipeline.observers import RunObserver, RunStart
 from fmionnx.pipeline.outcome import RunOutcome
 from fmionnx.pipeline.system import System
-from fmionnx.runtime.result import RunResult, RunStatus
+from fmionnx.runtime.result import Detail, RunResult, RunStatus
 
 
 def show_diagnostics(target: Path, diagnostics: tuple[Diagnostic, ...] | list[Diagnostic]) -> None:
@@ -115,7 +116,13 @@ class TerminalReport(RunObserver):
         """Summary, checks, how the run ended, and the folder."""
         result = outcome.result
         if not self.quiet:
+            if result.statistics is not None:
+                from fmionnx.cli.profile_report import print_statistics
+
+                print_statistics(self.console, result.statistics)
             self._summary(outcome)
+        for warning in result.warnings:  # never silent, even with --quiet: run.json has them too
+            self.console.print(f"[yellow]warning:[/] {escape(warning)}", soft_wrap=True)
         print_checks(self.console, outcome.checks, quiet=self.quiet)
         if result.status is RunStatus.FAULT and result.error is not None:
             self.console.print(f"[bold red]fault:[/] {result.error}")
@@ -150,6 +157,8 @@ class TerminalReport(RunObserver):
         )
         table.add_row("wall time", f"{result.wall_time:.3f} s")
         table.add_row("real-time factor", f"{result.real_time_factor:.2f}x")
+        if result.pacing is not None:
+            table.add_row("pacing", pacing_text(result.pacing))  # escapes the names
         table.add_row("signals", str(len(result.signals)))
         router = result.details.get("zenoh_router")
         if router:
@@ -157,3 +166,29 @@ class TerminalReport(RunObserver):
         for file in outcome.files:
             table.add_row("wrote", str(file))
         self.console.print(table)
+
+
+def pacing_text(pacing: dict[str, Detail]) -> str:
+    """The summary's pacing row: the pace, whether it kept up, late steps, the worst overrun."""
+    late, steps = pacing.get("late_steps"), pacing.get("steps")
+    text = f"{pacing.get('rtf')}x real time, " + (
+        "kept up" if pacing.get("kept_up") else "[red]could not keep up[/]"
+    )
+    if late:
+        text += (
+            f"; {late} of {steps} steps late (largest {_seconds(pacing.get('max_lateness'))} "
+            f"at t={pacing.get('max_lateness_at')} s)"
+        )
+    worst = pacing.get("worst_overrun")
+    if isinstance(worst, dict):
+        by = worst.get("by")
+        spent = ", ".join(
+            f"{name} {_seconds(value)}"
+            for name, value in (by.items() if isinstance(by, dict) else ())
+        )
+        text += f"; longest step {_seconds(worst.get('took'))} at t={worst.get('time')} s: {escape(spent)}"
+    return text
+
+
+def _seconds(value: Detail) -> str:
+    return f"{value * 1e3:.3g} ms" if isinstance(value, int | float) else "?"

@@ -51,6 +51,9 @@ def sweep(
         bool,
         typer.Option("--keep-results", help="Keep each case's results.csv (cases/<id>/)."),
     ] = False,
+    rrd: Annotated[
+        bool, typer.Option("--rrd", help="Keep each case's Rerun recording (cases/<id>/run.rrd).")
+    ] = False,
     force: Annotated[
         bool, typer.Option("--force", help="Replace the results of a study already in --out.")
     ] = False,
@@ -88,7 +91,7 @@ def sweep(
             result = sweep_study(
                 study, out, scheduler=scheduler, workers=workers, resume=resume,
                 keep_results=keep_results, force=force, progress=update, batch=batch,
-                warnings=warn,
+                warnings=warn, rrd=rrd,
             )  # fmt: skip
     except DiagnosticError as exc:
         _show(study, tuple(exc.diagnostics))

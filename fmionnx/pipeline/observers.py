@@ -9,6 +9,11 @@ every few hundred steps), :meth:`~RunObserver.after_run` when the backend return
 and :meth:`~RunObserver.finished` with the outcome once the results are written. A run
 abandoned at the step timeout ends the process: :meth:`~RunObserver.abandoned` is its last
 word, after its results are written.
+
+A live view (:mod:`fmionnx.pipeline.views`) also :attr:`~RunObserver.wants_feed`: the run
+then hands it each camera frame as it is rendered (:meth:`~RunObserver.frame`) and the
+recorded signals in batches of rows while it goes (:meth:`~RunObserver.rows`,
+:mod:`fmionnx.pipeline.feed`); a run nobody watches this way records as it always does.
 """
 
 from __future__ import annotations
@@ -19,6 +24,9 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 if TYPE_CHECKING:
+    import numpy as np
+    import numpy.typing as npt
+
     from fmionnx.pipeline.outcome import RunOutcome
     from fmionnx.pipeline.system import System
     from fmionnx.runtime.result import RunResult
@@ -41,6 +49,16 @@ class RunStart:
     out: Path | None
 
 
+@dataclass(frozen=True)
+class Rows:
+    """Recorded signals at some base steps, as a live view receives them: ``time`` (seconds)
+    and one array per results column (values held between a component's steps, as in
+    results.csv)."""
+
+    time: npt.NDArray[np.float64]
+    columns: dict[str, npt.NDArray[np.float64]]
+
+
 class RunObserver:
     """Hooks on a run; override what you need (every hook does nothing by default)."""
 
@@ -48,6 +66,8 @@ class RunObserver:
     wants_progress: bool = False
     #: How many base steps apart, at most (the run calls every observer at the finest).
     progress_every: int = 500
+    #: Whether :meth:`frame` and :meth:`rows` are to be called (a live view).
+    wants_feed: bool = False
 
     def loaded(self, system: System) -> None:
         """The system is compiled (``system.diagnostics`` holds its warnings)."""
@@ -57,6 +77,13 @@ class RunObserver:
 
     def progress(self, done: int, total: int, time: float) -> None:
         """``done`` of ``total`` base steps are done; simulated ``time`` reached."""
+
+    def frame(self, component: str, port: str, time: float, image: npt.NDArray[np.generic]) -> None:
+        """A camera frame of ``component.port`` rendered at simulated ``time`` (only with
+        :attr:`wants_feed`; valid during the call only: copy what is kept)."""
+
+    def rows(self, rows: Rows) -> None:
+        """Recorded rows since the last call, in time order (only with :attr:`wants_feed`)."""
 
     def after_run(self) -> None:
         """The backend returned or raised (called whenever :meth:`before_run` was)."""
@@ -79,6 +106,8 @@ class Observers(RunObserver):
         self.progress_every = min(
             (o.progress_every for o in self._all if o.wants_progress), default=500
         )
+        self._fed = tuple(o for o in self._all if o.wants_feed)
+        self.wants_feed = bool(self._fed)
 
     def loaded(self, system: System) -> None:
         """Each observer's :meth:`RunObserver.loaded`."""
@@ -95,6 +124,16 @@ class Observers(RunObserver):
         for observer in self._all:
             if observer.wants_progress:
                 observer.progress(done, total, time)
+
+    def frame(self, component: str, port: str, time: float, image: npt.NDArray[np.generic]) -> None:
+        """Each observer that wants the feed."""
+        for observer in self._fed:
+            observer.frame(component, port, time, image)
+
+    def rows(self, rows: Rows) -> None:
+        """Each observer that wants the feed."""
+        for observer in self._fed:
+            observer.rows(rows)
 
     def after_run(self) -> None:
         """Each observer's :meth:`RunObserver.after_run`, in reverse order (nested displays

@@ -20,6 +20,7 @@ from fmionnx.core.steps import MAX_RUN_STEPS
 from fmionnx.core.types import Scalar
 from fmionnx.pipeline.defaults import CHECKPOINT_EVERY, STEP_TIMEOUT
 from fmionnx.pipeline.errors import RequestError
+from fmionnx.pipeline.viewspec import ViewSpecError, ViewTarget, parse_view
 from fmionnx.runtime.backend import BackendOptions, OptionsError
 
 #: What a request runs: a system file, a compiled system, a single model run over time (an
@@ -57,6 +58,10 @@ class RunSettings(TypedDict, total=False):
     step_timeout: float
     max_steps: int
     models: str | Path | None
+    profile: bool
+    on_nonfinite: str
+    view: str | Sequence[str] | None
+    rrd: str | Path | None
     isolate: str | Sequence[str] | None
     sandbox: bool
     schedule: str | None
@@ -73,9 +78,12 @@ GENERAL = frozenset(
     {
         "backend", "out", "no_out", "stop_time", "start_time", "step", "output_interval",
         "params", "interface", "inputs", "record", "plot", "checks", "force",
-        "checkpoint_every", "step_timeout", "max_steps", "models",
+        "checkpoint_every", "step_timeout", "max_steps", "models", "profile", "on_nonfinite",
+        "view", "rrd",
     }
 )  # fmt: skip
+#: What a non-finite value on a connection does (``--on-nonfinite``; runtime.transfer's).
+NONFINITE_CHOICES = ("fault", "warn")
 
 
 @dataclass(frozen=True, slots=True)
@@ -117,6 +125,25 @@ class Limits:
 
 
 @dataclass(frozen=True, slots=True)
+class Watch:
+    """How the run is watched: statistics, the non-finite guard, live views, a recording."""
+
+    #: Per-component statistics (``--profile``): run.json's ``statistics``.
+    profile: bool = False
+    #: ``fault`` (default) or ``warn``: what a NaN or infinity on a connection does.
+    on_nonfinite: Literal["fault", "warn"] = "fault"
+    #: Live views the run streams to (``--view``).
+    views: tuple[ViewTarget, ...] = ()
+    #: A Rerun recording of the run (``--rrd``), written without a viewer.
+    rrd: Path | None = None
+
+    @property
+    def live(self) -> bool:
+        """Whether frames and rows are streamed while the run goes (a view or ``--rrd``)."""
+        return bool(self.views) or self.rrd is not None
+
+
+@dataclass(frozen=True, slots=True)
 class RunRequest:
     """One run, checked: what to run, on which backend with which options, what replaces the
     system file's settings, where the results go, the limits, whether checks are evaluated."""
@@ -131,6 +158,7 @@ class RunRequest:
     checks: bool = True
     #: A single ONNX model only: a ``.npy`` file per input.
     inputs: tuple[tuple[str, Path], ...] = ()
+    watch: Watch = field(default_factory=Watch)
 
 
 def target_kind(target: Path) -> TargetKind:
@@ -163,6 +191,7 @@ def build_request(target: str | Path, **settings: object) -> RunRequest:
     limits = _limits(given)
     checks = _flag(given.pop("checks", True), "--checks")
     inputs = _inputs(given.pop("inputs", None), kind)
+    watch = _watch(given, kind)
     unknown = sorted(set(given) & GENERAL)
     assert not unknown, unknown  # every general option is taken above
     foreign = set(given) - backend.options_type.names()
@@ -171,7 +200,15 @@ def build_request(target: str | Path, **settings: object) -> RunRequest:
         options = backend.options_type.from_given(given, backend_name, elsewhere)
     except OptionsError as exc:
         raise RequestError(str(exc)) from None
-    return RunRequest(path, kind, backend_name, options, overrides, output, limits, checks, inputs)
+    if watch.live and backend.records_itself:
+        msg = (
+            f"--view and --rrd show in-process runs; a --backend {backend_name} run's topics "
+            "are on the wire: record them with --record, or open them with a ROS 2 viewer"
+        )
+        raise RequestError(msg)
+    return RunRequest(
+        path, kind, backend_name, options, overrides, output, limits, checks, inputs, watch
+    )
 
 
 def _overrides(given: dict[str, object], kind: TargetKind) -> Overrides:
@@ -249,6 +286,34 @@ def _limits(given: dict[str, object]) -> Limits:
         msg = "--step-timeout must be > 0 seconds"
         raise RequestError(msg)
     return Limits(step_timeout=timeout, max_steps=steps)
+
+
+def _watch(given: dict[str, object], kind: TargetKind) -> Watch:
+    profile = _flag(given.pop("profile", False), "--profile")
+    policy = given.pop("on_nonfinite", "fault")
+    if policy not in NONFINITE_CHOICES:
+        msg = f"--on-nonfinite must be `fault` or `warn`, not `{policy}`"
+        raise RequestError(msg)
+    view = given.pop("view", None)
+    if view is not None and not isinstance(view, str | list | tuple):
+        msg = "--view takes a view's name (from Python: a string or a list of them)"
+        raise RequestError(msg)
+    words = [view] if isinstance(view, str) else list(view or ())
+    try:
+        views = tuple(parse_view(_text(word, "--view")) for word in words)
+    except ViewSpecError as exc:
+        raise RequestError(str(exc)) from None
+    if len({v.kind for v in views}) < len(views):
+        msg = "--view names each kind of view once"
+        raise RequestError(msg)
+    rrd = given.pop("rrd", None)
+    if (views or rrd is not None or profile) and kind == "inference":
+        msg = "--view, --rrd and --profile watch a run over time, not a single ONNX inference"
+        raise RequestError(msg)
+    return Watch(
+        profile=profile, on_nonfinite="warn" if policy == "warn" else "fault", views=views,
+        rrd=None if rrd is None else _path(rrd, "--rrd"),
+    )  # fmt: skip
 
 
 def _inputs(value: object, kind: TargetKind) -> tuple[tuple[str, Path], ...]:

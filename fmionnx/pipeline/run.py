@@ -13,8 +13,9 @@ stages in this order and returns a :class:`~fmionnx.pipeline.outcome.RunOutcome`
    folder (``out/<system name>/``) is chosen and checked;
 4. **safety** — the backend settles what depends on the system (in-process: ``--isolate``'s
    default, docs/security.md) and says what would stop it (:meth:`Backend.validate`);
-5. **backend** — the backend runs; checkpoints, an abandoned run's results and observers'
-   progress are wired in here;
+5. **backend** — the backend runs; checkpoints, an abandoned run's results, observers'
+   progress, the live views' feed (:mod:`~fmionnx.pipeline.feed`), statistics
+   (``--profile``) and the non-finite guard's policy are wired in here;
 6. **checks** — the system's ``checks:`` are evaluated on the recorded signals;
 7. **results** — ``results.csv``, ``run.json`` and plots are written; the exit status is
    decided.
@@ -46,9 +47,11 @@ from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunCo
 from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 if TYPE_CHECKING:
+    from fmionnx.pipeline.feed import Feeder
     from fmionnx.pipeline.system import System
     from fmionnx.results.csvahead import CsvAhead
     from fmionnx.results.mcap_record import McapRecorder
+    from fmionnx.runtime.recorder import FrameSink
 
 
 def execute(
@@ -60,25 +63,33 @@ def execute(
 ) -> RunOutcome:
     """Run ``request`` through every stage (module docstring); ``system`` skips loading (a
     system already loaded, ``System.run``); ``signals`` narrows what is recorded."""
-    watch = Observers(observers)
+    views = _views(request)  # a missing library or viewer: refused before any folder is made
     _check_outputs(request)
+    watch = Observers([*views, *observers])  # a view's files are closed before they are named
+    fed = [o for o in (*views, *observers) if o.wants_feed]  # a caller's own view too
     if system is None:
         system = load_request(request)
     watch.loaded(system)
     system = _overridden(system, request)
     out = _results_folder(system, request)
     backend = backend_entry(request.backend)()
-    recorder = _mcap_recorder(request, backend)
-    options = _prepared(backend, system, request, recording=recorder is not None)
+    recorder = _mcap_recorder(request, backend, system)
+    options = _prepared(backend, system, request, recording=recorder is not None, viewing=bool(fed))
     ahead = _csv_ahead(system, options, out)
+    feeder = _feeder(system, fed)
+    if feeder is not None:
+        watch = Observers([watch, feeder])
     run = _run_options(request, system, options, out, watch, signals)
-    run = dataclasses.replace(run, frames=recorder, follower=ahead)
+    run = _watched(run, request, recorder, feeder)
+    run = dataclasses.replace(run, follower=ahead)
     start = RunStart(
         system, backend.name, options.where(), options.how(), options.publishes_rows, out
     )
     watch.before_run(start)
     try:
         result = backend.run(system.compiled, options, run)
+        if feeder is not None:
+            feeder.flush(result.steps_done)  # the rows the loop had not handed on yet
     except (DiagnosticError, FmionnxError) as exc:
         if recorder is not None:
             recorder.finish(None)
@@ -181,6 +192,52 @@ def _check_outputs(request: RunRequest) -> None:
         check_results_folder(output.out, force=output.force, system_run=request.kind != "inference")
     if output.record is not None:
         check_output_file(output.record, "--record")
+    if request.watch.rrd is not None:
+        check_output_file(request.watch.rrd, "--rrd")
+
+
+def _views(request: RunRequest) -> list[RunObserver]:
+    """The live views asked for (``--view``, ``--rrd``), their libraries imported now: a
+    missing one is refused before anything is compiled."""
+    if not request.watch.live:
+        return []
+    from fmionnx.pipeline.views import ViewerUnreachableError, ViewUnavailableError, make_views
+
+    try:
+        return make_views(request.watch.views, request.watch.rrd)
+    except ViewUnavailableError as exc:
+        raise RequestError(str(exc)) from None
+    except ViewerUnreachableError as exc:
+        raise RefusedError(str(exc)) from None
+
+
+def _feeder(system: System, views: list[RunObserver]) -> Feeder | None:
+    if not views:
+        return None
+    from fmionnx.pipeline.feed import Feeder
+
+    return Feeder(system.compiled, Observers(views))
+
+
+def _watched(
+    run: RunOptions, request: RunRequest, recorder: McapRecorder | None, feeder: Feeder | None
+) -> RunOptions:
+    """``run`` with the watching wired in: statistics, the non-finite policy, the frames'
+    sinks (the recording, the views) and the views' recorder."""
+    watch = request.watch
+    run = dataclasses.replace(
+        run, profile=watch.profile, on_nonfinite=watch.on_nonfinite, frames=recorder
+    )
+    if feeder is None:
+        return run
+    from fmionnx.pipeline.feed import FrameFanout
+    from fmionnx.runtime.instruments import Instruments
+
+    sinks: list[FrameSink] = [feeder.views] if recorder is None else [recorder, feeder.views]
+    taken = feeder.recorder
+    return dataclasses.replace(
+        run, frames=FrameFanout(sinks), instruments=Instruments(recorder=lambda: taken)
+    )
 
 
 def _overridden(system: System, request: RunRequest) -> System:
@@ -214,21 +271,21 @@ def _results_folder(system: System, request: RunRequest) -> Path | None:
     return out
 
 
-def _mcap_recorder(request: RunRequest, backend: Backend) -> McapRecorder | None:
+def _mcap_recorder(request: RunRequest, backend: Backend, system: System) -> McapRecorder | None:
     record = request.output.record
     if record is None or backend.records_itself:
         return None
     from fmionnx.results.mcap_record import McapRecorder
 
-    return McapRecorder(record)
+    return McapRecorder(record, system.compiled)
 
 
 def _prepared(
-    backend: Backend, system: System, request: RunRequest, *, recording: bool
+    backend: Backend, system: System, request: RunRequest, *, recording: bool, viewing: bool
 ) -> BackendOptions:
     try:
         options = backend.prepare(
-            system.compiled, request.backend_options, RunContext(recording=recording)
+            system.compiled, request.backend_options, RunContext(recording, viewing)
         )
     except OptionsError as exc:
         raise RequestError(str(exc)) from None
@@ -304,9 +361,11 @@ def _finish(
     files: list[Path] = []
     record = request.output.record
     if recorder is not None:
-        files.append(recorder.finish(result))
+        files.append(recorder.finish(result, checks))
     elif record is not None and record.exists():
         files.append(record)
+    if request.watch.rrd is not None:
+        files.append(request.watch.rrd)  # closed by its view's ``finished``, called first
     if out is not None:
         from fmionnx.results import write_results
 

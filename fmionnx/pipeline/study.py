@@ -64,9 +64,17 @@ def case_request(job: Job, name: str) -> RunRequest:
 def run_study_case(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
     """Run ``case`` (``system`` is its system, the case applied) and measure it."""
     request = case_request(job, system.name)
-    watch = [_Timeout(job.timeout)] if job.timeout is not None else []
+    watch: list[RunObserver] = [_Timeout(job.timeout)] if job.timeout is not None else []
+    view = None
+    if job.rrd:
+        from fmionnx.pipeline.views.rerun_view import RerunView
+
+        view = RerunView(None, None, memory=True)
     try:
-        outcome = execute(request, watch, system=System(system), signals=record_refs(system, job))
+        outcome = execute(
+            request, [*watch, *([view] if view else [])], system=System(system),
+            signals=record_refs(system, job),
+        )  # fmt: skip
     except PipelineError as exc:  # e.g. an external component, which only ROS 2 provides
         return CaseOutcome(case.id, "failed", str(exc))
     result = outcome.result
@@ -74,14 +82,17 @@ def run_study_case(system: CompiledSystem, case: Case, job: Job) -> CaseOutcome:
     message = ""
     if result.status is RunStatus.FAULT:
         status, message = "fault", str(result.error) if result.error else "fault"
-    elif watch and watch[0].expired:
+    elif watch and isinstance(watch[0], _Timeout) and watch[0].expired:
         status = "timeout"
         message = (
             f"stopped after the study's timeout of {job.timeout:g} s at t={result.time[-1]:g} s"
         )
     elif result.status is not RunStatus.COMPLETED:
         status, message = "failed", f"the run ended {result.status.value}"
-    return _measured(CaseOutcome(case.id, status, message), outcome.checks, result, job)
+    measured = _measured(CaseOutcome(case.id, status, message), outcome.checks, result, job)
+    if view is not None:
+        measured.rrd = view.data
+    return measured
 
 
 def _measured(

@@ -68,6 +68,7 @@ def sweep_study(
     progress: SweepProgress | None = None,
     batch: int | None = None,
     warnings: Callable[[tuple[Diagnostic, ...]], None] | None = None,
+    rrd: bool = False,
 ) -> SweepResult:
     """``fmionnx sweep`` and :func:`fmionnx.sweep`: check the request, compile the study,
     run it into ``out``.
@@ -89,6 +90,13 @@ def sweep_study(
     if workers is not None and scheduler is not None:
         msg = "--workers starts a local cluster; an existing one (--scheduler) has its own"
         raise RequestError(msg)
+    if rrd:
+        from fmionnx.pipeline.views import ViewUnavailableError, require_rerun
+
+        try:
+            require_rerun("--rrd")
+        except ViewUnavailableError as exc:
+            raise RequestError(str(exc)) from None
     plan, diagnostics = plan_study(study)
     found = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
     if found and warnings is not None:
@@ -101,7 +109,7 @@ def sweep_study(
     try:
         return run_sweep(
             plan, out, scheduler=scheduler, workers=workers, resume=resume,
-            keep_results=keep_results, force=force, progress=progress, batch=batch,
+            keep_results=keep_results, force=force, progress=progress, batch=batch, rrd=rrd,
         )  # fmt: skip
     except (SchedulerError, ClusterStartError):
         if made_out:  # made just now and still empty: no trace of a study that never started
@@ -121,6 +129,7 @@ def run_sweep(
     force: bool = False,
     progress: SweepProgress | None = None,
     batch: int | None = None,
+    rrd: bool = False,
 ) -> SweepResult:
     """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
 
@@ -142,7 +151,7 @@ def run_sweep(
         client = None
         if scheduler is not None or not resume:
             client = stack.enter_context(open_client(scheduler, workers))
-        return _run(plan, out, client, workers, resume, keep_results, force, progress, batch)
+        return _run(plan, out, client, workers, resume, keep_results, force, progress, batch, rrd)
 
 
 def _run(
@@ -155,6 +164,7 @@ def _run(
     force: bool,
     progress: SweepProgress | None,
     batch: int | None,
+    rrd: bool = False,
 ) -> SweepResult:
     from fmionnx.backends.sweep.case import Job
     from fmionnx.backends.sweep.engine import open_client, run_study
@@ -165,7 +175,7 @@ def _run(
     folder = StudyFolder(out, plan)
     finished = folder.prepare(resume=resume, force=force)
     pending = [c for c in plan.cases if c.id not in finished]
-    job = Job.of(plan, keep_results=keep_results)
+    job = Job.of(plan, keep_results=keep_results, rrd=rrd)
     counts = [len(finished), 0]
     if progress is not None:
         progress(counts[0], counts[1], len(plan.cases))

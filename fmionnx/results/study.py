@@ -5,6 +5,7 @@ Layout of ``DIR``::
     study.json            what was run: the plan's fingerprint, targets, metrics, checks, cases
     records/<case>.json   one per finished case, written atomically as it finishes
     cases/<case>/results.csv   with --keep-results
+    cases/<case>/run.rrd       with --rrd: the case's Rerun recording
     cases.parquet, cases.csv   one row per case (written at the end, from the records)
     *.png                 summary plots
 
@@ -32,7 +33,7 @@ from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.owned import OwnedFolder, safe_folder
 from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import STUDY_FILE_BYTES
-from fmionnx.core.safewrite import atomic_binary, atomic_text
+from fmionnx.core.safewrite import atomic_binary, atomic_text, write_bytes_atomic
 
 if TYPE_CHECKING:
     import pandas as pd
@@ -182,6 +183,9 @@ class StudyFolder:
         if outcome.signals is not None:
             folder = self._folder(CASES, f"{CASES}/{outcome.id}")
             written.append(_write_results(folder / "results.csv", outcome.signals))
+        if outcome.rrd is not None:  # sweep --rrd: the case's recording, made on its worker
+            folder = self._folder(CASES, f"{CASES}/{outcome.id}")
+            written.append(write_bytes_atomic(folder / "run.rrd", outcome.rrd))
         path = self._folder(RECORDS, RECORDS) / f"{outcome.id}.json"
         with atomic_text(path) as stream:
             json.dump(outcome.as_json(), stream, indent=1, sort_keys=True)

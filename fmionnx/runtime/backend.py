@@ -42,6 +42,19 @@ def flag(name: str) -> str:
     return "--" + name.replace("_", "-")
 
 
+def checked_rtf(value: object) -> float:
+    """``--rtf``: a pace >= 0 times real time, finite (0: as fast as possible); every backend
+    that paces takes it with this rule."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        msg = f"--rtf takes a number, not `{value}`"
+        raise OptionsError(msg)
+    rtf = float(value)
+    if not 0 <= rtf < float("inf"):  # also NaN
+        msg = "--rtf must be >= 0 (0: as fast as possible)"
+        raise OptionsError(msg)
+    return rtf
+
+
 @dataclasses.dataclass(frozen=True)
 class BackendOptions:
     """Base of a backend's options: a frozen dataclass whose fields are the option names.
@@ -105,6 +118,8 @@ class RunContext:
 
     #: Camera frames and signals go to a recording (``--record``).
     recording: bool = False
+    #: Camera frames and signals go to a live view while the run goes (``--view``, ``--rrd``).
+    viewing: bool = False
 
 
 class Backend(abc.ABC):

@@ -27,7 +27,12 @@ from fmionnx.compile.ir import AlgebraicLoop, CompiledSystem
 from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, StateSaving
 from fmionnx.runtime.stepping import Work
-from fmionnx.runtime.transfer import Transfer, connection_views, make_transfer
+from fmionnx.runtime.transfer import (
+    NonFiniteWatch,
+    Transfer,
+    connection_views,
+    make_transfer,
+)
 
 Vector = npt.NDArray[np.float64]
 
@@ -225,9 +230,11 @@ def iterated_loop(
     loop: AlgebraicLoop,
     runners: dict[str, Runner],
     work: dict[str, Work],
+    watch: NonFiniteWatch | None = None,
 ) -> IteratedLoop:
     """Prepare ``loop``: ``work`` holds each member's work as the master made it (transfers
-    one per incoming connection, in :meth:`CompiledSystem.inputs_of` order)."""
+    one per incoming connection, in :meth:`CompiledSystem.inputs_of` order); ``watch``: the
+    run's ``--on-nonfinite warn`` record (None: a non-finite tear value is a fault)."""
     tears = set(loop.tears)
     members = []
     tear_transfers: list[Transfer] = []
@@ -245,7 +252,7 @@ def iterated_loop(
         for transfer, connection in zip(own.transfers, system.inputs_of(name), strict=True):
             if connection.dst in tears:
                 source = runners[connection.src.component]
-                tear_transfers.append(make_transfer(connection, source, runner))
+                tear_transfers.append(make_transfer(connection, source, runner, watch=watch))
                 views.append(connection_views(connection, source, runner)[1])
             else:
                 kept.append(transfer)

@@ -7,7 +7,8 @@ connection copies the producer's newest output (the value published by a produce
 ran at ``t_n``, else its previous value: a slower component's outputs are held), applying the
 element selection, ``factor*x+offset`` and the dtype conversion. Then it steps from ``t_n`` by
 its period. Loops the compiler cut at non-feedthrough outputs therefore read the producer's
-previous value. A NaN leaving a producer on a connection stops the run.
+previous value. A NaN or an infinity leaving a producer on a connection stops the run
+(``on_nonfinite="warn"``: noted and passed on; :mod:`.transfer`).
 
 Everything (runners, buffers, transfers, the schedule over one hyperperiod, recorder tracks) is
 prepared before the loop; the loop only calls prepared closures. Consecutive FMI 2
@@ -19,6 +20,11 @@ the same order but hands the steps that may overlap the following work to worker
 (lanes), joining each before any work that reads or steps its component: the values are
 those of the sequential loop, bit for bit. A failure in a concurrent step is settled as the
 sequential run would have met it (:meth:`Master._settle`).
+
+Two options change how the loop is watched, never what it computes: ``profile`` builds the
+works with stopwatches (:mod:`.profile`), and ``rtf`` paces the base steps to the wall clock
+(:mod:`.pacing`, profiled too, to say where the time of an overrun went). Both ride on the
+loop's progress call, so a run asking for neither runs the plain loop.
 """
 
 from __future__ import annotations
@@ -29,6 +35,7 @@ import os
 import sys
 import time as _time
 from collections.abc import Callable
+from functools import partial
 from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import AlgebraicLoop, CompiledSystem
@@ -39,16 +46,18 @@ from fmionnx.core.types import Causality, Component, PortRef, flat_index
 from fmionnx.runtime.instruments import PLAIN
 from fmionnx.runtime.native import NativeStatus, plan_native
 from fmionnx.runtime.parallel import Footprint, Issue, Job, Lane, footprint, plan
+from fmionnx.runtime.profile import Profile
 from fmionnx.runtime.recorder import Track
-from fmionnx.runtime.result import EndedBy, RunOptions, RunResult, RunStatus
+from fmionnx.runtime.result import EndedBy, ProgressCallback, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.startvalues import evaluate_at_start
 from fmionnx.runtime.stepping import Work
 from fmionnx.runtime.stopping import shield_begin, shield_end, stop_reason
-from fmionnx.runtime.transfer import make_transfer
+from fmionnx.runtime.transfer import NonFiniteWatch, make_transfer
 from fmionnx.runtime.watchdog import Interrupter, Phase, PhaseWatch, Watchdog, overrun_text
 
 if TYPE_CHECKING:
     from fmionnx.runtime.loops import IteratedLoop
+    from fmionnx.runtime.pacing import Pacer
 
 #: Largest hyperperiod (in base steps) for which the schedule is tabulated.
 MAX_TABLE = 100_000
@@ -142,6 +151,11 @@ class Master:
         self._entry_index: dict[int, int] = {}
         #: The concurrent step the loop is waiting for (for the watchdog's report).
         self._joining: Job | None = None
+        #: Stopwatches on every phase (``profile``, and a paced run's), else None.
+        self.profile = Profile() if self.options.profile or self.options.rtf > 0 else None
+        #: ``on_nonfinite="warn"``: the non-finite values passed on, else None (a fault).
+        self.nonfinite = NonFiniteWatch() if self.options.on_nonfinite == "warn" else None
+        self._pacer: Pacer | None = None
 
     # -- preparation ---------------------------------------------------------------------------
 
@@ -149,12 +163,18 @@ class Master:
         """Instantiate and initialize every runner, wire connections, build the schedule."""
         system = self.system
         run = system.run
+        profile = self.profile
         for component in system.components:
-            runner = self.make_runner(component, self._wiring(component))
-            self.runners[component.name] = runner
-            runner.instantiate()
+            if profile is None:
+                self._make(component)
+            else:
+                profile.timed_once(component.name, "instantiate", partial(self._make, component))
         for name in system.order:
-            self.runners[name].setup(run.start, run.stop)
+            setup = partial(self.runners[name].setup, run.start, run.stop)
+            if profile is None:
+                setup()
+            else:
+                profile.timed_once(name, "initialize", setup)
         for name, runner in self.runners.items():
             if runner.lazy_outputs:
                 self._stamps[name] = 0
@@ -181,6 +201,16 @@ class Master:
                         track.place, track.outputs = i, track is after
         if self.options.schedule == "parallel" and self._hyper:
             self._plan_parallel(entries)
+
+    def _make(self, component: Component) -> None:
+        """Make and instantiate ``component``'s runner (timed by a profiled run)."""
+        runner = self.make_runner(component, self._wiring(component))
+        self.runners[component.name] = runner
+        if self.profile is not None:
+            self.profile.entry(
+                component.name, step_phase=getattr(runner, "step_phase", "step")
+            )  # the entry's step name, before its work exists
+        runner.instantiate()
 
     def _may_overlap(self, name: str) -> bool:
         """Whether a step of ``name`` is worth a worker thread (a cost choice, see .parallel)."""
@@ -229,7 +259,9 @@ class Master:
 
     def _entries(self, dues: dict[str, Work]) -> list[tuple[Work, int]]:
         """(work, period) in execution order; native groups replace their members."""
-        plan = plan_native(self.system, self.runners, self._tracks)
+        plan = plan_native(
+            self.system, self.runners, self._tracks, nonfinite=self.options.on_nonfinite
+        )
         self.native = plan.status
         entries = []
         for item in plan.schedule:
@@ -244,6 +276,8 @@ class Master:
                 h = dues[item.names[0]].h
                 label = "+".join(item.names)
                 work = Work(label, (), item.step, h, None, None, tuple(item.names), "group")
+                if self.profile is not None:
+                    work = self.profile.timed(work)
                 entries.append((work, item.period_steps))
         self._watch(entries)
         return entries
@@ -257,7 +291,7 @@ class Master:
         from fmionnx.runtime.loops import iterated_loop
 
         work = {name: dues[name] for name in loop.members}
-        solver = iterated_loop(self.system, loop, self.runners, work)
+        solver = iterated_loop(self.system, loop, self.runners, work, self.nonfinite)
         self.loops.append(solver)
         h = dues[loop.members[0]].h
         return Work(solver.label, (), solver.step, h, None, None, tuple(loop.members), "loop")
@@ -295,14 +329,23 @@ class Master:
         shape = tuple(int(d) for d in runner.component.port(port).shape if isinstance(d, int))
         start, step = self.system.run.start, self.system.run.step
         clock = self._clock
+        refresh: Callable[[], None] = lambda: runner.produce(port)  # noqa: E731
+        profile = self.profile
+        if profile is not None:
+            refresh = profile.render(owner, refresh)
 
         def produce() -> None:
             version = stamps[owner]
             if stamps[key] != version:
-                runner.produce(port)
+                refresh()
                 stamps[key] = version
                 if sink is not None:
-                    sink.frame(owner, port, start + clock[0] * step, buffer.reshape(shape))
+                    time = start + clock[0] * step
+                    image = buffer.reshape(shape)
+                    if profile is None:
+                        sink.frame(owner, port, time, image)
+                    else:
+                        profile.viewed(lambda: sink.frame(owner, port, time, image))
 
         return produce
 
@@ -315,6 +358,7 @@ class Master:
                 self.runners[connection.src.component],
                 runner,
                 self._producer_hook(connection.src),
+                self.nonfinite,
             )
             for connection in system.inputs_of(component.name)
         ]
@@ -331,7 +375,10 @@ class Master:
             step_fn = step_and_stamp
         before, after = self._tracks.get(component.name, (None, None))
         h = component.period_steps * system.run.step
-        return Work(component.name, tuple(transfers), step_fn, h, before, after, (component.name,))
+        work = Work(component.name, tuple(transfers), step_fn, h, before, after, (component.name,))
+        if self.profile is None:
+            return work
+        return self.profile.timed(work, getattr(runner, "step_phase", "step"))
 
     # -- recording -----------------------------------------------------------------------------
 
@@ -401,7 +448,15 @@ class Master:
             if self._watchdog is not None:  # loading and initializing are timed too
                 self._watchdog.start()
             self.prepare()
+            if self.options.rtf > 0 and self.profile is not None:
+                from fmionnx.runtime.pacing import Pacer
+
+                self._pacer = Pacer(
+                    self.options.rtf, system.run.start, system.run.step, self.profile
+                )
             started = self._started = _time.perf_counter()
+            if self._pacer is not None:
+                self._pacer.begin()
             self._loop()
         except RunError as exc:
             status, error = RunStatus.FAULT, exc
@@ -413,14 +468,49 @@ class Master:
             if self._watchdog is not None:  # after terminating, which is timed too
                 self._watchdog.stop()
         n = self._clock[0]
-        return RunResult.after(
+        result = RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
             self.details(), reason, self.ended_by,
         )  # fmt: skip
+        self._watched(result, wall)
+        return result
+
+    def _watched(self, result: RunResult, wall: float) -> None:
+        """What the watching options add to ``result``: statistics, pacing, warnings."""
+        if self.nonfinite is not None:
+            result.warnings.extend(self.nonfinite.messages())
+        if self.profile is not None and self.options.profile:
+            concurrent = any(lane.steps for lane in self._lanes)
+            result.statistics = self.profile.report(
+                wall, concurrent=concurrent, schedule=self.options.schedule
+            )
+        pacer = self._pacer
+        if pacer is not None:
+            result.pacing = pacer.report()
+            warning = pacer.warning()
+            if warning is not None:
+                result.warnings.append(warning)
 
     def details(self) -> dict[str, str | int | bool | None]:
         """run.json's ``execution``: the native kernel's use and the schedule."""
         return {**self.native.details(), **self.schedule_details}
+
+    def _ticker(self) -> tuple[ProgressCallback | None, int]:
+        """The loop's progress call and how many base steps apart: the observers' (every
+        ``progress_every``), or, in a paced run, the pacer's after every base step, passing
+        the observers' on at their own interval."""
+        progress = self.options.progress
+        every = max(1, self.options.progress_every)
+        pacer = self._pacer
+        if pacer is None:
+            return progress, every
+
+        def paced(done: int, total: int, time: float) -> None:
+            pacer(done)
+            if progress is not None and ((done - 1) % every == 0 or done == total):
+                progress(done, total, time)
+
+        return paced, 1
 
     def _loop(self) -> None:
         if self._issues:
@@ -429,8 +519,7 @@ class Master:
         run = self.system.run
         start, step, total = run.start, run.step, run.steps
         clock = self._clock
-        progress = self.options.progress
-        every = max(1, self.options.progress_every)
+        progress, every = self._ticker()
         table, hyper = self._table, self._hyper
         marker = self._marker
         checkpoint = self.options.checkpoint
@@ -469,8 +558,7 @@ class Master:
         run = self.system.run
         start, step, total = run.start, run.step, run.steps
         clock = self._clock
-        progress = self.options.progress
-        every = max(1, self.options.progress_every)
+        progress, every = self._ticker()
         issues, hyper = self._issues, self._hyper
         index = self._entry_index
         marker = self._marker
@@ -743,8 +831,12 @@ class Master:
 
     def _terminate(self, skip: set[str] | frozenset[str] = frozenset()) -> None:
         """Free every runner but those in ``skip`` (a step of theirs may still be running)."""
+        profile = self.profile
         for name, runner in self.runners.items():
             if name in skip:
                 continue
             with contextlib.suppress(Exception):  # freeing after a fault must not mask it
-                runner.terminate()
+                if profile is None:
+                    runner.terminate()
+                else:
+                    profile.timed_once(name, "terminate", runner.terminate)

@@ -92,7 +92,11 @@ class Recorder:
 
     def table(self, steps_done: int) -> dict[str, npt.NDArray[np.float64]]:
         """Columns at base steps ``0..steps_done`` (held between a component's steps)."""
-        index = np.arange(steps_done + 1)
+        return self.at(np.arange(steps_done + 1))
+
+    def at(self, index: npt.NDArray[np.int64]) -> dict[str, npt.NDArray[np.float64]]:
+        """Columns at the base steps ``index`` (held between a component's steps; a row not
+        recorded yet holds the newest one): a live view's rows while the run goes."""
         out: dict[str, npt.NDArray[np.float64]] = {}
         for track in self.tracks:
             if not track.columns or track.count == 0:

@@ -25,6 +25,7 @@ if TYPE_CHECKING:
     from fmionnx.runtime.instruments import Instruments
     from fmionnx.runtime.published import Follower
     from fmionnx.runtime.recorder import FrameSink
+    from fmionnx.runtime.transfer import NonFinitePolicy
 
 #: A value of ``RunResult.details`` (JSON: scalars, or objects of them such as per-node counts).
 Detail = str | int | float | bool | None | dict[str, "Detail"]
@@ -110,6 +111,16 @@ class RunOptions:
     #: The in-process master's recorder, marker and runner wrapper (None: its own; see
     #: :mod:`fmionnx.runtime.instruments`).
     instruments: Instruments | None = None
+    #: What a NaN or infinity leaving a producer on a connection does: ``fault`` (the run
+    #: stops, naming component, port and time) or ``warn`` (noted once per connection, passed
+    #: on); see :mod:`fmionnx.runtime.transfer`.
+    on_nonfinite: NonFinitePolicy = "fault"
+    #: Time every component's phases (``--profile``): the result's ``statistics``
+    #: (:mod:`fmionnx.runtime.profile`). Off, the loop is the plain one.
+    profile: bool = False
+    #: Pace the run to this many times real time (``--rtf``; 0: as fast as it goes). The
+    #: result's ``pacing`` says how well it kept up (:mod:`fmionnx.runtime.pacing`).
+    rtf: float = 0.0
 
 
 @dataclass
@@ -134,6 +145,14 @@ class RunResult:
     interrupted_by: str | None = None
     #: For a completed run that a model ended before the stop time: which, when and why.
     ended_by: EndedBy | None = None
+    #: What the run noticed and went on with (a non-finite value passed on, a paced run that
+    #: fell behind): shown after the run and written to run.json's ``warnings``.
+    warnings: list[str] = field(default_factory=list)
+    #: Per component: steps and wall time per phase (``--profile``; run.json's ``statistics``,
+    #: :mod:`fmionnx.runtime.profile`); None when not asked for.
+    statistics: dict[str, Detail] | None = None
+    #: How a paced run (``--rtf``) kept up (run.json's ``pacing``); None when unpaced.
+    pacing: dict[str, Detail] | None = None
 
     @classmethod
     def after(

@@ -1,12 +1,13 @@
 """The in-process backend: one Python process, a deterministic co-simulation master.
 
-Its options say how models are kept from taking the run down (``isolate``, ``sandbox``) and
-how steps are scheduled (``schedule``). ``isolate`` left unset is chosen per system by
+Its options say how models are kept from taking the run down (``isolate``, ``sandbox``),
+how steps are scheduled (``schedule``) and whether they are paced to the wall clock (``rtf``,
+:mod:`fmionnx.runtime.pacing`). ``isolate`` left unset is chosen per system by
 :meth:`InProcessBackend.prepare` (docs/security.md, docs/decisions.md):
 
 - a system whose only component is one FMU runs under the **guardian** (the whole run in one
   forked child, about as fast as in-process), when a fork is safe here: Linux, no
-  ``sandbox``, no recording, and no other Python thread in this process (a thread holding a
+  ``sandbox``, no recording or live view, and no other Python thread in this process (a thread holding a
   lock at the fork would leave it held in the child for good: a notebook, a program with
   threads of its own);
 - anything else runs every FMU in a process of its own (``fmus``): with several components
@@ -24,7 +25,13 @@ from typing import Self
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, make
-from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
+from fmionnx.runtime.backend import (
+    Backend,
+    BackendOptions,
+    OptionsError,
+    RunContext,
+    checked_rtf,
+)
 from fmionnx.runtime.result import RunOptions, RunResult, Schedule
 
 #: The ``isolate`` word that runs the whole run in one guarded child process.
@@ -47,7 +54,7 @@ def isolate_words(value: object) -> tuple[str, ...]:
 
 @dataclasses.dataclass(frozen=True)
 class InProcessOptions(BackendOptions):
-    """``isolate`` (None: chosen per system), ``sandbox``, ``schedule``."""
+    """``isolate`` (None: chosen per system), ``sandbox``, ``schedule``, ``rtf``."""
 
     #: The ``--isolate`` words; None until :meth:`InProcessBackend.prepare` chose.
     isolate: tuple[str, ...] | None = None
@@ -55,6 +62,8 @@ class InProcessOptions(BackendOptions):
     schedule: Schedule = "parallel"
     #: Whether ``isolate`` was chosen by default, not given (run.json says so).
     isolate_default: bool = False
+    #: Pace the master to this many times real time (0: as fast as it goes; runtime.pacing).
+    rtf: float = 0.0
 
     @classmethod
     def checked(cls, given: Mapping[str, object]) -> Self:
@@ -75,7 +84,8 @@ class InProcessOptions(BackendOptions):
             msg = "--sandbox is true or false"
             raise OptionsError(msg)
         chosen: Schedule = "sequential" if schedule == "sequential" else "parallel"
-        return cls(isolate=words, sandbox=sandbox, schedule=chosen)
+        rtf = checked_rtf(given.get("rtf", 0.0))
+        return cls(isolate=words, sandbox=sandbox, schedule=chosen, rtf=rtf)
 
     @property
     def words(self) -> tuple[str, ...]:
@@ -99,6 +109,10 @@ class InProcessOptions(BackendOptions):
         return " in a guarded process" + (
             ", the default for a lone FMU" if self.isolate_default else ""
         )
+
+    def where(self) -> str:
+        """`` at 1x real time`` for a paced run, else nothing."""
+        return f" at {self.rtf:g}x real time" if self.rtf > 0 else ""
 
     def details(self) -> dict[str, str | bool]:
         """run.json's ``execution.isolate`` (the words in force) and whether by default."""
@@ -146,7 +160,8 @@ class InProcessBackend(Backend):
 
         assert isinstance(options, InProcessOptions)
         if options.isolate is None:
-            word = default_isolation(system, sandbox=options.sandbox, recording=context.recording)
+            watched = context.recording or context.viewing  # frames leave the loop's process
+            word = default_isolation(system, sandbox=options.sandbox, recording=watched)
             options = dataclasses.replace(options, isolate=(word,), isolate_default=True)
         chosen, unknown = isolation_targets(system, _component_words(options))
         if unknown:
@@ -170,6 +185,12 @@ class InProcessBackend(Backend):
                 msg = (
                     "--isolate guardian does not combine with --record (the frames would be "
                     "recorded in the guarded process); isolate components by name instead"
+                )
+                raise OptionsError(msg)
+            if context.viewing:
+                msg = (
+                    "--isolate guardian does not combine with --view or --rrd (the frames and "
+                    "rows would stay in the guarded process); isolate components by name instead"
                 )
                 raise OptionsError(msg)
         return options
@@ -199,8 +220,9 @@ class InProcessBackend(Backend):
         assert isinstance(options, InProcessOptions)
         chosen, _ = isolation_targets(system, _component_words(options))
         run = dataclasses.replace(
-            run, isolate=chosen, sandbox=options.sandbox, schedule=options.schedule
-        )
+            run, isolate=chosen, sandbox=options.sandbox, schedule=options.schedule,
+            rtf=options.rtf,
+        )  # fmt: skip
 
         def plain(*, options: RunOptions) -> RunResult:
             return Master(system, options).run()

@@ -16,22 +16,19 @@ from typing import Self
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.core.diagnostics import Diagnostic
-from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
+from fmionnx.runtime.backend import (
+    Backend,
+    BackendOptions,
+    OptionsError,
+    RunContext,
+    checked_rtf,
+)
 from fmionnx.runtime.result import RunOptions, RunResult
 
 #: Seconds a free-running node's step waits for an input sample of its time (default).
 INPUT_WAIT = 0.1
 SYNC_MODES = ("lockstep", "free")
 MIDDLEWARES = ("dds", "rclpy", "zenoh")
-
-
-def checked_rtf(value: object) -> float:
-    """``--rtf``: a pace >= 0 (0: as fast as possible)."""
-    rtf = _number(value, "--rtf")
-    if not rtf >= 0:  # also NaN
-        msg = "--rtf must be >= 0 (0: as fast as possible)"
-        raise OptionsError(msg)
-    return rtf
 
 
 def checked_input_wait(value: object) -> float:
@@ -166,3 +163,6 @@ class Ros2Backend(Backend):
             input_wait=options.input_wait, zenoh_router=options.zenoh_router, run=run,
         )  # fmt: skip
         return run_ros2(system, settings)
+
+
+__all__ = ["checked_rtf"]  # ``fmionnx node`` checks its ``--rtf`` by the same rule

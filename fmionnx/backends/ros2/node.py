@@ -26,6 +26,7 @@ import signal
 import time
 from collections import deque
 from dataclasses import dataclass, field
+from functools import partial
 from pathlib import Path
 from types import FrameType
 
@@ -74,8 +75,10 @@ from fmionnx.core.runner import Buffer, Runner, Wiring
 from fmionnx.core.types import Component, DType
 from fmionnx.kinds.base import SIMULATOR
 from fmionnx.kinds.registry import has_capability, make_runner
+from fmionnx.runtime.profile import Profile
+from fmionnx.runtime.result import Detail
 from fmionnx.runtime.stepping import Work
-from fmionnx.runtime.transfer import Transfer, make_transfer
+from fmionnx.runtime.transfer import NonFiniteWatch, Transfer, make_transfer
 
 log = logging.getLogger("fmionnx.node")
 
@@ -117,6 +120,10 @@ class NodeOptions:
     remap: tuple[tuple[str, str], ...] = ()
     #: ``zenoh``: the router endpoint to connect to ("" : the Zenoh configuration's).
     zenoh_router: str = ""
+    #: Time the component's phases (``--profile``): its status file's ``statistics``.
+    profile: bool = False
+    #: ``fault`` or ``warn``: a non-finite value arriving on a connection (``--on-nonfinite``).
+    on_nonfinite: str = "fault"
 
 
 def clock_source(system: CompiledSystem, plan: Ros2Plan) -> str | None:
@@ -343,6 +350,13 @@ class Node:
         self.recording: NodeRecording | None = None
         self.runner: Runner | None = None
         self.remap = dict(options.remap)
+        #: Stopwatches on the component's phases (``--profile``), else None.
+        self.profile = Profile() if options.profile else None
+        #: ``--on-nonfinite warn``: the non-finite values passed on, else None (a fault).
+        self.nonfinite = NonFiniteWatch() if options.on_nonfinite == "warn" else None
+        #: Seconds spent stepping (from the first step on) and, of them, waiting for inputs
+        #: and publishing (a profiled node's ``other``).
+        self._stepping = [0.0, 0.0]
 
     # -- set-up --------------------------------------------------------------------------------
 
@@ -376,7 +390,7 @@ class Node:
         for connection in system.inputs_of(name):
             src = connection.src.component
             proxy = proxies.setdefault(src, ProxyRunner(system.component(src)))
-            transfers.append(make_transfer(connection, proxy, runner))
+            transfers.append(make_transfer(connection, proxy, runner, watch=self.nonfinite))
         self.transfers = tuple(transfers)
         for topic_name in self.node_plan.subscribes:
             topic = plan.topic(topic_name)
@@ -414,14 +428,18 @@ class Node:
             )
 
     def _work(self, runner: Runner) -> Work:
-        """The component's step for the stepping core: its transfers, its recorded tracks."""
+        """The component's step for the stepping core: its transfers, its recorded tracks
+        (timed by phase with ``--profile``)."""
         recording, name = self.recording, self.component.name
-        return Work(
+        work = Work(
             name, self.transfers, runner.step,
             self.component.period_steps * self.system.run.step,
             None if recording is None else recording.before,
             None if recording is None else recording.after, (name,),
         )  # fmt: skip
+        if self.profile is not None:
+            work = self.profile.timed(work, getattr(runner, "step_phase", "step"))
+        return work
 
     def _dds_name(self, topic_name: str) -> str:
         """The DDS name of a plan topic after ``--remap``."""
@@ -461,10 +479,26 @@ class Node:
             if not due:
                 continue
             for port in box.lazy:
-                runner.produce(port)
+                if self.profile is None:
+                    runner.produce(port)
+                else:
+                    self.profile.render(self.component.name, partial(runner.produce, port))()
             box.writer.write(box.codec.encode(box.values, stamp), round(stamp * 1e9))
 
     def _step(self, runner: Runner, n: int, *, exact: bool) -> None:
+        if self.profile is None:
+            self._exchange_and_step(runner, n, exact=exact)
+            return
+        began = time.perf_counter()
+        busy = self.profile.entry(self.component.name).busy
+        try:
+            self._exchange_and_step(runner, n, exact=exact)
+        finally:
+            took = time.perf_counter() - began
+            self._stepping[0] += took
+            self._stepping[1] += took - (self.profile.entry(self.component.name).busy - busy)
+
+    def _exchange_and_step(self, runner: Runner, n: int, *, exact: bool) -> None:
         t = self.system.run.time_at(n)
         if not exact:
             self._gather(n, t)
@@ -586,9 +620,16 @@ class Node:
         announcer: GraphAnnouncer | None = None
         runner = make_runner(self.component, _wiring(self.system, self.component))
         self.runner = runner
+        name, profile = self.component.name, self.profile
         try:
-            runner.instantiate()
-            runner.setup(self.system.run.start, self.system.run.stop)
+            if profile is None:
+                runner.instantiate()
+                runner.setup(self.system.run.start, self.system.run.stop)
+            else:
+                profile.entry(name, step_phase=getattr(runner, "step_phase", "step"))
+                profile.timed_once(name, "instantiate", runner.instantiate)
+                setup = partial(runner.setup, self.system.run.start, self.system.run.stop)
+                profile.timed_once(name, "initialize", setup)
             self._open(participant, runner)
             clock_in = participant.reader(CLOCK_DDS, CLOCK_TYPE, CONTROL_READER_QOS)
             done = participant.writer(DONE_DDS, DONE_TYPE, CONTROL_WRITER_QOS)
@@ -650,12 +691,24 @@ class Node:
                 inputs = self.input_counts() if opts.sync is SyncMode.FREE else None
                 save_node(opts.record_dir, self.recording, self.component.name,
                           status=status, steps=self.steps_done, error=error, inputs=inputs,
-                          ended=ended)  # fmt: skip
+                          ended=ended, statistics=self._statistics(),
+                          warnings=self.nonfinite.messages() if self.nonfinite else None)  # fmt: skip
             runner.terminate()
             if announcer is not None:
                 announcer.withdraw()
             participant.close()
         return code
+
+    def _statistics(self) -> dict[str, Detail] | None:
+        """A profiled node's statistics: its component's entry against the node's own time
+        spent stepping, and, beside it, what of that went to exchanging samples (waiting for
+        inputs, decoding, publishing)."""
+        if self.profile is None:
+            return None
+        stepping, exchanging = self._stepping
+        report = self.profile.report(stepping)
+        report["other"] = {"exchange": round(exchanging, 6)}
+        return report
 
     def _ended(self, request: ModelTerminated) -> dict[str, str | float | int]:
         """The status file's ``ended_by``: as the in-process master words it, plus ``step``

@@ -109,6 +109,8 @@ def save_node(
     error: RunError | None = None,
     inputs: dict[str, dict[str, str | int]] | None = None,
     ended: dict[str, str | float | int] | None = None,
+    statistics: Mapping[str, object] | None = None,
+    warnings: list[str] | None = None,
 ) -> None:
     """Write ``<component>.npz`` (rows) and ``<component>.json`` (how the node ended and,
     in a free run, what happened to each input: ``inputs``, see :mod:`.inputsync`; when its
@@ -141,6 +143,10 @@ def save_node(
         info["inputs"] = inputs
     if ended is not None:
         info["ended_by"] = ended
+    if statistics is not None:
+        info["statistics"] = statistics
+    if warnings:
+        info["warnings"] = warnings
     write_text_atomic(folder / f"{component}.json", json.dumps(info, indent=2))
 
 

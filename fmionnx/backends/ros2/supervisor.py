@@ -283,6 +283,10 @@ class Supervisor:
             argv += ["--input-wait", repr(opts.input_wait)]
         if self.router is not None:
             argv += ["--zenoh-router", self.router.endpoint]
+        if opts.run.profile:
+            argv.append("--profile")
+        if opts.run.on_nonfinite != "fault":
+            argv += ["--on-nonfinite", opts.run.on_nonfinite]
         return argv
 
     # -- phases --------------------------------------------------------------------------------
@@ -570,10 +574,16 @@ class Supervisor:
         n = self.steps_done
         refs = record_refs(self.system, self.options.run)
         recorder = merge(self.records, self.components, refs, self.system, self.issued)
-        return RunResult.after(
+        result = RunResult.after(
             self.system, BACKEND_NAME, status, n, wall, recorder.table(n), error, self._details(),
             self.interrupted_by, self.ended_by,
         )  # fmt: skip
+        statuses = {c: load_status(self.records, c) or {} for c in self.components}
+        for component, found in statuses.items():
+            result.warnings.extend(f"node {component}: {w}" for w in found.get("warnings", ()))
+        if self.options.run.profile:
+            result.statistics = node_statistics(statuses, wall)
+        return result
 
     def _inputs(self) -> dict[str, Detail]:
         """Free run: each node's input counts (from its status file), by component and topic."""
@@ -602,6 +612,28 @@ class Supervisor:
             "middleware": opts.middleware,
             "zenoh_router": self.router.describe() if self.router is not None else None,
         }
+
+
+def node_statistics(statuses: dict[str, dict[str, Any]], wall: float) -> dict[str, Detail]:
+    """``--profile`` for ROS 2: each node's component entry (its share of the node's own time
+    stepping), by share; ``other`` per node: what went to exchanging samples."""
+    entries: list[tuple[str, dict[str, Detail]]] = []
+    other: dict[str, Detail] = {}
+    for component, status in statuses.items():
+        found = status.get("statistics")
+        if not isinstance(found, dict):
+            continue
+        for name, entry in (found.get("components") or {}).items():
+            entries.append((name, {**entry, "node_stepping_time": found.get("loop_wall_time")}))
+        other[component] = found.get("other")
+    entries.sort(key=lambda item: item[1].get("share") or 0.0, reverse=True)  # type: ignore[arg-type,return-value]
+    return {
+        "loop_wall_time": round(wall, 6),
+        "schedule": "one process per node",
+        "concurrent": True,
+        "components": dict(entries),
+        "other": other,
+    }
 
 
 def run_ros2(system: CompiledSystem, options: Ros2Options | None = None) -> RunResult:

@@ -52,11 +52,14 @@ class Job:
     keep_results: bool = False
     #: Seconds one step may take (None: ``timeout``).
     step_timeout: float | None = None
+    #: Keep each case's Rerun recording (``fmionnx sweep --rrd``): made on the worker, in
+    #: memory, and written beside the case's results by the study's folder.
+    rrd: bool = False
 
     @classmethod
-    def of(cls, plan: StudyPlan, *, keep_results: bool = False) -> Job:
+    def of(cls, plan: StudyPlan, *, keep_results: bool = False, rrd: bool = False) -> Job:
         """The job of a compiled study: its metrics, isolation and timeouts."""
-        return cls(plan.metrics, plan.isolate, plan.timeout, keep_results, plan.step_timeout)
+        return cls(plan.metrics, plan.isolate, plan.timeout, keep_results, plan.step_timeout, rrd)
 
 
 @dataclass
@@ -73,11 +76,14 @@ class CaseOutcome:
     wall_time: float = 0.0
     worker: str = ""
     signals: dict[str, npt.NDArray[np.float64]] | None = None
+    #: With ``rrd``: the case's Rerun recording (the bytes of an ``.rrd`` file).
+    rrd: bytes | None = None
 
     def as_json(self) -> dict[str, object]:
         """The record written when the case finishes (``--resume`` reads it back)."""
         data = dataclasses.asdict(self)
         data.pop("signals")
+        data.pop("rrd")
         data["metrics"] = {
             k: (v if v is not None and math.isfinite(v) else None) for k, v in self.metrics.items()
         }

@@ -65,6 +65,8 @@ class OnnxRunner:
     #: onnxruntime's ``run`` releases the GIL for the whole inference (milliseconds for an
     #: image model), so the master's parallel schedule may step it on a worker thread.
     releases_gil = True
+    #: A profiled run (``--profile``) calls its step by what it is: an inference.
+    step_phase = "infer"
 
     def __init__(self, component: Component, sizes: dict[str, int]) -> None:
         self.component = component

@@ -5,8 +5,8 @@
  * The in-process master (fmionnx/runtime/native/) calls fx_group_step once per
  * communication point instead of making several ctypes calls per FMU from Python. For each
  * member it does exactly what the Python path does (transfer.py, kinds/fmu/runner.py):
- *   1. every incoming connection, in the master's order: stop if any source value is NaN,
- *      else convert it as numpy's unsafe cast does, or compute factor * x, then + offset
+ *   1. every incoming connection, in the master's order: stop if any source value is NaN or
+ *      infinite, else convert it as numpy's unsafe cast does, or compute factor * x, then + offset
  *      (two roundings, as numpy does: in float32 for a float32 source, whose multiply numpy
  *      does in float32, else in float64), then convert;
  *   2. the member's set calls, one per value type (fmi2SetReal/Integer/Boolean, or
@@ -98,23 +98,24 @@ typedef struct {
     int failed_status;
 } fx_group;
 
-enum { FX_OK = 0, FX_NAN = 1, FX_SET = 2, FX_DO_STEP = 3, FX_GET = 4, FX_TERMINATE = 5 };
+enum { FX_OK = 0, FX_NONFINITE = 1, FX_SET = 2, FX_DO_STEP = 3, FX_GET = 4, FX_TERMINATE = 5 };
 
 /* OK and Warning let the run go on, as in the Python path (FMI 2 and 3 number them alike). */
 #define FX_FAULT(status) ((status) > 1)
 
 /* ---- connections ------------------------------------------------------------------------- */
 
-static int transfer_has_nan(const fx_transfer *tr) {
+/* NaN or +-inf in a float source: the Python path's `not isfinite(value)`. */
+static int transfer_has_nonfinite(const fx_transfer *tr) {
     if (tr->src_type == FX_F64) {
         const double *src = tr->src;
         for (size_t i = 0; i < tr->count; ++i) {
-            if (isnan(src[i])) return 1;
+            if (!isfinite(src[i])) return 1;
         }
     } else if (tr->src_type == FX_F32) {
         const float *src = tr->src;
         for (size_t i = 0; i < tr->count; ++i) {
-            if (isnan(src[i])) return 1;
+            if (!isfinite(src[i])) return 1;
         }
     }
     return 0;
@@ -282,9 +283,9 @@ int fx_group_step(fx_group *group, double t, double h) {
         group->failed_member = m;
         for (size_t k = 0; k < member->n_transfers; ++k) {
             const fx_transfer *tr = &group->transfers[member->first_transfer + k];
-            if (transfer_has_nan(tr)) {
+            if (transfer_has_nonfinite(tr)) {
                 group->failed_transfer = k;
-                return FX_NAN;
+                return FX_NONFINITE;
             }
             transfer_copy(tr);
         }

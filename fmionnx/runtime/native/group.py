@@ -33,7 +33,7 @@ from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer
 from fmionnx.runtime.native import kernel as k
 from fmionnx.runtime.recorder import Track
-from fmionnx.runtime.transfer import nan_error
+from fmionnx.runtime.transfer import nonfinite_error
 
 #: The runners a group steps.
 CsRunner = NativeSteppable
@@ -194,8 +194,9 @@ class NativeGroup:
                 if track is not None:
                     track.sample()
         plan = self._members[index]
-        if code == k.NAN:
-            return nan_error(plan.connections[int(self._group.failed_transfer)], t)
+        if code == k.NONFINITE:
+            failed = int(self._group.failed_transfer)
+            return nonfinite_error(plan.connections[failed], t, plan.views[failed][0])
         before = plan.tracks[0]
         if before is not None:
             before.sample()

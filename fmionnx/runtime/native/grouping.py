@@ -199,12 +199,22 @@ def _python_only(
 
 
 def plan_native(
-    system: CompiledSystem, runners: Mapping[str, Runner], tracks: Tracks
+    system: CompiledSystem,
+    runners: Mapping[str, Runner],
+    tracks: Tracks,
+    *,
+    nonfinite: str = "fault",
 ) -> NativePlan:
-    """Group the prepared runners (after ``setup``) for native stepping where possible."""
+    """Group the prepared runners (after ``setup``) for native stepping where possible.
+
+    The kernel stops at a non-finite value, as the Python path's default does; with
+    ``nonfinite="warn"`` (values passed on) every component keeps the Python path.
+    """
     setting = os.environ.get(SWITCH_ENV, "").strip()
     if setting == "0":
         return _python_only(system, f"disabled by {SWITCH_ENV}=0")
+    if nonfinite != "fault":
+        return _python_only(system, "--on-nonfinite warn passes non-finite values on")
     if setting not in SETTINGS:
         return _python_only(system, f"{SWITCH_ENV}={setting!r} is none of 0, 1, build")
     runs, reasons = _runs(system, runners, tracks)

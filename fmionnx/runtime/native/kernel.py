@@ -132,7 +132,7 @@ ELEMENT_TYPES: tuple[tuple[str, type[ctypes._SimpleCData[Any]]], ...] = (
 TYPE_CODES = {name: code for code, (name, _) in enumerate(ELEMENT_TYPES)}
 
 #: Return codes of ``fx_group_step``.
-OK, NAN, SET, DO_STEP, GET, TERMINATE = 0, 1, 2, 3, 4, 5
+OK, NONFINITE, SET, DO_STEP, GET, TERMINATE = 0, 1, 2, 3, 4, 5
 
 
 @dataclass(frozen=True)
