@@ -80,14 +80,15 @@ def sweep(
     from fmionnx.core.modelfiles import ShippingError
     from fmionnx.pipeline.sweep import sweep_study
     from fmionnx.results.study import StudyFolderError
+    from fmionnx.runtime.stopping import stop_on_signals
 
     def warn(found: tuple[Diagnostic, ...]) -> None:
         if not quiet:
             _show(study, found)
 
     console = make_console()
-    try:
-        with refused(), _progress(console, quiet=quiet) as update:
+    try:  # SIGTERM and SIGHUP stop a study as Ctrl-C does (the finished cases kept)
+        with stop_on_signals(process_ends=True), refused(), _progress(console, quiet) as update:
             result = sweep_study(
                 study, out, scheduler=scheduler, workers=workers, resume=resume,
                 keep_results=keep_results, force=force, progress=update, batch=batch,
@@ -100,16 +101,24 @@ def sweep(
         raise fail(str(exc)) from None
     except (SchedulerError, ClusterStartError, ShippingError) as exc:
         raise fail(str(exc), ExitCode.PROBLEMS) from None
-    except KeyboardInterrupt:  # the finished cases are recorded: nothing to lose
-        console.print(f"interrupted: the finished cases are in {out}; `--resume` runs the rest")
-        from fmionnx.runtime.stopping import exit_code
-
-        raise typer.Exit(exit_code(None)) from None
+    except KeyboardInterrupt as exc:  # the finished cases are recorded: nothing to lose
+        raise _interrupted(console, out, exc) from None
     if not quiet:
         _summary(console, result)
     failed = int((result.table["status"] != "ok").sum())
     if failed:
         raise typer.Exit(ExitCode.PROBLEMS)
+
+
+def _interrupted(console: Console, out: Path, stop: KeyboardInterrupt) -> typer.Exit:
+    """Say where the finished cases are; the exit a stop signal gives (128 + its number)."""
+    from fmionnx.runtime.stopping import exit_code, stop_reason
+
+    reason = stop_reason(stop)
+    console.print(
+        f"interrupted by {reason}: the finished cases are in {out}; `--resume` runs the rest"
+    )
+    return typer.Exit(exit_code(reason))
 
 
 def _show(study: Path, diagnostics: tuple[Diagnostic, ...]) -> None:
@@ -123,7 +132,7 @@ def _show(study: Path, diagnostics: tuple[Diagnostic, ...]) -> None:
 class _progress:  # noqa: N801 - used as a function-like context manager
     """A rich progress bar (cases done, failed, ETA) on a terminal; silent otherwise."""
 
-    def __init__(self, console: Console, *, quiet: bool) -> None:
+    def __init__(self, console: Console, quiet: bool) -> None:
         self.console = console
         self.quiet = quiet or not console.is_terminal
         self.bar: Progress | None = None

@@ -46,7 +46,7 @@ def recording(
 
 
 def test_every_signal_is_a_time_series_under_its_component(recording) -> None:
-    for entity in ("/odometry/posX", "/tracker/v", "/world/base_pos/0", "/detector/blobX/2"):
+    for entity in ("/odometry/posX", "/tracker/v", "/world/base_pos/0", "/detector/blobX/0/2"):
         static, rows, columns = recording[entity]
         assert not static
         assert rows == 101, entity  # base steps 0, 5, ..., 500
@@ -57,7 +57,9 @@ def test_every_signal_is_a_time_series_under_its_component(recording) -> None:
 def test_the_camera_frames_are_images_on_the_simulation_timeline(recording) -> None:
     static, rows, columns = recording["/world/front"]
     assert not static
-    assert rows == 10  # t = 0, 0.1, ..., 0.9
+    # t = 0, 0.1, ..., 0.9, and t = 0 once more: the initial frame the detector evaluates
+    # its start outputs on (docs/execution.md, "Initial values")
+    assert rows == 11
     assert "sim_time" in columns
     assert any(str(c).startswith("EncodedImage:") for c in columns)
 
@@ -156,6 +158,6 @@ def test_a_remote_viewer_takes_the_run(tmp_path: Path) -> None:
         reader = rerun_chunk.RrdReader(received)
     for chunk in reader.stream().collect().stream():
         rows[str(chunk.entity_path)] += chunk.num_rows
-    assert rows["/world/front"] == 3
+    assert rows["/world/front"] == 4  # t = 0 (twice: the detector's start), 0.1, 0.2
     assert rows["/odometry/posX"] == rows["/tracker/v"] == 31
     assert rows["/graph"] == rows["/map/sites"] == rows["/run"] == 1

@@ -148,7 +148,7 @@ def test_the_mcap_recording_carries_the_live_channels(tmp_path: Path) -> None:
         by_topic.setdefault(channel.topic, []).append(message.data)
         assert schema is not None
         schemas[channel.topic] = schema.name
-    assert len(by_topic["/world/front"]) == 12
+    assert len(by_topic["/world/front"]) == 13  # t = 0 twice (the detector's start), to 1.1
     assert len(by_topic["/signals"]) == 121  # 100 rows a simulated second, and t=0
     assert schemas["/map"] == "foxglove.SceneUpdate"
     assert schemas["/trajectory"] == "foxglove.PosesInFrame"

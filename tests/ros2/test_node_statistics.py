@@ -65,7 +65,7 @@ def test_each_node_reports_its_component_statistics(tmp_path: Path, loopback_env
 
 
 def test_a_nonfinite_value_in_a_node_is_a_fault_or_a_warning(tmp_path: Path, loopback_env) -> None:
-    system = _system(tmp_path, 12)
+    system = _system(tmp_path, 14)  # Faulty: y becomes +inf
     done = _run(system, "-q", "--backend", "ros2", "--out", tmp_path / "fault", "--no-checks")
     assert done.returncode == 1
     text = " ".join(done.stderr.split())

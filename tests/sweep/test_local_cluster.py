@@ -108,7 +108,7 @@ def test_a_local_cluster_that_fails_to_start_leaves_the_environment_as_it_was(
 
     monkeypatch.delenv("OMP_NUM_THREADS", raising=False)
 
-    def nanny_fails(workers: int) -> object:
+    def nanny_fails(workers: int, scratch: Path) -> object:
         os.environ["OMP_NUM_THREADS"] = "1"  # what the nanny writes before it spawns a worker
         raise RuntimeError("Nanny failed to start.")
 

@@ -62,7 +62,7 @@ def test_the_same_script_with_the_guard_runs(write_study: WriteStudy) -> None:
     assert (folder / "results" / "cases.csv").is_file()
 
 
-def _nanny_fails(workers: int) -> object:
+def _nanny_fails(workers: int, scratch: Path) -> object:
     """Dask's local cluster failing to start its workers (the part that fails is Dask's)."""
     raise RuntimeError("Nanny failed to start.")
 
@@ -123,7 +123,7 @@ def test_a_folder_that_cannot_take_the_study_is_said_before_any_cluster_starts(
 
     study, out = finished
 
-    def no_cluster_expected(workers: int) -> object:
+    def no_cluster_expected(workers: int, scratch: Path) -> object:
         raise AssertionError("a cluster was started before the folder was checked")
 
     monkeypatch.setattr(engine, "_local_cluster", no_cluster_expected)

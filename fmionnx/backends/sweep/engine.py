@@ -18,6 +18,8 @@ from __future__ import annotations
 import logging
 import math
 import os
+import shutil
+import tempfile
 import time
 import uuid
 import warnings
@@ -25,6 +27,7 @@ from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
 from dataclasses import dataclass
+from pathlib import Path
 from typing import Any
 
 from fmionnx.backends.sweep.batching import BatchSizer
@@ -33,6 +36,7 @@ from fmionnx.backends.sweep.models import pack_models
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
 from fmionnx.core.errors import FmionnxError
+from fmionnx.core.scratch import sweep_stale
 
 #: How often the local cluster's scheduler retries a task whose worker died: never. The driver
 #: does it (:func:`run_study` runs the task's cases again, alone), and Dask would charge the
@@ -57,6 +61,8 @@ LOCAL_CONFIG = {
     # GIL from its case 50 times a second. At 500 ms (what Dask's own test clusters use) the
     # idle cluster takes under 2 %.
     "distributed.admin.tick.interval": "500ms",
+    # Workers leave Ctrl-C to the driver, which closes them in order (see the module).
+    "distributed.worker.preload": ["fmionnx.backends.sweep.quiet"],
 }
 #: Tasks in hand per worker thread once the study's first tasks (one per thread) return: one
 #: running, one queued on its worker to start the moment the first returns. The rest wait on
@@ -155,9 +161,12 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
             yield client
         return
     before = {key: os.environ.get(key) for key in _nanny_variables()}
+    # The workers' scratch folders (``dask-scratch-space``, left in TMPDIR after every study
+    # otherwise) go into a folder of this study's, removed with the cluster.
+    scratch = Path(tempfile.mkdtemp(prefix="fmionnx-dask-"))
     try:
         try:
-            cluster = _local_cluster(workers or default_workers())
+            cluster = _local_cluster(workers or default_workers(), scratch)
         except (RuntimeError, OSError, TimeoutError) as exc:
             msg = (
                 f"the local Dask cluster could not start its workers ({exc}); "
@@ -169,16 +178,23 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
                 yield client
         finally:
             cluster.close()
+            # Models a stop signal killed inside a case (their process ended without its
+            # exit handlers) left their unpacked FMUs: their owners are gone now.
+            sweep_stale()
     finally:
         _restore(before)
+        shutil.rmtree(scratch, ignore_errors=True)
 
 
-def _local_cluster(workers: int) -> Any:
+def _local_cluster(workers: int, scratch: Path) -> Any:
     """A new local cluster of ``workers`` one-thread processes, with :data:`LOCAL_CONFIG`."""
     import dask
     from distributed import LocalCluster
 
-    with dask.config.set(LOCAL_CONFIG), warnings.catch_warnings():
+    # The scheduler and the nannies make their scratch space in Dask's temporary directory,
+    # not in the workers' local directory: both are the study's own folder.
+    settings = {**LOCAL_CONFIG, "temporary-directory": str(scratch)}
+    with dask.config.set(settings), warnings.catch_warnings():
         # The scheduler serves its health routes on 8787 even without a dashboard and warns
         # when another cluster on this host has the port; it takes a free one: nothing to say.
         warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
@@ -189,6 +205,7 @@ def _local_cluster(workers: int) -> Any:
             dashboard_address=None,
             silence_logs=logging.ERROR,
             memory_limit=0,
+            local_directory=str(scratch),
         )
 
 

@@ -99,10 +99,11 @@ def reach_viewer(target: ViewTarget, wait: float) -> None:
 
 def entity(column: str) -> str:
     """The entity of a results column: ``odometry.posX`` -> ``odometry/posX``,
-    ``world.base_pos[1]`` -> ``world/base_pos/1``."""
+    ``world.base_pos[1]`` -> ``world/base_pos/1``, a tensor's element
+    ``detector.blobX[0,2]`` -> ``detector/blobX/0/2`` (one level per dimension)."""
     component, _, rest = column.partition(".")
     port, _, index = rest.partition("[")
-    parts = [component, port] + ([index.rstrip("]")] if index else [])
+    parts = [component, port, *(index.rstrip("]").split(",") if index else [])]
     return "/".join(rr.escape_entity_path_part(part) for part in parts)
 
 

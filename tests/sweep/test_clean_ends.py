@@ -1,0 +1,93 @@
+"""A study stopped by Ctrl-C or SIGTERM ends cleanly and leaves nothing behind.
+
+Ctrl-C went to the local cluster's workers too (a terminal signals its whole process group):
+each died inside Dask's shutdown and printed tracebacks, five in all. SIGTERM (a cancelled CI
+job) killed the driver without a word. Every study left ``dask-scratch-space`` in the
+temporary folder, and a stopped one the unpacked FMUs of the cases it cut short. Now the
+workers leave Ctrl-C to the driver, SIGTERM and SIGHUP stop a study as Ctrl-C does (exit
+128 + signal), and the temporary folder is as it was. (``--resume`` finishing such a study:
+``tests/sweep/test_resume_determinism.py``.)
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import subprocess
+import sys
+import time
+from pathlib import Path
+
+import pytest
+
+from tests.conftest import finish
+
+SYSTEM = """\
+fmionnx: 1
+name: gain
+run: {{stop: 20, step: 0.0001}}
+components:
+  gain: {{kind: fmu, path: {gain}, parameters: {{u: 1, v: [0, 0, 0]}}}}
+"""
+STUDY = """\
+fmionnx: 1
+system: system.yaml
+parameters:
+  gain.k: [1, 2, 3, 4, 5, 6, 7, 8]
+metrics:
+  y_end: final(gain.y)
+"""
+
+
+@pytest.fixture
+def project(tmp_path: Path, fixture_fmu) -> Path:
+    (tmp_path / "system.yaml").write_text(SYSTEM.format(gain=fixture_fmu("Gain")), "utf-8")
+    (tmp_path / "study.yaml").write_text(STUDY, "utf-8")
+    (tmp_path / "tmp").mkdir()
+    return tmp_path
+
+
+def _sweep(project: Path, *extra: str) -> subprocess.Popen[str]:
+    """``fmionnx sweep`` in a session of its own (a terminal's process group), with its own
+    temporary folder and Ctrl-C delivered as a terminal delivers it."""
+    return subprocess.Popen(
+        [sys.executable, "-m", "fmionnx", "sweep", "study.yaml", "--out", "out",
+         "--workers", "2", *extra],
+        cwd=project, env={**os.environ, "TMPDIR": str(project / "tmp")},
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
+        preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # noqa: PLW1509
+    )  # fmt: skip
+
+
+def _after_the_first_case(project: Path, process: subprocess.Popen[str]) -> None:
+    records = project / "out" / "records"
+    deadline = time.monotonic() + 180
+    while not (records.is_dir() and any(records.glob("*.json"))):
+        if process.poll() is not None or time.monotonic() > deadline:
+            out, err = finish(process, 30)
+            pytest.fail(f"no case finished: {out}{err}")
+        time.sleep(0.1)
+
+
+def test_ctrl_c_stops_the_study_cleanly_and_keeps_its_records(project: Path) -> None:
+    process = _sweep(project)
+    _after_the_first_case(project, process)
+    os.killpg(process.pid, signal.SIGINT)  # as a terminal does: every process of the group
+    out, err = finish(process, 120)
+    assert process.returncode == 130, err
+    assert "interrupted by SIGINT: the finished cases are in out; `--resume` runs the rest" in out
+    assert "Traceback" not in err
+    recorded = len(list((project / "out" / "records").glob("*.json")))
+    assert 1 <= recorded < 8
+    assert list((project / "tmp").iterdir()) == []  # no dask-scratch-space, no unpacked FMU
+
+
+def test_sigterm_to_the_driver_stops_the_study_as_ctrl_c_does(project: Path) -> None:
+    process = _sweep(project)
+    _after_the_first_case(project, process)
+    process.send_signal(signal.SIGTERM)
+    out, err = finish(process, 120)
+    assert process.returncode == 143, err
+    assert "interrupted by SIGTERM" in out
+    assert "Traceback" not in err
+    assert list((project / "tmp").iterdir()) == []
