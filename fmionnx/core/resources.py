@@ -95,9 +95,13 @@ COMPILED_FILE_BYTES = ResourceLimit(
 CACHE_BYTES = ResourceLimit(
     "FMIONNX_CACHE_MAX_BYTES", 4 * 1024 * MiB, "bytes", "size of the SSP unpack cache"
 )
+#: Size of the compiled-system cache (``validate``/``run`` of an unchanged system).
+COMPILE_CACHE_BYTES = ResourceLimit(
+    "FMIONNX_COMPILE_CACHE_MAX_BYTES", 256 * MiB, "bytes", "size of the compiled-system cache"
+)
 #: Days an unpacked SSP stays in the cache without being used.
 CACHE_DAYS = ResourceLimit(
-    "FMIONNX_CACHE_MAX_DAYS", 30, "days", "age of an unused SSP unpack cache entry"
+    "FMIONNX_CACHE_MAX_DAYS", 30, "days", "age of an unused cache entry (SSP, compiled systems)"
 )
 
 #: Every limit, in the order ``docs/security.md`` lists them.
@@ -109,5 +113,6 @@ LIMITS = (
     SSP_XML_BYTES,
     COMPILED_FILE_BYTES,
     CACHE_BYTES,
+    COMPILE_CACHE_BYTES,
     CACHE_DAYS,
 )
