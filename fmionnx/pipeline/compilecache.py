@@ -165,9 +165,10 @@ def _code_stamp() -> str:
     """What the compiler is, as far as a compile's result can depend on it.
 
     fmionnx's own files (name, size, modification time: an editable install changes under a
-    developer's hands, a reinstall rewrites them), and every folder on ``sys.path`` (installing,
-    upgrading or removing a library adds or renames its ``.dist-info`` folder there, which
-    changes the folder's modification time). Cheap: a few hundred ``stat`` calls, no import.
+    developer's hands, a reinstall rewrites them), and the folders libraries are installed in
+    (installing, upgrading or removing a library adds or renames its ``.dist-info`` folder
+    there, which changes the folder's modification time). Cheap: a few hundred ``stat`` calls,
+    no import.
     """
     digest = hashlib.sha256(f"{sys.version}\0".encode())
     package = Path(__file__).resolve().parent.parent  # the fmionnx package
@@ -176,10 +177,20 @@ def _code_stamp() -> str:
         for name in sorted(files):
             if name.endswith((".py", ".so", ".json")):
                 _stamp_file(digest, Path(folder) / name, package)
-    for entry in sys.path:
-        if entry and Path(entry).is_dir():
-            _stamp_file(digest, Path(entry), None)
+    for entry in _library_folders():
+        _stamp_file(digest, entry, None)
     return digest.hexdigest()
+
+
+def _library_folders() -> list[Path]:
+    """The folders libraries are installed in (``site-packages``), not the script's folder or
+    the working folder that ``sys.path`` also holds: those change with every file written."""
+    import site
+
+    folders = [*site.getsitepackages()]
+    if site.ENABLE_USER_SITE:
+        folders.append(site.getusersitepackages())
+    return [Path(f) for f in dict.fromkeys(folders) if f in sys.path and Path(f).is_dir()]
 
 
 def _stamp_file(digest: hashlib._Hash, file: Path, relative_to: Path | None) -> None:
