@@ -258,7 +258,15 @@ def check_study(path: str | Path) -> CompileResult:
     from fmionnx.spec.study import load_study
 
     bag = DiagnosticBag()
-    plan = compile_study(load_study(Path(path), bag), bag)
+    plan = compile_study(load_study(Path(path), bag), bag, system_compiler=study_system)
     diagnostics = tuple(bag.sorted())
     ok = plan is not None and all(d.severity is not Severity.ERROR for d in diagnostics)
     return CompileResult(plan.system if ok and plan is not None else None, diagnostics)
+
+
+def study_system(path: Path, bag: DiagnosticBag) -> CompiledSystem | None:
+    """A study's system compiled as :func:`compile_system` compiles it (the compile cache
+    included); its diagnostics into ``bag``."""
+    result = compile_system(path)
+    bag.extend(result.diagnostics)
+    return result.system

@@ -144,6 +144,13 @@ class MujocoKind:
 
         return moving_body_hint(component.path, name)
 
+    def for_workers(self) -> None:
+        """A study's worker keeps a scene and its cameras' GL contexts for the scene's next
+        cases (:mod:`fmionnx.kinds.kept`)."""
+        from fmionnx.kinds.mujoco.runner import keep_scenes
+
+        keep_scenes()
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.mujoco.runner.MujocoRunner` (loads mujoco only now)."""
         from fmionnx.kinds.mujoco.runner import MujocoRunner

@@ -15,11 +15,26 @@ import numpy as np
 
 from fmionnx.core.runner import Buffer, OutputCopies, fault
 from fmionnx.core.types import Causality, Component, DType, Port
+from fmionnx.kinds.kept import Kept
 from fmionnx.kinds.onnx.kind import OnnxConfig
 
 #: Intra-op threads of a session whose component does not say (None: onnxruntime's default,
 #: one per core); see :func:`one_thread_each`.
 _default_threads: list[int | None] = [None]
+
+
+def _drop_session(session: Any) -> None:
+    del session  # onnxruntime frees a session with its last reference
+
+
+#: Sessions kept by a study's worker, by model file and options (:func:`keep_sessions`).
+SESSIONS: Kept[tuple[object, ...], Any] = Kept(_drop_session)
+
+
+def keep_sessions() -> None:
+    """From now on, this process keeps a run's session for the next run of the same model
+    file with the same options (a study's worker): the model is checked and loaded once."""
+    SESSIONS.enable()
 
 
 def one_thread_each() -> None:
@@ -58,6 +73,8 @@ class OnnxRunner:
         self._outputs: dict[str, Buffer] = {}
         self._names: list[str] = []
         self._saved: OutputCopies | None = None
+        self._key: tuple[object, ...] | None = None
+        self._broken = False
 
     def instantiate(self) -> None:
         """Create the onnxruntime session with the spec's providers and thread count.
@@ -71,16 +88,21 @@ class OnnxRunner:
         such as the reference sign detector the reorders it inserts made a run several times
         slower (docs/performance.md, "Sign detector and camera rendering").
         """
+        config = self.component.config
+        assert isinstance(config, OnnxConfig)
+        threads = config.threads if config.threads is not None else _default_threads[0]
+        self._key = self._session_key(config, threads)
+        if self._key is not None:
+            self._session = SESSIONS.take(self._key)
+            if self._session is not None:
+                return  # made from this very file (its identity is in the key), checked then
         import onnxruntime as ort
 
         from fmionnx.kinds.onnx.interface import load_checked_model
 
         load_checked_model(self.component.path)
 
-        config = self.component.config
-        assert isinstance(config, OnnxConfig)
         options = ort.SessionOptions()
-        threads = config.threads if config.threads is not None else _default_threads[0]
         if threads is not None:
             options.intra_op_num_threads = threads
             options.inter_op_num_threads = 1
@@ -129,10 +151,23 @@ class OnnxRunner:
         """Flat copy of the newest value of output ``port``."""
         return self._outputs[port]
 
+    def _session_key(self, config: OnnxConfig, threads: int | None) -> tuple[object, ...] | None:
+        """What a kept session must have been made from to serve this run (None: never one)."""
+        if not SESSIONS.enabled:
+            return None
+        path = self.component.path
+        try:
+            info = path.stat()
+        except OSError:
+            return None
+        identity = (str(path.resolve()), info.st_mtime_ns, info.st_size)
+        return (*identity, self.component.interface.content_hash, config.providers, threads)
+
     def _run(self, t: float) -> list[Any]:
         try:
             results: list[Any] = self._session.run(self._names, self._feeds)
         except Exception as exc:
+            self._broken = True
             text = str(exc).strip().splitlines()[0] if str(exc).strip() else type(exc).__name__
             raise fault(self.component.name, f"onnxruntime failed: {text}", time=t) from None
         return results
@@ -167,5 +202,8 @@ class OnnxRunner:
         """ONNX outputs are refreshed every step; nothing is lazy."""
 
     def terminate(self) -> None:
-        """Drop the session."""
-        self._session = None
+        """Drop the session, or give it back for the next run of the model (a study's
+        worker; only when no inference failed)."""
+        session, self._session = self._session, None
+        if session is not None and self._key is not None and not self._broken:
+            SESSIONS.give(self._key, session)
