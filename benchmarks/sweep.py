@@ -559,7 +559,7 @@ def main(argv: list[str] | None = None, console: Console | None = None) -> dict[
         args.scaling_rounds, args.scaling_stop = 1, 0.2
         args.scaling_cases = args.scaling_cases or 4
         args.max_workers = args.max_workers or 2
-    console = console or Console()
+    console = console or Console(width=None if sys.stdout.isatty() else 150)
     found: dict[str, Any] = {}
     if not args.skip_scaling:
         found["scaling"] = scaling(args, console)
