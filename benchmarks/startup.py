@@ -24,8 +24,9 @@ tables report medians and ratios.
    and the peers installed here, each as a whole process writing the same CSV (times within
    1e-12, their own time grid): a libcosimpy script (:mod:`benchmarks.peer_libcosim`). Ecos
    (``ecospy``) and OMSimulator's CLI are named with the reason they were not measured (here:
-   ecospy's native library needs ``libtbb.so.12``, which is not installed; OMSimulator has no
-   package on this platform's registries).
+   ecospy's native library needs ``libtbb.so.12``, which is not installed; OMSimulator's PyPI
+   package downloads its binaries from build.openmodelica.org while it builds, which this
+   machine cannot reach).
 3. **Validate**: ``fmionnx validate systems/sign_follower.yaml`` of the unchanged reference
    system (its compile read back from the compile cache, as a CI job or a user gets it the
    second time), and with ``FMIONNX_COMPILE_CACHE=0`` (compiled every time), against
@@ -269,7 +270,10 @@ def peer_contenders(fmu: Path, work: Path, steps: int) -> tuple[list[Contender],
     else:
         missing.append("Ecos (ecospy): imports here, but this benchmark has no Ecos runner yet")
     if shutil.which("OMSimulator") is None:
-        missing.append("OMSimulator's CLI: not measured (not installed here: no package for it)")
+        missing.append(
+            "OMSimulator's CLI: not measured (not installed here: its PyPI package builds by "
+            "downloading binaries from build.openmodelica.org, which this machine cannot reach)"
+        )
     else:
         missing.append(
             "OMSimulator's CLI: on PATH, but this benchmark has no OMSimulator runner yet"
