@@ -468,10 +468,77 @@ def _study_rows(
     return rows(name, timings, args.rounds)
 
 
+def scaling(args: argparse.Namespace, console: Console) -> dict[str, Any]:
+    """The scaling tables (:mod:`benchmarks.sweep_scaling`): ``fmionnx sweep`` as a user runs it
+    on 1, 2, 4, ... workers up to this machine's cores."""
+    from benchmarks import sweep_scaling as scale
+
+    cores = args.max_workers or machine.usable_cores()
+    counts = scale.worker_counts(cores)
+    cases = args.scaling_cases or max(scale.REFERENCE_CASES, scale.CASES_PER_WORKER * counts[-1])
+    pair = min(2, counts[-1])
+    with tempfile.TemporaryDirectory(prefix="fmionnx-bench-scaling-") as scratch:
+        folder = Path(scratch)
+        env = scale.scaling_env(folder / "cache")
+        reference = scale.Study(
+            "reference",
+            scale.reference_study(folder, "reference", cases, args.scaling_stop, isolated=True),
+            cases,
+        )
+        plain = scale.Study(
+            "reference, isolate: [none]",
+            scale.reference_study(folder, "plain", cases, args.scaling_stop, isolated=False),
+            cases,
+        )
+        with chain.built_gain(folder) as (gain, _):
+            (folder / "small.yaml").write_text(SMALL_SYSTEM.format(gain=gain), encoding="utf-8")
+            small_path = folder / "small-study.yaml"
+            small_path.write_text(SMALL_STUDY.format(cases=args.small_cases), encoding="utf-8")
+            small = scale.Study("small FMU system", small_path, args.small_cases)
+            # Untimed: bytecode, the compile cache, the page cache (one short study each way).
+            for study in (small, reference):
+                scale.sweep_once(study, 1, folder / "warm-up", env)
+                study.walls.clear()
+                study.case_walls.clear()
+                study.failed = 0
+            runs = [(reference, w) for w in counts] + [(plain, pair)] + [(small, w) for w in counts]
+            load_before = os.getloadavg()
+            scale.measure(runs, args.scaling_rounds, folder, env)
+    found_rows = [*scale.rows(reference), *scale.rows(plain), *scale.rows(small)]
+    ratio = scale.isolation_ratio(reference, plain, pair)
+    found_targets = scale.targets(scale.rows(reference), ratio, cores)
+    report.print_table(
+        console,
+        f"Sweep scaling: `fmionnx sweep --workers W`, whole command, reference {cases} cases of "
+        f"{args.scaling_stop:g} s (FMUs isolated, one thread per worker), median of "
+        f"{args.scaling_rounds} interleaved rounds",
+        scale.COLUMNS,
+        found_rows,
+    )
+    report.print_table(console, "Scaling targets", report.TARGET_COLUMNS, found_targets)
+    console.print(
+        f"machine: {machine.cpu_model()}, {machine.usable_cores()} usable cores, workers up to "
+        f"{cores}; load average before {load_before[0]:.2f}, after {os.getloadavg()[0]:.2f}"
+    )
+    failed = reference.failed + plain.failed + small.failed
+    return {"rows": found_rows, "targets": found_targets, "failed": failed, "counts": counts}
+
+
 def main(argv: list[str] | None = None, console: Console | None = None) -> dict[str, Any]:
-    """Run both studies in the four modes, print the tables, return what was measured."""
+    """The scaling tables; with ``--modes`` both studies in the four modes too. Prints the
+    tables, returns what was measured."""
     parser = argparse.ArgumentParser(description=__doc__.split("\n")[0])
     parser.add_argument("--quick", action="store_true", help="smoke run: 10 + 2 short cases")
+    parser.add_argument(
+        "--modes",
+        action="store_true",
+        help="also the loop, 2 plain processes, 1 and 2 workers on the same cases",
+    )
+    parser.add_argument("--skip-scaling", action="store_true", help="no scaling tables")
+    parser.add_argument("--scaling-rounds", type=int, default=2)
+    parser.add_argument("--scaling-stop", type=float, default=8.0, help="reference stop time")
+    parser.add_argument("--scaling-cases", type=int, default=None, help="reference cases")
+    parser.add_argument("--max-workers", type=int, default=None, help="default: usable cores")
     parser.add_argument("--small-cases", type=int, default=200)
     parser.add_argument("--scenario-cases", type=int, default=20)
     parser.add_argument("--stop", type=float, default=32.0, help="reference scenario stop time")
@@ -489,7 +556,21 @@ def main(argv: list[str] | None = None, console: Console | None = None) -> dict[
     args = parser.parse_args(argv)
     if args.quick:
         args.small_cases, args.scenario_cases, args.stop, args.rounds = 10, 2, 0.5, 2
-    console = console or Console()
+        args.scaling_rounds, args.scaling_stop = 1, 0.2
+        args.scaling_cases = args.scaling_cases or 4
+        args.max_workers = args.max_workers or 2
+    console = console or Console(width=None if sys.stdout.isatty() else 150)
+    found: dict[str, Any] = {}
+    if not args.skip_scaling:
+        found["scaling"] = scaling(args, console)
+    if not args.modes:
+        return found
+    found.update(modes(args, console))
+    return found
+
+
+def modes(args: argparse.Namespace, console: Console) -> dict[str, Any]:
+    """Both studies in the four modes (loop, 2 plain processes, 1 and 2 workers)."""
     with tempfile.TemporaryDirectory(prefix="fmionnx-bench-sweep-") as scratch:
         folder = Path(scratch)
         with chain.built_gain(folder) as (gain, _):

@@ -21,7 +21,7 @@ like ``fmpy simulate``. ``load`` accepts a system file (YAML/SSP), a compiled sy
 from __future__ import annotations
 
 from pathlib import Path
-from typing import TYPE_CHECKING, Unpack
+from typing import TYPE_CHECKING, Any, Unpack
 
 from fmionnx.compile.overrides import OverrideError, parse_value
 from fmionnx.pipeline.errors import PipelineError, RefusedError, RequestError
@@ -101,11 +101,15 @@ def sweep(
     progress: SweepProgress | None = None,
     batch: int | None = None,
     rrd: bool = False,
+    client: Any = None,
 ) -> pd.DataFrame:
     """Run a study file's cases (``fmionnx sweep``) and return its table, one row per case.
 
-    ``scheduler`` is an existing Dask cluster (``tcp://host:8786``); without it a local
-    cluster of ``workers`` processes (default: one per core) runs the cases. Results go to
+    ``scheduler`` is an existing Dask cluster (``tcp://host:8786``), whose client this process
+    keeps for its next studies; ``client`` a Dask ``distributed.Client`` of the caller's (a
+    cluster kept warm for many studies: its workers keep what they loaded), left open;
+    without either a local cluster of ``workers`` processes (default: one per core) runs the
+    cases and ends with the study. Results go to
     ``out`` (docs/sweep.md); ``resume`` finishes an interrupted study there, ``force``
     replaces an earlier study's results there; ``rrd`` keeps each case's Rerun recording
     (``cases/<id>/run.rrd``). ``batch`` fixes the cases per Dask task (1: one
@@ -121,5 +125,6 @@ def sweep(
     result = sweep_study(
         study, Path(out), scheduler=scheduler, workers=workers, resume=resume,
         keep_results=keep_results, force=force, progress=progress, batch=batch, rrd=rrd,
+        client=client,
     )  # fmt: skip
     return result.table

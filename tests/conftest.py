@@ -30,6 +30,14 @@ def _no_network(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setattr(socket.socket, "connect", guarded)
 
 
+@pytest.fixture(autouse=True)
+def _own_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.MonkeyPatch) -> None:
+    """Each test starts with an empty cache folder of its own (compiled systems, unpacked SSP
+    archives): the caches stay on, as users have them, and one test's entries never serve
+    another's compile. Tests that need another folder set ``FMIONNX_CACHE`` themselves."""
+    monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path_factory.mktemp("cache")))
+
+
 def finish(process: subprocess.Popen[str], timeout: float) -> tuple[str, str]:
     """``process.communicate(timeout)``, killing the process if it does not end in time.
 

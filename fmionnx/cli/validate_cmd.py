@@ -67,19 +67,24 @@ def validate(
     """
     from fmionnx import api
     from fmionnx.core.diagnostics import Diagnostic, Severity
-    from fmionnx.lock.check import check_lock
+    from fmionnx.pipeline.system import compiled_before
     from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
     results = []
     for path in systems:
         model = api.is_model_file(path)
-        study = not model and api.is_study_file(path)
+        # A system compiled before and unchanged since is read back without parsing (and
+        # without telling it from a study first: a study never has an entry).
+        result = None if model else compiled_before(path)
+        study = result is None and not model and api.is_study_file(path)
         if model:
             result = api.check_model(path)
-        else:
+        elif result is None:
             result = api.check_study(path) if study else api.compile_system(path)
         diagnostics = result.diagnostics
         if locked and not model and not study:
+            from fmionnx.lock.check import check_lock  # the lock's reader: only when asked
+
             merged = [*diagnostics, *check_lock(path)]
             diagnostics = tuple(sorted(dict.fromkeys(merged), key=Diagnostic.sort_key))
         if quiet:

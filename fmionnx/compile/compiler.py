@@ -38,9 +38,9 @@ from fmionnx.core.types import (
     PortRef,
     flat_index,
 )
-from fmionnx.spec.frontends import SSP_SUFFIXES
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
+from fmionnx.spec.suffixes import SSP_SUFFIXES
 from fmionnx.spec.yaml import LoadedSpec
 
 

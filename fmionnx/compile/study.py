@@ -19,7 +19,8 @@ from __future__ import annotations
 import itertools
 import math
 import re
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
+from pathlib import Path
 from typing import Literal
 
 from fmionnx.compile.checks import compile_measure
@@ -57,11 +58,16 @@ DIGITS = 12
 ISOLATE_WORDS = ("fmus", "all", "none")
 
 
-def compile_study(loaded: LoadedStudy, bag: DiagnosticBag) -> StudyPlan | None:
-    """Compile the study's system and resolve the study; None when anything is wrong."""
-    from fmionnx.compile.compiler import compile_spec
-    from fmionnx.spec.frontends import load_system
+#: Compiles a study's system file: the compiled system (None on errors), diagnostics into the
+#: bag. The pipeline hands in its compile cache's (``pipeline/system.py``).
+SystemCompiler = Callable[[Path, DiagnosticBag], CompiledSystem | None]
 
+
+def compile_study(
+    loaded: LoadedStudy, bag: DiagnosticBag, *, system_compiler: SystemCompiler | None = None
+) -> StudyPlan | None:
+    """Compile the study's system (with ``system_compiler``, else from scratch) and resolve
+    the study; None when anything is wrong."""
     spec = loaded.spec
     if spec is None:
         return None
@@ -80,8 +86,7 @@ def compile_study(loaded: LoadedStudy, bag: DiagnosticBag) -> StudyPlan | None:
         )
         return None
     system_bag = DiagnosticBag()
-    loaded_system = load_system(system_path, system_bag)
-    system = compile_spec(loaded_system, system_bag) if loaded_system.spec is not None else None
+    system = (system_compiler or _compile_system)(system_path, system_bag)
     bag.extend(system_bag.sorted())
     if system is None or system_bag.has_errors:
         bag.emit(
@@ -91,6 +96,14 @@ def compile_study(loaded: LoadedStudy, bag: DiagnosticBag) -> StudyPlan | None:
         )
         return None
     return resolve_study(spec, system, loaded, bag)
+
+
+def _compile_system(path: Path, bag: DiagnosticBag) -> CompiledSystem | None:
+    from fmionnx.compile.compiler import compile_spec
+    from fmionnx.spec.frontends import load_system
+
+    loaded = load_system(path, bag)
+    return compile_spec(loaded, bag) if loaded.spec is not None else None
 
 
 def resolve_study(

@@ -16,6 +16,7 @@ from __future__ import annotations
 
 import dataclasses
 import enum
+import functools
 import json
 import math
 import os
@@ -82,6 +83,12 @@ def _encode(value: Any) -> Any:
     raise TypeError(msg)
 
 
+def encode_value(value: Any) -> Any:
+    """``value`` (a dataclass of the IR or the diagnostics, or a list of them) as JSON data,
+    by the same rules as the compiled-system file."""
+    return _encode(value)
+
+
 def to_json(system: CompiledSystem) -> str:
     """The compiled-system file text of ``system``."""
     document = {
@@ -102,7 +109,10 @@ def to_json(system: CompiledSystem) -> str:
 _HINT_NAMES: dict[str, Any] = {"Ros2Plan": Ros2Plan, "Ros2Settings": Ros2Settings}
 
 
+@functools.cache
 def _hints(cls: type) -> dict[str, Any]:
+    """The resolved type hints of ``cls``, once per class: resolving evaluates every
+    annotation's text, and a system has hundreds of ports and connections of a few classes."""
     module = sys.modules[cls.__module__]
     return typing.get_type_hints(cls, globalns=vars(module), localns=_HINT_NAMES)
 
@@ -206,6 +216,16 @@ def _decode_class(cls: type, data: Any, where: str) -> Any:
         return cls(**values)
     msg = f"{where}: unsupported type {cls.__name__} in the compiled system"
     raise CompiledFileError(msg)
+
+
+def decode_value(hint: Any, data: Any, where: str) -> Any:
+    """JSON ``data`` read back as ``hint`` says (the inverse of :func:`encode_value`);
+    CompiledFileError names what does not fit and where."""
+    try:
+        return _decode(hint, data, where)
+    except RecursionError:
+        msg = f"{where}: nested too deeply"
+        raise CompiledFileError(msg) from None
 
 
 def _bad(where: str, expected: str, got: Any) -> CompiledFileError:

@@ -109,6 +109,11 @@ def _remove(entry: Path) -> None:
     shutil.rmtree(doomed, ignore_errors=True)
 
 
+def discard(entry: Path) -> None:
+    """Remove one entry now (renamed out of the way first: no process sees half of it)."""
+    _remove(entry)
+
+
 def evict(root: Path, *, keep: Path, max_bytes: int, max_days: int) -> list[Path]:
     """Bound the cache at ``root``: remove entries unused for ``max_days``, then the least
     recently used until the rest fits in ``max_bytes``. ``keep`` (the entry in use by the

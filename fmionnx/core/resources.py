@@ -107,9 +107,13 @@ STUDY_FILE_BYTES = ResourceLimit(
 CACHE_BYTES = ResourceLimit(
     "FMIONNX_CACHE_MAX_BYTES", 4 * 1024 * MiB, "bytes", "size of the SSP unpack cache"
 )
+#: Size of the compiled-system cache (``validate``/``run`` of an unchanged system).
+COMPILE_CACHE_BYTES = ResourceLimit(
+    "FMIONNX_COMPILE_CACHE_MAX_BYTES", 256 * MiB, "bytes", "size of the compiled-system cache"
+)
 #: Days an unpacked SSP stays in the cache without being used.
 CACHE_DAYS = ResourceLimit(
-    "FMIONNX_CACHE_MAX_DAYS", 30, "days", "age of an unused SSP unpack cache entry"
+    "FMIONNX_CACHE_MAX_DAYS", 30, "days", "age of an unused cache entry (SSP, compiled systems)"
 )
 
 #: Size of one file a model names or is: a MuJoCo scene, include, mesh, texture or height
@@ -184,5 +188,6 @@ LIMITS = (
     COMPILED_FILE_BYTES,
     STUDY_FILE_BYTES,
     CACHE_BYTES,
+    COMPILE_CACHE_BYTES,
     CACHE_DAYS,
 )

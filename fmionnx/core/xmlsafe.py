@@ -9,10 +9,13 @@ external entities and entity-expansion bombs for every later parser).
 
 from __future__ import annotations
 
-from lxml import etree
+from typing import TYPE_CHECKING
 
 from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
+
+if TYPE_CHECKING:  # lxml loads when XML is parsed: reading a compiled system parses none
+    from lxml import etree
 
 _SAFE_PARSER_OPTIONS = {
     "resolve_entities": False,
@@ -29,6 +32,8 @@ def parse_safely(data: bytes, label: str) -> etree._Element:
     Raises ModelError E012 for XML that is not well-formed, and E017 for a document that
     declares a DTD (entities are never expanded, external ones never fetched).
     """
+    from lxml import etree
+
     parser = etree.XMLParser(**_SAFE_PARSER_OPTIONS)
     try:
         root = etree.fromstring(data, parser)

@@ -193,6 +193,21 @@ class WorkerSettings(Protocol):
 
 
 @runtime_checkable
+class SharedProcess(Protocol):
+    """A kind that says whether a model's process may serve its next run.
+
+    A study's worker keeps an isolated model's process for the next case of the same model
+    (:func:`fmionnx.runtime.isolated.proxy.keep_children`) and makes a new instance there;
+    a model that must not be instantiated twice in one process gets a fresh process instead.
+    A kind without this protocol allows it.
+    """
+
+    def process_reusable(self, component: Component) -> bool:
+        """Whether another run of ``component`` may use the process its last run ended in."""
+        ...
+
+
+@runtime_checkable
 class WarmUp(Protocol):
     """A kind whose runners' imports are worth paying before a model is loaded (an isolated
     model's process forks from a zygote that has done them)."""

@@ -143,6 +143,15 @@ def settle_worker() -> None:
             kind.for_workers()
 
 
+def process_reusable(component: Component) -> bool:
+    """Whether a process that ran ``component`` may run it again (:class:`~.base.SharedProcess`;
+    a kind without the protocol allows it)."""
+    from fmionnx.kinds.base import SharedProcess
+
+    kind = kind_of(component)
+    return kind.process_reusable(component) if isinstance(kind, SharedProcess) else True
+
+
 def warm_up() -> None:
     """Import what the runners of every kind that asks for it need (:class:`~.base.WarmUp`)."""
     from fmionnx.kinds.base import WarmUp

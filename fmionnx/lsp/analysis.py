@@ -27,7 +27,8 @@ from fmionnx import api
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
 from fmionnx.core.sourcetext import editing
 from fmionnx.lsp.outline import Outline, outline_loaded, outline_yaml, plain_data
-from fmionnx.spec.frontends import SSP_SUFFIXES, load_system
+from fmionnx.spec.frontends import load_system
+from fmionnx.spec.suffixes import SSP_SUFFIXES
 from fmionnx.spec.yaml import is_study_document, read_text
 
 #: Suffixes of YAML files the server checks.

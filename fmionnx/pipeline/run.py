@@ -51,6 +51,7 @@ if TYPE_CHECKING:
     from fmionnx.pipeline.system import System
     from fmionnx.results.csvahead import CsvAhead
     from fmionnx.results.mcap_record import McapRecorder
+    from fmionnx.results.plotworker import PlotWorker
     from fmionnx.runtime.recorder import FrameSink
 
 
@@ -85,19 +86,24 @@ def execute(
     start = RunStart(
         system, backend.name, options.where(), options.how(), options.publishes_rows, out
     )
-    watch.before_run(start)
+    plotter = _plot_worker(system, request, out)
     try:
-        result = backend.run(system.compiled, options, run)
-        if feeder is not None:
-            feeder.flush(result.steps_done)  # the rows the loop had not handed on yet
-    except (DiagnosticError, FmionnxError) as exc:
-        if recorder is not None:
-            recorder.finish(None)
-        message = exc.diagnostics[0].message if isinstance(exc, DiagnosticError) else str(exc)
-        raise RefusedError(message) from exc  # e.g. DDS refusing to start, a swapped library
+        watch.before_run(start)
+        try:
+            result = backend.run(system.compiled, options, run)
+            if feeder is not None:
+                feeder.flush(result.steps_done)  # the rows the loop had not handed on yet
+        except (DiagnosticError, FmionnxError) as exc:
+            if recorder is not None:
+                recorder.finish(None)
+            message = exc.diagnostics[0].message if isinstance(exc, DiagnosticError) else str(exc)
+            raise RefusedError(message) from exc  # e.g. DDS refusing to start, a swapped library
+        finally:
+            watch.after_run()
+        return _finish(request, system, result, out, recorder, ahead, watch, plotter)
     finally:
-        watch.after_run()
-    return _finish(request, system, result, out, recorder, ahead, watch)
+        if plotter is not None:
+            plotter.close()
 
 
 def load_request(request: RunRequest) -> System:
@@ -346,6 +352,16 @@ def _csv_ahead(system: System, options: BackendOptions, out: Path | None) -> Csv
     return CsvAhead(system.compiled)
 
 
+def _plot_worker(system: System, request: RunRequest, out: Path | None) -> PlotWorker | None:
+    """A run that will draw into a results folder starts its plot worker now: matplotlib is
+    imported on another core while the run goes on (:mod:`fmionnx.results.plotworker`)."""
+    if out is None or not (system.compiled.plots or request.output.plot):
+        return None
+    from fmionnx.results.plotworker import start
+
+    return start()
+
+
 def _finish(
     request: RunRequest,
     system: System,
@@ -354,6 +370,7 @@ def _finish(
     recorder: McapRecorder | None,
     ahead: CsvAhead | None,
     watch: Observers,
+    plotter: PlotWorker | None = None,
 ) -> RunOutcome:
     from fmionnx.runtime.checks import evaluate_checks
 
@@ -371,7 +388,7 @@ def _finish(
 
         files[:0] = write_results(
             result, system.compiled, out, aliases=dict(system.aliases), also=files,
-            checks=checks, plot_signals=request.output.plot, ahead=ahead,
+            checks=checks, plot_signals=request.output.plot, ahead=ahead, plotter=plotter,
         )  # fmt: skip
     outcome = RunOutcome(
         system, _aliased(result, system), checks, tuple(files), out, exit_status(result, checks)

@@ -10,6 +10,7 @@ records.
 from __future__ import annotations
 
 import contextlib
+import threading
 from collections.abc import Callable
 from dataclasses import dataclass
 from pathlib import Path
@@ -24,6 +25,7 @@ if TYPE_CHECKING:
 
     from fmionnx.backends.sweep.case import CaseOutcome
     from fmionnx.backends.sweep.engine import StudyRun
+    from fmionnx.spec.study import LoadedStudy
 
 #: ``progress(done, failed, total)``: after every finished case (and once before the first).
 SweepProgress = Callable[[int, int, int], None]
@@ -44,11 +46,23 @@ class SweepResult:
 
 def plan_study(study: str | Path) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
     """Compile a study file; raises DiagnosticError with every error."""
-    from fmionnx.compile.study import compile_study
+    return _compiled(*_loaded(study))
+
+
+def _loaded(study: str | Path) -> tuple[LoadedStudy, DiagnosticBag]:
+    """The study file read (its own problems in the bag), its system not compiled yet."""
     from fmionnx.spec.study import load_study
 
     bag = DiagnosticBag()
-    plan = compile_study(load_study(Path(study), bag), bag)
+    return load_study(Path(study), bag), bag
+
+
+def _compiled(loaded: LoadedStudy, bag: DiagnosticBag) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
+    """The plan of a read study file: its system compiled (through the compile cache)."""
+    from fmionnx.compile.study import compile_study
+    from fmionnx.pipeline.system import study_system
+
+    plan = compile_study(loaded, bag, system_compiler=study_system)
     diagnostics = tuple(bag.sorted())
     errors = [d for d in diagnostics if d.severity is Severity.ERROR]
     if plan is None or errors:
@@ -69,6 +83,7 @@ def sweep_study(
     batch: int | None = None,
     warnings: Callable[[tuple[Diagnostic, ...]], None] | None = None,
     rrd: bool = False,
+    client: Any = None,
 ) -> SweepResult:
     """``fmionnx sweep`` and :func:`fmionnx.sweep`: check the request, compile the study,
     run it into ``out``.
@@ -78,17 +93,27 @@ def sweep_study(
     errors in the study file DiagnosticError; a folder holding another study
     ``StudyFolderError``; a cluster that cannot be reached or started ``SchedulerError`` or
     ``ClusterStartError`` (a folder made for the study is removed again). ``warnings``
-    receives the study's warnings before the cases run.
+    receives the study's warnings before the cases run. ``client``: a Dask client of the
+    caller's, used as it is and left open (one client for many studies).
+
+    A new local cluster starts while the study compiles (its workers need seconds to start),
+    and is closed while the table and plots are written: see :class:`StudyCluster`.
     """
-    from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError, scheduler_problem
+    from fmionnx.backends.sweep.engine import (
+        ClusterStartError,
+        SchedulerError,
+        refuse_in_starting_worker,
+    )
     from fmionnx.pipeline.errors import RequestError
-    from fmionnx.pipeline.outputs import check_output_folder
 
     if resume and force:
         msg = "--resume keeps the finished cases, --force removes them: choose one"
         raise RequestError(msg)
     if workers is not None and scheduler is not None:
         msg = "--workers starts a local cluster; an existing one (--scheduler) has its own"
+        raise RequestError(msg)
+    if client is not None and (workers is not None or scheduler is not None):
+        msg = "`client` is the cluster to run on: not with `workers` or `scheduler`"
         raise RequestError(msg)
     if rrd:
         from fmionnx.pipeline.views import ViewUnavailableError, require_rerun
@@ -97,7 +122,43 @@ def sweep_study(
             require_rerun("--rrd")
         except ViewUnavailableError as exc:
             raise RequestError(str(exc)) from None
-    plan, diagnostics = plan_study(study)
+    refuse_in_starting_worker()
+    loaded, bag = _loaded(study)
+    # A local cluster starts now, while the system compiles, unless the study file itself is
+    # wrong (its errors are said at once) or a resumed study may have nothing left to run.
+    start_now = not resume and not bag.has_errors and loaded.spec is not None
+    cluster = StudyCluster(scheduler, workers, client, start_now=start_now)
+    try:
+        plan, made_out = _checked_plan(loaded, bag, out, scheduler, warnings)
+    except BaseException:
+        cluster.release(wait=True)  # a system with errors: no cluster left behind
+        raise
+    try:
+        return run_sweep(
+            plan, out, resume=resume, keep_results=keep_results, force=force,
+            progress=progress, batch=batch, cluster=cluster, rrd=rrd,
+        )  # fmt: skip
+    except (SchedulerError, ClusterStartError):
+        if made_out:  # made just now and still empty: no trace of a study that never started
+            with contextlib.suppress(OSError):
+                out.rmdir()
+        raise
+
+
+def _checked_plan(
+    loaded: LoadedStudy,
+    bag: DiagnosticBag,
+    out: Path,
+    scheduler: str | None,
+    warnings: Callable[[tuple[Diagnostic, ...]], None] | None,
+) -> tuple[StudyPlan, bool]:
+    """The study compiled, its warnings handed on, the scheduler address and ``out`` checked;
+    and whether ``out`` was made just now."""
+    from fmionnx.backends.sweep.engine import scheduler_problem
+    from fmionnx.pipeline.errors import RequestError
+    from fmionnx.pipeline.outputs import check_output_folder
+
+    plan, diagnostics = _compiled(loaded, bag)
     found = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
     if found and warnings is not None:
         warnings(found)
@@ -106,16 +167,7 @@ def sweep_study(
         raise RequestError(problem)
     made_out = not out.exists()
     check_output_folder(out, "--out")
-    try:
-        return run_sweep(
-            plan, out, scheduler=scheduler, workers=workers, resume=resume,
-            keep_results=keep_results, force=force, progress=progress, batch=batch, rrd=rrd,
-        )  # fmt: skip
-    except (SchedulerError, ClusterStartError):
-        if made_out:  # made just now and still empty: no trace of a study that never started
-            with contextlib.suppress(OSError):
-                out.rmdir()
-        raise
+    return plan, made_out
 
 
 def run_sweep(
@@ -130,35 +182,40 @@ def run_sweep(
     progress: SweepProgress | None = None,
     batch: int | None = None,
     rrd: bool = False,
+    cluster: StudyCluster | None = None,
 ) -> SweepResult:
     """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
 
     ``force`` replaces the results of a study already in ``out`` (without: refused).
     ``batch`` fixes the cases per Dask task (1: one each; None: sized from the case times).
+    ``cluster``: where to run (default: ``scheduler``'s cluster, else a new local one of
+    ``workers`` processes, started only if cases are left for a resumed study).
     """
-    from fmionnx.backends.sweep.engine import open_client, refuse_in_starting_worker
+    from fmionnx.backends.sweep.engine import refuse_in_starting_worker
     from fmionnx.results.study import StudyFolder, StudyFolderError
 
     refuse_in_starting_worker()  # before the folder is touched
-    problem = StudyFolder(out, plan).problem(resume=resume, force=force)
-    if problem is not None:  # said at once, not after starting a cluster
-        raise StudyFolderError(problem)
-    with contextlib.ExitStack() as stack:
+    if cluster is None:
+        cluster = StudyCluster(scheduler, workers, None, start_now=False)
+    try:
+        problem = StudyFolder(out, plan).problem(resume=resume, force=force)
+        if problem is not None:  # said at once, not after starting a cluster
+            raise StudyFolderError(problem)
         # The cluster is reached (an existing one) or started (a local one) before the folder
         # is touched: a wrong address, a scheduler that does not answer or workers that cannot
         # start leave nothing behind to be --resume'd, and --force has removed nothing. A
         # resumed study, which removes nothing, starts a local cluster only if cases are left.
-        client = None
-        if scheduler is not None or not resume:
-            client = stack.enter_context(open_client(scheduler, workers))
-        return _run(plan, out, client, workers, resume, keep_results, force, progress, batch, rrd)
+        if not resume:
+            cluster.client()
+        return _run(plan, out, cluster, resume, keep_results, force, progress, batch, rrd)
+    finally:
+        cluster.release(wait=True)
 
 
 def _run(
     plan: StudyPlan,
     out: Path,
-    client: Any,
-    workers: int | None,
+    cluster: StudyCluster,
     resume: bool,
     keep_results: bool,
     force: bool,
@@ -167,10 +224,9 @@ def _run(
     rrd: bool = False,
 ) -> SweepResult:
     from fmionnx.backends.sweep.case import Job
-    from fmionnx.backends.sweep.engine import open_client, run_study
+    from fmionnx.backends.sweep.engine import run_study
     from fmionnx.pipeline.study import run_study_case
     from fmionnx.results.study import StudyFolder
-    from fmionnx.results.study_plots import write_study_plots
 
     folder = StudyFolder(out, plan)
     finished = folder.prepare(resume=resume, force=force)
@@ -188,12 +244,122 @@ def _run(
             progress(counts[0], counts[1], len(plan.cases))
 
     tasks = None
-    if pending and client is not None:
-        tasks = run_study(client, plan, pending, job, on_done, run_study_case, batch=batch)
-    elif pending:  # a resumed study with cases left
-        with open_client(None, workers) as started:
-            tasks = run_study(started, plan, pending, job, on_done, run_study_case, batch=batch)
+    writers = _ResultsWriters()  # their libraries load while the cases run
+    if pending:
+        tasks = run_study(
+            cluster.client(), plan, pending, job, on_done, run_study_case, batch=batch
+        )
+    cluster.release(wait=False)  # a local cluster ends while the table and plots are written
+    writers.ready()
+    from fmionnx.results.study_plots import write_study_plots
+
     table = folder.table()
     files = folder.write_table(table)
     files.extend(write_study_plots(table, plan, out))
     return SweepResult(plan, table, tuple(files), len(finished), tasks=tasks)
+
+
+class _ResultsWriters:
+    """Imports the table's and the plots' libraries (pandas, pyarrow, matplotlib: about a
+    second) on a thread of their own while the cases run, instead of after the last one."""
+
+    def __init__(self) -> None:
+        self._thread = threading.Thread(
+            target=self._load, name="fmionnx-study-writers", daemon=True
+        )
+        self._thread.start()
+
+    @staticmethod
+    def _load() -> None:
+        with contextlib.suppress(ImportError):  # the import below then says what is missing
+            import pandas  # noqa: F401
+            import pyarrow.parquet  # noqa: F401
+            from matplotlib.figure import Figure  # noqa: F401
+
+            import fmionnx.results.study_plots  # noqa: F401
+
+    def ready(self) -> None:
+        """Wait for the imports (an import in two threads at once waits anyway)."""
+        self._thread.join()
+
+
+class StudyCluster:
+    """The Dask client a study runs on, started early and closed late.
+
+    * With a ``client`` of the caller's: that client, left open.
+    * With a ``scheduler`` address: this process's client of that cluster
+      (:func:`~fmionnx.backends.sweep.engine.shared_client`), kept open for the next study on
+      it (a cluster stays warm between the studies of one Python process).
+    * Otherwise a new local cluster. With ``start_now`` it starts on a thread of its own at
+      once -- its workers take seconds to start, the study meanwhile compiles -- and
+      :meth:`client` waits for it. :meth:`release` closes it, on a thread of its own unless
+      asked to wait: the last cases have returned, and the table and plots are written while
+      the workers end.
+    """
+
+    def __init__(
+        self, scheduler: str | None, workers: int | None, client: Any, *, start_now: bool
+    ) -> None:
+        self._scheduler = scheduler
+        self._workers = workers
+        self._given = client
+        self._client: Any = None
+        self._error: BaseException | None = None
+        self._stack: contextlib.ExitStack | None = None
+        self._started: threading.Thread | None = None
+        self._closing: threading.Thread | None = None
+        self._lock = threading.Lock()
+        if start_now and client is None and scheduler is None:
+            self._started = threading.Thread(
+                target=self._start, name="fmionnx-cluster-start", daemon=True
+            )
+            self._started.start()
+
+    def _start(self) -> None:
+        from fmionnx.backends.sweep.engine import open_client
+
+        stack = contextlib.ExitStack()
+        try:
+            self._client = stack.enter_context(open_client(None, self._workers))
+        except BaseException as exc:  # handed to the thread that asks for the client
+            self._error = exc
+        else:
+            self._stack = stack
+
+    def client(self) -> Any:
+        """The client (a local cluster is started now if it has not been)."""
+        from fmionnx.backends.sweep.engine import shared_client
+
+        if self._given is not None:
+            return self._given
+        if self._scheduler is not None:
+            return shared_client(self._scheduler)
+        with self._lock:
+            if self._started is None:
+                self._start()
+            else:
+                self._started.join()
+            if self._error is not None:
+                raise self._error
+            return self._client
+
+    def release(self, *, wait: bool) -> None:
+        """Close a local cluster this study started (in the background unless ``wait``); an
+        existing cluster's or the caller's client stays open."""
+        with self._lock:
+            if self._closing is None and (self._stack is not None or self._started is not None):
+                self._closing = threading.Thread(
+                    target=self._close, name="fmionnx-cluster-close", daemon=False
+                )
+                self._closing.start()
+            closing = self._closing
+        if wait and closing is not None:
+            closing.join()
+
+    def _close(self) -> None:
+        if self._started is not None:
+            self._started.join()
+        stack, self._stack = self._stack, None
+        if stack is not None:
+            with contextlib.suppress(Exception):  # a cluster that fails to close ends with us
+                stack.close()

@@ -166,12 +166,38 @@ class CompileResult:
 
 def compile_system(path: str | Path, flags: RunFlags | None = None) -> CompileResult:
     """Load, check and compile a system file (YAML or SSP) into the IR; ``flags`` replace its
-    start time and base step first (``fmionnx run --start-time/--step``)."""
+    start time and base step first (``fmionnx run --start-time/--step``).
+
+    A YAML system compiled before, unchanged and with unchanged models, is read back from the
+    compile cache (:mod:`.compilecache`) with the same diagnostics instead.
+    """
+    from fmionnx.pipeline import compilecache
+
+    target = Path(path)
+    cached = compiled_before(target, flags)
+    if cached is not None:
+        return cached
+    result = _compile_system(target, flags)
+    if result.system is not None and result.ok:
+        compilecache.store(target, flags, result.system, result.diagnostics)
+    return result
+
+
+def compiled_before(path: str | Path, flags: RunFlags | None = None) -> CompileResult | None:
+    """The compile of a system file kept in the compile cache, unchanged since, or None; reads
+    no system file types (a study file, never compiled this way, has no entry)."""
+    from fmionnx.pipeline import compilecache
+
+    cached = compilecache.lookup(Path(path), flags)
+    return None if cached is None else CompileResult(cached.system, cached.diagnostics)
+
+
+def _compile_system(path: Path, flags: RunFlags | None) -> CompileResult:
     from fmionnx.compile.compiler import compile_spec
     from fmionnx.spec.frontends import load_system
 
     bag = DiagnosticBag()
-    loaded = load_system(Path(path), bag)
+    loaded = load_system(path, bag)
     if flags is not None:
         loaded = apply_run_flags(loaded, flags, bag)
     system = None
@@ -190,10 +216,10 @@ def is_model_file(path: str | Path) -> bool:
     (``.fmu`` or an unpacked FMU, ``.onnx``, a MuJoCo ``.xml``, a signal ``.csv``) that is not
     a system file."""
     from fmionnx.kinds.registry import kind_for_path
-    from fmionnx.spec.frontends import FRONTENDS
+    from fmionnx.spec.suffixes import SYSTEM_SUFFIXES
 
     target = Path(path)
-    if target.suffix.lower() in FRONTENDS or target.name.lower().endswith(COMPILED_SUFFIX):
+    if target.suffix.lower() in SYSTEM_SUFFIXES or target.name.lower().endswith(COMPILED_SUFFIX):
         return False
     return kind_for_path(target) is not None
 
@@ -232,7 +258,15 @@ def check_study(path: str | Path) -> CompileResult:
     from fmionnx.spec.study import load_study
 
     bag = DiagnosticBag()
-    plan = compile_study(load_study(Path(path), bag), bag)
+    plan = compile_study(load_study(Path(path), bag), bag, system_compiler=study_system)
     diagnostics = tuple(bag.sorted())
     ok = plan is not None and all(d.severity is not Severity.ERROR for d in diagnostics)
     return CompileResult(plan.system if ok and plan is not None else None, diagnostics)
+
+
+def study_system(path: Path, bag: DiagnosticBag) -> CompiledSystem | None:
+    """A study's system compiled as :func:`compile_system` compiles it (the compile cache
+    included); its diagnostics into ``bag``."""
+    result = compile_system(path)
+    bag.extend(result.diagnostics)
+    return result.system

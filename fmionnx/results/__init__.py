@@ -17,6 +17,7 @@ from fmionnx.runtime.result import RunResult
 
 if TYPE_CHECKING:
     from fmionnx.results.csvahead import CsvAhead
+    from fmionnx.results.plotworker import PlotWorker
 
 
 def write_results(
@@ -30,6 +31,7 @@ def write_results(
     checkpoint: bool = False,
     plot_signals: bool = False,
     ahead: CsvAhead | None = None,
+    plotter: PlotWorker | None = None,
 ) -> list[Path]:
     """Write results.csv, the system's plots and run.json into ``out``; returns the files.
 
@@ -46,6 +48,9 @@ def write_results(
     ``ahead``: rows of results.csv formatted while a guarded run went on
     (:mod:`fmionnx.results.csvahead`); the file's bytes are the same without it.
 
+    ``plotter``: a plot worker started before the run (:mod:`fmionnx.results.plotworker`);
+    it draws the plots while results.csv is written here. The figures are the same without.
+
     ``run.json`` is written last and lists every file of the run (``also``: files written
     by others, e.g. ``--record`` into ``out``); then the folder's ownership record is made to
     list those very files (:mod:`fmionnx.core.owned`), so the next run into ``out`` can prove
@@ -60,19 +65,20 @@ def write_results(
     out.mkdir(parents=True, exist_ok=True)
     owned = OwnedFolder(out)
     previous = owned.proven_names()
+    # The plotting modules load only for a run that draws (issue #14), and a plot worker
+    # draws while results.csv is written here (issue #32).
+    job = None
+    if not checkpoint and (system.plots or plot_signals):
+        from fmionnx.results.plotworker import PlotJob
+
+        job = PlotJob(result, system, out, bool(system.plots), plot_signals, aliases)
+    submitted = job is not None and plotter is not None and plotter.submit(job)
     files = [write_csv(result, out / "results.csv", aliases=aliases, ahead=ahead)]
-    if not checkpoint:
-        plots: list[Path] = []
-        if system.plots:  # the plotting modules load only for a system that draws (issue #14)
-            from fmionnx.results.plots import write_plots
+    if job is not None:
+        from fmionnx.results.plotworker import draw_here
 
-            plots = write_plots(result, system, out)
-        files.extend(plots)
-        if plot_signals:
-            from fmionnx.results.signals_plot import write_signals_plot
-
-            taken = {p.name for p in plots}
-            files.extend(write_signals_plot(result, system, out, aliases=aliases, taken=taken))
+        drawn = plotter.collect() if submitted and plotter is not None else None
+        files.extend(drawn if drawn is not None else draw_here(job))
     path = out / RUN_JSON
     listed = [*files, *(also or []), path]
     names = [name for p in listed if (name := relative_name(p, out)) is not None]

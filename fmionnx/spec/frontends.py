@@ -11,9 +11,6 @@ from fmionnx.spec.yaml import LoadedSpec, load_yaml_system
 
 FrontEnd = Callable[[Path, DiagnosticBag], LoadedSpec]
 
-#: Suffixes of SSP files: a format without a step size, so the compiler has a default for it.
-SSP_SUFFIXES = frozenset({".ssp", ".ssd"})
-
 
 def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
     """The SSP front end, imported when an SSP file is read (YAML runs do not pay for it)."""

@@ -295,3 +295,40 @@ def test_a_child_killed_between_two_steps_is_a_fault_of_the_next_step(
         assert process.wait(30) == -signal.SIGKILL
         with pytest.raises(RunError, match="crashed with SIGKILL"):
             runner.step(0.05, 0.01)
+
+
+def test_a_prestarted_zygote_imports_meanwhile_and_forks_the_first_child(
+    fixture_fmu, write_system, fresh_zygote
+) -> None:
+    """``prestart`` returns at once (the zygote's imports go on in its process); the first
+    child waits for them and is forked by it."""
+    launcher.prestart()
+    started = launcher._zygote.get()
+    assert started is not None
+    assert not started._ready  # did not wait for the zygote's imports
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 7.0}")
+    with isolated(component) as runner:
+        assert isinstance(runner._process, ForkedChild)
+        _gain_steps(runner, 7.0)
+    assert launcher._zygote.get() is started  # the same one: prestart made it
+
+
+def test_a_prestarted_zygote_that_never_gets_ready_is_given_up(
+    fixture_fmu, write_system, fresh_zygote, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setattr(launcher, "ZYGOTE_START_TIMEOUT", 0.5)
+    monkeypatch.setattr(launcher, "ZYGOTE_EXIT_TIMEOUT", 0.5)
+    launcher.prestart()
+    started = launcher._zygote.get()
+    assert started is not None
+    os.kill(started._process.pid, signal.SIGSTOP)  # it will not say ready in time
+    try:
+        component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 8.0}")
+        for _ in range(2):
+            with isolated(component) as runner:
+                assert isinstance(runner._process, SpawnedChild)
+                _gain_steps(runner, 8.0)
+        assert launcher._zygote.get() is None  # not tried again for the second child
+    finally:
+        with contextlib.suppress(ProcessLookupError):
+            os.kill(started._process.pid, signal.SIGCONT)

@@ -180,14 +180,33 @@ def test_startup_benchmark_times_both_commands_and_every_run_mode_side_by_side()
     results = startup.main(["--quick"], Console(file=text, width=200))
     assert [r["contender"] for r in results["help"]] == [startup.FMPY, startup.FMIONNX]
     runs = {r["contender"]: r for r in results["end_to_end"]}
+    libcosim_here = chain.libcosim_problem() is None
+    peers = [startup.LIBCOSIM_SCRIPT] if libcosim_here else []
     assert list(runs) == [
         startup.FMPY_SIMULATE, startup.RUN_DEFAULT, startup.RUN_FMUS, startup.RUN_GUARDIAN,
-        startup.RUN_NONE,
+        startup.RUN_NONE, *peers, startup.IMPORT_FMU,
     ]  # fmt: skip
-    assert all(r["same_values"] for r in runs.values())  # the CSV files agree
+    # Every simulation's CSV agrees with FMPy's, the libcosim script's included.
+    assert all(r["same_values"] for r in runs.values() if r["contender"] != startup.IMPORT_FMU)
+    # A peer that is not measured is named, with why.
+    missing = results["peers_missing"]
+    assert any(line.startswith("OMSimulator") for line in missing)
+    assert any(line.startswith("Ecos") for line in missing)
+    assert libcosim_here or any(line.startswith(startup.LIBCOSIM_SCRIPT) for line in missing)
     assert runs[startup.FMPY_SIMULATE]["vs_fmpy"] == 1
     assert all(r["vs_fmpy"] > 0 for r in [*results["help"], *runs.values()])
-    assert [t["limit"] for t in results["targets"]] == ["<= 1", *["<= 0.6"] * 4]
+    checks = {r["contender"]: r for r in results["validate"]}
+    assert list(checks) == [startup.IMPORT_NUMPY, startup.VALIDATE, startup.VALIDATE_COLD]
+    assert checks[startup.IMPORT_NUMPY]["vs_fmpy"] == 1
+    (imports, reference) = results["reference"]
+    assert imports["contender"] == startup.IMPORT_RUN
+    assert reference["loop_s"] > 0  # read from run.json: what is outside is the rest
+    assert reference["median_s"] > 0
+    limits = [t["limit"] for t in results["targets"]]
+    assert limits == ["<= 1", *["<= 0.4"] * 4, "<= 4", "<= 4", "<= 1.5", None]
     printed = text.getvalue()
     assert "One FMU end to end" in printed
+    assert "Validate the reference system" in printed
+    assert "time outside its loop" in printed
+    assert "OMSimulator's CLI: not measured" in printed
     assert "Targets" in printed

@@ -34,7 +34,9 @@ def test_every_schedule_runs_to_the_same_results_and_the_floor_replays_the_run(c
     assert [row["call"] for row in floor][-1] == "sum"
     assert floor[-1]["seconds"] == pytest.approx(sum(row["seconds"] for row in floor[:-1]))
     targets = scenario.schedule_targets(compared)
-    assert [t["limit"] for t in targets] == ["<= 0.8", ">= 6", "identical"]
+    assert [t["limit"] for t in targets] == ["<= 0.8", "<= 0.8", ">= 6", "identical"]
+    # Issue 32's target is the CLI's default: the FMUs isolated, the parallel schedule.
+    assert targets[1]["value"] == rows["isolated FMUs, parallel"]["vs_floor"]
     text = io.StringIO()
     scenario.print_schedules(Console(file=text, width=200), compared, 1, report)
     assert "results identical: yes" in text.getvalue()

@@ -1,8 +1,10 @@
-"""benchmarks/sweep.py --quick runs both studies in the four modes to the same metrics.
+"""benchmarks/sweep.py --quick: the scaling tables (``fmionnx sweep --workers W`` for 1 and 2
+workers) and, with ``--modes``, both studies in the four modes to the same metrics.
 
-Timings are never asserted (the machine is shared); what is checked is that every mode ran
-every case, none failed, every mode gave the loop's metrics, and the tables were printed.
-The quick run takes about 17 s on 2 shared cores.
+Timings are never asserted (the machine is shared); what is checked is that every mode and
+worker count ran every case, none failed, every mode gave the loop's metrics, the targets this
+machine cannot measure say so, and the tables were printed. The quick run takes about 90 s on
+2 shared cores.
 """
 
 from __future__ import annotations
@@ -23,7 +25,32 @@ def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:
     for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
         built_model(name)
     text = io.StringIO()
-    found = sweep.main(["--quick"], Console(file=text, width=200))
+    found = sweep.main(["--quick", "--modes"], Console(file=text, width=200))
+
+    scaling = found["scaling"]
+    assert scaling["failed"] == 0
+    assert scaling["counts"] == [1, 2]
+    by_study: dict[str, list[int]] = {}
+    for row in scaling["rows"]:
+        by_study.setdefault(row["study"], []).append(row["workers"])
+        assert row["seconds"] > 0
+        assert 0.0 <= row["busy"] <= 1.0  # the cases' wall over the workers' wall
+        assert row["outside"] == pytest.approx(1 - row["busy"])
+    assert by_study == {
+        "reference": [1, 2],
+        "reference, isolate: [none]": [2],
+        "small FMU system": [1, 2],
+    }
+    reference_rows = [row for row in scaling["rows"] if row["study"] == "reference"]
+    assert reference_rows[0]["speedup"] == 1
+    assert reference_rows[0]["per_case_vs_1"] == 1
+    scaling_targets = {row["target"]: row for row in scaling["targets"]}
+    measured = [row for name, row in scaling_targets.items() if "not measured" not in name]
+    assert len(measured) == 2
+    assert all(row["value"] is not None for row in measured)
+    unmeasured = [row for name, row in scaling_targets.items() if "not measured" in name]
+    assert len(unmeasured) == 2
+    assert all(row["value"] is None for row in unmeasured)
 
     for study, cases in (("small", 10 * 2), ("scenario", 2)):  # the small study twice whole
         rows = found[study]
@@ -44,5 +71,7 @@ def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:
     assert sum("plus the latency" in target for target in targets) == 1
     assert all(row["value"] is not None for row in found["targets"])
     output = text.getvalue()
+    assert "Sweep scaling" in output
+    assert "not measured: this machine has 2 usable cores" in output
     assert "Sweep: cases per second" in output
     assert "overhead vs plain loop" in output

@@ -10,6 +10,7 @@ of the simulation or compile libraries at all.
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -63,9 +64,11 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
     return here
 
 
-def loaded(folder: Path, *args: str, full: bool = False) -> set[str]:
+def loaded(
+    folder: Path, *args: str, full: bool = False, env: dict[str, str] | None = None
+) -> set[str]:
     """Top-level packages in ``sys.modules`` after ``fmionnx ARGS`` (which must succeed);
-    ``full``: every module's full name."""
+    ``full``: every module's full name; ``env``: variables set for the command."""
     done = subprocess.run(
         [sys.executable, "probe.py", *args],
         cwd=folder,
@@ -73,6 +76,7 @@ def loaded(folder: Path, *args: str, full: bool = False) -> set[str]:
         text=True,
         check=False,
         timeout=120,
+        env={**os.environ, **(env or {})},
     )
     report = json.loads(done.stderr.strip().splitlines()[-1])
     assert report["code"] == 0, done.stderr
@@ -127,9 +131,13 @@ def test_a_system_file_still_loads_the_yaml_parser(folder: Path) -> None:
 
 
 def test_plots_load_matplotlib_only_when_asked(folder: Path) -> None:
-    modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", "out-plot", "--plot")
+    """Drawn in this process when plot workers are off (on a machine with cores to spare the
+    plot worker imports matplotlib instead: tests/results/test_plot_worker.py)."""
+    worker_off = {"FMIONNX_PLOT_WORKER": "0"}
+    modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", "out-plot", "--plot", env=worker_off)  # fmt: skip
     assert "matplotlib" in modules
     assert modules & (RUNTIME_EXTRAS - {"matplotlib"}) == set()
+    assert (folder / "out-plot" / "signals.png").is_file()
 
 
 def test_validating_the_reference_scenario_loads_no_runtime_it_does_not_use(

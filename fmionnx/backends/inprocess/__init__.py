@@ -227,6 +227,11 @@ class InProcessBackend(Backend):
         def plain(*, options: RunOptions) -> RunResult:
             return Master(system, options).run()
 
+        if chosen and not options.guarded:
+            from fmionnx.runtime.isolated.launcher import prestart
+
+            prestart()  # the children's zygote imports while the master loads the other models
+
         if options.guarded:
             from fmionnx.runtime.guardian import run_guarded
 

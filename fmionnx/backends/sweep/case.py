@@ -219,11 +219,12 @@ def one_core_per_case() -> None:
     An ONNX component's own ``threads`` and a ``LP_NUM_THREADS`` already set are kept.
     """
     from fmionnx.kinds.registry import settle_worker
-    from fmionnx.runtime.isolated.proxy import one_core_each
+    from fmionnx.runtime.isolated.proxy import keep_children, one_core_each
 
     os.environ.setdefault(RENDER_THREADS, "1")
     settle_worker()  # e.g. one onnxruntime thread each, FMU libraries kept for the next case
     one_core_each()
+    keep_children()  # an isolated model's process serves its next cases
 
 
 def freeze_once() -> None:

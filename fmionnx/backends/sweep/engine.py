@@ -15,11 +15,14 @@ on."""
 
 from __future__ import annotations
 
+import atexit
+import contextlib
 import logging
 import math
 import os
 import shutil
 import tempfile
+import threading
 import time
 import uuid
 import warnings
@@ -184,6 +187,62 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     finally:
         _restore(before)
         shutil.rmtree(scratch, ignore_errors=True)
+
+
+#: This process's clients of existing clusters, by scheduler address (:func:`shared_client`).
+_SHARED: dict[str, Any] = {}
+_SHARED_LOCK = threading.Lock()
+
+
+def shared_client(scheduler: str) -> Any:
+    """This process's client of the cluster at ``scheduler``, connected on first use and kept
+    for the next studies on it (closed when the process exits): a notebook or a script
+    running many studies on one cluster connects once.
+
+    A client whose connection was lost is closed and replaced. Raises
+    :class:`SchedulerError` for a malformed address or a scheduler that does not answer.
+    """
+    from distributed import Client
+
+    problem = scheduler_problem(scheduler)
+    if problem is not None:
+        raise SchedulerError(problem)
+    with _SHARED_LOCK:
+        client = _SHARED.get(scheduler)
+        if client is not None and client.status == "running":
+            return client
+        if client is not None:
+            with contextlib.suppress(Exception):
+                client.close()
+        try:
+            client = Client(scheduler, set_as_default=False, timeout=CONNECT_TIMEOUT)
+        except (OSError, ValueError, TimeoutError) as exc:
+            msg = f"cannot reach the Dask scheduler at {scheduler}: {exc}"
+            raise SchedulerError(msg) from None
+        _SHARED[scheduler] = client
+        return client
+
+
+#: Seconds a kept client may take to close when the process exits.
+SHARED_CLOSE_TIMEOUT = 2
+
+
+@atexit.register
+def _close_shared() -> None:
+    """Close the kept clients, quickly and quietly: the cluster may be gone by now (the
+    client then tries to reconnect and says so), and it is not ours to end."""
+    with _SHARED_LOCK:
+        clients = list(_SHARED.values())
+        _SHARED.clear()
+    quiet = logging.getLogger("distributed.client")
+    level = quiet.level
+    quiet.setLevel(logging.CRITICAL)
+    try:
+        for client in clients:
+            with contextlib.suppress(Exception):
+                client.close(timeout=SHARED_CLOSE_TIMEOUT)
+    finally:
+        quiet.setLevel(level)
 
 
 def _local_cluster(workers: int, scratch: Path) -> Any:

@@ -18,20 +18,8 @@ import numpy as np
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
 
+from fmionnx.compile.ros2.distro import DEFAULT_DISTRO, RosDistro
 from fmionnx.core.types import DType
-
-
-class RosDistro(enum.StrEnum):
-    """ROS 2 distributions whose wire formats differ (``ros_discovery_info`` GID size)."""
-
-    HUMBLE = "humble"
-    IRON = "iron"
-    JAZZY = "jazzy"
-    KILTED = "kilted"
-
-
-#: The default distribution: the current LTS (the paper used Humble; `--ros-distro humble`).
-DEFAULT_DISTRO = RosDistro.JAZZY
 
 _STORES = {
     RosDistro.HUMBLE: Stores.ROS2_HUMBLE,
@@ -239,3 +227,25 @@ def serialize(message: Any, msgtype: str, distro: RosDistro = DEFAULT_DISTRO) ->
 def deserialize(data: bytes | memoryview, msgtype: str, distro: RosDistro = DEFAULT_DISTRO) -> Any:
     """Decode CDR bytes (with header) into a rosbags message; primitive arrays stay numpy views."""
     return typestore(distro).deserialize_cdr(data, msgtype)
+
+
+# The distributions live in .distro (no rosbags there); they are still found here.
+__all__ = [
+    "BASE_DTYPE",
+    "BASE_NUMPY",
+    "DEFAULT_DISTRO",
+    "FieldError",
+    "FieldInfo",
+    "FieldKind",
+    "RosDistro",
+    "default_message",
+    "deserialize",
+    "field_info",
+    "members",
+    "message_types",
+    "normalize_type",
+    "numeric_leaves",
+    "resolve_field",
+    "serialize",
+    "typestore",
+]

@@ -9,8 +9,8 @@ from __future__ import annotations
 
 from dataclasses import dataclass
 
+from fmionnx.compile.ros2.distro import DEFAULT_DISTRO, RosDistro
 from fmionnx.compile.ros2.fields import PortField
-from fmionnx.compile.ros2.messages import DEFAULT_DISTRO, RosDistro
 from fmionnx.compile.ros2.qos import QosProfile
 
 

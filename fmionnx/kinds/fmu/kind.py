@@ -201,6 +201,11 @@ class FmuKind:
 
         keep_libraries()
 
+    def process_reusable(self, component: Component) -> bool:
+        """Not for an FMU that may be instantiated only once per process (FMI 2 and 3
+        ``canBeInstantiatedOnlyOncePerProcess``): its next run needs a fresh process."""
+        return component.interface.fact("canBeInstantiatedOnlyOncePerProcess") != "true"
+
     def warm_up(self) -> None:
         """Import the runners' modules (fmpy's, ctypes): cheap, and every FMU needs them."""
         import fmionnx.kinds.fmu.runner  # noqa: F401

@@ -162,6 +162,13 @@ class MujocoKind:
         backend = backend_for(config.gl)
         return {} if backend is None else {"MUJOCO_GL": backend, "PYOPENGL_PLATFORM": backend}
 
+    def for_workers(self) -> None:
+        """A study's worker keeps a scene and its cameras' GL contexts for the scene's next
+        cases (:mod:`fmionnx.kinds.kept`)."""
+        from fmionnx.kinds.mujoco.runner import keep_scenes
+
+        keep_scenes()
+
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """A :class:`~fmionnx.kinds.mujoco.runner.MujocoRunner` (loads mujoco only now)."""
         from fmionnx.kinds.mujoco.runner import MujocoRunner

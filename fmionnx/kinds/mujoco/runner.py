@@ -11,6 +11,8 @@ resetting the simulation) stops the run.
 
 from __future__ import annotations
 
+import contextlib
+from dataclasses import dataclass, field
 from typing import Any
 
 import numpy as np
@@ -18,8 +20,39 @@ import numpy as np
 from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.types import Causality, Component, is_whole_multiple
+from fmionnx.kinds.kept import Kept
 from fmionnx.kinds.mujoco.gl import choose_gl
 from fmionnx.kinds.mujoco.kind import CameraConfig, MujocoConfig
+
+
+@dataclass
+class _Scene:
+    """A loaded scene and its cameras' offscreen renderers (GL contexts with the scene's
+    textures and meshes), kept between runs of a study's worker (:mod:`fmionnx.kinds.kept`).
+    Each run makes its own ``MjData``: the state starts from the model as loaded."""
+
+    model: Any
+    renderers: dict[str, Any] = field(default_factory=dict)
+
+    def close(self) -> None:
+        for renderer in self.renderers.values():
+            with contextlib.suppress(Exception):
+                renderer.close()
+        self.renderers.clear()
+
+
+def _close_scene(scene: _Scene) -> None:
+    scene.close()
+
+
+#: Scenes kept by a study's worker, by file and cameras (:func:`keep_scenes`).
+SCENES: Kept[tuple[object, ...], _Scene] = Kept(_close_scene)
+
+
+def keep_scenes() -> None:
+    """From now on, this process keeps a cleanly ended run's scene and GL contexts for the
+    next run of the same scene (a study's worker)."""
+    SCENES.enable()
 
 
 class MujocoRunner:
@@ -42,9 +75,29 @@ class MujocoRunner:
         self._substeps = 1
         self._split = True
         self._time = 0.0
+        #: The scene kept from an earlier run (or to be kept after this one), and its key.
+        self._scene: _Scene | None = None
+        self._key: tuple[object, ...] | None = None
+        self._broken = False
+
+    def _scene_key(self) -> tuple[object, ...] | None:
+        """What a kept scene must be to serve this run (None: never one): the same file, as
+        compiled, with the same cameras, and no scene values set by the run (they change the
+        loaded model)."""
+        if not SCENES.enabled or self.config.scene_values:
+            return None
+        path = self.component.path
+        try:
+            info = path.stat()
+        except OSError:
+            return None
+        cameras = tuple((c.name, int(c.width), int(c.height)) for c in self.config.cameras)
+        identity = (str(path.resolve()), info.st_mtime_ns, info.st_size)
+        return (*identity, self.component.interface.content_hash, self.config.gl, cameras)
 
     def instantiate(self) -> None:
-        """Choose the GL backend (only when cameras are used), load the scene."""
+        """Choose the GL backend (only when cameras are used), load the scene (or take the
+        one a study's worker kept from an earlier run of it)."""
         if self._camera_specs:
             try:
                 choose_gl(self.config.gl)
@@ -57,6 +110,12 @@ class MujocoRunner:
 
         mujoco = mujoco_module()
         self._mj = mujoco
+        self._key = self._scene_key()
+        self._scene = SCENES.take(self._key) if self._key is not None else None
+        if self._scene is not None:
+            self._model = self._scene.model
+            self._data = mujoco.MjData(self._model)
+            return
         path = str(self.component.path)
         try:  # the file may have changed since it was compiled
             check_scene_before_loading(self.component.path)
@@ -71,6 +130,8 @@ class MujocoRunner:
                 self._model = mujoco.MjModel.from_xml_path(path)
         except Exception as exc:
             raise fault(self.component.name, f"cannot load the scene: {exc}", time=0.0) from None
+        if self._key is not None:
+            self._scene = _Scene(self._model)
         if self.config.scene_values:
             from fmionnx.kinds.mujoco.scenevalues import apply_scene_values
 
@@ -152,12 +213,16 @@ class MujocoRunner:
             raise fault(self.component.name, "no camera of this name", time=start, port=port)
         model.vis.global_.offwidth = max(int(model.vis.global_.offwidth), width)
         model.vis.global_.offheight = max(int(model.vis.global_.offheight), height)
-        try:
-            renderer = mj.Renderer(model, height, width)
-        except Exception as exc:
-            raise fault(
-                self.component.name, f"offscreen rendering failed: {exc}", time=start, port=port
-            ) from None
+        renderer = self._scene.renderers.get(port) if self._scene is not None else None
+        if renderer is None:
+            try:
+                renderer = mj.Renderer(model, height, width)
+            except Exception as exc:
+                raise fault(
+                    self.component.name, f"offscreen rendering failed: {exc}", time=start, port=port
+                ) from None
+            if self._scene is not None:
+                self._scene.renderers[port] = renderer
         self._renderers[port] = renderer
         frame = np.zeros((height, width, 3), dtype=np.uint8)
         self._frames[port] = frame
@@ -213,11 +278,21 @@ class MujocoRunner:
     def produce(self, port: str) -> None:
         """Render camera ``port`` for the current state into its frame buffer."""
         renderer = self._renderers[port]
+        self._broken = True  # until the frame is done: a failed render keeps nothing
         renderer.update_scene(self._data, camera=port)
         renderer.render(out=self._frames[port])
+        self._broken = False
 
     def terminate(self) -> None:
-        """Free the renderers' GL contexts."""
+        """Free the renderers' GL contexts, or give the scene and its renderers back for the
+        next run of the scene (a study's worker; only when every frame was rendered)."""
+        scene, self._scene = self._scene, None
+        if scene is not None and self._key is not None and not self._broken:
+            self._renderers.clear()
+            SCENES.give(self._key, scene)
+            return
         for renderer in self._renderers.values():
             renderer.close()
         self._renderers.clear()
+        if scene is not None:
+            scene.renderers.clear()  # closed just now (the same objects)

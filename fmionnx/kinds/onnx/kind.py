@@ -89,10 +89,12 @@ class OnnxKind:
 
     def for_workers(self) -> None:
         """Sessions without ``threads`` of their own use one thread (onnxruntime's default pool
-        spins a thread per core, taking other cases' cores)."""
-        from fmionnx.kinds.onnx.runner import one_thread_each
+        spins a thread per core, taking other cases' cores), and a session serves the model's
+        next cases (:mod:`fmionnx.kinds.kept`)."""
+        from fmionnx.kinds.onnx.runner import keep_sessions, one_thread_each
 
         one_thread_each()
+        keep_sessions()
 
     def make_runner(self, component: Component, wiring: Wiring) -> Runner:
         """An :class:`~fmionnx.kinds.onnx.runner.OnnxRunner` (loads onnxruntime only now)."""

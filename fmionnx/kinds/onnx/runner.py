@@ -16,11 +16,26 @@ import numpy as np
 
 from fmionnx.core.runner import Buffer, OutputCopies, fault
 from fmionnx.core.types import Causality, Component, DType, Port
+from fmionnx.kinds.kept import Kept
 from fmionnx.kinds.onnx.kind import OnnxConfig
 
 #: Intra-op threads of a session whose component does not say (None: onnxruntime's default,
 #: one per core); see :func:`one_thread_each`.
 _default_threads: list[int | None] = [None]
+
+
+def _drop_session(session: Any) -> None:
+    del session  # onnxruntime frees a session with its last reference
+
+
+#: Sessions kept by a study's worker, by model file and options (:func:`keep_sessions`).
+SESSIONS: Kept[tuple[object, ...], Any] = Kept(_drop_session)
+
+
+def keep_sessions() -> None:
+    """From now on, this process keeps a run's session for the next run of the same model
+    file with the same options (a study's worker): the model is checked and loaded once."""
+    SESSIONS.enable()
 
 
 def one_thread_each() -> None:
@@ -82,6 +97,8 @@ class OnnxRunner:
         self._run_options: Any = None
         #: Why the run was stopped (see :meth:`interrupt`), once it was.
         self._stopped: str | None = None
+        self._key: tuple[object, ...] | None = None
+        self._broken = False
 
     def instantiate(self) -> None:
         """Create the onnxruntime session with the spec's providers and thread count.
@@ -100,22 +117,27 @@ class OnnxRunner:
         from fmionnx.kinds.onnx.ortsetup import onnxruntime_module, session_options
         from fmionnx.kinds.onnx.sizes import check_model_sizes
 
-        model, _ = load_checked_model(self.component.path)
-        check_model_sizes(model, self.component.path)  # it may have changed since compiling
-        ort = onnxruntime_module()
         config = self.component.config
         assert isinstance(config, OnnxConfig)
-        options = session_options(ort)
         threads = config.threads if config.threads is not None else _default_threads[0]
+        ort = onnxruntime_module()
+        self._run_options = ort.RunOptions()
+        # Errors come back as exceptions (and become faults); a stopped run is not logged.
+        self._run_options.log_severity_level = 4
+        self._key = self._session_key(config, threads)
+        if self._key is not None:
+            self._session = SESSIONS.take(self._key)
+            if self._session is not None:
+                return  # made from this very file (its identity is in the key), checked then
+        model, _ = load_checked_model(self.component.path)
+        check_model_sizes(model, self.component.path)  # it may have changed since compiling
+        options = session_options(ort)
         if threads is not None:
             options.intra_op_num_threads = threads
             options.inter_op_num_threads = 1
         options.log_severity_level = 3
         options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_EXTENDED
         providers = list(config.providers)
-        self._run_options = ort.RunOptions()
-        # Errors come back as exceptions (and become faults); a stopped run is not logged.
-        self._run_options.log_severity_level = 4
         try:
             self._session = ort.InferenceSession(
                 str(self.component.path), sess_options=options, providers=providers
@@ -167,10 +189,23 @@ class OnnxRunner:
         if self._run_options is not None:
             self._run_options.terminate = True
 
+    def _session_key(self, config: OnnxConfig, threads: int | None) -> tuple[object, ...] | None:
+        """What a kept session must have been made from to serve this run (None: never one)."""
+        if not SESSIONS.enabled:
+            return None
+        path = self.component.path
+        try:
+            info = path.stat()
+        except OSError:
+            return None
+        identity = (str(path.resolve()), info.st_mtime_ns, info.st_size)
+        return (*identity, self.component.interface.content_hash, config.providers, threads)
+
     def _run(self, t: float) -> list[Any]:
         try:
             results: list[Any] = self._session.run(self._names, self._feeds, self._run_options)
         except Exception as exc:
+            self._broken = True
             if self._stopped is not None:
                 raise fault(self.component.name, self._stopped, time=t) from None
             over = _over_the_ceiling(str(exc))
@@ -222,5 +257,8 @@ class OnnxRunner:
         """ONNX outputs are refreshed every step; nothing is lazy."""
 
     def terminate(self) -> None:
-        """Drop the session."""
-        self._session = None
+        """Drop the session, or give it back for the next run of the model (a study's
+        worker; only when no inference failed)."""
+        session, self._session = self._session, None
+        if session is not None and self._key is not None and not self._broken:
+            SESSIONS.give(self._key, session)

@@ -26,8 +26,10 @@ def _die_with_parent() -> None:
 
 
 def main(argv: list[str]) -> int:
-    """``child COMMANDS REPLIES SHARED [--no-spin] [--sandbox WRITABLE MODEL]`` (inherited
-    descriptors; ``--no-spin``: block on the command pipe at once, see ``server.SPIN_NS``).
+    """``child COMMANDS REPLIES SHARED [--no-spin] [--keep] [--sandbox WRITABLE MODEL]``
+    (inherited descriptors; ``--no-spin``: block on the command pipe at once, see
+    ``server.SPIN_NS``; ``--keep``: the process may serve the next runs of its model, so
+    models are kept loaded between them as a study's worker keeps them).
 
     Whatever processes the model starts are this process's descendants (it adopts their
     orphans) and end with it: see :mod:`fmionnx.runtime.lifetime`.
@@ -49,6 +51,11 @@ def _serve(argv: list[str]) -> int:
     spin = options[:1] != ["--no-spin"]
     if not spin:
         options = options[1:]
+    if options[:1] == ["--keep"]:
+        options = options[1:]
+        from fmionnx.kinds.registry import settle_worker
+
+        settle_worker()  # e.g. an FMU's unpacked files and loaded library kept for the next run
     refusal = None
     if options[:1] == ["--sandbox"]:  # first: a process with threads cannot enter namespaces
         from pathlib import Path

@@ -157,6 +157,10 @@ class ZygoteError(Exception):
     """The zygote did not start or did not answer; children start as new interpreters."""
 
 
+class ZygoteNotReadyError(ZygoteError):
+    """The zygote did not finish its start: this process does without one from then on."""
+
+
 class Zygote:
     """This process's end of its zygote (see :mod:`.zygote`)."""
 
@@ -177,9 +181,16 @@ class Zygote:
             raise ZygoteError(f"could not start: {exc}") from exc
         finally:
             theirs.close()
+        #: Whether the zygote said ``ready``; its imports go on meanwhile (see :func:`prestart`).
+        self._ready = False
+
+    def _await_ready(self) -> None:
+        """Wait (once) until the zygote has imported what children need."""
+        if self._ready:
+            return
         if self._receive(ZYGOTE_START_TIMEOUT)[0] != zygote.READY:
-            self.close()
-            raise ZygoteError("did not get ready")
+            raise ZygoteNotReadyError("did not get ready")
+        self._ready = True
 
     def launch(
         self, fds: tuple[int, int, int], argv: list[str], env: dict[str, str]
@@ -192,6 +203,7 @@ class Zygote:
             raise ZygoteError(f"no working folder to give the child: {exc}") from exc
         request = {"argv": argv, "cwd": folder, "env": env}
         with self._lock:
+            self._await_ready()
             try:
                 socket.send_fds(self._socket, [json.dumps(request).encode()], list(fds))
                 message, received = self._receive(ZYGOTE_ANSWER_TIMEOUT)
@@ -259,6 +271,22 @@ def zygote_wanted() -> bool:
     return True
 
 
+def prestart() -> None:
+    """Start this process's zygote now, without waiting for it.
+
+    Its imports (numpy, fmpy, the kinds' runners: about half a second) then run on another
+    core while this process loads the models that stay in it (a MuJoCo scene and its GL
+    context, an ONNX session), instead of after them, when the first isolated child is
+    launched. Does nothing where no zygote can be had, or one is already there.
+    """
+    if not zygote_wanted() or _no_zygote.get() is not None:
+        return
+    try:
+        _zygote.get_or_make(Zygote)
+    except ZygoteError:
+        _no_zygote.get_or_make(lambda: True)
+
+
 def launch(fds: tuple[int, int, int], argv: list[str], env: dict[str, str]) -> ChildProcess:
     """Start a child serving on ``fds``: forked by the zygote, else a new interpreter.
 
@@ -275,9 +303,12 @@ def launch(fds: tuple[int, int, int], argv: list[str], env: dict[str, str]) -> C
             break
         try:
             return made.launch(fds, argv, env)
-        except ZygoteError:
+        except ZygoteError as exc:
             if _zygote.clear() is made:
                 made.close()
+            if isinstance(exc, ZygoteNotReadyError):
+                _no_zygote.get_or_make(lambda: True)
+                break
     command = [sys.executable, "-m", "fmionnx.runtime.isolated.child", *map(str, fds), *argv]
     process = subprocess.Popen(command, pass_fds=fds, stdin=subprocess.DEVNULL, env=env)
     return SpawnedChild(process)

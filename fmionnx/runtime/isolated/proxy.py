@@ -16,6 +16,7 @@ the last completed step, and the child's temporary folder is removed whatever ha
 
 from __future__ import annotations
 
+import atexit
 import contextlib
 import fcntl
 import mmap
@@ -23,6 +24,7 @@ import os
 import signal
 import subprocess
 import tempfile
+import threading
 from collections import deque
 from dataclasses import dataclass
 from pathlib import Path
@@ -31,6 +33,7 @@ from typing import NoReturn
 import numpy as np
 
 from fmionnx.core.errors import RunError
+from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.runner import Buffer, Wiring, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Component
@@ -67,6 +70,98 @@ def one_core_each() -> None:
     already runs a case of a sweep, that core belongs to another case (see docs/sweep.md).
     """
     _children_spin[0] = False
+
+
+#: Idle children one process keeps for the next runs of their models (the least recently
+#: used one is ended first).
+MAX_IDLE_CHILDREN = 8
+
+
+@dataclass
+class _IdleChild:
+    """A child whose run ended cleanly, kept with its pipes, shared memory and scratch folder
+    for the next run of the same model; ``sent``/``answered`` continue the control block's
+    counters."""
+
+    key: tuple[str, str, str]
+    process: ChildProcess
+    commands: int
+    replies: int
+    shared: int
+    tmp: Path | None
+    sent: int
+    answered: int
+
+    def close(self) -> None:
+        """End it: its command pipe closes, so it leaves its loop and exits (killed if not)."""
+        with contextlib.suppress(OSError):
+            os.close(self.commands)
+        try:
+            self.process.wait(TERMINATE_GRACE)
+        except subprocess.TimeoutExpired:
+            self.process.kill()
+            self.process.wait()
+        for handle in (self.replies, self.shared):
+            with contextlib.suppress(OSError):
+                os.close(handle)
+        if self.tmp is not None:
+            remove_scratch(self.tmp)
+
+
+class _ChildPool:
+    """Idle children by model; thread-safe (cases of a multi-threaded worker share it)."""
+
+    def __init__(self) -> None:
+        self._idle: list[_IdleChild] = []
+        self._lock = threading.Lock()
+
+    def take(self, key: tuple[str, str, str]) -> _IdleChild | None:
+        with self._lock:
+            for index in range(len(self._idle) - 1, -1, -1):
+                if self._idle[index].key == key:
+                    return self._idle.pop(index)
+        return None
+
+    def put(self, child: _IdleChild) -> None:
+        with self._lock:
+            self._idle.append(child)
+            surplus = self._idle[:-MAX_IDLE_CHILDREN] if len(self._idle) > MAX_IDLE_CHILDREN else []
+            del self._idle[: len(surplus)]
+        for old in surplus:
+            old.close()
+
+    def close(self) -> None:
+        with self._lock:
+            idle, self._idle = self._idle, []
+        for child in idle:
+            child.close()
+
+
+#: This process's idle children, once :func:`keep_children` was called here (a forked process
+#: -- the guardian's child -- does not use its parent's).
+_children: ProcessLocal[_ChildPool] = ProcessLocal()
+
+
+def keep_children() -> None:
+    """From now on, an isolated child whose run ended cleanly serves the next run of the same
+    model in this process (a study's worker: its cases run one model after the other).
+
+    The child ends its model (``terminate``, the instance freed) and waits; the next run makes
+    a new instance in it, on the library it kept loaded (the kind's worker settings, see
+    :mod:`fmionnx.kinds.fmu.libraries`), instead of a new process, unpacking and loading. A
+    run that faulted, crashed, hung or was stopped never gives its child back, so a case that
+    breaks its model's process breaks no other case; a model whose kind says it may be
+    instantiated only once per process (:class:`~fmionnx.kinds.base.SharedProcess`) gets a
+    fresh process every run; a sandboxed one too (its confinement is per run).
+    """
+    _children.get_or_make(_ChildPool)
+
+
+@atexit.register
+def _close_children() -> None:
+    pool = _children.clear()
+    if pool is not None:
+        pool.close()
 
 
 @dataclass(frozen=True)
@@ -119,14 +214,52 @@ class IsolatedRunner:
         self._tmp: Path | None = None
         self._time = 0.0
         self._dead = False
+        #: The model answered a call with an error in this run: its process is not kept.
+        self._faulted = False
 
     # -- life cycle ----------------------------------------------------------------------------
 
+    def _reuse_key(self) -> tuple[str, str, str] | None:
+        """What a kept child must have run to serve this runner (None: never a kept one)."""
+        from fmionnx.kinds.registry import process_reusable
+
+        component = self.component
+        if self._settings.sandbox or _children.get() is None:
+            return None
+        if not process_reusable(component):
+            return None
+        return (component.kind, component.interface.content_hash, str(component.path))
+
     def instantiate(self) -> None:
-        """Start the child and ask it to load the model; the answer is awaited in setup.
+        """Start the child (or take one kept for this model) and ask it to load the model; the
+        answer is awaited in setup.
 
         Not waiting here lets every isolated component start its process at the same time.
         """
+        key = self._reuse_key()
+        pool = _children.get()
+        kept = pool.take(key) if pool is not None and key is not None else None
+        while kept is not None and kept.process.poll() is not None:  # died while idle
+            kept.close()
+            kept = pool.take(key) if pool is not None and key is not None else None
+        if kept is not None:
+            self._adopt(kept)
+        else:
+            self._launch(keep=key is not None)
+        self._request("instantiate", self.component, self._wiring)
+
+    def _adopt(self, kept: _IdleChild) -> None:
+        """Serve this run with a child kept from an earlier run of the same model."""
+        self._process = kept.process
+        self._commands, self._replies, self._shared = kept.commands, kept.replies, kept.shared
+        self._tmp = kept.tmp
+        self._sent, self._answered = kept.sent, kept.answered
+        self._block = mmap.mmap(self._shared, channel.CONTROL_SIZE)
+        self._control = Control(self._block)
+        self._times = self._control.times
+
+    def _launch(self, *, keep: bool) -> None:
+        """Start a new child for this run (``keep``: one that may serve the next runs)."""
         name = self.component.name
         command_read, command_write = os.pipe()
         reply_read, reply_write = os.pipe()
@@ -134,6 +267,8 @@ class IsolatedRunner:
         self._tmp = make_scratch(f"isolated-{name}")
         env = dict(os.environ, TMPDIR=str(self._tmp))
         argv = [] if children_spin() else ["--no-spin"]
+        if keep:
+            argv.append("--keep")
         if self._settings.sandbox:
             from fmionnx.kinds.registry import confined_environment
 
@@ -151,7 +286,6 @@ class IsolatedRunner:
         self._block = mmap.mmap(self._shared, channel.CONTROL_SIZE)
         self._control = Control(self._block)
         self._times = self._control.times
-        self._request("instantiate", self.component, self._wiring)
 
     def setup(self, start: float, stop: float) -> None:
         """Wait for the model to load, then initialize it and map the port buffers it reports."""
@@ -223,10 +357,14 @@ class IsolatedRunner:
         self._await_answer()
 
     def terminate(self) -> None:
-        """Terminate the model, end the child (killing it if it does not end), clean up."""
+        """Terminate the model, end the child (killing it if it does not end), clean up; or,
+        where this process keeps children (:func:`keep_children`) and the run ended cleanly,
+        keep the child for the next run of the model."""
         process = self._process
         if process is None:
             self._cleanup()
+            return
+        if self._give_back(process):
             return
         self._process = None
         try:
@@ -243,6 +381,30 @@ class IsolatedRunner:
                 process.kill()
                 process.wait()
             self._cleanup()
+
+    def _give_back(self, process: ChildProcess) -> bool:
+        """End the model but keep its child for the next run (True), when this process keeps
+        children and nothing went wrong: no fault, nothing pending, the model ended cleanly."""
+        key = self._reuse_key()
+        pool = _children.get()
+        broken = self._dead or self._faulted or bool(self._pending)
+        if key is None or pool is None or broken or process.poll() is not None:
+            return False
+        try:
+            self._request("release")
+            self._await(self._time, 0.0, timeout=TERMINATE_GRACE)
+        except (OSError, RunError):
+            return False  # ended as a child is ended otherwise: terminated, or killed
+        kept = _IdleChild(
+            key, process, self._commands, self._replies, self._shared, self._tmp,
+            self._sent, self._answered,
+        )  # fmt: skip
+        self._process = None
+        self._commands = self._replies = self._shared = -1
+        self._tmp = None
+        self._cleanup()
+        pool.put(kept)
+        return True
 
     # -- talking to the child ------------------------------------------------------------------
 
@@ -281,6 +443,7 @@ class IsolatedRunner:
             parsed = channel.parse_error(channel.receive_reply(self._replies))
         except channel.MalformedReplyError as exc:
             self._malformed(str(exc))
+        self._faulted = True
         raise channel.error_from(parsed, self.component.name)
 
     def _malformed(self, problem: str) -> NoReturn:

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import contextlib
 import mmap
 import os
 from collections.abc import Callable
@@ -129,6 +130,9 @@ class Child:
             slots.append(Slot(port, is_input, buffer.dtype.str, size, buffer.size))
             size += -(-buffer.nbytes // 8) * 8  # 8-byte aligned
         os.ftruncate(self.shared, channel.CONTROL_SIZE + max(size, 8))
+        if self.data is not None:  # a process serving another run of its model
+            with contextlib.suppress(BufferError):
+                self.data.close()
         self.data = mmap.mmap(self.shared, max(size, 8), offset=channel.CONTROL_SIZE)
         for slot, (_, _, own) in zip(slots, owned, strict=True):
             shared = channel.view(self.data, slot)
@@ -169,6 +173,24 @@ class Child:
         self.control.phase.value = channel.PHASE_TERMINATE
         if self.runner is not None:
             self.runner.terminate()
+
+    def do_release(self) -> None:
+        """End this run's model and wait for the next run's ``instantiate`` (a process kept
+        for the next runs of its model: :func:`~.proxy.keep_children`)."""
+        self.control.phase.value = channel.PHASE_TERMINATE
+        runner, self.runner = self.runner, None
+        try:
+            if runner is not None:
+                runner.terminate()
+        finally:
+            self.inputs.clear()
+            self.outputs.clear()
+            self.produced.clear()
+            self.phases = ()
+            data, self.data = self.data, None
+            if data is not None:
+                with contextlib.suppress(BufferError):
+                    data.close()
 
     # -- helpers -------------------------------------------------------------------------------
 

@@ -1,0 +1,442 @@
+"""Compiled systems kept between processes: ``validate`` and ``run`` of an unchanged system
+compile nothing.
+
+Compiling the reference system reads three models with three libraries (MuJoCo compiles the
+scene, onnx parses the network, fmpy the model descriptions), builds the graph with networkx
+and the ROS 2 plan from rosbags' message stores: most of a ``validate``. A CI job validating
+the same systems on every push, and a user who runs a system again, pay all of that for
+nothing. So a successful compile of a YAML system file is kept in the cache folder
+(:func:`fmionnx.core.cachedir.cache_folder`, ``compiled/``) and read back the next time
+instead of compiling, when nothing it was made from has changed.
+
+**What an entry depends on** is hashed, never trusted by its date:
+
+- the *key* (the entry's folder name) is a sha256 over this cache's format, the code that
+  compiled it (fmionnx's files and the libraries that read models, by size and modification
+  time: see :func:`_code_stamp`), the ``FMIONNX_*`` environment (resource limits change
+  diagnostics), the working folder, the path as given, ``--start-time``/``--step``, and the
+  system file's bytes;
+- the entry lists every model it read with the sha256 of its contents (a scene with its
+  folder, since a scene includes files beside it) and each model's expected-path file
+  (or that there was none). A lookup hashes them all again; one that differs is a miss.
+
+**An entry is verified or refused, never believed** (``docs/security.md``): it is read only
+from a folder owned by this user that nobody else may write, without following links, up to
+a size bound; its bytes must carry the HMAC of a key only this user can read (a file someone
+else made, or one damaged on disk, is refused); its compiled system goes through the same
+checks as a compiled-system file from another host (:func:`~fmionnx.compile.systemfile.from_json`);
+and every model the system names must be one whose hash was just checked. A refused entry is
+a miss: the system is compiled and the entry written again.
+
+The cache is bounded (:func:`fmionnx.core.cachedir.evict`, ``FMIONNX_COMPILE_CACHE_MAX_BYTES``
+and ``FMIONNX_CACHE_MAX_DAYS``), holds nothing that cannot be compiled again, and is switched
+off by ``FMIONNX_COMPILE_CACHE=0``. Only compiles without errors are kept: a system with
+errors is compiled every time, so its diagnostics are always fresh.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import hmac
+import json
+import os
+import secrets
+import stat
+import sys
+from collections.abc import Iterator, Sequence
+from dataclasses import dataclass
+from pathlib import Path
+
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.compile.runflags import RunFlags
+from fmionnx.core.cachedir import cache_folder, discard, evict, touch
+from fmionnx.core.diagnostics import Diagnostic
+from fmionnx.core.types import Component
+
+#: The cache folder's name under the cache root.
+FOLDER = "compiled"
+#: The format of an entry; a new version makes every older entry a miss.
+FORMAT = "fmionnx-compile-cache"
+VERSION = 1
+#: The environment variable that switches the cache off (``0``, ``off``, ``no``, ``false``).
+SWITCH = "FMIONNX_COMPILE_CACHE"
+#: System files the cache keeps: YAML (an SSP archive has its own unpack cache).
+SUFFIXES = frozenset({".yaml", ".yml"})
+#: Largest system file and entry read (a system file larger than this is refused anyway).
+MAX_SYSTEM_BYTES = 16 * 1024 * 1024
+MAX_ENTRY_BYTES = 64 * 1024 * 1024
+#: Most bytes and files of models hashed per lookup: a system with larger models is compiled
+#: every time rather than hashing, say, a scene folder full of unrelated files on each run.
+MAX_HASHED_BYTES = 1024 * 1024 * 1024
+MAX_HASHED_FILES = 10_000
+#: The entry's file in its folder, and the key's file in the cache folder.
+ENTRY = "entry.json"
+KEY_FILE = ".key"
+
+
+class _RefusedError(Exception):
+    """An entry that must not be used (unsafe, damaged, stale or of another format)."""
+
+
+@dataclass(frozen=True)
+class Cached:
+    """A compiled system read back from the cache, and the diagnostics its compile gave."""
+
+    system: CompiledSystem
+    diagnostics: tuple[Diagnostic, ...]
+
+
+def enabled() -> bool:
+    """Whether the cache is on (``FMIONNX_COMPILE_CACHE`` unset or not a "no")."""
+    value = os.environ.get(SWITCH, "").strip().lower()
+    return value not in {"0", "off", "no", "false"}
+
+
+def applies_to(path: Path) -> bool:
+    """Whether compiles of the system file at ``path`` are kept."""
+    return enabled() and path.suffix.lower() in SUFFIXES
+
+
+def lookup(path: Path, flags: RunFlags | None) -> Cached | None:
+    """The cached compile of ``path`` with ``flags``, or None (a miss, or an entry refused)."""
+    if not applies_to(path):
+        return None
+    try:
+        key = _key(path, flags)
+        if key is None:
+            return None
+        found = _read(_root() / key, key)
+    except (OSError, ValueError, _RefusedError):
+        return None
+    return found
+
+
+def store(
+    path: Path,
+    flags: RunFlags | None,
+    system: CompiledSystem,
+    diagnostics: Sequence[Diagnostic],
+) -> None:
+    """Keep the compile of ``path``: ``system`` and its (error-free) ``diagnostics``.
+
+    Never raises: a cache that cannot be written (a read-only home, a full disk, a folder
+    someone else owns) only means the next run compiles again.
+    """
+    if not applies_to(path):
+        return
+    with contextlib.suppress(OSError, ValueError, _RefusedError):
+        key = _key(path, flags)
+        dependencies = _dependencies(system)
+        if key is None or dependencies is None:
+            return
+        _write(key, system, diagnostics, dependencies)
+
+
+# -- the key ------------------------------------------------------------------------------------
+
+
+def _key(path: Path, flags: RunFlags | None) -> str | None:
+    """The entry's name for compiling ``path`` with ``flags`` here, now (None: not cacheable)."""
+    with path.open("rb") as stream:
+        data = stream.read(MAX_SYSTEM_BYTES + 1)
+    if len(data) > MAX_SYSTEM_BYTES:
+        return None
+    environment = sorted(
+        (k, v) for k, v in os.environ.items() if k.startswith("FMIONNX_") and "CACHE" not in k
+    )
+    flags = flags or RunFlags()
+    material = {
+        "format": [FORMAT, VERSION],
+        "code": _code_stamp(),
+        "environment": environment,
+        "cwd": str(Path.cwd()),
+        "path": str(path),
+        "flags": [flags.start, flags.step],
+        "system": hashlib.sha256(data).hexdigest(),
+    }
+    text = json.dumps(material, sort_keys=True, default=repr)
+    return hashlib.sha256(text.encode()).hexdigest()
+
+
+@functools.cache
+def _code_stamp() -> str:
+    """What the compiler is, as far as a compile's result can depend on it.
+
+    fmionnx's own files (name, size, modification time: an editable install changes under a
+    developer's hands, a reinstall rewrites them), and the folders libraries are installed in
+    (installing, upgrading or removing a library adds or renames its ``.dist-info`` folder
+    there, which changes the folder's modification time). Cheap: a few hundred ``stat`` calls,
+    no import.
+    """
+    digest = hashlib.sha256(f"{sys.version}\0".encode())
+    package = Path(__file__).resolve().parent.parent  # the fmionnx package
+    for folder, subfolders, files in os.walk(package):
+        subfolders[:] = sorted(s for s in subfolders if s != "__pycache__")
+        for name in sorted(files):
+            if name.endswith((".py", ".so", ".json")):
+                _stamp_file(digest, Path(folder) / name, package)
+    for entry in _library_folders():
+        _stamp_file(digest, entry, None)
+    return digest.hexdigest()
+
+
+def _library_folders() -> list[Path]:
+    """The folders libraries are installed in (``site-packages``), not the script's folder or
+    the working folder that ``sys.path`` also holds: those change with every file written."""
+    import site
+
+    folders = [*site.getsitepackages()]
+    if site.ENABLE_USER_SITE:
+        folders.append(site.getusersitepackages())
+    return [Path(f) for f in dict.fromkeys(folders) if f in sys.path and Path(f).is_dir()]
+
+
+def _stamp_file(digest: hashlib._Hash, file: Path, relative_to: Path | None) -> None:
+    info = file.stat()
+    name = file.relative_to(relative_to).as_posix() if relative_to is not None else str(file)
+    digest.update(f"{name}\0{info.st_size}\0{info.st_mtime_ns}\n".encode())
+
+
+# -- what an entry depends on -------------------------------------------------------------------
+
+#: (path, digest): the sha256 of a file, of a folder's files, or None for a file that was absent.
+Dependency = tuple[str, str | None]
+
+
+def _dependencies(system: CompiledSystem) -> list[Dependency] | None:
+    """Every model file ``system`` was compiled from, hashed now (None: too large to hash)."""
+    from fmionnx.compile.expected_path import expected_path_file
+    from fmionnx.compile.systemfile import has_model_file
+
+    found: dict[str, str | None] = {}
+    budget = _Budget()
+    for component in system.components:
+        if not has_model_file(component):
+            continue
+        for path in (*_model_paths(component), expected_path_file(component.path)):
+            if str(path) not in found:
+                found[str(path)] = _digest(path, budget)
+    return sorted(found.items())
+
+
+def _model_paths(component: Component) -> tuple[Path, ...]:
+    """The files a component's model is made of (a scene's includes and assets too: the
+    files its kind ships with it), or its whole folder where they cannot be listed."""
+    from fmionnx.core.modelfiles import ShippingError
+    from fmionnx.kinds.registry import model_files
+
+    try:
+        return tuple(f.source for f in model_files(component.kind, component.path))
+    except (ShippingError, OSError):
+        return (component.path.parent,)
+
+
+class _Budget:
+    """How much more a lookup may hash (:data:`MAX_HASHED_BYTES`, :data:`MAX_HASHED_FILES`)."""
+
+    def __init__(self) -> None:
+        self.bytes = MAX_HASHED_BYTES
+        self.files = MAX_HASHED_FILES
+
+    def spend(self, size: int) -> None:
+        self.bytes -= size
+        self.files -= 1
+        if self.bytes < 0 or self.files < 0:
+            msg = "the models are too large to hash on every run"
+            raise _RefusedError(msg)
+
+
+def _digest(path: Path, budget: _Budget) -> str | None:
+    """sha256 of the file at ``path``, or of the names and contents of the folder's files
+    (links are followed, as the compiler follows them); None when nothing is there."""
+    if not path.exists():
+        return None
+    if path.is_file():
+        return _file_digest(path, budget)
+    digest = hashlib.sha256(b"folder\0")
+    for folder, subfolders, files in os.walk(path):
+        subfolders.sort()
+        for name in sorted(files):
+            file = Path(folder) / name
+            if file.is_file():
+                digest.update(file.relative_to(path).as_posix().encode() + b"\0")
+                digest.update(bytes.fromhex(_file_digest(file, budget)))
+    return digest.hexdigest()
+
+
+def _file_digest(path: Path, budget: _Budget) -> str:
+    digest = hashlib.sha256()
+    with path.open("rb") as stream:
+        budget.spend(os.fstat(stream.fileno()).st_size)
+        while chunk := stream.read(1 << 20):
+            digest.update(chunk)
+    return digest.hexdigest()
+
+
+def _unchanged(dependencies: object) -> bool:
+    """Whether every listed model still has the contents it had when the entry was written."""
+    if not isinstance(dependencies, list):
+        raise _RefusedError
+    budget = _Budget()
+    for item in dependencies:
+        if not (isinstance(item, list) and len(item) == 2 and isinstance(item[0], str)):
+            raise _RefusedError
+        if _digest(Path(item[0]), budget) != item[1]:
+            return False
+    return True
+
+
+# -- reading and writing entries ----------------------------------------------------------------
+
+
+def _root() -> Path:
+    return cache_folder(FOLDER)
+
+
+def _owned_privately(info: os.stat_result, *, folder: bool, secret: bool = False) -> bool:
+    """Owned by this user, writable by nobody else (a ``secret`` not even readable), and a
+    plain folder or file (no link)."""
+    kind = stat.S_ISDIR(info.st_mode) if folder else stat.S_ISREG(info.st_mode)
+    others = 0o077 if secret else 0o022
+    return kind and info.st_uid == os.getuid() and not info.st_mode & others
+
+
+def _safe_folder(folder: Path) -> None:
+    if not _owned_privately(os.lstat(folder), folder=True):
+        msg = f"{folder} is not a private folder of this user"
+        raise _RefusedError(msg)
+
+
+def _read_private(file: Path, limit: int, *, secret: bool = False) -> bytes:
+    """The bytes of ``file``, a private file of this user, opened without following a link."""
+    handle = os.open(file, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
+    try:
+        if not _owned_privately(os.fstat(handle), folder=False, secret=secret):
+            msg = f"{file} is not a private file of this user"
+            raise _RefusedError(msg)
+        with os.fdopen(handle, "rb", closefd=False) as stream:
+            data = stream.read(limit + 1)
+    finally:
+        os.close(handle)
+    if len(data) > limit:
+        msg = f"{file} is larger than {limit} bytes"
+        raise _RefusedError(msg)
+    return data
+
+
+def _secret(root: Path, *, make: bool) -> bytes:
+    """This user's key for signing entries, readable by nobody else.
+
+    A writer (``make``) whose key is missing or unusable (readable by others, a link, not a
+    key) makes a new one: the entries signed with the old key are then refused and written
+    again, one by one, as their systems are compiled.
+    """
+    file = root / KEY_FILE
+    try:
+        return _load_key(file)
+    except (OSError, _RefusedError):
+        if not make:
+            raise
+    with contextlib.suppress(FileNotFoundError):
+        file.unlink()
+    with contextlib.suppress(FileExistsError):  # else another process made one meanwhile
+        handle = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+        with os.fdopen(handle, "wb") as stream:
+            stream.write(secrets.token_bytes(32))
+    return _load_key(file)
+
+
+def _load_key(file: Path) -> bytes:
+    key = _read_private(file, 64, secret=True)
+    if len(key) != 32:
+        msg = f"{file} is not a key"
+        raise _RefusedError(msg)
+    return key
+
+
+def _signature(secret: bytes, body: bytes) -> str:
+    return hmac.new(secret, body, hashlib.sha256).hexdigest()
+
+
+def _read(folder: Path, key: str) -> Cached | None:
+    """The entry in ``folder`` if it is sound and still current; None if there is none;
+    :class:`_RefusedError` if it must not be used."""
+    from fmionnx.compile.systemfile import CompiledFileError, decode_value, from_json
+
+    root = folder.parent
+    if not (folder / ENTRY).exists():
+        return None
+    _safe_folder(root)
+    _safe_folder(folder)
+    data = _read_private(folder / ENTRY, MAX_ENTRY_BYTES)
+    signature, _, body = data.partition(b"\n")
+    if not hmac.compare_digest(
+        signature.decode("ascii", "replace"), _signature(_secret(root, make=False), body)
+    ):
+        raise _RefusedError
+    entry = json.loads(body)
+    if not isinstance(entry, dict) or entry.get("format") != [FORMAT, VERSION]:
+        raise _RefusedError
+    if entry.get("key") != key or not _unchanged(entry.get("dependencies")):
+        return None
+    try:
+        system = from_json(str(entry.get("system")), origin="the compile cache")
+        diagnostics = decode_value(tuple[Diagnostic, ...], entry.get("diagnostics"), "diagnostics")
+    except CompiledFileError:
+        raise _RefusedError from None
+    listed = {item[0] for item in entry["dependencies"]}
+    if any(str(c.path) not in listed and str(c.path.parent) not in listed for c in _models(system)):
+        raise _RefusedError  # a model no lookup hashed: never run a file this entry only names
+    touch(folder)
+    return Cached(system, diagnostics)
+
+
+def _models(system: CompiledSystem) -> Iterator[Component]:
+    from fmionnx.compile.systemfile import has_model_file
+
+    return (c for c in system.components if has_model_file(c))
+
+
+def _write(
+    key: str,
+    system: CompiledSystem,
+    diagnostics: Sequence[Diagnostic],
+    dependencies: list[Dependency],
+) -> None:
+    from fmionnx.compile.systemfile import encode_value, to_json
+    from fmionnx.core.resources import CACHE_DAYS, COMPILE_CACHE_BYTES
+
+    max_bytes, max_days = COMPILE_CACHE_BYTES.value(), CACHE_DAYS.value()
+    root = _root()
+    root.mkdir(mode=0o700, parents=True, exist_ok=True)
+    _safe_folder(root)
+    entry = {
+        "format": [FORMAT, VERSION],
+        "key": key,
+        "dependencies": dependencies,
+        "diagnostics": encode_value(list(diagnostics)),
+        "system": to_json(system),
+    }
+    body = json.dumps(entry, separators=(",", ":")).encode()
+    data = _signature(_secret(root, make=True), body).encode() + b"\n" + body
+    folder = root / key
+    with contextlib.suppress(FileNotFoundError):
+        try:
+            _safe_folder(folder)
+        except _RefusedError:  # someone else's, or opened to others: not ours to write into
+            discard(folder)
+    with contextlib.suppress(FileExistsError):
+        folder.mkdir(mode=0o700)
+    _safe_folder(folder)
+    partial = folder / f".{ENTRY}.{os.getpid()}.{secrets.token_hex(4)}"
+    handle = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            stream.write(data)
+        partial.replace(folder / ENTRY)  # readers see the old entry or the new one, whole
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            partial.unlink()
+    evict(root, keep=folder, max_bytes=max_bytes, max_days=max_days)

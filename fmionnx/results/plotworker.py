@@ -1,0 +1,226 @@
+"""Plots drawn by a process of their own, started before the run and ready when it ends.
+
+matplotlib takes longer to import than many runs take to step (about 0.3-0.6 s, more than
+the reference scenario spends on everything else after its loop), and drawing is CPU work
+of its own. A run that draws (a system with ``plots:``, or ``run --plot``) into a results
+folder therefore starts this worker before its loop: the worker imports matplotlib on
+another core while the models step; when the run ends it draws the figures while this
+process writes ``results.csv``. The figures are the same, byte for byte: the same functions
+(:mod:`.plots`, :mod:`.signals_plot`) draw them from the same data.
+
+``python -m fmionnx.results.plotworker``: reads one job (a pickle from the process that
+started it, its own parent: nothing from outside) on stdin, answers on stdout, exits. It ends
+when its stdin closes (the parent finished without plots, or died) and ignores Ctrl-C, which
+the terminal sends to the whole process group: the parent decides when the results are
+written. Whatever goes wrong in the worker (it cannot start, dies, or drawing raises), the
+parent draws the plots itself, so an error is reported as it always was.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import dataclasses
+import logging
+import os
+import pickle
+import signal
+import struct
+import subprocess
+import sys
+from collections.abc import Mapping
+from dataclasses import dataclass
+from pathlib import Path
+from typing import IO, cast
+
+from fmionnx.compile.ir import CompiledSystem
+from fmionnx.runtime.result import RunResult
+
+#: The environment variable that keeps plots in the run's own process (``0``).
+SWITCH = "FMIONNX_PLOT_WORKER"
+#: A message's length prefix on the pipes.
+_LENGTH = struct.Struct("<Q")
+LOG = logging.getLogger("fmionnx.results")
+
+
+@dataclass(frozen=True)
+class PlotJob:
+    """What the worker draws: the system's plots and/or ``--plot``'s signals, into ``out``."""
+
+    result: RunResult
+    system: CompiledSystem
+    out: Path
+    system_plots: bool
+    signals_plot: bool
+    aliases: Mapping[str, str] | None = None
+
+
+@dataclass(frozen=True)
+class PlotAnswer:
+    """The worker's answer: the files written, or why it could not (the parent then draws),
+    and what it logged (the parent logs it again, under its own logging settings)."""
+
+    files: tuple[Path, ...] | None
+    problem: str = ""
+    logged: tuple[tuple[int, str], ...] = ()
+
+
+def wanted() -> bool:
+    """Whether plots go to a worker here: not switched off, and a second core to run it on
+    (on one core a second process only adds its own start)."""
+    if os.environ.get(SWITCH, "").strip().lower() in {"0", "off", "no", "false"}:
+        return False
+    try:
+        cores = len(os.sched_getaffinity(0))
+    except AttributeError:  # not Linux
+        cores = os.cpu_count() or 1
+    return cores >= 2
+
+
+class PlotWorker:
+    """This process's end of a plot worker (see the module docstring)."""
+
+    def __init__(self) -> None:
+        self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
+            [sys.executable, "-m", __name__],
+            stdin=subprocess.PIPE,
+            stdout=subprocess.PIPE,
+            env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
+        )
+
+    def submit(self, job: PlotJob) -> bool:
+        """Hand ``job`` to the worker, which draws it while this process goes on; False if
+        the worker is gone (then draw it here)."""
+        process = self._process
+        if process is None or process.stdin is None:
+            return False
+        lean = dataclasses.replace(job.result, error=None, details={}, ended_by=None)
+        try:
+            _send(process.stdin, pickle.dumps(dataclasses.replace(job, result=lean)))
+            process.stdin.close()
+        except (OSError, pickle.PickleError):
+            self.close()
+            return False
+        return True
+
+    def collect(self) -> list[Path] | None:
+        """The files the worker wrote for the submitted job, once it has; None if it could
+        not draw it (it writes each file atomically, so nothing is half-written by it)."""
+        process = self._process
+        if process is None or process.stdout is None:
+            return None
+        try:
+            answer = pickle.loads(_receive(process.stdout))  # our own child: trusted
+        except Exception:  # anything but an answer: the plots are drawn here instead
+            answer = None
+        self.close()
+        if not isinstance(answer, PlotAnswer):
+            return None
+        for level, message in answer.logged:
+            LOG.log(level, "%s", message)
+        return None if answer.files is None else list(answer.files)
+
+    def close(self) -> None:
+        """End the worker (it ends by itself once its stdin closes)."""
+        process, self._process = self._process, None
+        if process is None:
+            return
+        for stream in (process.stdin, process.stdout):
+            if stream is not None:
+                with contextlib.suppress(OSError):
+                    stream.close()
+        try:
+            process.wait(5)
+        except subprocess.TimeoutExpired:
+            process.kill()
+            process.wait()
+
+
+def start() -> PlotWorker | None:
+    """A plot worker, or None where none is wanted or one cannot be started."""
+    if not wanted():
+        return None
+    try:
+        return PlotWorker()
+    except OSError:
+        return None
+
+
+def draw_here(job: PlotJob) -> list[Path]:
+    """Draw ``job`` in this process (what the worker runs, and the parent without one)."""
+    files: list[Path] = []
+    if job.system_plots:
+        from fmionnx.results.plots import write_plots
+
+        files.extend(write_plots(job.result, job.system, job.out))
+    if job.signals_plot:
+        from fmionnx.results.signals_plot import write_signals_plot
+
+        taken = {p.name for p in files}
+        aliases = dict(job.aliases) if job.aliases is not None else None
+        files.extend(
+            write_signals_plot(job.result, job.system, job.out, aliases=aliases, taken=taken)
+        )
+    return files
+
+
+def _send(stream: IO[bytes], data: bytes) -> None:
+    stream.write(_LENGTH.pack(len(data)) + data)
+    stream.flush()
+
+
+def _receive(stream: IO[bytes]) -> bytes:
+    head = stream.read(_LENGTH.size)
+    if len(head) != _LENGTH.size:
+        raise EOFError
+    (size,) = _LENGTH.unpack(head)
+    data = stream.read(size)
+    if len(data) != size:
+        raise EOFError
+    return data
+
+
+class _Collect(logging.Handler):
+    """The worker's log records, kept to be sent back to the parent."""
+
+    def __init__(self) -> None:
+        super().__init__()
+        self.records: list[tuple[int, str]] = []
+
+    def emit(self, record: logging.LogRecord) -> None:
+        self.records.append((record.levelno, record.getMessage()))
+
+
+def main() -> int:
+    """The worker: import the plotting code, then draw the one job that comes on stdin."""
+    signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; it ignores it by then
+    import matplotlib.figure  # noqa: F401 - the point of the worker: imported while the run goes on
+
+    import fmionnx.results.plots
+    import fmionnx.results.signals_plot  # noqa: F401
+
+    # The answer goes on the pipe that was stdout; anything a library prints goes to stderr.
+    stdout = os.fdopen(os.dup(1), "wb")
+    os.dup2(2, 1)
+    stdin = cast(IO[bytes], sys.stdin.buffer)
+    try:
+        job = pickle.loads(_receive(stdin))  # from the process that started us
+    except EOFError:
+        return 0  # the run ended without plots to draw, or its process is gone
+    collect = _Collect()
+    LOG.addHandler(collect)
+    LOG.propagate = False
+    try:
+        answer = PlotAnswer(tuple(draw_here(job)), logged=tuple(collect.records))
+    except Exception as exc:  # the parent draws again, and reports it as it always did
+        answer = PlotAnswer(None, f"{type(exc).__name__}: {exc}")
+    with contextlib.suppress(OSError):
+        _send(stdout, pickle.dumps(answer))
+    return 0
+
+
+if __name__ == "__main__":
+    # Run as the package's module, not as __main__: the answer's class must unpickle under
+    # its own name in the parent.
+    from fmionnx.results.plotworker import main as worker_main
+
+    sys.exit(worker_main())

@@ -1,0 +1,132 @@
+"""Plots drawn by a worker process started before the run: the same files, byte for byte, as
+drawn in the run's own process; none started when nothing is drawn; a worker that fails
+leaves the drawing to the run's process."""
+
+from __future__ import annotations
+
+import os
+import shutil
+import signal
+from pathlib import Path
+
+import pytest
+
+import fmionnx
+from fmionnx.results import plotworker
+from tests.conftest import build_fixture_fmu
+
+SYSTEM = """\
+fmionnx: 1
+name: drawn
+run: {stop: 2, step: 0.01}
+components:
+  wave: {kind: signal, outputs: {y: {sine: {amplitude: 1, frequency: 0.5}}}}
+  gain: {kind: fmu, path: Gain.fmu, parameters: {k: 3}}
+connections:
+  - wave.y -> gain.u
+plots:
+  - {y: [wave.y, gain.y], title: Over time}
+  - {xy: [wave.y, gain.y], title: One against the other}
+"""
+
+
+@pytest.fixture
+def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    shutil.copy(build_fixture_fmu("Gain"), tmp_path / "Gain.fmu")
+    (tmp_path / "system.yaml").write_text(SYSTEM, encoding="utf-8")
+    monkeypatch.chdir(tmp_path)
+    return tmp_path
+
+
+@pytest.fixture
+def workers(monkeypatch: pytest.MonkeyPatch) -> list[plotworker.PlotWorker]:
+    """Every plot worker the runs start (real ones), on this machine whatever its cores."""
+    started: list[plotworker.PlotWorker] = []
+
+    def counting() -> plotworker.PlotWorker | None:
+        if not plotworker.wanted():
+            return None
+        worker = plotworker.PlotWorker()
+        started.append(worker)
+        return worker
+
+    monkeypatch.setattr(plotworker, "start", counting)
+    monkeypatch.setattr(plotworker.os, "sched_getaffinity", lambda _: {0, 1})
+    return started
+
+
+def drawn(out: Path) -> dict[str, bytes]:
+    return {p.name: p.read_bytes() for p in sorted(out.iterdir()) if p.suffix == ".png"}
+
+
+def test_the_worker_draws_the_same_files_as_the_run_itself(
+    folder: Path, workers: list[plotworker.PlotWorker], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def not_here(job: plotworker.PlotJob) -> list[Path]:
+        raise AssertionError("drawn in the run's process although a worker was there")
+
+    with monkeypatch.context() as patch:
+        patch.setattr(plotworker, "draw_here", not_here)
+        worked = fmionnx.run("system.yaml", out=Path("worker"), isolate="none", plot=True)
+    assert len(workers) == 1
+    monkeypatch.setenv(plotworker.SWITCH, "0")
+    here = fmionnx.run("system.yaml", out=Path("here"), isolate="none", plot=True)
+    assert len(workers) == 1  # switched off: drawn in this process
+    figures = drawn(folder / "worker")
+    assert set(figures) == {"over-time.png", "one-against-the-other.png", "signals.png"}
+    assert figures == drawn(folder / "here")
+    assert [p.name for p in worked.files] == [p.name for p in here.files]  # same order
+    assert (folder / "worker" / "run.json").read_text().count(".png") == 3
+
+
+SYSTEM_WITH_PLOTS = "drawn.yaml"
+
+
+def test_a_run_that_draws_nothing_starts_no_worker(
+    folder: Path, workers: list[plotworker.PlotWorker]
+) -> None:
+    shutil.copy(folder / "system.yaml", folder / SYSTEM_WITH_PLOTS)
+    (folder / "system.yaml").write_text(SYSTEM.split("plots:", maxsplit=1)[0], encoding="utf-8")
+    fmionnx.run("system.yaml", out=Path("plain"), isolate="none")
+    fmionnx.run(SYSTEM_WITH_PLOTS, no_out=True, isolate="none")  # nowhere to draw
+    assert workers == []
+
+
+def test_a_worker_that_dies_leaves_the_drawing_to_the_run(
+    folder: Path, workers: list[plotworker.PlotWorker], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    real_submit = plotworker.PlotWorker.submit
+
+    def kill_then_submit(self: plotworker.PlotWorker, job: plotworker.PlotJob) -> bool:
+        assert self._process is not None
+        os.kill(self._process.pid, signal.SIGKILL)
+        self._process.wait()
+        return real_submit(self, job)
+
+    monkeypatch.setattr(plotworker.PlotWorker, "submit", kill_then_submit)
+    outcome = fmionnx.run("system.yaml", out=Path("fallback"), isolate="none")
+    assert len(workers) == 1
+    assert set(drawn(folder / "fallback")) == {"over-time.png", "one-against-the-other.png"}
+    assert [p.name for p in outcome.files][:3] == [
+        "results.csv",
+        "over-time.png",
+        "one-against-the-other.png",
+    ]
+
+
+def test_the_worker_is_gone_after_the_run(
+    folder: Path, workers: list[plotworker.PlotWorker]
+) -> None:
+    fmionnx.run("system.yaml", out=Path("gone"), isolate="none")
+    (worker,) = workers
+    assert worker._process is None  # closed: waited for, nothing left running
+
+
+def test_a_worker_whose_run_never_draws_ends_when_its_stdin_closes() -> None:
+    """A run refused or faulted before its results: the worker is closed unused and exits
+    by itself (it also does when its parent dies: its stdin closes then too)."""
+    worker = plotworker.PlotWorker()
+    process = worker._process
+    assert process is not None
+    worker.close()
+    assert process.returncode == 0
