@@ -39,6 +39,12 @@ def editing(texts: Mapping[Path, str]) -> Iterator[None]:
         _EDITED.reset(token)
 
 
+def editing_any() -> bool:
+    """Whether some file is being edited (inside :func:`editing`): what is on disk is then
+    not what is read, so nothing read may be taken from a cache of the files on disk."""
+    return bool(_EDITED.get())
+
+
 def edited_text(path: Path) -> str | None:
     """The text of ``path`` when it is being edited (inside :func:`editing`), else None."""
     texts = _EDITED.get()

@@ -95,8 +95,11 @@ def enabled() -> bool:
 
 
 def applies_to(path: Path) -> bool:
-    """Whether compiles of the system file at ``path`` are kept."""
-    return enabled() and path.suffix.lower() in SUFFIXES
+    """Whether compiles of the system file at ``path`` are kept: not while an editor's texts
+    stand in for files on disk (the language server), whose compiles the disk does not key."""
+    from fmionnx.core.sourcetext import editing_any
+
+    return enabled() and path.suffix.lower() in SUFFIXES and not editing_any()
 
 
 def lookup(path: Path, flags: RunFlags | None) -> Cached | None:
@@ -227,10 +230,14 @@ def _model_paths(component: Component) -> tuple[Path, ...]:
     from fmionnx.core.modelfiles import ShippingError
     from fmionnx.kinds.registry import model_files
 
+    model = component.path
     try:
-        return tuple(f.source for f in model_files(component.kind, component.path))
+        itself = model.resolve()
+        files = model_files(component.kind, model)
+        beside = tuple(f.source for f in files if f.source.resolve() != itself)
     except (ShippingError, OSError):
-        return (component.path.parent,)
+        return (model.parent,)
+    return (model, *beside)  # the model by the name the compiled system gives it
 
 
 class _Budget:

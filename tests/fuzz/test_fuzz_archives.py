@@ -112,7 +112,7 @@ def read_interface(path: Path, mutant: Mutant) -> None:
         try:
             FMU_KIND.read_interface(path, None)
         except ModelError as error:
-            return error.code
+            return error.code.code
         return "ok"
 
     outcome = guarded("FmuKind.read_interface", repr(mutant), read)

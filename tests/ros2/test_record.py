@@ -4,6 +4,7 @@ rosbags' own deserializer (independent of our codec), and the ROS 2 facts in run
 from __future__ import annotations
 
 import json
+import os
 import subprocess
 from collections import Counter
 from collections.abc import Iterator
@@ -43,6 +44,7 @@ def recorded(tmp_path_factory: pytest.TempPathFactory, loopback_module_env: None
         fmionnx("run", SYSTEM, "--no-checks", "--backend", "ros2", "--sync", "lockstep",
                 "--stop-time", str(STOP), "--out", out, "--record", out / "wire.mcap"),
         capture_output=True, text=True, timeout=240, check=False,
+        env={**os.environ, "COLUMNS": "400"},  # the table holds the whole, long path
     )  # fmt: skip
     assert done.returncode == 0, done.stderr
     assert "wire.mcap" in " ".join(done.stderr.split())  # the summary lists the file
