@@ -2,6 +2,9 @@
 PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
+# pytest workers of `make test` (pytest-xdist): CI machines have 2 cores. Each test file runs on
+# one worker, every ROS 2 test on the same one (tests/conftest.py).
+TEST_WORKERS ?= 2
 # One set-up path, two sets of extras, one stamp each: the demo needs the package alone; the
 # tests add `.[test]` (pytest, linters, libcosimpy, and ROS 2 Jazzy's rclpy wheels, whose
 # bootstrapper re-executes every Python process of the venv). `.[test]` includes the demo's
@@ -79,7 +82,7 @@ schema: $(DEMO_STAMP)
 	$(VENV)/bin/fmionnx schema --study -o schemas/study.schema.json
 
 test: $(TEST_STAMP) models lint examples
-	$(VENV)/bin/pytest -q -p no:cacheprovider --durations=30
+	$(VENV)/bin/pytest -q -p no:cacheprovider -n $(TEST_WORKERS) --dist loadgroup -m "not slow" --durations=30
 
 bench: $(TEST_STAMP) models
 	$(PY) benchmarks/run.py
@@ -88,7 +91,8 @@ bench: $(TEST_STAMP) models
 fuzz: $(TEST_STAMP) models
 	FMIONNX_FUZZ=long $(VENV)/bin/pytest -q -p no:cacheprovider tests/fuzz
 
-soak: models
+soak: $(TEST_STAMP) models
+	$(VENV)/bin/pytest -q -p no:cacheprovider -m slow
 	$(PY) benchmarks/soak.py
 
 docs: $(DEMO_STAMP)

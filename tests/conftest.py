@@ -2,9 +2,12 @@
 
 from __future__ import annotations
 
+import fcntl
 import hashlib
 import socket
 import subprocess
+import sys
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -13,6 +16,23 @@ REPO = Path(__file__).resolve().parent.parent
 FIXTURES = Path(__file__).resolve().parent / "fixtures"
 BUILT_MODELS = REPO / "build" / "models"
 FIXTURE_BUILD = REPO / "build" / "test-fixtures"
+
+
+@pytest.hookimpl(tryfirst=True)  # before xdist's own, which reads the groups
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """Groups for ``pytest -n 2 --dist loadgroup`` (``make test``): a test file runs on one
+    worker (its module fixtures are made once); every test that starts DDS processes runs on
+    one worker, one after the other (they share this session's ROS 2 domain: two ROS 2 runs
+    at once would see each other's topics), and every Zenoh test on one worker."""
+    for item in items:
+        path = item.path.relative_to(REPO).as_posix() if item.path.is_relative_to(REPO) else ""
+        if "zenoh" in path:
+            group = "zenoh"
+        elif item.get_closest_marker("ros2") is not None or "ros2" in path:
+            group = "dds"
+        else:
+            group = path
+        item.add_marker(pytest.mark.xdist_group(group))
 
 
 @pytest.fixture(autouse=True)
@@ -36,6 +56,24 @@ def _own_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.Mon
     archives): the caches stay on, as users have them, and one test's entries never serve
     another's compile. Tests that need another folder set ``FMIONNX_CACHE`` themselves."""
     monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path_factory.mktemp("cache")))
+
+
+@pytest.fixture(autouse=True)
+def _no_worker_state_left() -> Iterator[None]:
+    """A test that runs a study's batch in this process makes it a study's worker, which
+    keeps its isolated children and FMU libraries for the next runs (issue 32): a later
+    test's isolated run would then be served by a kept child instead of starting its own.
+    What a worker keeps is dropped after each test."""
+    yield
+    proxy = sys.modules.get("fmionnx.runtime.isolated.proxy")
+    if proxy is not None:
+        pool = proxy._children.clear()
+        if pool is not None:
+            pool.close()
+        proxy._children_spin[0] = True
+    libraries = sys.modules.get("fmionnx.kinds.fmu.libraries")
+    if libraries is not None:
+        libraries.stop_keeping_libraries()
 
 
 def finish(process: subprocess.Popen[str], timeout: float) -> tuple[str, str]:
@@ -67,8 +105,13 @@ def build_fixture_fmu(name: str) -> Path:
     source = FIXTURES / "fmus" / name
     digest = _tree_hash(source)
     output = FIXTURE_BUILD / f"{name}-{digest}.fmu"
-    if not output.exists():
-        build_fmu(source, output)
+    if output.exists():
+        return output
+    FIXTURE_BUILD.mkdir(parents=True, exist_ok=True)
+    with (FIXTURE_BUILD / f".{name}.lock").open("w") as lock:  # test workers build it once
+        fcntl.flock(lock, fcntl.LOCK_EX)
+        if not output.exists():
+            build_fmu(source, output)  # written atomically
     return output
 
 

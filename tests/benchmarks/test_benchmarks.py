@@ -175,6 +175,7 @@ def test_reference_scenario_measures_both_loops_and_every_category() -> None:
     assert prof.top
 
 
+@pytest.mark.slow  # a benchmark's quick run: `make soak`
 def test_startup_benchmark_times_both_commands_and_every_run_mode_side_by_side() -> None:
     text = io.StringIO()
     results = startup.main(["--quick"], Console(file=text, width=200))

@@ -5,6 +5,8 @@ from __future__ import annotations
 import subprocess
 import sys
 
+import pytest
+
 from tests.conftest import REPO
 
 
@@ -20,3 +22,7 @@ def test_quick_run_times_refreshes_and_validate_side_by_side() -> None:
     assert "refresh after an edit, median of 2" in done.stdout
     assert "`fmionnx validate` from the shell, median of 1" in done.stdout
     assert "refresh / validate" in done.stdout
+
+
+#: A benchmark's quick run: `make soak` runs it, `make test` does not (docs/contributing.md).
+pytestmark = pytest.mark.slow

@@ -17,6 +17,9 @@ from benchmarks import ros2_lockstep, ros2_pipeline
 from tests.conftest import built_model
 from tests.ros2.test_run import processes_with
 
+#: A benchmark's quick run: `make soak` runs it, `make test` does not (docs/contributing.md).
+pytestmark = pytest.mark.slow
+
 
 def test_each_board_position_has_its_own_steering_value_and_detected_column() -> None:
     steering = [ros2_pipeline.steering(p) for p in ros2_pipeline.POSITIONS]

@@ -18,7 +18,10 @@ from benchmarks import sweep
 from tests.conftest import built_model
 
 #: Dask's comms now and then leave a socket of a closed connection to the garbage collector.
-pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
+pytestmark = [
+    pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning"),
+    pytest.mark.slow,
+]  # slow: a benchmark's quick run; `make soak` runs it
 
 
 def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:

@@ -12,6 +12,9 @@ from rich.console import Console
 
 from benchmarks import watching
 
+#: A benchmark's quick run: `make soak` runs it, `make test` does not (docs/contributing.md).
+pytestmark = pytest.mark.slow
+
 
 def test_the_loops_and_another_tree_are_measured_side_by_side() -> None:
     inside = subprocess.run(

@@ -159,6 +159,7 @@ def test_rclpy_subscriber_on_cmd_vel_receives_the_trackers_twist_commands(
     assert processes_with(str(observed_run["tmp"])) == []
 
 
+@pytest.mark.slow  # the DDS wire's test of an external world's images stays in `make test`
 def test_rclpy_image_publisher_on_camera_image_raw_drives_the_detector_of_an_external_world(
     rclpy_env: None, tmp_path: Path
 ) -> None:

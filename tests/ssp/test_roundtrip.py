@@ -14,7 +14,6 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pytest
 from typer.testing import CliRunner
 
 import fmionnx
@@ -135,7 +134,6 @@ def test_round_trip_keeps_array_parameters_and_indexed_connections(
     assert 'startConnector="w[3]"' in text  # FMI 2 element name of `a.w[2]`
 
 
-@pytest.mark.slow
 def test_reference_system_exported_and_reimported_runs_bit_for_bit(tmp_path: Path) -> None:
     system = REPO / "systems" / "sign_follower.yaml"
     archive, back = round_trip(system, tmp_path)

@@ -11,7 +11,10 @@ from rich.console import Console
 from benchmarks import ros2_zenoh
 from tests.ros2.test_run import processes_with
 
-pytestmark = pytest.mark.ros2
+pytestmark = [
+    pytest.mark.ros2,
+    pytest.mark.slow,
+]  # slow: a benchmark's quick run; `make soak` runs it
 
 
 def test_quick_zenoh_benchmark_measures_both_wires_and_the_30_hz_camera(
