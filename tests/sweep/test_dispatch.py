@@ -93,6 +93,7 @@ def test_tasks_after_the_first_go_to_the_worker_that_returned_one(
     assert len(set(where.ran_on.values())) == 2  # both workers ran cases
 
 
+@pytest.mark.slow  # which worker takes which task needs the machine to itself: `make soak`
 def test_the_first_message_is_one_equal_task_per_thread(
     write_study: WriteStudy, watched: tuple[Any, _Where]
 ) -> None:

@@ -37,6 +37,10 @@ from fmionnx.backends.ros2.zenoh.keys import EntityKind, NodeToken, gid_of, topi
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.names import ros_topic
 from fmionnx.compile.ros2.qos import Durability, QosProfile, Reliability
+from fmionnx.runtime.stopping import shield_begin, shield_end
+
+#: Longest a stop signal waits for a reader's wait to let it through (see ``wait``).
+WAIT_SLICE = 0.05
 
 
 def _ros_name(dds_name: str) -> str:
@@ -194,11 +198,27 @@ class ZenohReader(_ZenohEntity):
         return [data for data, _ in self.take_stamped(limit)]
 
     def wait(self, timeout: float) -> bool:
-        """Block until a sample is waiting or ``timeout`` seconds passed; True when one is."""
-        with self._arrived:
-            if not self._queue:
-                self._arrived.wait(max(timeout, 0.0))
-            return bool(self._queue)
+        """Block until a sample is waiting or ``timeout`` seconds passed; True when one is.
+
+        A stop signal (Ctrl-C) raised inside ``Condition.wait`` can cut it between releasing
+        and taking back its lock ("cannot release un-acquired lock", a traceback instead of a
+        clean stop): the wait is shielded, in slices of :data:`WAIT_SLICE`, and the signal is
+        raised between two slices.
+        """
+        deadline = time.monotonic() + max(timeout, 0.0)
+        while True:
+            shield_begin()
+            try:
+                with self._arrived:
+                    if not self._queue:
+                        left = deadline - time.monotonic()
+                        self._arrived.wait(min(max(left, 0.0), WAIT_SLICE))
+                    if self._queue:
+                        return True
+            finally:
+                shield_end()  # raises the stop signal held during the slice, if one came
+            if time.monotonic() >= deadline:
+                return False
 
     def matched(self) -> int:
         """Publishers of this topic alive in the graph."""
