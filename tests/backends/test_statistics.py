@@ -117,6 +117,7 @@ def test_the_cli_prints_the_table_and_writes_run_json(
         app,
         ["run", str(_chain(fixture_fmu, write_system)), "--out", str(out), "--profile",
          "--isolate", "none"],
+        env={"COLUMNS": "200"},  # the table's header on one line, whatever ran before
     )  # fmt: skip
     assert result.exit_code == 0, result.output
     assert "where the loop's" in result.output
