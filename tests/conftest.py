@@ -58,13 +58,9 @@ def _own_cache(tmp_path_factory: pytest.TempPathFactory, monkeypatch: pytest.Mon
     monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path_factory.mktemp("cache")))
 
 
-@pytest.fixture(autouse=True)
-def _no_worker_state_left() -> Iterator[None]:
-    """A test that runs a study's batch in this process makes it a study's worker, which
-    keeps its isolated children and FMU libraries for the next runs (issue 32): a later
-    test's isolated run would then be served by a kept child instead of starting its own.
-    What a worker keeps is dropped after each test."""
-    yield
+def drop_worker_state() -> None:
+    """Drop what a study's worker keeps in this process: its idle isolated children (and their
+    blocking on the pipe at once) and its FMU libraries (issue 32)."""
     proxy = sys.modules.get("fmionnx.runtime.isolated.proxy")
     if proxy is not None:
         pool = proxy._children.clear()
@@ -74,6 +70,15 @@ def _no_worker_state_left() -> Iterator[None]:
     libraries = sys.modules.get("fmionnx.kinds.fmu.libraries")
     if libraries is not None:
         libraries.stop_keeping_libraries()
+
+
+@pytest.fixture(autouse=True)
+def _no_worker_state_left() -> Iterator[None]:
+    """A test that runs a study's batch in this process makes it a study's worker: a later
+    test's isolated run would then be served by a kept child instead of starting its own.
+    What a worker keeps is dropped after each test."""
+    yield
+    drop_worker_state()
 
 
 def finish(process: subprocess.Popen[str], timeout: float) -> tuple[str, str]:

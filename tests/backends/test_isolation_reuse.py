@@ -23,6 +23,7 @@ from fmionnx.pipeline.study import run_study_case
 from fmionnx.pipeline.sweep import plan_study
 from fmionnx.runtime.isolated import proxy
 from tests.backends.test_library_pool import _with_description_flag
+from tests.conftest import drop_worker_state
 from tests.sweep.test_failures import SYSTEM as FAULTY_SYSTEM
 
 SYSTEM = """\
@@ -53,16 +54,9 @@ metrics:
 @pytest.fixture
 def fresh_process_state() -> Iterator[None]:
     """No kept children (nor libraries) before or after the test: they belong to the process."""
-
-    def drop() -> None:
-        pool = proxy._children.clear()
-        if pool is not None:
-            pool.close()
-        stop_keeping_libraries()
-
-    drop()
+    drop_worker_state()
     yield
-    drop()
+    drop_worker_state()
 
 
 def kept_children() -> dict[str, int]:

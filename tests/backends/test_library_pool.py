@@ -27,7 +27,7 @@ from fmionnx.kinds.fmu.libraries import (
 )
 from fmionnx.pipeline.study import run_study_case
 from fmionnx.pipeline.sweep import plan_study
-from fmionnx.runtime.isolated import proxy
+from tests.conftest import drop_worker_state
 from tests.sweep.test_failures import SYSTEM as FAULTY_SYSTEM
 
 SYSTEM = """\
@@ -58,17 +58,9 @@ def fresh_process_state() -> Iterator[None]:
     """Nothing kept before or after the test (the pools belong to the whole process): a
     batch run here makes this process a study's worker, which keeps its isolated children
     too, and a later test's isolated run would be served by one of them."""
-
-    def drop() -> None:
-        pool = proxy._children.clear()
-        if pool is not None:
-            pool.close()
-        proxy._children_spin[0] = True
-        stop_keeping_libraries()
-
-    drop()
+    drop_worker_state()
     yield
-    drop()
+    drop_worker_state()
 
 
 def _cases(folder: Path, system: str, study: str) -> list[CaseOutcome]:
