@@ -25,7 +25,7 @@ from tests.conftest import finish
 SYSTEM = """\
 fmionnx: 1
 name: gain
-run: {{stop: 20, step: 0.0001}}
+run: {{stop: 0.5, step: 0.0001}}
 components:
   gain: {{kind: fmu, path: {gain}, parameters: {{u: 1, v: [0, 0, 0]}}}}
 """
@@ -33,7 +33,7 @@ STUDY = """\
 fmionnx: 1
 system: system.yaml
 parameters:
-  gain.k: [1, 2, 3, 4, 5, 6, 7, 8]
+  gain.k: [1, 2, 3, 4, 5, 6, 7, 8, 9, 10, 11, 12, 13, 14, 15, 16]
 metrics:
   y_end: final(gain.y)
 """
@@ -78,7 +78,7 @@ def test_ctrl_c_stops_the_study_cleanly_and_keeps_its_records(project: Path) -> 
     assert "interrupted by SIGINT: the finished cases are in out; `--resume` runs the rest" in out
     assert "Traceback" not in err
     recorded = len(list((project / "out" / "records").glob("*.json")))
-    assert 1 <= recorded < 8
+    assert 1 <= recorded < 16
     assert list((project / "tmp").iterdir()) == []  # no dask-scratch-space, no unpacked FMU
 
 
@@ -90,4 +90,35 @@ def test_sigterm_to_the_driver_stops_the_study_as_ctrl_c_does(project: Path) -> 
     assert process.returncode == 143, err
     assert "interrupted by SIGTERM" in out
     assert "Traceback" not in err
+    assert list((project / "tmp").iterdir()) == []
+
+
+def _unmapped_semaphores() -> set[Path]:
+    from fmionnx.backends.sweep.leftovers import SHM, _mapped
+
+    mapped = _mapped(Path("/proc"), SHM, os.getuid())
+    return {path for path in SHM.glob("sem.mp-*") if path.name not in mapped}
+
+
+def test_after_a_study_killed_outright_the_next_one_removes_what_it_left(project: Path) -> None:
+    """SIGKILL to the whole group (an out-of-memory killer, a CI timeout) runs no exit code:
+    the study's Dask scratch folder and the named semaphores of its workers' resource tracker
+    stayed for good. The next study removes them and ``--resume`` finishes the first."""
+    before = _unmapped_semaphores()
+    process = _sweep(project)
+    _after_the_first_case(project, process)
+    os.killpg(process.pid, signal.SIGKILL)
+    finish(process, 30)
+    time.sleep(0.5)  # the group's last processes leave the process table
+    left = _unmapped_semaphores() - before
+    assert left, "the killed study left no semaphore: this test's premise is gone"
+    assert list((project / "tmp").iterdir()) != []  # the killed study's scratch folder
+    long_ago = time.time() - 3600
+    for path in left:  # as if the next study ran a while later
+        os.utime(path, (long_ago, long_ago))
+    resumed = _sweep(project, "--resume")
+    _, err = finish(resumed, 180)
+    assert resumed.returncode == 0, err
+    assert len(list((project / "out" / "records").glob("*.json"))) == 16
+    assert [path for path in left if path.exists()] == []
     assert list((project / "tmp").iterdir()) == []

@@ -140,3 +140,37 @@ def test_the_local_clusters_servers_wake_twice_a_second_not_fifty_times() -> Non
     assert list(on_workers.values()) == [500.0]
     assert on_scheduler == 500.0
     assert nannies == [500.0]
+
+
+def test_a_local_cluster_leaves_dasks_usual_port_alone_and_starts_while_it_is_held() -> None:
+    """Two studies at once on one host (or two test workers): the second cluster's scheduler
+    found 8787 taken and warned, and a warning raised inside its start (warnings as errors, or
+    another thread's filters at that moment) ended the study. The scheduler's HTTP routes take
+    a free port of the loopback: 8787 stays free for a cluster the user starts with a dashboard,
+    and a held 8787 is nothing to say."""
+    import socket
+    import warnings
+
+    from fmionnx.backends.sweep.engine import open_client
+
+    def port(dask_scheduler: Any) -> tuple[str, int]:
+        server = dask_scheduler.http_server
+        return server.address, server.port
+
+    def scheduler_port() -> tuple[str, int]:
+        with warnings.catch_warnings():
+            warnings.simplefilter("error")
+            with open_client(workers=1) as client:
+                address, bound = client.run_on_scheduler(port)
+                return address, bound
+
+    address, bound = scheduler_port()
+    assert (address, bound != 8787) == ("127.0.0.1", True)
+    with socket.socket() as holder:
+        try:
+            holder.bind(("127.0.0.1", 8787))
+            holder.listen()
+        except OSError:
+            pass  # someone else holds it: the case under test all the same
+        address, bound = scheduler_port()
+    assert (address, bound != 8787) == ("127.0.0.1", True)

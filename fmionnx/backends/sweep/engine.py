@@ -20,12 +20,9 @@ import contextlib
 import logging
 import math
 import os
-import shutil
-import tempfile
 import threading
 import time
 import uuid
-import warnings
 from collections import deque
 from collections.abc import Callable, Iterable, Iterator, Mapping
 from contextlib import contextmanager
@@ -35,11 +32,12 @@ from typing import Any
 
 from fmionnx.backends.sweep.batching import BatchSizer
 from fmionnx.backends.sweep.case import CaseOutcome, CaseRunner, Job, run_batch
+from fmionnx.backends.sweep.leftovers import sweep_orphan_semaphores
 from fmionnx.backends.sweep.models import pack_models
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
 from fmionnx.core.errors import FmionnxError
-from fmionnx.core.scratch import sweep_stale
+from fmionnx.core.scratch import make_scratch, remove_scratch, sweep_stale
 
 #: How often the local cluster's scheduler retries a task whose worker died: never. The driver
 #: does it (:func:`run_study` runs the task's cases again, alone), and Dask would charge the
@@ -164,9 +162,11 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
             yield client
         return
     before = {key: os.environ.get(key) for key in _nanny_variables()}
+    sweep_orphan_semaphores()
     # The workers' scratch folders (``dask-scratch-space``, left in TMPDIR after every study
-    # otherwise) go into a folder of this study's, removed with the cluster.
-    scratch = Path(tempfile.mkdtemp(prefix="fmionnx-dask-"))
+    # otherwise) go into a folder of this study's, removed with the cluster; a study killed
+    # outright leaves it to the next fmionnx process's sweep.
+    scratch = make_scratch("dask")
     try:
         try:
             cluster = _local_cluster(workers or default_workers(), scratch)
@@ -186,7 +186,7 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
             sweep_stale()
     finally:
         _restore(before)
-        shutil.rmtree(scratch, ignore_errors=True)
+        remove_scratch(scratch)
 
 
 #: This process's clients of existing clusters, by scheduler address (:func:`shared_client`).
@@ -253,15 +253,17 @@ def _local_cluster(workers: int, scratch: Path) -> Any:
     # The scheduler and the nannies make their scratch space in Dask's temporary directory,
     # not in the workers' local directory: both are the study's own folder.
     settings = {**LOCAL_CONFIG, "temporary-directory": str(scratch)}
-    with dask.config.set(settings), warnings.catch_warnings():
-        # The scheduler serves its health routes on 8787 even without a dashboard and warns
-        # when another cluster on this host has the port; it takes a free one: nothing to say.
-        warnings.filterwarnings("ignore", message="Port .* is already in use", category=UserWarning)
+    with dask.config.set(settings):
         return LocalCluster(
             n_workers=workers,
             threads_per_worker=1,
             processes=True,
             dashboard_address=None,
+            # The scheduler serves its health routes even without a dashboard, on 8787 unless
+            # told otherwise, and warns when another cluster on this host holds that port (two
+            # studies at once). A free port of the loopback says nothing. (Filtering the warning
+            # instead is not thread-safe: the cluster starts while the system compiles.)
+            scheduler_kwargs={"dashboard": False, "dashboard_address": "127.0.0.1:0"},
             silence_logs=logging.ERROR,
             memory_limit=0,
             local_directory=str(scratch),
