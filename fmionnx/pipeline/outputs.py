@@ -9,6 +9,7 @@ name (a :class:`~fmionnx.pipeline.errors.RequestError`: exit 2).
 from __future__ import annotations
 
 import os
+import tempfile
 from pathlib import Path
 
 from fmionnx.pipeline.errors import RequestError
@@ -38,6 +39,16 @@ def check_output_file(path: Path, option: str) -> Path:
         msg = f"{option} `{path}` exists and is not writable"
         raise RequestError(msg)
     _make_folder(path.parent, option, str(path))
+    if not path.exists():
+        # A folder can pass every check and still take no new file (``/proc``, a read-only
+        # mount as root); the file's writer would then fail naming its temporary file.
+        try:
+            handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+        except OSError as exc:
+            msg = f"{option} `{path}`: no file can be made in `{path.parent}` ({exc.strerror})"
+            raise RequestError(msg) from None
+        os.close(handle)
+        Path(probe).unlink()
     return path
 
 

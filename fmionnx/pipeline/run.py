@@ -194,12 +194,13 @@ def run_with_options(
 
 def _check_outputs(request: RunRequest) -> None:
     output = request.output
-    if output.out is not None:
-        check_results_folder(output.out, force=output.force, system_run=request.kind != "inference")
+    # The files first: a refused one leaves no results folder made for nothing.
     if output.record is not None:
         check_output_file(output.record, "--record")
     if request.watch.rrd is not None:
         check_output_file(request.watch.rrd, "--rrd")
+    if output.out is not None:
+        check_results_folder(output.out, force=output.force, system_run=request.kind != "inference")
 
 
 def _views(request: RunRequest) -> list[RunObserver]:

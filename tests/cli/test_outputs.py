@@ -63,6 +63,20 @@ def test_an_output_file_that_is_a_folder_is_a_usage_error(
     assert f"{option} `{tmp_path}` is a folder; expected a file name" in output
 
 
+@pytest.mark.parametrize("option", ["--rrd", "--record"])
+def test_an_output_file_in_a_folder_that_takes_no_file_is_a_usage_error_naming_it(
+    option: str, tmp_path: Path
+) -> None:
+    """``/proc`` passes the folder checks (it exists; root may write there) but takes no new
+    file: the run failed at its start naming the writer's temporary ``.part`` file, exit 1."""
+    target = "/proc/fmionnx-x.out"
+    code, output = _invoke("run", SYSTEM, option, target, "--out", str(tmp_path / "out"))
+    assert code == 2
+    assert f"{option} `{target}`: no file can be made in `/proc`" in output
+    assert ".part" not in output
+    assert not (tmp_path / "out").exists()
+
+
 def test_run_out_naming_a_file_fails_before_the_run(a_file: Path) -> None:
     code, output = _invoke("run", SYSTEM, "--out", str(a_file))
     assert code == 2
