@@ -18,7 +18,7 @@ TEST_STAMP := $(VENV)/.installed-test
 BUILD := build
 DEMO_OUT := out/demo
 
-.PHONY: help setup setup-demo setup-test system-deps models demo examples test lint typecheck schema bench fuzz soak docs clean
+.PHONY: help setup setup-demo setup-test system-deps bytecode models demo examples test lint typecheck schema bench fuzz soak docs clean
 
 help:
 	@echo "make demo   - set up (the package alone), build the models, run the reference scenario"
@@ -59,7 +59,14 @@ $(TEST_STAMP): $(INSTALL_INPUTS) | $(PY)
 	  "lark==$$($(PY) -c 'from importlib.metadata import version; print(version("lark"))')"
 	touch $(TEST_STAMP) $(DEMO_STAMP)
 
-models: $(DEMO_STAMP)
+# Byte-compile the package: an editable install leaves that to the first import, and where
+# PYTHONDONTWRITEBYTECODE is set (CI images, containers) no import writes the cache, so every
+# fmionnx process (each ROS 2 node, study worker and isolated model) compiled the package's
+# sources again: 0.2 s of CPU a process. compileall rewrites only what changed.
+bytecode: $(DEMO_STAMP)
+	@$(PY) -m compileall -q -j 0 fmionnx
+
+models: $(DEMO_STAMP) bytecode
 	$(PY) models/build.py --out $(BUILD)/models
 
 demo: models
