@@ -318,6 +318,16 @@ def make_server() -> FmionnxServer:
         path = server.path_of(uri)
         return document_kind(path, doc.source) if path is not None else DocumentKind.OTHER
 
+    async def settled_at(
+        uri: str, position: types.Position
+    ) -> tuple[TextDocument, int, int, DocumentKind, Outline | None]:
+        """What a request at ``position`` works on, once the document's last change is
+        analysed: the document, the line and column (server units), its kind and outline."""
+        await server.settled(uri)
+        doc = document(uri)
+        line, column = at(doc, position)
+        return doc, line, column, kind_of(uri, doc), server.outlines.get(uri)
+
     @server.feature(types.TEXT_DOCUMENT_DID_OPEN)
     @_guarded(server, "opening a file")
     async def did_open(params: types.DidOpenTextDocumentParams) -> None:
@@ -376,10 +386,7 @@ def make_server() -> FmionnxServer:
     @_guarded(server, "completing")
     async def completion(params: types.CompletionParams) -> types.CompletionList | None:
         uri = params.text_document.uri
-        await server.settled(uri)
-        doc = document(uri)
-        line, column = at(doc, params.position)
-        kind, outline = kind_of(uri, doc), server.outlines.get(uri)
+        doc, line, column, kind, outline = await settled_at(uri, params.position)
         if kind is DocumentKind.SSP:
             items = await server.on_checker(complete_ssd, doc.source, line, column, outline)
         else:
@@ -395,15 +402,12 @@ def make_server() -> FmionnxServer:
     @_guarded(server, "hovering")
     async def on_hover(params: types.HoverParams) -> types.Hover | None:
         uri = params.text_document.uri
-        await server.settled(uri)
-        doc = document(uri)
-        line, column = at(doc, params.position)
+        doc, line, column, kind, outline = await settled_at(uri, params.position)
         codes = [
             str(item.lsp.code)
             for item in server.published.get(uri, [])
             if item.lsp.code is not None and _contains(item.lsp.range, line, column)
         ]
-        kind, outline = kind_of(uri, doc), server.outlines.get(uri)
         found = await server.on_checker(hover, doc.source, line, column, kind, outline, codes)
         if kind is DocumentKind.SSP:
             about = await server.on_checker(hover_ssd, doc.source, line, column, outline)
@@ -417,10 +421,7 @@ def make_server() -> FmionnxServer:
     @_guarded(server, "finding a definition")
     async def on_definition(params: types.DefinitionParams) -> list[types.Location] | None:
         uri = params.text_document.uri
-        await server.settled(uri)
-        doc = document(uri)
-        line, column = at(doc, params.position)
-        kind, outline = kind_of(uri, doc), server.outlines.get(uri)
+        doc, line, column, kind, outline = await settled_at(uri, params.position)
         if kind is DocumentKind.SSP:
             place = await server.on_checker(definition_ssd, doc.source, line, column, outline)
             return [_location(place)] if place is not None else None
