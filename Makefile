@@ -3,7 +3,7 @@ PYTHON ?= python3
 VENV := .venv
 PY := $(VENV)/bin/python
 # pytest workers of `make test` (pytest-xdist): CI machines have 2 cores. Each test file runs on
-# one worker, every ROS 2 test on the same one (tests/conftest.py).
+# one worker, every DDS test on one, every Zenoh test on one (tests/conftest.py's scheduler).
 TEST_WORKERS ?= 2
 # One set-up path, two sets of extras, one stamp each: the demo needs the package alone; the
 # tests add `.[test]` (pytest, linters, libcosimpy, and ROS 2 Jazzy's rclpy wheels, whose
@@ -89,7 +89,7 @@ schema: $(DEMO_STAMP)
 	$(VENV)/bin/fmionnx schema --study -o schemas/study.schema.json
 
 test: $(TEST_STAMP) models lint examples
-	$(VENV)/bin/pytest -q -p no:cacheprovider -n $(TEST_WORKERS) --dist loadgroup -m "not slow" --durations=30
+	$(VENV)/bin/pytest -q -p no:cacheprovider -n $(TEST_WORKERS) --dist loadscope -m "not slow" --durations=30
 
 bench: $(TEST_STAMP) models
 	$(PY) benchmarks/run.py
