@@ -67,7 +67,7 @@ def test_demo_installs_the_package_without_the_test_extras(tree: Path) -> None:
     assert not any("[test]" in line or "pytest" in line for line in lines)
 
 
-SUITE = "pytest -q -p no:cacheprovider -n 2 --dist loadgroup -m not slow --durations=30"
+SUITE = "pytest -q -p no:cacheprovider -n 2 --dist loadscope -m not slow --durations=30"
 
 
 def test_test_installs_the_test_extras_once_and_runs_the_suite(tree: Path) -> None:
