@@ -33,6 +33,20 @@ def worker_group(nodeid: str) -> str:
     return path
 
 
+def pytest_collection_modifyitems(items: list[pytest.Item]) -> None:
+    """A test marked ``ros2`` lives where :func:`worker_group` puts it with the other ROS 2
+    tests: the scheduler sees only test ids, not markers."""
+    astray = [
+        item.nodeid
+        for item in items
+        if item.get_closest_marker("ros2") is not None
+        and worker_group(item.nodeid) not in {"dds", "zenoh"}
+    ]
+    if astray:
+        msg = f"tests marked ros2 outside a path naming ros2 (their worker group): {astray}"
+        raise pytest.UsageError(msg)
+
+
 def pytest_xdist_make_scheduler(config: pytest.Config, log: Any) -> Any:
     """``--dist loadscope`` with :func:`worker_group` as the scope.
 
