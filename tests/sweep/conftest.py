@@ -57,11 +57,16 @@ def write_study(chain_folder: Path) -> WriteStudy:
 
 @pytest.fixture(scope="module")
 def cluster() -> object:
-    """One local Dask cluster (2 worker processes) shared by a module's tests."""
-    from fmionnx.backends.sweep.engine import open_client
+    """One local Dask cluster (2 worker processes) shared by a module's tests.
+
+    The clients the studies kept for it are closed before it ends: left open, they would try
+    to reconnect in the background for the rest of the worker's tests (Dask's backoff draws
+    from the global ``random``, which Hypothesis reports as a flaky property test)."""
+    from fmionnx.backends.sweep.engine import close_shared_clients, open_client
 
     with open_client(workers=2) as client:
         yield client.scheduler.address
+        close_shared_clients()
 
 
 @pytest.fixture(autouse=True)

@@ -73,15 +73,6 @@ metrics:
 """
 
 
-@pytest.fixture(scope="module")
-def scheduler() -> object:
-    """One local Dask cluster (2 worker processes) for this module's studies."""
-    from fmionnx.backends.sweep.engine import open_client
-
-    with open_client(workers=2) as client:
-        yield client.scheduler.address
-
-
 def _sine_folder(folder: Path, fixture_fmu: Callable[[str], Path], **numbers: float) -> Path:
     models = folder / "models"
     models.mkdir(parents=True, exist_ok=True)
@@ -93,11 +84,11 @@ def _sine_folder(folder: Path, fixture_fmu: Callable[[str], Path], **numbers: fl
 
 
 def test_a_signals_numbers_vary_like_the_system_file(
-    tmp_path: Path, fixture_fmu: Callable[[str], Path], scheduler: str
+    tmp_path: Path, fixture_fmu: Callable[[str], Path], cluster: str
 ) -> None:
     folder = _sine_folder(tmp_path / "study", fixture_fmu)
     (folder / "study.yaml").write_text(SINE_STUDY, encoding="utf-8")
-    table = fmionnx.sweep(folder / "study.yaml", out=tmp_path / "out", scheduler=scheduler)
+    table = fmionnx.sweep(folder / "study.yaml", out=tmp_path / "out", scheduler=cluster)
 
     assert (table["status"] == "ok").all(), table["message"].tolist()
     assert table[["src.amplitude", "src.y.frequency"]].to_numpy().tolist() == [
@@ -135,10 +126,10 @@ def _scene_folder(folder: Path, sign_y: float | None = None) -> Path:
     return folder
 
 
-def test_a_study_moves_a_sign_of_the_reference_scene(tmp_path: Path, scheduler: str) -> None:
+def test_a_study_moves_a_sign_of_the_reference_scene(tmp_path: Path, cluster: str) -> None:
     folder = _scene_folder(tmp_path / "study")
     (folder / "study.yaml").write_text(SCENE_STUDY, encoding="utf-8")
-    table = fmionnx.sweep(folder / "study.yaml", out=tmp_path / "out", scheduler=scheduler)
+    table = fmionnx.sweep(folder / "study.yaml", out=tmp_path / "out", scheduler=cluster)
 
     assert (table["status"] == "ok").all(), table["message"].tolist()
     first, moved = table.to_dict("records")

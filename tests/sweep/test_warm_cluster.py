@@ -113,6 +113,18 @@ def test_studies_on_an_existing_cluster_share_one_client(
     assert list(first["peak"]) == list(second["peak"])
 
 
+def test_the_kept_clients_close_on_request(folder: Path, cluster: str) -> None:
+    """Before a script ends a cluster it studied on: a kept client left open would try to
+    reconnect to it in the background for the rest of the process."""
+    fmionnx.sweep(folder / "study.yaml", out=folder / "one", scheduler=cluster)
+    client = engine._SHARED[cluster]
+    engine.close_shared_clients()
+    assert engine._SHARED == {}
+    assert client.status == "closed"
+    again = fmionnx.sweep(folder / "study.yaml", out=folder / "two", scheduler=cluster)
+    assert list(again["status"]) == ["ok"] * 3  # the next study connects anew
+
+
 def test_a_callers_client_is_used_and_left_open(folder: Path, starts: list[str]) -> None:
     import sys
 

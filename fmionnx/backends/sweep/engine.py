@@ -228,9 +228,12 @@ SHARED_CLOSE_TIMEOUT = 2
 
 
 @atexit.register
-def _close_shared() -> None:
-    """Close the kept clients, quickly and quietly: the cluster may be gone by now (the
-    client then tries to reconnect and says so), and it is not ours to end."""
+def close_shared_clients() -> None:
+    """Close the kept clients (:func:`shared_client`), quickly and quietly: the cluster may be
+    gone by now (the client then tries to reconnect and says so), and it is not ours to end.
+
+    Runs when the process exits; call it before ending a cluster this process studied on,
+    or the kept client goes on trying to reconnect to it in the background."""
     with _SHARED_LOCK:
         clients = list(_SHARED.values())
         _SHARED.clear()
