@@ -79,8 +79,8 @@ examples: models
 	$(PY) examples/run_all.py
 
 lint: $(TEST_STAMP)
-	$(VENV)/bin/ruff check fmionnx tests models benchmarks examples
-	$(VENV)/bin/ruff format --check fmionnx tests models benchmarks examples
+	$(VENV)/bin/ruff check fmionnx tests models benchmarks examples tools
+	$(VENV)/bin/ruff format --check fmionnx tests models benchmarks examples tools
 	$(VENV)/bin/mypy
 	$(VENV)/bin/mypy examples
 
