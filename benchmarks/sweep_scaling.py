@@ -11,7 +11,12 @@ cases' own (``cases.csv``'s ``wall_time``, measured on the workers):
   neighbours: memory bandwidth, shared caches, oversubscribed threads);
 * **time outside the cases** = 1 - (the cases' summed wall) / (W x the command's wall): what
   the workers spend not running a case (the driver's start and compile, the cluster's start,
-  waiting for tasks, the table and plots).
+  waiting for tasks, the table and plots), split by the records' timeline (each case's
+  ``started`` on its worker) into the time **before the first case** (interpreter start,
+  imports, compile, the cluster's start), each worker's **idle time between its cases**
+  (scheduling, transfers, a worker left without work at the end) and the time **after the
+  last case** (the table, the plots, the cluster's end): the outside share is
+  (W x before + idle + W x after) / (W x the command's wall).
 
 Two studies: the reference scenario (``systems/sign_follower.yaml``, the tracker's turn rate
 varied, 8 s simulated each, at least 4 cases per worker of the largest count and 16 in all:
@@ -24,6 +29,7 @@ with the isolated one: an isolated case's time against a case in the worker's ow
 from __future__ import annotations
 
 import csv
+import json
 import os
 import statistics
 import subprocess
@@ -69,6 +75,9 @@ class Study:
     walls: dict[int, list[float]] = field(default_factory=dict)
     #: Per count and round: the cases' wall times.
     case_walls: dict[int, list[list[float]]] = field(default_factory=dict)
+    #: Per count and round: seconds before the first case, idle between cases (per worker),
+    #: after the last case (:func:`timeline`).
+    phases: dict[int, list[tuple[float, float, float]]] = field(default_factory=dict)
     failed: int = 0
 
 
@@ -106,9 +115,10 @@ def sweep_once(study: Study, workers: int, out: Path, env: dict[str, str]) -> No
     """One ``fmionnx sweep`` of ``study`` on ``workers`` local workers, timed whole."""
     argv = [*fmionnx_command(), "sweep", str(study.path), "--out", str(out)]
     argv += ["--workers", str(workers), "--force", "-q"]
-    began = time.perf_counter()
+    began, began_at = time.perf_counter(), time.time()
     done = subprocess.run(argv, env=env, capture_output=True, text=True, check=False)
     wall = time.perf_counter() - began
+    ended_at = time.time()
     if done.returncode not in (0, 1):  # 1: some case failed, which is counted below
         msg = f"`{' '.join(argv)}` exited {done.returncode}: {done.stderr.strip()[-800:]}"
         raise RuntimeError(msg)
@@ -117,6 +127,26 @@ def sweep_once(study: Study, workers: int, out: Path, env: dict[str, str]) -> No
     study.failed += sum(r["status"] != "ok" for r in records)
     study.walls.setdefault(workers, []).append(wall)
     study.case_walls.setdefault(workers, []).append([float(r["wall_time"]) for r in records])
+    spans = [_span(path) for path in sorted((out / "records").glob("*.json"))]
+    study.phases.setdefault(workers, []).append(timeline(spans, workers, began_at, ended_at))
+
+
+def _span(record: Path) -> tuple[float, float]:
+    """A record's case: when it started on its worker and how long it took."""
+    data = json.loads(record.read_text(encoding="utf-8"))
+    return float(data["started"]), float(data["wall_time"])
+
+
+def timeline(
+    spans: list[tuple[float, float]], workers: int, began: float, ended: float
+) -> tuple[float, float, float]:
+    """Where a command's time outside its cases went: seconds before the first case started,
+    each worker's mean idle seconds between the first case's start and the last one's end,
+    and seconds after the last case ended (UNIX times, one clock: the workers are local)."""
+    first = min(start for start, _ in spans)
+    last = max(start + wall for start, wall in spans)
+    idle = (workers * (last - first) - sum(wall for _, wall in spans)) / workers
+    return first - began, idle, ended - last
 
 
 def measure(runs: list[tuple[Study, int]], rounds: int, folder: Path, env: dict[str, str]) -> None:
@@ -139,6 +169,9 @@ def rows(study: Study) -> list[dict[str, Any]]:
             for w, cases in zip(study.walls[workers], study.case_walls[workers], strict=True)
         ]
         per_case = _mean_case(study, workers)
+        before, idle, after = (
+            statistics.median(p) for p in zip(*study.phases[workers], strict=True)
+        )
         found.append(
             {
                 "study": study.name,
@@ -151,6 +184,9 @@ def rows(study: Study) -> list[dict[str, Any]]:
                 "per_case_vs_1": per_case / one_case if one_case else None,
                 "outside": 1 - statistics.median(busy),
                 "busy": statistics.median(busy),
+                "before_s": before,
+                "idle_s": idle,
+                "after_s": after,
                 "rounds": len(study.walls[workers]),
             }
         )
@@ -171,6 +207,9 @@ COLUMNS = (
     ("per_case_s", "per case s"),
     ("per_case_vs_1", "per case vs 1 worker"),
     ("outside", "time outside the cases"),
+    ("before_s", "before the first case s"),
+    ("idle_s", "idle between cases s (per worker)"),
+    ("after_s", "after the last case s"),
     ("rounds", "rounds"),
 )
 

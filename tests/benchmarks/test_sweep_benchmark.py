@@ -39,6 +39,9 @@ def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:
         assert row["seconds"] > 0
         assert 0.0 <= row["busy"] <= 1.0  # the cases' wall over the workers' wall
         assert row["outside"] == pytest.approx(1 - row["busy"])
+        assert row["before_s"] > 0  # the command's start and compile come first
+        assert row["after_s"] > 0  # the table comes last
+        assert row["idle_s"] >= -0.01  # a worker runs one case at a time
     assert by_study == {
         "reference": [1, 2],
         "reference, isolate: [none]": [2],

@@ -5,7 +5,10 @@ interrupted study resumes with only the recorded cases counted. One shared local
 from __future__ import annotations
 
 import csv
+import itertools
+import json
 import shutil
+import time
 from collections.abc import Callable
 from pathlib import Path
 
@@ -150,6 +153,27 @@ def test_batches_give_the_same_table_as_one_case_per_task(
     assert (table["status"] == "ok").all()
     assert (table["wall_time"] > 0).all()  # each case's own time, not its batch's
     assert table["worker"].str.startswith("tcp://").all()
+
+
+def test_the_records_give_each_workers_timeline(
+    write_study: WriteStudy, tmp_path: Path, cluster: str
+) -> None:
+    """Each record says when its case started on its worker: the cases of a batch, and the
+    batches of a worker, follow one another within the study's own time."""
+    plan = plan_study(write_study(GRID))[0]
+    before = time.time()
+    run_sweep(plan, tmp_path / "out", scheduler=cluster, batch=5)
+    after = time.time()
+    records = [json.loads(p.read_text()) for p in (tmp_path / "out" / "records").iterdir()]
+    assert len(records) == 12
+    by_worker: dict[str, list[tuple[float, float]]] = {}
+    for record in records:
+        assert before <= record["started"] <= record["started"] + record["wall_time"] <= after
+        by_worker.setdefault(record["worker"], []).append((record["started"], record["wall_time"]))
+    for spans in by_worker.values():
+        spans.sort()
+        for (start, wall), (next_start, _) in itertools.pairwise(spans):
+            assert start + wall <= next_start + 1e-3  # one at a time on a one-thread worker
 
 
 def test_cases_a_task_left_for_lack_of_time_run_in_later_tasks(

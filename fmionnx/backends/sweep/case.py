@@ -75,6 +75,9 @@ class CaseOutcome:
     notes: dict[str, str] = field(default_factory=dict)
     wall_time: float = 0.0
     worker: str = ""
+    #: When the case started on its worker (UNIX time, that machine's clock; its share of the
+    #: batch's setup included): with ``wall_time``, the study's timeline.
+    started: float = 0.0
     signals: dict[str, npt.NDArray[np.float64]] | None = None
     #: With ``rrd``: the case's Rerun recording (the bytes of an ``.rrd`` file).
     rrd: bytes | None = None
@@ -189,6 +192,7 @@ def run_batch(
         if outcomes and budget is not None and time.perf_counter() - started > budget:
             break
         began = time.perf_counter()
+        started_at = time.time() - setup  # the first case's setup counts as its own
         try:
             if system is None:
                 outcome = CaseOutcome(case.id, "failed", problem)
@@ -198,6 +202,7 @@ def run_batch(
             outcome = CaseOutcome(case.id, "failed", f"{type(exc).__name__}: {exc}")
         outcome.wall_time = time.perf_counter() - began + setup
         outcome.worker = worker
+        outcome.started = started_at
         outcomes.append(outcome)
         setup = 0.0
     if worker != LOCAL:
