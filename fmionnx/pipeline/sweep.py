@@ -128,6 +128,9 @@ def sweep_study(
     # wrong (its errors are said at once) or a resumed study may have nothing left to run.
     start_now = not resume and not bag.has_errors and loaded.spec is not None
     cluster = StudyCluster(scheduler, workers, client, start_now=start_now)
+    # The table's and plots' libraries load meanwhile too: a study of short cases would
+    # otherwise wait for them after its last case.
+    writers = _ResultsWriters() if start_now else None
     try:
         plan, made_out = _checked_plan(loaded, bag, out, scheduler, warnings)
     except BaseException:
@@ -136,7 +139,7 @@ def sweep_study(
     try:
         return run_sweep(
             plan, out, resume=resume, keep_results=keep_results, force=force,
-            progress=progress, batch=batch, cluster=cluster, rrd=rrd,
+            progress=progress, batch=batch, cluster=cluster, rrd=rrd, writers=writers,
         )  # fmt: skip
     except (SchedulerError, ClusterStartError):
         if made_out:  # made just now and still empty: no trace of a study that never started
@@ -183,6 +186,7 @@ def run_sweep(
     batch: int | None = None,
     rrd: bool = False,
     cluster: StudyCluster | None = None,
+    writers: _ResultsWriters | None = None,
 ) -> SweepResult:
     """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
 
@@ -190,6 +194,8 @@ def run_sweep(
     ``batch`` fixes the cases per Dask task (1: one each; None: sized from the case times).
     ``cluster``: where to run (default: ``scheduler``'s cluster, else a new local one of
     ``workers`` processes, started only if cases are left for a resumed study).
+    ``writers``: the table's and plots' libraries, loading since the study began (default:
+    they start loading with the cases).
     """
     from fmionnx.backends.sweep.engine import refuse_in_starting_worker
     from fmionnx.results.study import StudyFolder, StudyFolderError
@@ -207,7 +213,7 @@ def run_sweep(
         # resumed study, which removes nothing, starts a local cluster only if cases are left.
         if not resume:
             cluster.client()
-        return _run(plan, out, cluster, resume, keep_results, force, progress, batch, rrd)
+        return _run(plan, out, cluster, resume, keep_results, force, progress, batch, rrd, writers)
     finally:
         cluster.release(wait=True)
 
@@ -222,6 +228,7 @@ def _run(
     progress: SweepProgress | None,
     batch: int | None,
     rrd: bool = False,
+    writers: _ResultsWriters | None = None,
 ) -> SweepResult:
     from fmionnx.backends.sweep.case import Job
     from fmionnx.backends.sweep.engine import run_study
@@ -244,7 +251,8 @@ def _run(
             progress(counts[0], counts[1], len(plan.cases))
 
     tasks = None
-    writers = _ResultsWriters()  # their libraries load while the cases run
+    if writers is None:
+        writers = _ResultsWriters()  # their libraries load while the cases run
     if pending:
         tasks = run_study(
             cluster.client(), plan, pending, job, on_done, run_study_case, batch=batch
@@ -271,7 +279,9 @@ class _ResultsWriters:
 
     @staticmethod
     def _load() -> None:
-        with contextlib.suppress(ImportError):  # the import below then says what is missing
+        # Whatever goes wrong here (a library missing, an import racing another thread's), the
+        # import after the cases, on the study's own thread, says so.
+        with contextlib.suppress(Exception):
             import pandas  # noqa: F401
             import pyarrow.parquet  # noqa: F401
             from matplotlib.figure import Figure  # noqa: F401

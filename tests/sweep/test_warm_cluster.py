@@ -76,11 +76,24 @@ def test_a_local_cluster_starts_while_the_system_compiles(
         compiling.append(any(t.name == "fmionnx-cluster-start" for t in threading.enumerate()))
         return real(*args)
 
-    monkeypatch.setattr(pipeline_sweep, "_compiled", watched)
+    events: list[str] = []
+    real_writers = pipeline_sweep._ResultsWriters.__init__
+
+    def loading(self: Any) -> None:
+        events.append("writers")
+        real_writers(self)
+
+    def compiled(*args: Any) -> Any:
+        events.append("compile")
+        return watched(*args)
+
+    monkeypatch.setattr(pipeline_sweep, "_compiled", compiled)
+    monkeypatch.setattr(pipeline_sweep._ResultsWriters, "__init__", loading)
     table = fmionnx.sweep(folder / "study.yaml", out=folder / "out", workers=1)
     assert list(table["status"]) == ["ok"] * 3
     assert starts == ["fmionnx-cluster-start"]  # started on its own thread ...
     assert compiling == [True]  # ... already running when the system was compiled
+    assert events == ["writers", "compile"]  # the results' libraries load from the start
     assert not [t for t in threading.enumerate() if t.name.startswith("fmionnx-cluster")]
 
 
