@@ -126,6 +126,20 @@ def finish(process: subprocess.Popen[str], timeout: float) -> tuple[str, str]:
         pytest.fail(f"the process did not end within {timeout} s; killed. stderr:\n{err[-4000:]}")
 
 
+def end_process(process: subprocess.Popen[Any] | None) -> None:
+    """Kill ``process`` if it still runs, and always reap it and close its pipes.
+
+    A test's ``finally`` that only reaps a process still running leaves the pipes of one that
+    ended by itself open: the garbage collector closes them later, with a ResourceWarning
+    that fails whichever test of the worker happens to be running then.
+    """
+    if process is None:
+        return
+    if process.poll() is None:
+        process.kill()
+    process.communicate(timeout=30)
+
+
 def _tree_hash(folder: Path) -> str:
     digest = hashlib.sha256()
     for file in sorted(p for p in folder.rglob("*") if p.is_file()):

@@ -24,7 +24,7 @@ from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.plan import CLOCK_TYPE
 from fmionnx.compile.ros2.qos import PROFILES
 from fmionnx.compile.systemfile import read_compiled
-from tests.conftest import build_fixture_fmu
+from tests.conftest import build_fixture_fmu, end_process
 from tests.ros2.test_run import fmionnx
 
 pytestmark = pytest.mark.ros2
@@ -65,9 +65,7 @@ def _published(command: list[str], cwd: Path, run: RunSettings) -> list[float]:
         _, stderr = node.communicate(timeout=60)
         values += [float(np.ravel(codec.decode(d)[0]["x"])[0]) for d in reader.take()]
     finally:
-        if node.poll() is None:
-            node.kill()
-            node.communicate()
+        end_process(node)
         participant.close()
     assert node.returncode == 0, stderr
     return values

@@ -24,7 +24,7 @@ from fmionnx.backends.ros2.loading import plan_for
 from fmionnx.backends.ros2.rclpy_env import rclpy_problem
 from fmionnx.backends.ros2.supervisor import SUPERVISOR_NODE
 from fmionnx.compile.ros2.messages import RosDistro
-from tests.conftest import REPO, built_model
+from tests.conftest import REPO, built_model, end_process
 from tests.ros2.test_run import fmionnx, processes_with
 
 pytestmark = pytest.mark.ros2
@@ -115,9 +115,7 @@ def observed_run(rclpy_env: None, tmp_path_factory: pytest.TempPathFactory) -> d
         commands, _ = _finish(peers[1], 30)
     finally:
         for child in [run, *peers]:  # only when something above failed
-            if child.poll() is None:
-                child.kill()
-                child.communicate()
+            end_process(child)
     assert run.returncode == 0, run_err
     return {
         "plan": plan,

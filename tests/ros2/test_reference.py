@@ -17,7 +17,7 @@ from fmionnx.backends.ros2.transport import Participant
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.compile.ros2.qos import PROFILES
 from fmionnx.results.csvfile import read_csv
-from tests.conftest import REPO, built_model
+from tests.conftest import REPO, built_model, end_process
 from tests.ros2.test_run import fmionnx, processes_with
 from tests.ros2.test_wire import PEERS
 
@@ -88,9 +88,7 @@ def test_lockstep_reference_run_equals_inprocess_and_feeds_an_independent_cmd_ve
         assert done.returncode == 0, done.stderr
         received, _ = subscriber.communicate(timeout=30)
     finally:
-        if subscriber.poll() is None:
-            subscriber.kill()
-            subscriber.communicate()
+        end_process(subscriber)
     assert (out / "results.csv").read_bytes() == inprocess_csv
     commands = [json.loads(line) for line in received.splitlines()]
     assert len(commands) >= 200
@@ -160,9 +158,7 @@ def test_outside_images_on_camera_image_raw_drive_the_detector_when_the_world_is
                     sizes.append(red)
         _, stderr = run.communicate(timeout=120)
     finally:
-        if run.poll() is None:
-            run.kill()
-            run.communicate()
+        end_process(run)
         participant.close()
     assert sizes, "no detection of the published image reached /onnx_blobSize"
     assert sizes[0] == pytest.approx(282.8427, rel=1e-4)

@@ -26,7 +26,7 @@ from fmionnx.backends.ros2.zenoh.transport import ZenohTransport
 from fmionnx.compile.ros2.messages import RosDistro, deserialize
 from fmionnx.compile.ros2.qos import PROFILES
 from fmionnx.results.csvfile import read_csv
-from tests.conftest import REPO, built_model
+from tests.conftest import REPO, built_model, end_process
 from tests.ros2.test_run import fmionnx, loop_system, processes_with, wait_for_nodes
 from tests.ros2.zenoh import checker
 
@@ -111,9 +111,7 @@ def test_reference_lockstep_over_zenoh_feeds_an_rmw_zenoh_client_and_follows_the
         received, _ = listener.communicate(timeout=60)
     finally:
         seen = watch.close()
-        if listener.poll() is None:
-            listener.kill()
-            listener.communicate()
+        end_process(listener)
     assert (zenoh_out / "results.csv").read_bytes() == (inprocess / "results.csv").read_bytes()
     commands = [json.loads(line) for line in received.splitlines()]
     assert len(commands) >= 300
@@ -182,9 +180,7 @@ def test_free_run_over_zenoh_reaches_b_and_the_graph_command_sees_every_link(
                 break
         _, stderr = run.communicate(timeout=240)
     finally:
-        if run.poll() is None:
-            run.kill()
-            run.communicate()
+        end_process(run)
     assert graph is not None
     assert graph.returncode == 0, graph.stdout + graph.stderr
     report = json.loads(graph.stdout)
@@ -239,9 +235,7 @@ def test_images_from_an_rmw_zenoh_client_drive_the_detector_node(
         _, stderr = run.communicate(timeout=120)
     finally:
         for process in (run, camera):
-            if process is not None and process.poll() is None:
-                process.kill()
-                process.communicate()
+            end_process(process)
         observer.close()
     assert sizes, "no detection of the published image reached /onnx_blobSize"
     assert sizes[0] == pytest.approx(282.8427, rel=1e-4)
@@ -291,9 +285,7 @@ def test_ctrl_c_stops_a_zenoh_run_its_nodes_and_its_router(
         process.send_signal(signal.SIGINT)
         stdout, stderr = process.communicate(timeout=60)
     finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
+        end_process(process)
     assert process.returncode == 130, stderr
     assert stdout.strip().splitlines()[-1] == f"Results: {out}"
     assert processes_with(str(tmp_path)) == []
@@ -314,9 +306,7 @@ def test_a_killed_zenoh_node_stops_the_run_naming_it_and_leaves_nothing_behind(
         os.kill(victim, signal.SIGKILL)
         _, stderr = process.communicate(timeout=60)
     finally:
-        if process.poll() is None:
-            process.kill()
-            process.communicate()
+        end_process(process)
     assert process.returncode == 1
     assert "node /integ (component `integ`) was killed by signal 9 (SIGKILL)" in " ".join(
         stderr.split()
