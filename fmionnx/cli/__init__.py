@@ -3,6 +3,8 @@
 from __future__ import annotations
 
 import sys
+from importlib.machinery import ModuleSpec
+from pathlib import Path
 
 from fmionnx.cli import (  # noqa: F401 - importing registers the commands (invoked, lean_help aside)
     build_cmd,
@@ -33,6 +35,7 @@ def main() -> None:
     Commands check the paths they are given; this is the net below them, so that a file system
     refusing (a full disk, a path that vanished) ends with one line, not a traceback.
     """
+    _children_skip_the_script()
     if lean_help.wants_help(sys.argv):
         lean_help.prepare()
     try:
@@ -44,3 +47,26 @@ def main() -> None:
         where = f": `{exc.filename}`" if exc.filename else ""
         print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
         sys.exit(ExitCode.PROBLEMS)
+
+
+#: The name of the console script that pip writes (``bin/fmionnx``).
+SCRIPT_NAME = "fmionnx"
+
+
+def _children_skip_the_script() -> None:
+    """Let the processes that ``multiprocessing`` spawns from this one (a local study's Dask
+    workers) start without running the console script again.
+
+    A spawned process re-runs the parent's main script, unless the parent was started as a
+    module (``python -m``): for ``bin/fmionnx`` that imports this package's whole command
+    line (typer, every command's module), which a worker never uses, in every worker. Given
+    the spec of ``python -m fmionnx``, a spawned process leaves its main module alone, as it
+    does for ``python -m fmionnx``. Only the console script's module is touched: a program
+    that calls :func:`main` from a main module of its own keeps its spec.
+    """
+    script = sys.modules.get("__main__")
+    if script is None or getattr(script, "__spec__", None) is not None:
+        return
+    if Path(getattr(script, "__file__", "") or "").name != SCRIPT_NAME:
+        return
+    script.__spec__ = ModuleSpec("fmionnx.__main__", None)

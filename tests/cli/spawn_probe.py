@@ -1,0 +1,12 @@
+"""What a process spawned by ``multiprocessing`` from the console script has imported (run
+by tests/cli/test_spawned_children.py)."""
+
+from __future__ import annotations
+
+import sys
+from multiprocessing.queues import Queue
+
+
+def report(queue: Queue[bool]) -> None:
+    """In the spawned process: whether the command line's package was imported."""
+    queue.put("fmionnx.cli" in sys.modules)
