@@ -128,9 +128,11 @@ def sweep_study(
     # wrong (its errors are said at once) or a resumed study may have nothing left to run.
     start_now = not resume and not bag.has_errors and loaded.spec is not None
     cluster = StudyCluster(scheduler, workers, client, start_now=start_now)
-    # The table's and plots' libraries load meanwhile too: a study of short cases would
-    # otherwise wait for them after its last case.
-    writers = _ResultsWriters() if start_now else None
+    # While a local cluster starts (seconds), the table's and plots' libraries load too: a
+    # study of short cases would otherwise wait for them after its last case. On a cluster
+    # that is up already they load with the cases, not against the compile.
+    local = start_now and scheduler is None and client is None
+    writers = _ResultsWriters() if local else None
     try:
         plan, made_out = _checked_plan(loaded, bag, out, scheduler, warnings)
     except BaseException:

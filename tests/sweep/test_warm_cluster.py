@@ -76,7 +76,20 @@ def test_a_local_cluster_starts_while_the_system_compiles(
         compiling.append(any(t.name == "fmionnx-cluster-start" for t in threading.enumerate()))
         return real(*args)
 
+    monkeypatch.setattr(pipeline_sweep, "_compiled", watched)
+    events = _record_order(monkeypatch)
+    table = fmionnx.sweep(folder / "study.yaml", out=folder / "out", workers=1)
+    assert list(table["status"]) == ["ok"] * 3
+    assert starts == ["fmionnx-cluster-start"]  # started on its own thread ...
+    assert compiling == [True]  # ... already running when the system was compiled
+    assert events == ["writers", "compile"]  # the results' libraries load from the start
+    assert not [t for t in threading.enumerate() if t.name.startswith("fmionnx-cluster")]
+
+
+def _record_order(monkeypatch: pytest.MonkeyPatch) -> list[str]:
+    """The order in which the study compiled and began loading its table's libraries."""
     events: list[str] = []
+    real_compiled = pipeline_sweep._compiled
     real_writers = pipeline_sweep._ResultsWriters.__init__
 
     def loading(self: Any) -> None:
@@ -85,16 +98,11 @@ def test_a_local_cluster_starts_while_the_system_compiles(
 
     def compiled(*args: Any) -> Any:
         events.append("compile")
-        return watched(*args)
+        return real_compiled(*args)
 
     monkeypatch.setattr(pipeline_sweep, "_compiled", compiled)
     monkeypatch.setattr(pipeline_sweep._ResultsWriters, "__init__", loading)
-    table = fmionnx.sweep(folder / "study.yaml", out=folder / "out", workers=1)
-    assert list(table["status"]) == ["ok"] * 3
-    assert starts == ["fmionnx-cluster-start"]  # started on its own thread ...
-    assert compiling == [True]  # ... already running when the system was compiled
-    assert events == ["writers", "compile"]  # the results' libraries load from the start
-    assert not [t for t in threading.enumerate() if t.name.startswith("fmionnx-cluster")]
+    return events
 
 
 def test_a_wrong_study_file_starts_no_cluster(folder: Path, starts: list[str]) -> None:
@@ -115,9 +123,12 @@ def test_a_system_with_errors_leaves_no_cluster_running(folder: Path, starts: li
 
 
 def test_studies_on_an_existing_cluster_share_one_client(
-    folder: Path, cluster: str, starts: list[str]
+    folder: Path, cluster: str, starts: list[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    events = _record_order(monkeypatch)
     first = fmionnx.sweep(folder / "study.yaml", out=folder / "one", scheduler=cluster)
+    # a cluster that is up: the compile is what the cases wait for, alone
+    assert events == ["compile", "writers"]
     client = engine._SHARED[cluster]
     second = fmionnx.sweep(folder / "study.yaml", out=folder / "two", scheduler=cluster)
     assert engine._SHARED[cluster] is client  # the same connection served both
