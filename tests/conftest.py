@@ -123,7 +123,8 @@ def finish(process: subprocess.Popen[str], timeout: float) -> tuple[str, str]:
     except subprocess.TimeoutExpired:
         process.kill()
         _, err = process.communicate()
-        pytest.fail(f"the process did not end within {timeout} s; killed. stderr:\n{err[-4000:]}")
+        said = f" stderr:\n{err[-4000:]}" if err is not None else ""  # None: not a pipe
+        pytest.fail(f"the process did not end within {timeout} s; killed.{said}")
 
 
 def end_process(process: subprocess.Popen[Any] | None) -> None:

@@ -10,6 +10,7 @@ Both read ROS_DOMAIN_ID / ROS_LOCALHOST_ONLY like a ROS 2 process.
 # No `from __future__ import annotations`: cyclonedds resolves member types at class creation.
 import json
 import sys
+import threading
 import time
 from dataclasses import dataclass
 
@@ -38,6 +39,10 @@ class Twist_(IdlStruct, typename="geometry_msgs::msg::dds_::Twist_"):  # noqa: N
     angular: Vector3_
 
 
+#: Seconds after which a subscriber gives up: a bound on a hung test, not a timing.
+HANG_SECONDS = 600
+
+
 def twist_sub(count: int) -> None:
     import os
 
@@ -56,11 +61,23 @@ def twist_sub(count: int) -> None:
     reader = DataReader(participant, Topic(participant, "rt/cmd_vel", Twist_), qos=qos)
     print(json.dumps({"ready": True}), flush=True)
     received = 0
-    deadline = time.monotonic() + 20
+    # Until COUNT samples, or (with --until-eof) until the test closes stdin, the run being
+    # over, and the samples still on their way are taken: never a wall-clock deadline, which a
+    # loaded machine's run outlasts. HANG_SECONDS only bounds a test that went wrong.
+    ended = threading.Event()
+    if "--until-eof" in sys.argv:
+        threading.Thread(target=lambda: (sys.stdin.read(), ended.set()), daemon=True).start()
+    deadline = time.monotonic() + HANG_SECONDS
+    quiet_since = time.monotonic()
     while received < count and time.monotonic() < deadline:
-        for sample in reader.take(10):
+        samples = reader.take(10)
+        for sample in samples:
             print(json.dumps({"x": sample.linear.x, "z": sample.angular.z}), flush=True)
             received += 1
+        if samples:
+            quiet_since = time.monotonic()
+        elif ended.is_set() and time.monotonic() - quiet_since > 1.0:
+            break
         time.sleep(0.005)
     del reader, participant, domain
 

@@ -54,7 +54,8 @@ def test_lockstep_reference_run_equals_inprocess_and_feeds_an_independent_cmd_ve
 ) -> None:
     inprocess_csv = _inprocess_csv(tmp_path / "inprocess", stop)
     subscriber = subprocess.Popen(
-        [*fmionnx()[:1], str(PEERS), "twist-sub", "200"],
+        [*fmionnx()[:1], str(PEERS), "twist-sub", "200", "--until-eof"],
+        stdin=subprocess.PIPE,  # closed by communicate() once the run is over
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
