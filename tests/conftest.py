@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import fcntl
 import hashlib
+import signal
 import socket
 import subprocess
 import sys
@@ -110,6 +111,25 @@ def _no_worker_state_left() -> Iterator[None]:
     What a worker keeps is dropped after each test."""
     yield
     drop_worker_state()
+
+
+#: The signals whose handling a test may change in this process (a command run in-process
+#: ignores them once it was stopped: ``stop_on_signals(process_ends=True)``).
+HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
+
+
+@pytest.fixture(autouse=True)
+def _signals_as_they_were() -> Iterator[None]:
+    """Each test ends with this process's signal handlers as it found them.
+
+    A signal a process ignores is ignored by every program it starts: after a test left
+    SIGINT ignored here, a later test's Rerun server let its Ctrl-C pass and never ended.
+    """
+    before = {signum: signal.getsignal(signum) for signum in HANDLED_SIGNALS}
+    yield
+    for signum, handler in before.items():
+        if signal.getsignal(signum) is not handler and handler is not None:
+            signal.signal(signum, handler)
 
 
 def finish(process: subprocess.Popen[str], timeout: float) -> tuple[str, str]:

@@ -224,10 +224,15 @@ def _strip_comment(command: str) -> str:
     return re.sub(r"\s+#\s.*$", "", command).strip()
 
 
-def run_block(block: Block, scratch: Path) -> list[str]:
-    """Run a console block's commands in ``scratch``; return one message per mismatch."""
+def run_block(block: Block, scratch: Path, environment: dict[str, str] | None = None) -> list[str]:
+    """Run a console block's commands in ``scratch``; return one message per mismatch.
+
+    ``environment``: the commands' environment, taken on the main thread by a caller that
+    runs blocks on threads (pytest changes ``os.environ`` as it goes from test to test, and a
+    thread copying it meanwhile meets a variable that is gone: KeyError).
+    """
     problems: list[str] = []
-    cwd, env = scratch, _environment()
+    cwd, env = scratch, dict(environment) if environment is not None else _environment()
     history: tuple[str, ...] = ()
     for command in block.commands():
         text = _strip_comment(command.text)
@@ -332,12 +337,13 @@ def console_results(
         if isinstance(item, pytest.Function) and item.originalname == "test_console_block"
     ]
     slow_first = sorted(selected, key=lambda b: not any("fmionnx run " in line for line in b.body))
+    environment = _environment()  # here, not on the threads (see run_block)
     with ThreadPoolExecutor(max_workers=max(2, min(4, os.cpu_count() or 1))) as pool:
         results: dict[str, Future[list[str]]] = {}
         for block in slow_first:
             scratch = tmp_path_factory.mktemp("docs-block") / "work"
             shutil.copytree(scratch_template, scratch, symlinks=True)
-            results[block.where] = pool.submit(run_block, block, scratch)
+            results[block.where] = pool.submit(run_block, block, scratch, environment)
         yield results
 
 
