@@ -218,3 +218,47 @@ def test_a_scene_memory_of_thousands_of_digits_is_e008(tmp_path: Path) -> None:
     result = api.check_model(path)
     (error,) = [d for d in result.diagnostics if d.code == "E008"]
     assert "takes the scene's memory to" in error.message
+
+
+def _onnx_model(path: Path, output_shape: list[int], expand_to: list[int]) -> Path:
+    """``y = Expand(x, expand_to)`` with ``y`` declared as ``double[output_shape]``."""
+    from onnx import TensorProto, helper
+
+    shape = helper.make_tensor("s", TensorProto.INT64, [len(expand_to)], expand_to)
+    graph = helper.make_graph(
+        [
+            helper.make_node("Constant", [], ["shape"], value=shape),
+            helper.make_node("Expand", ["x", "shape"], ["y"]),
+        ],
+        "expand",
+        [helper.make_tensor_value_info("x", TensorProto.DOUBLE, [1])],
+        [helper.make_tensor_value_info("y", TensorProto.DOUBLE, output_shape)],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    path.write_bytes(model.SerializeToString())
+    return path
+
+
+def test_an_output_of_another_shape_than_declared_is_a_fault_naming_it(tmp_path: Path) -> None:
+    # found by fuzzing models (issue 38): an output declared double[1] that the model expands
+    # to 3 elements compiled, then the run crashed where it was first recorded (a numpy
+    # ValueError, a traceback)
+    path = _onnx_model(tmp_path / "expand.onnx", [1], [3])
+    for isolate in ("none", "all"):
+        result = fmionnx.load(path).run(stop_time=2.0, isolate=isolate)
+        assert result.status.value == "fault", isolate
+        assert result.error is not None
+        assert result.error.port == "y"
+        assert "output has shape [3], not the shape the model declares for it ([1])" in str(
+            result.error
+        )
+
+
+def test_a_port_with_a_dimension_of_0_is_e013(tmp_path: Path) -> None:
+    # found by fuzzing models (issue 38): a declared shape [0] compiled, then the run divided
+    # by it while naming its columns (ZeroDivisionError, a traceback)
+    path = _onnx_model(tmp_path / "empty.onnx", [0], [0])
+    result = api.check_model(path)
+    (error,) = [d for d in result.diagnostics if d.code == codes.UNSUPPORTED_MODEL.code]
+    assert "output `y` has a dimension of 0 [0]" in error.message
+    assert error.hint == "a port carries at least one number"

@@ -132,7 +132,8 @@ def _port(value: Any, causality: Causality, path: Path, depends: tuple[str, ...]
 
 
 def _check_shape(name: str, causality: Causality, shape: list[int | str], path: Path) -> None:
-    """E012 for a negative dimension; E008 when the fixed dimensions exceed the limit.
+    """E012 for a negative dimension, E013 for an empty one (a zero-size tensor is valid ONNX,
+    but a port of no numbers carries nothing); E008 when the fixed dimensions exceed the limit.
 
     Symbolic dimensions count as 1 here, as in the runner; a connection that fills one is
     bounded by the port on its other end.
@@ -141,6 +142,9 @@ def _check_shape(name: str, causality: Causality, shape: list[int | str], path: 
     if any(d < 0 for d in fixed):
         msg = f"`{path.name}`: {causality.value} `{name}` has a negative dimension {shape}"
         raise ModelError(codes.BAD_MODEL, msg)
+    if 0 in fixed:
+        msg = f"`{path.name}`: {causality.value} `{name}` has a dimension of 0 {shape}"
+        raise ModelError(codes.UNSUPPORTED_MODEL, msg, hint="a port carries at least one number")
     elements = math.prod(fixed)
     if elements > ARRAY_ELEMENTS.value():
         msg = f"`{path.name}`: {causality.value} `{name}` of shape {shape} has {elements} elements"

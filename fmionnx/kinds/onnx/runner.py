@@ -166,10 +166,23 @@ class OnnxRunner:
                 buffer[:] = np.asarray(value, dtype=buffer.dtype).reshape(-1)[: buffer.size]
             self._inputs[port.name] = buffer
             self._feeds[port.name] = buffer.reshape(shape)
-        self._names = [p.name for p in self.component.interface.with_causality(Causality.OUTPUT)]
+        declared = {p.name: p for p in self.component.interface.with_causality(Causality.OUTPUT)}
+        self._names = list(declared)
         results = self._run(start)
         for name, value in zip(self._names, results, strict=True):
             array = np.asarray(value)
+            # The run's columns and connections are sized from the declared shape: a model
+            # whose output is another size (an Expand to a shape it computes) is a fault here,
+            # not a crash where the value is first recorded.
+            shape = concrete_shape(declared[name], self._sizes.get(name))
+            if array.size != math.prod(shape):
+                raise fault(
+                    self.component.name,
+                    f"output has shape {list(array.shape)}, not the shape the model declares "
+                    f"for it ({list(declared[name].shape)})",
+                    time=start,
+                    port=name,
+                )
             self._outputs[name] = np.array(array.reshape(-1), copy=True)
 
     def input_buffer(self, port: str) -> Buffer:
