@@ -262,3 +262,18 @@ def test_a_port_with_a_dimension_of_0_is_e013(tmp_path: Path) -> None:
     (error,) = [d for d in result.diagnostics if d.code == codes.UNSUPPORTED_MODEL.code]
     assert "output `y` has a dimension of 0 [0]" in error.message
     assert error.hint == "a port carries at least one number"
+
+
+def test_a_height_field_is_counted_at_what_mujoco_takes_for_it(tmp_path: Path) -> None:
+    # found by fuzzing scenes (issue 38): 57 million height-field cells were counted at the 4
+    # bytes a cell keeps in the model (0.23 GB, within the limit), and MuJoCo took 2.9 GB for
+    # them and a texture, for 23 s, beyond the fuzzer's address-space cap
+    path = tmp_path / "scene.xml"
+    path.write_text(
+        '<mujoco><asset><hfield name="h" nrow="7167512" ncol="8" size="1 1 0.1 0.1"/></asset>'
+        '<worldbody><geom type="hfield" hfield="h"/></worldbody></mujoco>',
+        "utf-8",
+    )
+    result = api.check_model(path)
+    (error,) = [d for d in result.diagnostics if d.code == "E008"]
+    assert "`<hfield>` of 57340096 cells" in error.message

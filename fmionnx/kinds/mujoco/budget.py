@@ -12,9 +12,10 @@ read with the safe parser and measured:
   ``flexcomp`` and ``composite`` count three per point of their ``count`` (a body, its joint
   and its geom); a model ``<attach>``\\ ed counts its whole file. Counting multiplies, it never
   iterates: a ``replicate`` of a billion costs one multiplication.
-* **bytes** (:data:`~fmionnx.core.resources.SCENE_BYTES`): height fields (4 bytes a cell),
-  textures (their channels a pixel, six faces for a cube or skybox; a PNG's size is read from
-  its header, since a small PNG can decode to gigabytes), ``<size memory>`` and
+* **bytes** (:data:`~fmionnx.core.resources.SCENE_BYTES`): height fields
+  (:data:`HFIELD_CELL_BYTES` a cell), textures (:data:`TEXTURE_PIXEL_BYTES` a pixel, six
+  faces for a cube or skybox; a PNG's size is read from its header, since a small PNG can
+  decode to gigabytes), ``<size memory>`` and
   ``nuserdata``. Once compiled, the arena MuJoCo sizes for the simulation's data (it grows
   with the square of the degrees of freedom) is checked before ``MjData`` allocates it.
 
@@ -38,6 +39,14 @@ from fmionnx.core.errors import ModelError
 from fmionnx.core.regularfile import read_regular, regular_size
 from fmionnx.core.resources import MODEL_FILE_BYTES, SCENE_BYTES, SCENE_ELEMENTS
 from fmionnx.core.xmlsafe import parse_safely
+
+#: Bytes MuJoCo takes at its peak per height-field cell, compiling the scene and making its
+#: data: measured 16-17 (MuJoCo 3, 4 to 57 million cells), with a margin. Counting the 4
+#: bytes a cell keeps in the model let a scene declared at 0.7 GB take 2.9 GB (found by
+#: fuzzing, issue 38).
+HFIELD_CELL_BYTES = 20
+#: The same per texture pixel: measured 6 for a built-in texture of 8 to 64 million pixels.
+TEXTURE_PIXEL_BYTES = 8
 
 #: Includes and attached models followed at most (a cycle is refused before this).
 MAX_FILES = 256
@@ -184,7 +193,7 @@ class _Scene:
             cells = _number(element.get("nrow")) * _number(element.get("ncol"))
             if element.get("file") is not None:
                 cells = max(cells, self.image_pixels(str(element.get("file"))))
-            self.declare(4 * cells, f"`<hfield>` of {cells} cells", element, file)
+            self.declare(HFIELD_CELL_BYTES * cells, f"`<hfield>` of {cells} cells", element, file)
         elif tag == "texture":
             self.texture(element, file)
         elif tag == "size":
@@ -226,14 +235,14 @@ class _Scene:
 
     def texture(self, element: Any, file: Path) -> None:
         """Built-in (``width`` x ``height``, six faces for a cube or skybox) and file pixels,
-        four bytes each (MuJoCo's most channels)."""
+        :data:`TEXTURE_PIXEL_BYTES` each."""
         faces = 6 if element.get("type") in ("cube", "skybox") else 1
         pixels = _number(element.get("width")) * _number(element.get("height")) * faces
         for attribute in _FILE_ATTRIBUTES:
             value = element.get(attribute)
             if value is not None:
                 pixels += self.image_pixels(value)
-        self.declare(4 * pixels, f"`<texture>` of {pixels} pixels", element, file)
+        self.declare(TEXTURE_PIXEL_BYTES * pixels, f"`<texture>` of {pixels} pixels", element, file)
 
     def size(self, element: Any, file: Path) -> None:
         memory = element.get("memory")
