@@ -106,6 +106,13 @@ def test_the_graph_names_every_component(tmp_path: Path) -> None:
     ]  # one edge per pair of components a connection joins  # fmt: skip
 
 
+#: ``python -c`` this, then a program and its arguments: runs it with SIGINT's default action.
+RESTORE_SIGINT_AND_EXEC = (
+    "import os, signal, sys; signal.signal(signal.SIGINT, signal.SIG_DFL); "
+    "os.execv(sys.argv[1], sys.argv[1:])"
+)
+
+
 def test_a_remote_viewer_takes_the_run(tmp_path: Path) -> None:
     """`--view rerun+tcp://HOST:PORT` against a real, headless Rerun server (`rerun --port P
     --save FILE`: it takes SDK connections as a viewer does and writes what reaches it): the
@@ -128,9 +135,13 @@ def test_a_remote_viewer_takes_the_run(tmp_path: Path) -> None:
         port = probe.getsockname()[1]
     received = tmp_path / "received.rrd"
     log = (tmp_path / "server.log").open("w")  # a pipe nobody reads would fill and block it
+    # It ends on Ctrl-C, even where this process was started with SIGINT ignored (a background
+    # job of a shell without job control: the ignored signal is handed to every program
+    # started from it, and Rerun keeps it so): the server is exec'd from a Python that
+    # restores the default first.
     server = subprocess.Popen(
-        [rerun, "--port", str(port), "--save", str(received)], stdout=log,
-        stderr=subprocess.STDOUT, text=True,
+        [sys.executable, "-c", RESTORE_SIGINT_AND_EXEC, rerun, "--port", str(port),
+         "--save", str(received)], stdout=log, stderr=subprocess.STDOUT, text=True,
     )  # fmt: skip
     try:
         deadline = time.monotonic() + 60
