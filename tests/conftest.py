@@ -122,8 +122,9 @@ HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)
 def _signals_as_they_were() -> Iterator[None]:
     """Each test ends with this process's signal handlers as it found them.
 
-    A signal a process ignores is ignored by every program it starts: after a test left
-    SIGINT ignored here, a later test's Rerun server let its Ctrl-C pass and never ended.
+    A signal a process ignores is ignored by every program it starts (a Rerun server with
+    SIGINT ignored lets its Ctrl-C pass and never ends), and a command run in-process that
+    was stopped leaves its stop signals ignored.
     """
     before = {signum: signal.getsignal(signum) for signum in HANDLED_SIGNALS}
     yield
