@@ -28,6 +28,14 @@ if __name__ == "__main__":
 """
 
 
+def _run_script(script: Path) -> subprocess.CompletedProcess[str]:
+    """``python SCRIPT`` from the repository, with this checkout importable."""
+    return subprocess.run(
+        [sys.executable, str(script)], cwd=REPO, capture_output=True, text=True, timeout=120,
+        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"}, check=False,
+    )  # fmt: skip
+
+
 @pytest.mark.parametrize(("skip", "imported"), [(True, False), (False, True)])
 def test_a_spawned_process_leaves_the_console_script_alone(
     tmp_path: Path, skip: bool, imported: bool
@@ -35,10 +43,7 @@ def test_a_spawned_process_leaves_the_console_script_alone(
     script = tmp_path / "fmionnx"  # the console script's name: only that one is changed
     call = "_children_skip_the_script()" if skip else "pass"
     script.write_text(SCRIPT.format(skip=call), encoding="utf-8")
-    done = subprocess.run(
-        [sys.executable, str(script)], cwd=REPO, capture_output=True, text=True, timeout=120,
-        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"}, check=False,
-    )  # fmt: skip
+    done = _run_script(script)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == f"child imported the command line: {imported}"
 
@@ -50,9 +55,6 @@ def test_a_main_module_of_another_name_keeps_its_spec(tmp_path: Path) -> None:
         "_children_skip_the_script()\nprint(sys.modules['__main__'].__spec__)\n",
         encoding="utf-8",
     )
-    done = subprocess.run(
-        [sys.executable, str(script)], cwd=REPO, capture_output=True, text=True, timeout=60,
-        env={"PYTHONPATH": str(REPO), "PATH": "/usr/bin:/bin"}, check=False,
-    )  # fmt: skip
+    done = _run_script(script)
     assert done.returncode == 0, done.stderr
     assert done.stdout.strip() == "None"
