@@ -149,24 +149,35 @@ BIG = st.sampled_from(
 )
 
 
-@pytest.fixture(scope="module", autouse=True)
-def capped_address_space() -> Iterator[None]:
-    """This process may grow by :data:`HEADROOM` while the module runs (soft limit only,
-    restored after it). MuJoCo and onnxruntime are imported first: importing is not the
-    models' doing, and the runs' step timeout (which times loading) must not count it."""
-    mujoco_module()
-    onnxruntime_module()
-    soft, hard = resource.getrlimit(resource.RLIMIT_AS)
+def allow_growth() -> None:
+    """Let this process grow by :data:`HEADROOM` from its size now (soft limit only).
+
+    Set again before each input, not once per module: the process's virtual size drifts
+    between inputs (thread stacks and malloc arenas of earlier runs come and go while its
+    resident size stays put), and a cap fixed at the start would fall short of a scene that
+    is within its limits late in a long run."""
+    hard = resource.getrlimit(resource.RLIMIT_AS)[1]
     with Path("/proc/self/status").open(encoding="ascii") as status:
         size = next(int(line.split()[1]) * 1024 for line in status if line.startswith("VmSize:"))
     cap = size + HEADROOM
     if hard != resource.RLIM_INFINITY:
         cap = min(cap, hard)
     resource.setrlimit(resource.RLIMIT_AS, (cap, hard))
+
+
+@pytest.fixture(scope="module", autouse=True)
+def capped_address_space() -> Iterator[None]:
+    """The module's inputs run under :func:`allow_growth`'s cap; the limit is restored after
+    it. MuJoCo and onnxruntime are imported first: importing is not the models' doing, and
+    the runs' step timeout (which times loading) must not count it."""
+    mujoco_module()
+    onnxruntime_module()
+    limits = resource.getrlimit(resource.RLIMIT_AS)
+    allow_growth()
     try:
         yield
     finally:
-        resource.setrlimit(resource.RLIMIT_AS, (soft, hard))
+        resource.setrlimit(resource.RLIMIT_AS, limits)
 
 
 @pytest.fixture(scope="module")
@@ -179,6 +190,7 @@ def folder(tmp_path_factory: pytest.TempPathFactory) -> Path:
 
 def validate_model(path: Path, data: bytes) -> api.CompileResult:
     """``fmionnx validate MODEL`` in-process: the lone model's compile, then every report."""
+    allow_growth()
     result = guarded("check_model", data, lambda: api.check_model(path))
     check_diagnostics(result, data)
     for diagnostic in result.diagnostics:  # the limits refuse first: no library runs dry
@@ -199,6 +211,7 @@ def validate_model(path: Path, data: bytes) -> api.CompileResult:
 def run_briefly(path: Path, data: bytes) -> None:
     """A model that validates runs its first steps (as the one component of a system) to a
     result or a documented fault."""
+    allow_growth()
     kind = "onnx" if path.suffix == ".onnx" else "mujoco"
     system_file = path.with_name("system.yaml")
     system_file.write_text(
