@@ -3,7 +3,8 @@
 MuJoCo binds its GL platform at import time from ``MUJOCO_GL``. An explicit ``MUJOCO_GL`` in
 the environment always wins; otherwise the spec's ``gl`` (``egl`` or ``osmesa``) is used, and
 ``auto`` probes EGL then OSMesa in a short child process (a failed GL initialization can abort
-the process that tries it). The probe runs at most once per process.
+the process that tries it). The probe runs at most once per process, and what it found is
+kept for a day (:mod:`.glcache`): a run with a camera does not pay a second for it each time.
 """
 
 from __future__ import annotations
@@ -50,8 +51,28 @@ def backend_for(preference: str = "auto") -> str | None:
     if preference in ("egl", "osmesa"):
         return preference
     if preference not in _probed:
-        _probed[preference] = next((b for b in ("egl", "osmesa") if _works(b)), None)
+        _probed[preference] = _recalled_or_probed(preference)
     return _probed[preference]
+
+
+def _recalled_or_probed(preference: str) -> str | None:
+    from fmionnx.kinds.mujoco import glcache
+
+    kept = glcache.recall(preference)
+    if kept is not None:
+        return kept
+    found = next((b for b in ("egl", "osmesa") if _works(b)), None)
+    if found is not None:
+        glcache.remember(preference, found)
+    return found
+
+
+def forget_probe(preference: str = "auto") -> None:
+    """A renderer failed to start with the backend found for ``preference``: drop the kept
+    answer, so the next process probes again (this one keeps its choice: MuJoCo's is made)."""
+    from fmionnx.kinds.mujoco import glcache
+
+    glcache.forget(preference)
 
 
 def choose_gl(preference: str = "auto") -> str:

@@ -21,7 +21,7 @@ from fmionnx.core.errors import RunError
 from fmionnx.core.runner import Buffer, fault
 from fmionnx.core.types import Causality, Component, is_whole_multiple
 from fmionnx.kinds.kept import Kept
-from fmionnx.kinds.mujoco.gl import choose_gl
+from fmionnx.kinds.mujoco.gl import choose_gl, forget_probe
 from fmionnx.kinds.mujoco.kind import CameraConfig, MujocoConfig
 
 
@@ -218,6 +218,7 @@ class MujocoRunner:
             try:
                 renderer = mj.Renderer(model, height, width)
             except Exception as exc:
+                forget_probe(self.config.gl)  # a kept answer may be stale: probe next time
                 raise fault(
                     self.component.name, f"offscreen rendering failed: {exc}", time=start, port=port
                 ) from None
