@@ -19,8 +19,10 @@ API can choose what to record) is named on the figure and logged, never silently
 
 from __future__ import annotations
 
+import functools
 import io
 import logging
+from collections.abc import Callable
 from pathlib import Path
 from typing import Any
 
@@ -35,18 +37,30 @@ LOG = logging.getLogger("fmionnx.results")
 XY_SIZE = (7.0, 6.5)
 TIME_WIDTH, PANEL_HEIGHT = 9.0, 2.6
 DPI = 120
+#: A figure to draw: draws it and writes its file when called, returns the file.
+Drawing = Callable[[], Path]
 #: Most time marks along a trajectory (dots every 1, 2 or 5 times a power of ten seconds).
 MOST_TIME_MARKS = 8
 
 
 def write_plots(result: RunResult, system: CompiledSystem, out: Path) -> list[Path]:
     """Draw every plot of ``system`` into ``out``; returns the files written."""
-    written = []
-    for plot, name in zip(system.plots, plot_file_names(system.plots), strict=True):
-        figure = new_figure(plot)
-        draw_plot(figure, plot, result)
-        written.append(save_figure(figure, out / name))
-    return written
+    return [draw() for draw in plot_drawings(result, system, out)]
+
+
+def plot_drawings(result: RunResult, system: CompiledSystem, out: Path) -> list[Drawing]:
+    """One drawing per plot of ``system``, in order: each draws its figure and writes its
+    file into ``out`` when called (the plot worker hands them to several processes)."""
+    return [
+        functools.partial(_write_plot, plot, result, out / name)
+        for plot, name in zip(system.plots, plot_file_names(system.plots), strict=True)
+    ]
+
+
+def _write_plot(plot: Plot, result: RunResult, path: Path) -> Path:
+    figure = new_figure(plot)
+    draw_plot(figure, plot, result)
+    return save_figure(figure, path)
 
 
 def plot_file_names(plots: tuple[Plot, ...]) -> list[str]:

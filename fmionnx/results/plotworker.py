@@ -5,7 +5,8 @@ the reference scenario spends on everything else after its loop), and drawing is
 of its own. A run that draws (a system with ``plots:``, or ``run --plot``) into a results
 folder therefore starts this worker before its loop: the worker imports matplotlib on
 another core while the models step; when the run ends it draws the figures while this
-process writes ``results.csv``. The figures are the same, byte for byte: the same functions
+process writes ``results.csv``, several figures side by side in forked copies of itself
+(:mod:`.forkdraw`), and it exits at once when it has answered. The figures are the same, byte for byte: the same functions
 (:mod:`.plots`, :mod:`.signals_plot`) draw them from the same data.
 
 ``python -m fmionnx.results.plotworker``: reads one job (a pickle from the process that
@@ -30,10 +31,14 @@ import sys
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, cast
+from typing import IO, TYPE_CHECKING, cast
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.results.forkdraw import draw_side_by_side, processes_for
 from fmionnx.runtime.result import RunResult
+
+if TYPE_CHECKING:
+    from fmionnx.results.plots import Drawing
 
 #: The environment variable that keeps plots in the run's own process (``0``).
 SWITCH = "FMIONNX_PLOT_WORKER"
@@ -146,21 +151,28 @@ def start() -> PlotWorker | None:
 
 
 def draw_here(job: PlotJob) -> list[Path]:
-    """Draw ``job`` in this process (what the worker runs, and the parent without one)."""
-    files: list[Path] = []
+    """Draw ``job`` in this process (the parent without a worker, or when the worker could
+    not)."""
+    return [draw() for draw in drawings(job)]
+
+
+def drawings(job: PlotJob) -> list[Drawing]:
+    """The figures of ``job``, in order, each drawn and written when called."""
+    found: list[Drawing] = []
+    taken: set[str] = set()
     if job.system_plots:
-        from fmionnx.results.plots import write_plots
+        from fmionnx.results.plots import plot_drawings, plot_file_names
 
-        files.extend(write_plots(job.result, job.system, job.out))
+        found.extend(plot_drawings(job.result, job.system, job.out))
+        taken.update(plot_file_names(job.system.plots))
     if job.signals_plot:
-        from fmionnx.results.signals_plot import write_signals_plot
+        from fmionnx.results.signals_plot import signals_drawings
 
-        taken = {p.name for p in files}
         aliases = dict(job.aliases) if job.aliases is not None else None
-        files.extend(
-            write_signals_plot(job.result, job.system, job.out, aliases=aliases, taken=taken)
+        found.extend(
+            signals_drawings(job.result, job.system, job.out, aliases=aliases, taken=taken)
         )
-    return files
+    return found
 
 
 def _send(stream: IO[bytes], data: bytes) -> None:
@@ -210,7 +222,9 @@ def main() -> int:
     LOG.addHandler(collect)
     LOG.propagate = False
     try:
-        answer = PlotAnswer(tuple(draw_here(job)), logged=tuple(collect.records))
+        figures = drawings(job)
+        files = draw_side_by_side(figures, processes_for(len(figures)), collect.records)
+        answer = PlotAnswer(tuple(files), logged=tuple(collect.records))
     except Exception as exc:  # the parent draws again, and reports it as it always did
         answer = PlotAnswer(None, f"{type(exc).__name__}: {exc}")
     with contextlib.suppress(OSError):
@@ -223,4 +237,6 @@ if __name__ == "__main__":
     # its own name in the parent.
     from fmionnx.results.plotworker import main as worker_main
 
-    sys.exit(worker_main())
+    code = worker_main()
+    sys.stderr.flush()
+    os._exit(code)  # the answer is sent: no clean-up of matplotlib the parent would wait for

@@ -13,6 +13,7 @@ columns are its variable names, ``aliases``).
 
 from __future__ import annotations
 
+import functools
 from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
@@ -20,7 +21,14 @@ from typing import Any
 from fmionnx.compile.ir import CompiledSystem, Series
 from fmionnx.compile.plotfiles import SIGNALS_FILE, unique_name
 from fmionnx.core.signals import column_names
-from fmionnx.results.plots import DPI, PANEL_HEIGHT, TIME_WIDTH, draw_panel, save_figure
+from fmionnx.results.plots import (
+    DPI,
+    PANEL_HEIGHT,
+    TIME_WIDTH,
+    Drawing,
+    draw_panel,
+    save_figure,
+)
 from fmionnx.runtime.result import RunResult
 
 #: Most panels one figure holds; more ports continue in the next file.
@@ -59,20 +67,38 @@ def write_signals_plot(
     ``signals.png``): those are skipped (``signals-2.png`` ...). A run that recorded nothing
     writes nothing.
     """
+    drawings = signals_drawings(result, system, out, aliases=aliases, taken=taken)
+    return [draw() for draw in drawings]
+
+
+def signals_drawings(
+    result: RunResult,
+    system: CompiledSystem,
+    out: Path,
+    *,
+    aliases: Mapping[str, str] | None = None,
+    taken: set[str] | None = None,
+) -> list[Drawing]:
+    """:func:`write_signals_plot`'s pages as drawings, in order, each drawn and written when
+    called (the plot worker hands them to several processes)."""
     series = signal_series(result, system, aliases)
     names = set(taken or ())
-    written = []
+    drawings: list[Drawing] = []
     stem = SIGNALS_FILE.removesuffix(".png")
+    title = f"{system.name}: recorded signals"
     for start in range(0, len(series), PANELS_PER_FIGURE):
         page = series[start : start + PANELS_PER_FIGURE]
-        figure = draw_signals(page, result, title=f"{system.name}: recorded signals")
         if start == 0 and SIGNALS_FILE not in names:
             name = SIGNALS_FILE
             names.add(name)
         else:
             name = unique_name(stem, names)  # never SIGNALS_FILE itself: it is reserved
-        written.append(save_figure(figure, out / name))
-    return written
+        drawings.append(functools.partial(_write_page, page, result, title, out / name))
+    return drawings
+
+
+def _write_page(page: list[Series], result: RunResult, title: str, path: Path) -> Path:
+    return save_figure(draw_signals(page, result, title=title), path)
 
 
 def draw_signals(series: list[Series], result: RunResult, *, title: str) -> Any:

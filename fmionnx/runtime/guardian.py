@@ -29,7 +29,6 @@ leaves the previous one. Linux only (``fork``, ``memfd_create``).
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import dataclasses
 import fcntl
 import gc
@@ -87,7 +86,6 @@ _LANE_WORK, _LANE_T, _LANE_N, _LANE_PLACE = range(4)
 _LANE_CELLS = 4
 _CELLS = _LANES + _LANE_SLOTS * _LANE_CELLS
 _SLOT = (CONTROL - _CELLS * 8) // 2
-_PR_SET_PDEATHSIG = 1
 #: Seconds a stopped child gets to send its result (while nothing arrives) before it is
 #: killed: a model that does not return from its step cannot see the stop request.
 STOP_GRACE = 5.0
@@ -382,9 +380,9 @@ class SharedMarker:
 
 def _die_with_parent() -> None:
     """Linux kills this child when the guardian dies (SIGKILL of the run leaves no orphan)."""
-    with contextlib.suppress(OSError, AttributeError):
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
+    from fmionnx.runtime.lifetime import die_with_parent
+
+    die_with_parent()
 
 
 def _fresh_streams() -> None:

@@ -7,22 +7,18 @@ model can do to its process (crash, abort, exit, hang) happens here, not in the 
 
 from __future__ import annotations
 
-import contextlib
-import ctypes
 import os
 import signal
 import sys
 
-_PR_SET_PDEATHSIG = 1
-
 
 def _die_with_parent() -> None:
-    """Ask Linux to kill this process when the supervisor dies (a hung model stays no orphan)."""
-    with contextlib.suppress(OSError, AttributeError):
-        libc = ctypes.CDLL(None, use_errno=True)
-        libc.prctl(_PR_SET_PDEATHSIG, signal.SIGKILL)
-        if os.getppid() == 1:  # the supervisor died before prctl took effect
-            os._exit(1)
+    """Linux kills this process when the supervisor dies (a hung model stays no orphan)."""
+    from fmionnx.runtime.lifetime import die_with_parent
+
+    die_with_parent()
+    if os.getppid() == 1:  # the supervisor died before prctl took effect
+        os._exit(1)
 
 
 def main(argv: list[str]) -> int:
