@@ -134,20 +134,24 @@ def sweep_study(
     local = start_now and scheduler is None and client is None
     writers = _ResultsWriters() if local else None
     try:
-        plan, made_out = _checked_plan(loaded, bag, out, scheduler, warnings)
-    except BaseException:
-        cluster.release(wait=True)  # a system with errors: no cluster left behind
-        raise
-    try:
-        return run_sweep(
-            plan, out, resume=resume, keep_results=keep_results, force=force,
-            progress=progress, batch=batch, cluster=cluster, rrd=rrd, writers=writers,
-        )  # fmt: skip
-    except (SchedulerError, ClusterStartError):
-        if made_out:  # made just now and still empty: no trace of a study that never started
-            with contextlib.suppress(OSError):
-                out.rmdir()
-        raise
+        try:
+            plan, made_out = _checked_plan(loaded, bag, out, scheduler, warnings)
+        except BaseException:
+            cluster.release(wait=True)  # a system with errors: no cluster left behind
+            raise
+        try:
+            return run_sweep(
+                plan, out, resume=resume, keep_results=keep_results, force=force,
+                progress=progress, batch=batch, cluster=cluster, rrd=rrd, writers=writers,
+            )  # fmt: skip
+        except (SchedulerError, ClusterStartError):
+            if made_out:  # made just now and still empty: no trace of a study never started
+                with contextlib.suppress(OSError):
+                    out.rmdir()
+            raise
+    finally:
+        if writers is not None:
+            writers.close()  # its plot worker, when the study stopped before its plots
 
 
 def _checked_plan(
@@ -252,47 +256,84 @@ def _run(
         if progress is not None:
             progress(counts[0], counts[1], len(plan.cases))
 
-    tasks = None
     if writers is None:
         writers = _ResultsWriters()  # their libraries load while the cases run
-    if pending:
-        tasks = run_study(
-            cluster.client(), plan, pending, job, on_done, run_study_case, batch=batch
-        )
-    cluster.release(wait=False)  # a local cluster ends while the table and plots are written
-    writers.ready()
-    from fmionnx.results.study_plots import write_study_plots
-
-    table = folder.table()
-    files = folder.write_table(table)
-    files.extend(write_study_plots(table, plan, out))
+    try:
+        tasks = None
+        if pending:
+            tasks = run_study(
+                cluster.client(), plan, pending, job, on_done, run_study_case, batch=batch
+            )
+        cluster.release(wait=False)  # a local cluster ends while the table and plots are written
+        writers.ready()
+        table = folder.table()
+        writers.submit(table, plan, out)  # the worker draws the plots while the table is written
+        files = folder.write_table(table)
+        files.extend(writers.plots(table, plan, out))
+    finally:
+        writers.close()  # its plot worker, when the study stopped before its plots
     return SweepResult(plan, table, tuple(files), len(finished), tasks=tasks)
 
 
 class _ResultsWriters:
-    """Imports the table's and the plots' libraries (pandas, pyarrow, matplotlib: about a
-    second) on a thread of their own while the cases run, instead of after the last one."""
+    """The table's libraries (pandas, pyarrow) imported on a thread of their own while the
+    cases run, instead of after the last one; and a plot worker started meanwhile
+    (:mod:`fmionnx.results.plotworker`), which imports matplotlib and then draws the study's
+    plots side by side while this process writes the table. Without a worker (one core,
+    ``FMIONNX_PLOT_WORKER=0``, or it failed), the plots are drawn here, as before."""
 
     def __init__(self) -> None:
+        from fmionnx.results import plotworker
+
+        self._plotter = plotworker.start(study=True)
+        self._submitted = False
         self._thread = threading.Thread(
             target=self._load, name="fmionnx-study-writers", daemon=True
         )
         self._thread.start()
 
-    @staticmethod
-    def _load() -> None:
+    def _load(self) -> None:
         # Whatever goes wrong here (a library missing, an import racing another thread's), the
         # import after the cases, on the study's own thread, says so.
         with contextlib.suppress(Exception):
             import pandas  # noqa: F401
             import pyarrow.parquet  # noqa: F401
-            from matplotlib.figure import Figure  # noqa: F401
 
-            import fmionnx.results.study_plots  # noqa: F401
+            if self._plotter is None:
+                from matplotlib.figure import Figure  # noqa: F401
+
+                import fmionnx.results.study_plots  # noqa: F401
 
     def ready(self) -> None:
         """Wait for the imports (an import in two threads at once waits anyway)."""
         self._thread.join()
+
+    def submit(self, table: pd.DataFrame, plan: StudyPlan, out: Path) -> None:
+        """Hand the plots to the worker, which draws them while the table is written."""
+        from fmionnx.results.plotworker import StudyPlotJob
+
+        plotter = self._plotter
+        self._submitted = plotter is not None and plotter.submit(StudyPlotJob(table, plan, out))
+
+    def plots(self, table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Path]:
+        """The study's plots: the worker's, once drawn, else drawn here."""
+        from fmionnx.core.owned import OwnedFolder
+        from fmionnx.results.study_plots import write_study_plots
+
+        plotter, self._plotter = self._plotter, None
+        drawn = plotter.collect() if plotter is not None and self._submitted else None
+        if plotter is not None:
+            plotter.close()
+        if drawn is None:
+            return write_study_plots(table, plan, out)
+        OwnedFolder(out).note(drawn)  # a later --force may delete them (fmionnx.core.owned)
+        return drawn
+
+    def close(self) -> None:
+        """End an unused worker (a study that stopped before its plots)."""
+        plotter, self._plotter = self._plotter, None
+        if plotter is not None:
+            plotter.close()
 
 
 class StudyCluster:

@@ -38,6 +38,9 @@ from fmionnx.results.forkdraw import draw_side_by_side, processes_for
 from fmionnx.runtime.result import RunResult
 
 if TYPE_CHECKING:
+    import pandas as pd
+
+    from fmionnx.compile.studyir import StudyPlan
     from fmionnx.results.plots import Drawing
 
 #: The environment variable that keeps plots in the run's own process (``0``).
@@ -57,6 +60,15 @@ class PlotJob:
     system_plots: bool
     signals_plot: bool
     aliases: Mapping[str, str] | None = None
+
+
+@dataclass(frozen=True)
+class StudyPlotJob:
+    """What a study's worker draws: the summary plots of ``table`` (:mod:`.study_plots`)."""
+
+    table: pd.DataFrame
+    plan: StudyPlan
+    out: Path
 
 
 @dataclass(frozen=True)
@@ -84,23 +96,26 @@ def wanted() -> bool:
 class PlotWorker:
     """This process's end of a plot worker (see the module docstring)."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, study: bool = False) -> None:
+        """``study``: the worker of a study (it loads pandas and the study's plots too)."""
         self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
-            [sys.executable, "-m", __name__],
+            [sys.executable, "-m", __name__, *(["--study"] if study else [])],
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
         )
 
-    def submit(self, job: PlotJob) -> bool:
+    def submit(self, job: PlotJob | StudyPlotJob) -> bool:
         """Hand ``job`` to the worker, which draws it while this process goes on; False if
         the worker is gone (then draw it here)."""
         process = self._process
         if process is None or process.stdin is None:
             return False
-        lean = dataclasses.replace(job.result, error=None, details={}, ended_by=None)
+        if isinstance(job, PlotJob):
+            lean = dataclasses.replace(job.result, error=None, details={}, ended_by=None)
+            job = dataclasses.replace(job, result=lean)
         try:
-            _send(process.stdin, pickle.dumps(dataclasses.replace(job, result=lean)))
+            _send(process.stdin, pickle.dumps(job))
             process.stdin.close()
         except (OSError, pickle.PickleError):
             self.close()
@@ -140,12 +155,13 @@ class PlotWorker:
             process.wait()
 
 
-def start() -> PlotWorker | None:
-    """A plot worker, or None where none is wanted or one cannot be started."""
+def start(*, study: bool = False) -> PlotWorker | None:
+    """A plot worker (``study``: a study's), or None where none is wanted or one cannot be
+    started."""
     if not wanted():
         return None
     try:
-        return PlotWorker()
+        return PlotWorker(study=study)
     except OSError:
         return None
 
@@ -156,8 +172,12 @@ def draw_here(job: PlotJob) -> list[Path]:
     return [draw() for draw in drawings(job)]
 
 
-def drawings(job: PlotJob) -> list[Drawing]:
+def drawings(job: PlotJob | StudyPlotJob) -> list[Drawing]:
     """The figures of ``job``, in order, each drawn and written when called."""
+    if isinstance(job, StudyPlotJob):
+        from fmionnx.results.study_plots import study_drawings
+
+        return study_drawings(job.table, job.plan, job.out)
     found: list[Drawing] = []
     taken: set[str] = set()
     if job.system_plots:
@@ -202,13 +222,19 @@ class _Collect(logging.Handler):
         self.records.append((record.levelno, record.getMessage()))
 
 
-def main() -> int:
-    """The worker: import the plotting code, then draw the one job that comes on stdin."""
+def main(argv: list[str] | None = None) -> int:
+    """The worker: import the plotting code (``--study``: a study's too), then draw the one
+    job that comes on stdin."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; it ignores it by then
     import matplotlib.figure  # noqa: F401 - the point of the worker: imported while the run goes on
 
     import fmionnx.results.plots
-    import fmionnx.results.signals_plot  # noqa: F401
+    import fmionnx.results.signals_plot
+
+    if "--study" in (sys.argv[1:] if argv is None else argv):
+        import pandas  # noqa: F401 - the table comes as a DataFrame
+
+        import fmionnx.results.study_plots  # noqa: F401
 
     # The answer goes on the pipe that was stdout; anything a library prints goes to stderr.
     stdout = os.fdopen(os.dup(1), "wb")

@@ -14,13 +14,14 @@ and colour bars carry the targets' and metrics' units (:mod:`.study_units`).
 
 from __future__ import annotations
 
+import functools
 import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
 from fmionnx.compile.studyir import CHECK_PREFIX, StudyPlan
 from fmionnx.core.owned import OwnedFolder
-from fmionnx.results.plots import DPI, save_figure
+from fmionnx.results.plots import DPI, Drawing, save_figure
 from fmionnx.results.study_units import labelled, plan_units
 
 if TYPE_CHECKING:
@@ -40,21 +41,26 @@ def new_figure_plain(ncols: int = 1) -> tuple[Any, Any]:
 
 def write_study_plots(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Path]:
     """Write the study's summary plots into ``out``; returns their paths."""
-    numeric = [t for t in plan.targets if _numeric(table[t])]
-    written: list[Path] = []
-    if table.empty or not numeric:
-        return written
-    units = plan_units(plan)
-    names = {name: labelled(name, unit) for name, unit in units.items()}
-    for metric in plan.plotted_metrics:  # at most PLOTTED_METRICS (W100 says so)
-        if len(numeric) == 2 and _is_grid(table, numeric):
-            written.append(_heatmap(table, numeric, metric.name, names, out))
-        else:
-            written.append(_against(table, numeric, metric.name, names, out))
-    if plan.check_names:
-        written.append(_passfail(table, numeric, plan, names, out))
+    written = [draw() for draw in study_drawings(table, plan, out)]
     OwnedFolder(out).note(written)  # a later --force may delete them (fmionnx.core.owned)
     return written
+
+
+def study_drawings(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Drawing]:
+    """The study's summary plots, in order, each drawn and written into ``out`` when called
+    (a plot worker draws them side by side); the caller notes the files as the study's."""
+    numeric = [t for t in plan.targets if _numeric(table[t])]
+    if table.empty or not numeric:
+        return []
+    units = plan_units(plan)
+    names = {name: labelled(name, unit) for name, unit in units.items()}
+    found: list[Drawing] = []
+    for metric in plan.plotted_metrics:  # at most PLOTTED_METRICS (W100 says so)
+        draw = _heatmap if len(numeric) == 2 and _is_grid(table, numeric) else _against
+        found.append(functools.partial(draw, table, numeric, metric.name, names, out))
+    if plan.check_names:
+        found.append(functools.partial(_passfail, table, numeric, plan, names, out))
+    return found
 
 
 #: What a case that completed without a value for a metric is labelled.
