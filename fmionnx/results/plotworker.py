@@ -6,8 +6,9 @@ of its own. A run that draws (a system with ``plots:``, or ``run --plot``) into 
 folder therefore starts this worker before its loop: the worker imports matplotlib on
 another core while the models step; when the run ends it draws the figures while this
 process writes ``results.csv``, several figures side by side in forked copies of itself
-(:mod:`.forkdraw`), and it exits at once when it has answered. The figures are the same, byte for byte: the same functions
-(:mod:`.plots`, :mod:`.signals_plot`) draw them from the same data.
+(:mod:`.forkdraw`), and it exits at once when it has answered. The figures are the same,
+byte for byte: the same functions (:mod:`.plots`, :mod:`.signals_plot`) draw them from the
+same data. A study's worker (``--study``) draws a study's summary plots the same way.
 
 ``python -m fmionnx.results.plotworker``: reads one job (a pickle from the process that
 started it, its own parent: nothing from outside) on stdin, answers on stdout, exits. It ends
