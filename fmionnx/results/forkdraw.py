@@ -22,6 +22,7 @@ from collections.abc import Sequence
 from pathlib import Path
 from typing import TYPE_CHECKING
 
+from fmionnx.core.cores import usable_cores
 from fmionnx.runtime.lifetime import die_with_parent
 
 if TYPE_CHECKING:
@@ -37,11 +38,7 @@ class DrawingFailedError(Exception):
 
 def processes_for(figures: int) -> int:
     """How many processes draw ``figures`` figures: one each, up to the usable cores."""
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        cores = os.cpu_count() or 1
-    return max(1, min(figures, cores))
+    return max(1, min(figures, usable_cores()))
 
 
 def draw_side_by_side(

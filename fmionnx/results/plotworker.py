@@ -35,6 +35,7 @@ from pathlib import Path
 from typing import IO, TYPE_CHECKING, cast
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core.cores import usable_cores
 from fmionnx.results.forkdraw import draw_side_by_side, processes_for
 from fmionnx.runtime.result import RunResult
 
@@ -87,11 +88,7 @@ def wanted() -> bool:
     (on one core a second process only adds its own start)."""
     if os.environ.get(SWITCH, "").strip().lower() in {"0", "off", "no", "false"}:
         return False
-    try:
-        cores = len(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        cores = os.cpu_count() or 1
-    return cores >= 2
+    return usable_cores() >= 2
 
 
 class PlotWorker:
@@ -223,7 +220,7 @@ class _Collect(logging.Handler):
         self.records.append((record.levelno, record.getMessage()))
 
 
-def main(argv: list[str] | None = None) -> int:
+def main() -> int:
     """The worker: import the plotting code (``--study``: a study's too), then draw the one
     job that comes on stdin."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; it ignores it by then
@@ -232,7 +229,7 @@ def main(argv: list[str] | None = None) -> int:
     import fmionnx.results.plots
     import fmionnx.results.signals_plot
 
-    if "--study" in (sys.argv[1:] if argv is None else argv):
+    if "--study" in sys.argv[1:]:
         import pandas  # noqa: F401 - the table comes as a DataFrame
 
         import fmionnx.results.study_plots  # noqa: F401

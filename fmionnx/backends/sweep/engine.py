@@ -137,10 +137,9 @@ def scheduler_problem(address: str) -> str | None:
 
 def default_workers() -> int:
     """One worker per core this process may use."""
-    try:
-        return max(1, len(os.sched_getaffinity(0)))
-    except AttributeError:  # not Linux
-        return max(1, os.cpu_count() or 1)
+    from fmionnx.core.cores import usable_cores
+
+    return usable_cores()
 
 
 @contextmanager
