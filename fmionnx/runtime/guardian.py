@@ -232,6 +232,7 @@ class SharedTrack(recording.Track):
 
     offset: int = -1
     _count: Any = None
+    _count_cell: Any = None
     _block: mmap.mmap | None = None
 
     def allocate(self) -> None:
@@ -253,6 +254,7 @@ class SharedTrack(recording.Track):
             new[:kept] = self.rows[:kept]
         count[0] = self.count
         self.rows, self._count, self._block, self.offset = new, count, block, offset
+        self._count_cell = np.frombuffer(block, np.int64, 1, 0)
         with registry.lock:  # a lane may be registering a work (and publishing) meanwhile
             if not any(track is self for track in registry.tracks):
                 registry.tracks.append(self)
@@ -276,6 +278,10 @@ class SharedTrack(recording.Track):
                 row[a:b] = view
         self.count = count = count + 1
         self._count[0] = count
+
+    def count_address(self) -> int:
+        """The count the guardian reads, in shared memory: the native loop publishes there."""
+        return int(self._count_cell.ctypes.data)
 
     def truncate(self, count: int) -> None:
         """Keep at most ``count`` rows, here and in the count the guardian reads."""
@@ -305,10 +311,11 @@ class SharedMarker:
     the step, in a slot of its own: the loop may be busy elsewhere when it crashes.
     """
 
-    __slots__ = ("_cells", "_index", "_slots", "_work")
+    __slots__ = ("_cells", "_index", "_slots", "_t_cell", "_work")
 
     def __init__(self, control: mmap.mmap) -> None:
         self._cells = memoryview(control)[: _CELLS * 8].cast("d")  # cheaper stores than numpy's
+        self._t_cell = np.frombuffer(control, np.float64, 1, _T * 8)
         self._work: object = None
         self._index: dict[int, int] = {}
         #: id(work) -> first cell of its lane slot (one lane steps one work).
@@ -321,6 +328,10 @@ class SharedMarker:
     @t.setter
     def t(self, value: float) -> None:
         self._cells[_T] = value
+
+    def t_address(self) -> int:
+        """Where the native loop stores the time before each step (the cell read above)."""
+        return int(self._t_cell.ctypes.data)
 
     @property
     def work(self) -> object:

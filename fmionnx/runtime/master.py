@@ -57,6 +57,8 @@ from fmionnx.runtime.watchdog import Interrupter, Phase, PhaseWatch, Watchdog, o
 
 if TYPE_CHECKING:
     from fmionnx.runtime.loops import IteratedLoop
+    from fmionnx.runtime.native.bulk import BulkLoop
+    from fmionnx.runtime.native.group import NativeGroup
     from fmionnx.runtime.pacing import Pacer
 
 #: Largest hyperperiod (in base steps) for which the schedule is tabulated.
@@ -137,6 +139,12 @@ class Master:
         self._stamps: dict[str, int] = {}
         #: Whether FMI 2 co-simulation runs are stepped natively (set by ``prepare``).
         self.native = NativeStatus(used=False, reason="not prepared")
+        #: The native groups by id of their work; the one that is the whole schedule, stepped
+        #: many base steps per C call (:mod:`.native.bulk`), else None; and whether a bulk
+        #: call is under way (for the watchdog, see :meth:`_abandon`).
+        self._groups: dict[int, NativeGroup] = {}
+        self._bulk: BulkLoop | None = None
+        self._in_bulk = False
         #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
         self.ended_by: EndedBy | None = None
         self._started = _time.perf_counter()
@@ -201,6 +209,7 @@ class Master:
                         track.place, track.outputs = i, track is after
         if self.options.schedule == "parallel" and self._hyper:
             self._plan_parallel(entries)
+        self._bulk = self._plan_bulk()
 
     def _make(self, component: Component) -> None:
         """Make and instantiate ``component``'s runner (timed by a profiled run)."""
@@ -247,11 +256,36 @@ class Master:
             self._issues = issues
             self._lanes = list(lanes.values())
 
+    def _plan_bulk(self) -> BulkLoop | None:
+        """The native loop, when one native group is due at every base step and nothing else
+        happens between two steps (no other work, lane, watch per step or lazy output)."""
+        table = self._table
+        if self._hyper != 1 or len(table) != 1 or len(table[0]) != 1 or self._issues:
+            return None
+        work = table[0][0]
+        group = self._groups.get(id(work))
+        if group is None or self.profile is not None or self._stamps:
+            return None
+        tracks = group.tracks
+        if {id(t) for t in self.recorder.tracks} != {id(t) for t in tracks}:
+            return None
+        from fmionnx.runtime.native.bulk import BulkLoop, views_problem
+
+        if views_problem(tracks) is not None:
+            return None
+        run = self.system.run
+        address = self._marker.t_address()
+        return BulkLoop(
+            group.kernel, group, tracks, start=run.start, step=run.step, h=work.h,
+            marker_t=address or None,
+        )  # fmt: skip
+
     @property
     def schedule_details(self) -> dict[str, str | int | bool | None]:
         """The run.json fields saying how the steps were scheduled."""
         used = [lane for lane in self._lanes if lane.steps]
         return {
+            "native_loop": self._bulk is not None,
             "schedule": self.options.schedule,
             "concurrent": ", ".join(lane.name for lane in used) or None,
             "concurrent_steps": sum(lane.steps for lane in used),
@@ -276,6 +310,7 @@ class Master:
                 h = dues[item.names[0]].h
                 label = "+".join(item.names)
                 work = Work(label, (), item.step, h, None, None, tuple(item.names), "group")
+                self._groups[id(work)] = item
                 if self.profile is not None:
                     work = self.profile.timed(work)
                 entries.append((work, item.period_steps))
@@ -516,6 +551,9 @@ class Master:
         if self._issues:
             self._loop_parallel()
             return
+        if self._bulk is not None:
+            self._loop_bulk(self._bulk)
+            return
         run = self.system.run
         start, step, total = run.start, run.step, run.steps
         clock = self._clock
@@ -542,6 +580,47 @@ class Master:
                 return
             if progress is not None and n % every == 0:
                 progress(n + 1, total, start + (n + 1) * step)
+        clock[0] = total
+        if progress is not None:
+            progress(total, total, run.stop)
+
+    def _loop_bulk(self, bulk: BulkLoop) -> None:
+        """The sequential loop's steps, many per call into the native kernel (:mod:`.native.bulk`).
+
+        Between two calls it does what :meth:`_loop` does between two steps: a checkpoint when
+        one is due, the progress call after each ``every``-th step, a stop request.
+        """
+        run = self.system.run
+        start, step, total = run.start, run.step, run.steps
+        clock = self._clock
+        progress, every = self._ticker()
+        marker = self._marker
+        marker.work = self._table[0][0]
+        h = self._table[0][0].h
+        checkpoint = self.options.checkpoint
+        next_checkpoint = _time.perf_counter() + self.options.checkpoint_every
+        n = 0
+        while n < total:
+            if checkpoint is not None and _time.perf_counter() >= next_checkpoint:
+                next_checkpoint = self._checkpoint(n)
+            last = total if progress is None else min(total, -(-n // every) * every + 1)
+            shield_begin()  # a stop request waits until the counts and the clock agree
+            self._in_bulk = True
+            try:
+                code, n = bulk.run(n, last)
+                clock[0] = n
+                marker.t = start + (n if code else n - 1) * step
+            finally:
+                self._in_bulk = False
+                shield_end()
+            if code:
+                try:
+                    raise bulk.group.fault(code, start + n * step, h)
+                except ModelTerminated as exc:  # the step completed: its outputs are the last row
+                    self._end_by(exc, n)
+                    return
+            if progress is not None and (n - 1) % every == 0:
+                progress(n, total, start + n * step)
         clock[0] = total
         if progress is not None:
             progress(total, total, run.stop)
@@ -773,6 +852,9 @@ class Master:
         label = work.name
         timeout = self.options.step_timeout
         assert timeout is not None
+        if self._in_bulk and self._bulk is not None:  # the marker moves on between chunks only
+            n = self._clock[0] = self._bulk.under_way()
+            t = self.system.run.start + n * self.system.run.step
         error = fault(
             label,
             f"{overrun_text(work, timeout)}; the component runs in fmionnx's own process, so "

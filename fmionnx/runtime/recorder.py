@@ -60,6 +60,16 @@ class Track:
         extra = min(max(len(self.rows), CHUNK_ROWS), self.capacity - len(self.rows))
         self.rows = np.concatenate([self.rows, np.zeros((max(extra, 1), len(self.columns)))])
 
+    def reserve(self) -> None:
+        """Make room for the next row (the native loop samples into :attr:`rows` itself)."""
+        if self.count == len(self.rows):
+            self._grow()
+
+    def count_address(self) -> int:
+        """Where a native sampler publishes the count after each row; 0: nowhere (only
+        :attr:`count`, which it hands back)."""
+        return 0
+
     def sample(self) -> None:
         """Append the current values as the next row."""
         if self.count == len(self.rows):

@@ -62,6 +62,12 @@ class Marker:
         self.work: object = None
         self.t = 0.0
 
+    def t_address(self) -> int:
+        """Where native code may store ``t`` itself; 0: nowhere (``t`` is a Python float, set
+        by the loop between the native loop's chunks: see :mod:`fmionnx.runtime.native.bulk`).
+        """
+        return 0
+
     def lane_started(self, job: object) -> None:
         """A worker thread (a lane of the parallel schedule) starts ``job``'s step.
 

@@ -124,6 +124,7 @@ def test_gain_chain_is_stepped_by_one_native_group(fixture_fmu, write_system) ->
         "native_groups": 1,
         "native_components": 3,
         "native_library": "installed",
+        "native_loop": True,
         "schedule": "parallel",
         "concurrent": None,
         "concurrent_steps": 0,

@@ -24,17 +24,25 @@
  * A float source never feeds an integer destination here (grouping.py keeps such members in
  * Python: numpy's result for a float outside the integer's range depends on the platform).
  *
+ * fx_group_run runs many communication points in one call when one group is the whole
+ * schedule (a lone FMU, a chain of FMUs of one rate): after each successful group step it
+ * appends the recorder's rows itself (recorder.py Track.sample: row, then the published
+ * count) and stores the step's time where the run's marker keeps it, so the Python loop is
+ * entered only between chunks (progress, checkpoints, stop requests, a track to grow).
+ *
  * Python mirrors the structs below in ctypes (kernel.py) and checks, before it uses the
  * library, that fx_abi_version() and fx_abi_layout() agree with its mirrors. Bump
  * FX_ABI_VERSION on any change of a struct, of fx_group_step's signature, of its return
  * codes or of the element type codes, together with ABI_VERSION in kernel.py.
  */
+#define _POSIX_C_SOURCE 199309L /* clock_gettime under -std=c99 */
 #include <math.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <time.h>
 
-#define FX_ABI_VERSION 2u
+#define FX_ABI_VERSION 3u
 
 /* Element types of value buffers (kernel.py ELEMENT_TYPES, in this order). */
 enum {
@@ -98,7 +106,43 @@ typedef struct {
     int failed_status;
 } fx_group;
 
-enum { FX_OK = 0, FX_NONFINITE = 1, FX_SET = 2, FX_DO_STEP = 3, FX_GET = 4, FX_TERMINATE = 5 };
+/* One recorded track (recorder.py Track): `capacity` rows of `width` float64 columns, of which
+ * `count` are written; its views are views[first_view .. first_view + n_views). */
+typedef struct {
+    double *rows;
+    int64_t *published; /* NULL, or where the count is published after each row (guardian) */
+    size_t capacity;
+    size_t count;
+    size_t width;
+    size_t first_view;
+    size_t n_views;
+} fx_track;
+
+/* One recorded buffer: `count` elements of type `type` into columns column.. of a row. */
+typedef struct {
+    const void *src;
+    size_t count;
+    size_t column;
+    int type;
+} fx_view;
+
+/* A run of communication points of one group (fx_group_run). */
+typedef struct {
+    double start;
+    double step;
+    double h;
+    size_t n_tracks;
+    fx_track *tracks;
+    const fx_view *views;
+    double *marker_t; /* NULL, or where the time of the step under way is stored before it */
+    double budget;    /* seconds of wall time after which a call returns between two steps */
+    size_t next;      /* out: the first step not completed (the failed one after a fault) */
+} fx_run;
+
+enum {
+    FX_OK = 0, FX_NONFINITE = 1, FX_SET = 2, FX_DO_STEP = 3, FX_GET = 4, FX_TERMINATE = 5,
+    FX_FULL = 6 /* fx_group_run: a track has no room for the next row */
+};
 
 /* OK and Warning let the run go on, as in the Python path (FMI 2 and 3 number them alike). */
 #define FX_FAULT(status) ((status) > 1)
@@ -301,8 +345,65 @@ int fx_group_step(fx_group *group, double t, double h) {
     return FX_OK;
 }
 
-/* The struct layouts Python must mirror: for fx_group, fx_member, fx_transfer and fx_call in
- * turn, sizeof the struct, then offsetof each field in declaration order. */
+/* ---- many steps -------------------------------------------------------------------------- */
+
+static double seconds(void) {
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (double)now.tv_sec + 1e-9 * (double)now.tv_nsec;
+}
+
+/* Appends one row to the track (Track.sample): each view converted to float64 as numpy's
+ * assignment does, then the count, published after the row (a reader in another process reads
+ * only rows below the count it sees). */
+static void sample(fx_track *track, const fx_view *views) {
+    double *row = track->rows + track->count * track->width;
+    for (size_t v = 0; v < track->n_views; ++v) {
+        const fx_view *view = &views[track->first_view + v];
+        double *out = row + view->column;
+        for (size_t i = 0; i < view->count; ++i) {
+            double d;
+            int64_t s;
+            uint64_t u;
+            switch (load(view->src, view->type, i, &d, &s, &u)) {
+            case 0: out[i] = d; break;
+            case 1: out[i] = (double)s; break;
+            default: out[i] = (double)u; break;
+            }
+        }
+    }
+    track->count += 1;
+    if (track->published != NULL) {
+        __atomic_store_n(track->published, (int64_t)track->count, __ATOMIC_RELEASE);
+    }
+}
+
+/* Steps first .. last - 1, each at t = start + n * step (computed as Python computes it) by
+ * h, sampling every track after each completed step. Returns FX_OK with run->next == last
+ * when all are done, FX_OK with run->next < last when the budget of wall time ran out,
+ * FX_FULL when a track has no room for the row of step run->next (not performed), or a
+ * fault code of fx_group_step for step run->next (the group says where). */
+int fx_group_run(fx_group *group, fx_run *run, size_t first, size_t last) {
+    double deadline = seconds() + run->budget;
+    for (size_t n = first; n < last; ++n) {
+        run->next = n;
+        for (size_t k = 0; k < run->n_tracks; ++k) {
+            if (run->tracks[k].count >= run->tracks[k].capacity) return FX_FULL;
+        }
+        if (n > first && seconds() >= deadline) return FX_OK;
+        double t = run->start + (double)n * run->step;
+        if (run->marker_t != NULL) *run->marker_t = t;
+        int code = fx_group_step(group, t, run->h);
+        if (code != FX_OK) return code;
+        for (size_t k = 0; k < run->n_tracks; ++k) sample(&run->tracks[k], run->views);
+    }
+    run->next = last;
+    return FX_OK;
+}
+
+/* The struct layouts Python must mirror: for fx_group, fx_member, fx_transfer, fx_call,
+ * fx_track, fx_view and fx_run in turn, sizeof the struct, then offsetof each field in
+ * declaration order. */
 static const size_t fx_layout[] = {
     sizeof(fx_group),
     offsetof(fx_group, n_members),
@@ -344,6 +445,29 @@ static const size_t fx_layout[] = {
     offsetof(fx_call, n_values),
     offsetof(fx_call, type),
     offsetof(fx_call, setter),
+    sizeof(fx_track),
+    offsetof(fx_track, rows),
+    offsetof(fx_track, published),
+    offsetof(fx_track, capacity),
+    offsetof(fx_track, count),
+    offsetof(fx_track, width),
+    offsetof(fx_track, first_view),
+    offsetof(fx_track, n_views),
+    sizeof(fx_view),
+    offsetof(fx_view, src),
+    offsetof(fx_view, count),
+    offsetof(fx_view, column),
+    offsetof(fx_view, type),
+    sizeof(fx_run),
+    offsetof(fx_run, start),
+    offsetof(fx_run, step),
+    offsetof(fx_run, h),
+    offsetof(fx_run, n_tracks),
+    offsetof(fx_run, tracks),
+    offsetof(fx_run, views),
+    offsetof(fx_run, marker_t),
+    offsetof(fx_run, budget),
+    offsetof(fx_run, next),
     /* the element types' sizes, in FX_* order: a platform whose C types differ from the
      * ctypes ones Python uses for the buffers is refused */
     sizeof(double), sizeof(float), sizeof(int8_t), sizeof(uint8_t), sizeof(int16_t),

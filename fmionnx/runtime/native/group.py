@@ -150,14 +150,25 @@ class NativeGroup:
             ctypes.addressof(self._call_array),
         )
         self._samples = tuple(t for m in members for t in m.tracks if t is not None)
+        self.kernel = kernel
         self._step = kernel.step
         self._address = ctypes.addressof(self._group)
+
+    @property
+    def address(self) -> int:
+        """The C address of the group's ``fx_group`` (what the kernel's functions take)."""
+        return self._address
+
+    @property
+    def tracks(self) -> tuple[Track, ...]:
+        """The members' tracks, in the order a step samples them."""
+        return self._samples
 
     def step(self, t: float, h: float) -> None:
         """Advance every member from ``t`` by ``h``; RunError at the first fault."""
         code = self._step(self._address, t, h)
         if code:
-            raise self._fault(code, t, h)
+            raise self.fault(code, t, h)
         for track in self._samples:
             track.sample()
 
@@ -186,8 +197,10 @@ class NativeGroup:
                 return cls._ended(plan, ending, t, h)
         return runner.fault_for(runner.advance_function, status, t)
 
-    def _fault(self, code: int, t: float, h: float) -> RunError:
-        """Record what the Python path would have recorded, then name the fault as it does."""
+    def fault(self, code: int, t: float, h: float) -> RunError:
+        """The kernel stopped the step from ``t`` with ``code``: record what the Python path
+        would have recorded, then name the fault as it does (a ModelTerminated when a member
+        asked to end the run)."""
         index = int(self._group.failed_member)
         for plan in self._members[:index]:
             for track in plan.tracks:

@@ -26,7 +26,7 @@ from fmionnx.runtime.native.manifest import LIBRARY_NAME, SOURCE_NAME, check_bui
 from fmionnx.runtime.native.runbuild import build_in_cache
 
 #: ``FX_ABI_VERSION`` of the ``fmi2_group.c`` these mirrors follow (bump both together).
-ABI_VERSION = 2
+ABI_VERSION = 3
 
 #: Where the installed library is: beside this module and its source.
 INSTALLED = Path(__file__).parent
@@ -103,12 +103,56 @@ class CallSpec(ctypes.Structure):
     )
 
 
+class TrackSpec(ctypes.Structure):
+    """``fx_track`` of ``fmi2_group.c``: one recorder track that ``fx_group_run`` samples."""
+
+    _fields_ = (
+        ("rows", ctypes.c_void_p),
+        ("published", ctypes.c_void_p),
+        ("capacity", ctypes.c_size_t),
+        ("count", ctypes.c_size_t),
+        ("width", ctypes.c_size_t),
+        ("first_view", ctypes.c_size_t),
+        ("n_views", ctypes.c_size_t),
+    )
+
+
+class ViewSpec(ctypes.Structure):
+    """``fx_view`` of ``fmi2_group.c``: one recorded buffer of a track."""
+
+    _fields_ = (
+        ("src", ctypes.c_void_p),
+        ("count", ctypes.c_size_t),
+        ("column", ctypes.c_size_t),
+        ("type", ctypes.c_int),
+    )
+
+
+class RunSpec(ctypes.Structure):
+    """``fx_run`` of ``fmi2_group.c``: the communication points ``fx_group_run`` steps."""
+
+    _fields_ = (
+        ("start", ctypes.c_double),
+        ("step", ctypes.c_double),
+        ("h", ctypes.c_double),
+        ("n_tracks", ctypes.c_size_t),
+        ("tracks", ctypes.c_void_p),
+        ("views", ctypes.c_void_p),
+        ("marker_t", ctypes.c_void_p),
+        ("budget", ctypes.c_double),
+        ("next", ctypes.c_size_t),
+    )
+
+
 #: The mirrors in the order of ``fx_abi_layout``, with their C names.
 MIRRORS: tuple[tuple[str, type[ctypes.Structure]], ...] = (
     ("fx_group", Group),
     ("fx_member", Member),
     ("fx_transfer", TransferSpec),
     ("fx_call", CallSpec),
+    ("fx_track", TrackSpec),
+    ("fx_view", ViewSpec),
+    ("fx_run", RunSpec),
 )
 
 #: The element types the kernel converts and passes to FMI calls, by their ``FX_*`` code
@@ -131,18 +175,20 @@ ELEMENT_TYPES: tuple[tuple[str, type[ctypes._SimpleCData[Any]]], ...] = (
 #: ``FX_*`` code of a numpy dtype name.
 TYPE_CODES = {name: code for code, (name, _) in enumerate(ELEMENT_TYPES)}
 
-#: Return codes of ``fx_group_step``.
-OK, NONFINITE, SET, DO_STEP, GET, TERMINATE = 0, 1, 2, 3, 4, 5
+#: Return codes of ``fx_group_step``, and ``fx_group_run``'s own: a track is full.
+OK, NONFINITE, SET, DO_STEP, GET, TERMINATE, FULL = 0, 1, 2, 3, 4, 5, 6
 
 
 @dataclass(frozen=True)
 class Kernel:
-    """The loaded library's step function: ``step(byref(group), t, h) -> code``."""
+    """The loaded library's functions: ``step(group, t, h) -> code`` (one communication
+    point) and ``run(group, run, first, last) -> code`` (many: :mod:`.bulk`)."""
 
     path: Path
     origin: Origin
     sha256: str
     step: Callable[..., int]
+    run: Callable[..., int]
 
 
 def expected_layout() -> list[tuple[str, int]]:
@@ -204,7 +250,10 @@ def load_library(folder: Path, origin: Origin, source: Path = SOURCE) -> Kernel 
     step = dll.fx_group_step
     step.argtypes = (ctypes.c_void_p, ctypes.c_double, ctypes.c_double)
     step.restype = ctypes.c_int
-    kernel = Kernel(verified.path, origin, verified.sha256, step)
+    run = dll.fx_group_run
+    run.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t, ctypes.c_size_t)
+    run.restype = ctypes.c_int
+    kernel = Kernel(verified.path, origin, verified.sha256, step, run)
     _LOADED[key] = kernel
     return kernel
 
