@@ -38,14 +38,17 @@ def write_csv(
     ``ahead``: rows formatted while a guarded run went on (:mod:`.csvahead`), used where they
     hold exactly the result's values; the bytes are the same with or without it.
     """
-    names = list(result.signals)
-    header = ["time", *((aliases or {}).get(n, n) for n in names)]
-    columns = [result.time, *(result.signals[n] for n in names)]
-    table = np.column_stack(columns) if columns else np.zeros((0, 1))
+    header = ["time", *((aliases or {}).get(n, n) for n in result.signals)]
+    table = result_table(result)
     with atomic_text(path) as stream:  # never half-written, never through a planted link
         stream.write(",".join(_quote(h) for h in header) + "\n")
         write_rows(stream, table, ahead=ahead)
     return path
+
+
+def result_table(result: RunResult) -> npt.NDArray[np.float64]:
+    """The numbers of ``results.csv``: ``time``, then each signal in the result's order."""
+    return np.column_stack([result.time, *result.signals.values()])
 
 
 def write_rows(

@@ -57,7 +57,7 @@ from fmionnx.core.runner import RunnerFactory, fault
 from fmionnx.runtime import lifetime
 from fmionnx.runtime import recorder as recording
 from fmionnx.runtime.instruments import Instruments
-from fmionnx.runtime.published import Follower, Published
+from fmionnx.runtime.published import Follower, Published, TailPiece
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 
 #: The ``--isolate`` word that selects the guardian.
@@ -68,6 +68,11 @@ BACKEND_NAME = "inprocess"
 CONTROL = 1 << 20  # sparse: pages cost only once written
 # float64 cells of the control block
 _T, _WORK, _DONE, _TOTAL, _SIM, _PROGRESS, _ABANDONED, _DIRECTORY, _PHASE, _PHASE_WHO = range(10)
+#: How far the follower got from the front (rows; the guardian writes it): the child's share
+#: of the follower's work, done once its run has ended, stops there (:func:`_tail`).
+_FRONT = 10
+#: A front beyond any run: the child formats nothing (more).
+_NO_SHARE = float(1 << 60)
 #: What the child is doing (the ``_PHASE`` cell; ``_PHASE_WHO``: the component's index in the
 #: system): stored around each model's instantiate, setup and terminate calls, once per run.
 #: The loop's steps are told apart by the marker's stores instead (no store more per step).
@@ -473,6 +478,7 @@ def _child(
     result_pipe: int,
     scratch: Path,
     components: list[str],
+    follower: Follower | None = None,
 ) -> int:
     """Run in the forked child; returns its exit status (the result went down the pipe)."""
     _die_with_parent()
@@ -513,14 +519,65 @@ def _child(
     if error is not None and type(error) is not RunError:  # a subclass may not unpickle
         plain = RunError(str(error), component=error.component, port=error.port, time=error.time)
         result = dataclasses.replace(result, error=plain)
+    pieces = [] if follower is None else _tail(follower, result, shared)
     # The result goes into the shared file and only its place down the pipe: megabytes through
     # a pipe would cost a wake-up of each process per 64 KiB, slow on a loaded machine.
-    data = pickle.dumps(result, protocol=pickle.HIGHEST_PROTOCOL)
+    data = pickle.dumps((result, pieces), protocol=pickle.HIGHEST_PROTOCOL)
     block, offset = shared.allocate(len(data))
     block[: len(data)] = data
     block.flush()
     os.write(result_pipe, offset.to_bytes(8, "little") + len(data).to_bytes(8, "little"))
     return 0
+
+
+#: Where the child left a piece of the follower's work: (first row, rows, columns, offset of
+#: its values in the shared file, length of its text, which follows the values).
+_PieceAt = tuple[int, int, int, int, int]
+
+
+def _tail(follower: Follower, result: RunResult, shared: _Shared) -> list[_PieceAt]:
+    """The child's share of the follower's work, written into the shared file (nothing when
+    it fails: it only saves the guardian time)."""
+    cells = shared.cells
+    placed: list[_PieceAt] = []
+    try:
+        for first, values, text in follower.tail(result, lambda: int(cells[_FRONT])):
+            numbers = np.ascontiguousarray(values, dtype=np.float64)
+            rows, columns = numbers.shape
+            block, offset = shared.allocate(numbers.nbytes + len(text))
+            with block:
+                block[: numbers.nbytes] = numbers.tobytes()
+                block[numbers.nbytes : numbers.nbytes + len(text)] = text
+            placed.append((first, rows, columns, offset, len(text)))
+    except Exception:
+        logger.debug("guardian child: the follower's share failed", exc_info=True)
+    return placed
+
+
+def _adopt(follower: Follower, shared: _Shared, placed: object) -> None:
+    """Hand the follower the pieces the child left in the shared file, each checked to lie
+    inside it (the follower checks their values against the result before it uses them)."""
+    if not isinstance(placed, list) or not placed:
+        return
+    size = os.fstat(shared.fd).st_size
+    pieces: list[TailPiece] = []
+    with mmap.mmap(shared.fd, size, prot=mmap.PROT_READ) as view:
+        for entry in placed:
+            if not (isinstance(entry, tuple) and len(entry) == 5):
+                return
+            if not all(isinstance(n, int) and not isinstance(n, bool) and n >= 0 for n in entry):
+                return
+            first, rows, columns, offset, length = entry
+            nbytes = rows * columns * 8
+            if offset < CONTROL or offset + nbytes + length > size:
+                return
+            values = np.frombuffer(view, np.float64, rows * columns, offset).copy()
+            text = view[offset + nbytes : offset + nbytes + length]
+            pieces.append((first, values.reshape(rows, columns), text))
+    try:
+        follower.adopt(pieces)
+    except Exception:  # an optimisation: the results are formatted here without it
+        logger.debug("guardian: the follower refused the child's pieces", exc_info=True)
 
 
 def run_guarded(
@@ -567,7 +624,8 @@ def run_guarded(
             lifetime.set_subreaper(True)  # not inherited through fork
             os.close(read_end)
             components = [c.name for c in system.components]
-            code = _child(run_fn, options, shared, write_end, scratch, components)
+            sharing = follower if published is not None else None
+            code = _child(run_fn, options, shared, write_end, scratch, components, sharing)
         except BaseException:
             with contextlib.suppress(Exception):
                 traceback.print_exc()
@@ -590,9 +648,12 @@ def run_guarded(
             # through SystemExit: the caller's progress display is taken down on the way
             # out (the terminal's cursor restored), and nothing is written twice.
             raise SystemExit(1)
-        result = _unpickle(data, shared)
-        if result is None:
-            result = _salvage(system, shared, status, reason, time.perf_counter() - started)
+        outcome = _unpickle(data, shared)
+        if outcome is None:
+            return _salvage(system, shared, status, reason, time.perf_counter() - started)
+        result, placed = outcome
+        if follower is not None and published is not None:
+            _adopt(follower, shared, placed)
         return result
     finally:
         adoption.close()
@@ -663,10 +724,13 @@ def _wait(
                     worked = _follow(*following)
                     if worked is None:  # the follower failed: the run goes on without it
                         following = None
+                    else:
+                        cells[_FRONT] = following[0].front
                     busy = bool(worked)
             except KeyboardInterrupt as exc:  # SIGINT/SIGTERM/SIGHUP here: the child stops too
                 if reason is None:
                     reason = stop_reason(exc)
+                    cells[_FRONT] = _NO_SHARE  # a child formatting its share stops now
                     deadline = time.monotonic() + STOP_GRACE
                     with contextlib.suppress(ProcessLookupError):
                         os.kill(pid, signal.Signals[reason])
@@ -743,8 +807,9 @@ def _reap(pid: int) -> int:
             continue
 
 
-def _unpickle(data: bytes, shared: _Shared) -> RunResult | None:
-    """The child's result, when it wrote one whole (it is our own forked process)."""
+def _unpickle(data: bytes, shared: _Shared) -> tuple[RunResult, object] | None:
+    """The child's result and where it left its share of the follower's work, when it wrote
+    them whole (it is our own forked process)."""
     if len(data) != _RESULT_MESSAGE:
         return None
     offset = int.from_bytes(data[:8], "little")
@@ -753,8 +818,11 @@ def _unpickle(data: bytes, shared: _Shared) -> RunResult | None:
     if offset < CONTROL or offset + length > size:
         return None
     with mmap.mmap(shared.fd, size, prot=mmap.PROT_READ) as view:
-        result = pickle.loads(view[offset : offset + length])
-    return result if isinstance(result, RunResult) else None
+        outcome = pickle.loads(view[offset : offset + length])
+    if not (isinstance(outcome, tuple) and len(outcome) == 2):
+        return None
+    result, placed = outcome
+    return (result, placed) if isinstance(result, RunResult) else None
 
 
 def _how(status: int, *, of_process: bool = False) -> str:

@@ -24,12 +24,15 @@ from __future__ import annotations
 import contextlib
 import mmap
 import os
-from collections.abc import Callable
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
-from typing import Any, Protocol
+from typing import TYPE_CHECKING, Any, Protocol
 
 import numpy as np
 import numpy.typing as npt
+
+if TYPE_CHECKING:
+    from fmionnx.runtime.result import RunResult
 
 #: Directories listing more tracks or columns than this are not believed.
 MAX_TRACKS = 1 << 16
@@ -46,11 +49,29 @@ class _Region:
     period: int
 
 
+#: A piece of work the guarded child did for the follower: (first row, values, bytes).
+TailPiece = tuple[int, npt.NDArray[np.float64], bytes]
+
+
 class Follower(Protocol):
-    """Puts a guarded run's published rows to use while the run goes on (guardian side)."""
+    """Puts a guarded run's published rows to use while the run goes on (guardian side), and
+    takes a share of the same work in the child once its run has ended."""
 
     def follow(self, published: Published) -> bool:
         """Do a bounded piece of work; True when more may be ready at once (call again)."""
+        ...
+
+    @property
+    def front(self) -> int:
+        """How far :meth:`follow` got (rows from the start): where :meth:`tail` stops."""
+        ...
+
+    def tail(self, result: RunResult, front: Callable[[], int]) -> Iterator[TailPiece]:
+        """In the child, after the run: pieces of work from the end until ``front()``."""
+        ...
+
+    def adopt(self, pieces: Sequence[TailPiece]) -> None:
+        """Take the pieces the child made (read back from the shared file)."""
         ...
 
 
@@ -181,4 +202,4 @@ def _whole(value: object) -> int | None:
     return None
 
 
-__all__ = ["Follower", "Published"]
+__all__ = ["Follower", "Published", "TailPiece"]

@@ -17,6 +17,7 @@ import fmionnx
 from fmionnx.results import csvahead
 from fmionnx.results.csvahead import PIECE_ROWS, CsvAhead
 from fmionnx.results.csvfile import write_csv, write_rows
+from fmionnx.runtime import guardian
 from fmionnx.runtime.guardian import run_guarded
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from tests.backends.test_isolation import SEGFAULT
@@ -131,9 +132,105 @@ def test_a_piece_whose_values_differ_from_the_result_is_not_used(
 def test_formatting_ahead_stops_at_its_memory_bound(
     fixture_fmu, write_system, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setattr(csvahead, "MAX_AHEAD_BYTES", 1)  # one piece, then no more
+    monkeypatch.setattr(csvahead, "MAX_AHEAD_BYTES", 1)  # one piece each, then no more
     path = _long(fixture_fmu, write_system, tmp_path)
     result, ahead = _guarded(path)
-    assert ahead.rows == PIECE_ROWS
+    assert ahead.rows == 2 * PIECE_ROWS  # the guardian's first piece, the child's last one
+    assert sorted(ahead._pieces) == [0, (STEPS // PIECE_ROWS) * PIECE_ROWS]
     plain = fmionnx.load(path).run(isolate="none")
     assert _csv(result, tmp_path / "ahead.csv", ahead) == _csv(plain, tmp_path / "plain.csv")
+
+
+class _Idle(CsvAhead):
+    """Formats nothing while the run goes on: the guarded child's share is then all but the
+    first piece, and nothing depends on how fast either process is."""
+
+    def follow(self, published: object) -> bool:  # type: ignore[override]
+        return False
+
+
+def _lone(fixture_fmu, write_system) -> Path:
+    """One FMU: the native loop ends long before its rows are formatted."""
+    return write_system(
+        f"""
+fmionnx: 1
+name: lone
+run: {{stop: {STEPS * 0.01:g}, step: 0.01}}
+components:
+  integ: {{kind: fmu, path: {fixture_fmu("Integrator")}, parameters: {{u: 0.3}}}}
+"""
+    )
+
+
+def test_the_child_formats_its_share_from_the_end(
+    fixture_fmu, write_system, tmp_path: Path
+) -> None:
+    path = _lone(fixture_fmu, write_system)
+    system = fmionnx.load(path)
+    ahead = _Idle(system.compiled)
+    result = run_guarded(system.compiled, system.run, RunOptions(), follower=ahead)
+    assert result.status is RunStatus.COMPLETED
+    assert result.details["native_loop"] is True
+    last = STEPS // PIECE_ROWS * PIECE_ROWS  # the last piece's first row (the table has STEPS + 1)
+    assert sorted(ahead._pieces) == list(range(PIECE_ROWS, last + 1, PIECE_ROWS))
+    plain = fmionnx.load(path).run(isolate="none")
+    assert _csv(result, tmp_path / "shared.csv", ahead) == _csv(plain, tmp_path / "plain.csv")
+
+
+def test_the_childs_share_stops_at_the_front(fixture_fmu, write_system) -> None:
+    path = _lone(fixture_fmu, write_system)
+    system = fmionnx.load(path)
+    result = system.run(isolate="none")
+    ahead = CsvAhead(system.compiled)
+    last = STEPS // PIECE_ROWS * PIECE_ROWS
+    firsts = [first for first, _, _ in ahead.tail(result, lambda: 3 * PIECE_ROWS)]
+    assert firsts == list(range(last, 3 * PIECE_ROWS, -PIECE_ROWS))
+    whole = [first for first, _, _ in ahead.tail(result, lambda: 0)]
+    assert whole == list(range(last, 0, -PIECE_ROWS))  # all but the guardian's first piece
+    fronts = iter(range(0, last, PIECE_ROWS // 2))  # the front moves on meanwhile: they meet
+    met = [first for first, _, _ in ahead.tail(result, lambda: next(fronts))]
+    assert met == whole[:6]
+    assert list(ahead.tail(result, lambda: int(guardian._NO_SHARE))) == []  # a stop request
+
+
+def test_a_share_that_is_not_the_results_is_not_used(
+    fixture_fmu, write_system, tmp_path: Path
+) -> None:
+    path = _lone(fixture_fmu, write_system)
+    system = fmionnx.load(path)
+    result = system.run(isolate="none")
+    ahead = CsvAhead(system.compiled)
+    pieces = list(ahead.tail(result, lambda: 0))
+    forged = [(first, values + 1.0, text) for first, values, text in pieces]  # other numbers
+    misplaced = [(first + 1, values, text) for first, values, text in pieces]  # off the grid
+    ahead.adopt([*forged, *misplaced])
+    assert ahead._pieces  # adopted, but their values are not the table's
+    expected = _csv(result, tmp_path / "plain.csv")
+    assert _csv(result, tmp_path / "forged.csv", ahead) == expected
+    assert ahead.text(np.column_stack([result.time, *result.signals.values()]), PIECE_ROWS) is None
+
+
+@pytest.mark.parametrize(
+    "placed",
+    [
+        "not a list",
+        [(0, 1, 1, 0, 1)],  # inside the control block
+        [(0, 1, 1, 1 << 40, 1)],  # beyond the file
+        [(0, -1, 1, guardian.CONTROL, 1)],
+        [(0, 1, 1, guardian.CONTROL, 1, 9)],
+        [(True, 1, 1, guardian.CONTROL, 1)],
+    ],
+)
+def test_where_the_child_says_its_share_is_checked(placed: object) -> None:
+    shared = guardian._Shared()
+    adopted: list[object] = []
+
+    class Recording(_Idle):
+        def adopt(self, pieces) -> None:  # type: ignore[no-untyped-def]
+            adopted.append(pieces)
+
+    try:
+        guardian._adopt(Recording.__new__(Recording), shared, placed)
+    finally:
+        shared.close()
+    assert adopted == []
