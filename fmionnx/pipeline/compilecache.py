@@ -39,11 +39,9 @@ from __future__ import annotations
 import contextlib
 import functools
 import hashlib
-import hmac
 import json
 import os
 import secrets
-import stat
 import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -53,6 +51,14 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.runflags import RunFlags
 from fmionnx.core.cachedir import cache_folder, discard, evict, touch
 from fmionnx.core.diagnostics import Diagnostic
+from fmionnx.core.private import (
+    NotPrivateError,
+    check_private_folder,
+    read_private,
+    signature,
+    signed_by,
+    user_key,
+)
 from fmionnx.core.types import Component
 
 #: The cache folder's name under the cache root.
@@ -73,11 +79,10 @@ MAX_HASHED_BYTES = 1024 * 1024 * 1024
 MAX_HASHED_FILES = 10_000
 #: The entry's file in its folder, and the key's file in the cache folder.
 ENTRY = "entry.json"
-KEY_FILE = ".key"
 
 
-class _RefusedError(Exception):
-    """An entry that must not be used (unsafe, damaged, stale or of another format)."""
+#: An entry that must not be used (unsafe, damaged, stale or of another format).
+_RefusedError = NotPrivateError
 
 
 @dataclass(frozen=True)
@@ -302,71 +307,6 @@ def _root() -> Path:
     return cache_folder(FOLDER)
 
 
-def _owned_privately(info: os.stat_result, *, folder: bool, secret: bool = False) -> bool:
-    """Owned by this user, writable by nobody else (a ``secret`` not even readable), and a
-    plain folder or file (no link)."""
-    kind = stat.S_ISDIR(info.st_mode) if folder else stat.S_ISREG(info.st_mode)
-    others = 0o077 if secret else 0o022
-    return kind and info.st_uid == os.getuid() and not info.st_mode & others
-
-
-def _safe_folder(folder: Path) -> None:
-    if not _owned_privately(os.lstat(folder), folder=True):
-        msg = f"{folder} is not a private folder of this user"
-        raise _RefusedError(msg)
-
-
-def _read_private(file: Path, limit: int, *, secret: bool = False) -> bytes:
-    """The bytes of ``file``, a private file of this user, opened without following a link."""
-    handle = os.open(file, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC)
-    try:
-        if not _owned_privately(os.fstat(handle), folder=False, secret=secret):
-            msg = f"{file} is not a private file of this user"
-            raise _RefusedError(msg)
-        with os.fdopen(handle, "rb", closefd=False) as stream:
-            data = stream.read(limit + 1)
-    finally:
-        os.close(handle)
-    if len(data) > limit:
-        msg = f"{file} is larger than {limit} bytes"
-        raise _RefusedError(msg)
-    return data
-
-
-def _secret(root: Path, *, make: bool) -> bytes:
-    """This user's key for signing entries, readable by nobody else.
-
-    A writer (``make``) whose key is missing or unusable (readable by others, a link, not a
-    key) makes a new one: the entries signed with the old key are then refused and written
-    again, one by one, as their systems are compiled.
-    """
-    file = root / KEY_FILE
-    try:
-        return _load_key(file)
-    except (OSError, _RefusedError):
-        if not make:
-            raise
-    with contextlib.suppress(FileNotFoundError):
-        file.unlink()
-    with contextlib.suppress(FileExistsError):  # else another process made one meanwhile
-        handle = os.open(file, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(secrets.token_bytes(32))
-    return _load_key(file)
-
-
-def _load_key(file: Path) -> bytes:
-    key = _read_private(file, 64, secret=True)
-    if len(key) != 32:
-        msg = f"{file} is not a key"
-        raise _RefusedError(msg)
-    return key
-
-
-def _signature(secret: bytes, body: bytes) -> str:
-    return hmac.new(secret, body, hashlib.sha256).hexdigest()
-
-
 def _read(folder: Path, key: str) -> Cached | None:
     """The entry in ``folder`` if it is sound and still current; None if there is none;
     :class:`_RefusedError` if it must not be used."""
@@ -375,13 +315,11 @@ def _read(folder: Path, key: str) -> Cached | None:
     root = folder.parent
     if not (folder / ENTRY).exists():
         return None
-    _safe_folder(root)
-    _safe_folder(folder)
-    data = _read_private(folder / ENTRY, MAX_ENTRY_BYTES)
-    signature, _, body = data.partition(b"\n")
-    if not hmac.compare_digest(
-        signature.decode("ascii", "replace"), _signature(_secret(root, make=False), body)
-    ):
+    check_private_folder(root)
+    check_private_folder(folder)
+    data = read_private(folder / ENTRY, MAX_ENTRY_BYTES)
+    claimed, _, body = data.partition(b"\n")
+    if not signed_by(user_key(root, make=False), body, claimed.decode("ascii", "replace")):
         raise _RefusedError
     entry = json.loads(body)
     if not isinstance(entry, dict) or entry.get("format") != [FORMAT, VERSION]:
@@ -418,7 +356,7 @@ def _write(
     max_bytes, max_days = COMPILE_CACHE_BYTES.value(), CACHE_DAYS.value()
     root = _root()
     root.mkdir(mode=0o700, parents=True, exist_ok=True)
-    _safe_folder(root)
+    check_private_folder(root)
     entry = {
         "format": [FORMAT, VERSION],
         "key": key,
@@ -427,16 +365,16 @@ def _write(
         "system": to_json(system),
     }
     body = json.dumps(entry, separators=(",", ":")).encode()
-    data = _signature(_secret(root, make=True), body).encode() + b"\n" + body
+    data = signature(user_key(root, make=True), body).encode() + b"\n" + body
     folder = root / key
     with contextlib.suppress(FileNotFoundError):
         try:
-            _safe_folder(folder)
+            check_private_folder(folder)
         except _RefusedError:  # someone else's, or opened to others: not ours to write into
             discard(folder)
     with contextlib.suppress(FileExistsError):
         folder.mkdir(mode=0o700)
-    _safe_folder(folder)
+    check_private_folder(folder)
     partial = folder / f".{ENTRY}.{os.getpid()}.{secrets.token_hex(4)}"
     handle = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
     try:

@@ -14,6 +14,7 @@ from pathlib import Path
 import pytest
 
 import fmionnx
+from fmionnx.core.private import KEY_FILE
 from fmionnx.pipeline import compilecache, system
 from fmionnx.pipeline.system import CompileResult, compile_system
 from tests.conftest import REPO, build_fixture_fmu
@@ -210,7 +211,7 @@ def _forge_with_a_new_key(entry: Path) -> None:
     import hmac
 
     _tamper_body(entry)
-    key = entry.parent.parent / compilecache.KEY_FILE
+    key = entry.parent.parent / KEY_FILE
     key.unlink()
     key.write_bytes(b"k" * 32)
     key.chmod(0o644)  # readable by others: a key anyone could have used
@@ -247,7 +248,7 @@ def _resign(entry: Path, change: Callable[[dict[str, object]], None]) -> None:
 
     data = json.loads(entry.read_bytes().partition(b"\n")[2])
     change(data)
-    secret = (entry.parent.parent / compilecache.KEY_FILE).read_bytes()
+    secret = (entry.parent.parent / KEY_FILE).read_bytes()
     body = json.dumps(data).encode()
     entry.write_bytes(hmac.new(secret, body, hashlib.sha256).hexdigest().encode() + b"\n" + body)
 
