@@ -65,6 +65,11 @@ def _location(tensor: Any) -> str:
     return next((entry.value for entry in tensor.external_data if entry.key == "location"), "")
 
 
+def has_external_data(model: Any) -> bool:
+    """Whether any tensor of ``model`` keeps its data in a file of its own."""
+    return any(tensor.data_location == EXTERNAL for tensor in all_tensors(model))
+
+
 def check_external_data(model: Any, path: Path) -> None:
     """Raise ModelError (E017) for an external tensor of the model at ``path`` stored
     anywhere but inside the model's folder."""

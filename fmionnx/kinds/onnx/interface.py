@@ -56,21 +56,37 @@ def load_checked_model(path: Path) -> tuple[Any, bytes]:
     Raises ModelError: E012 not a model, E017 external data outside the model's folder, E011
     a model file that is not a regular file, E008 one too large.
     """
-    import onnx
-    from google.protobuf.message import DecodeError
+    data = read_model_bytes(path)
+    return parse_checked_model(data, path), data
 
+
+def read_model_bytes(path: Path) -> bytes:
+    """The bytes of the ONNX model at ``path`` (a regular file within the size limit).
+
+    Raises ModelError: E011 not a regular file, E008 too large, E001 unreadable.
+    """
     try:
-        data = read_regular(path, MODEL_FILE_BYTES, f"the ONNX model `{path.name}`")
+        return read_regular(path, MODEL_FILE_BYTES, f"the ONNX model `{path.name}`")
     except OSError as exc:
         msg = f"cannot read `{path}`: {exc.strerror}"
         raise ModelError(codes.FILE_NOT_FOUND, msg) from None
+
+
+def parse_checked_model(data: bytes, path: Path) -> Any:
+    """The ``onnx.ModelProto`` of ``data`` (read from ``path``), external data checked.
+
+    Raises ModelError: E012 not a model, E017 external data outside the model's folder.
+    """
+    import onnx
+    from google.protobuf.message import DecodeError
+
     try:
         model = onnx.load_model_from_string(data)
     except (DecodeError, ValueError, RuntimeError) as exc:
         msg = f"`{path}` is not an ONNX model (protobuf could not be decoded: {exc})"
         raise ModelError(codes.BAD_MODEL, msg) from None
     check_external_data(model, path)
-    return model, data
+    return model
 
 
 def _read(path: Path) -> ComponentInterface:

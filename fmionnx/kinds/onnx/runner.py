@@ -105,7 +105,9 @@ class OnnxRunner:
 
         The model's external data is checked again first (E017), and the sizes of what it
         stores and computes (E008, :mod:`.sizes`): the file may have changed since it was
-        compiled, and onnxruntime opens whatever its locations name.
+        compiled, and onnxruntime opens whatever its locations name. A model without external
+        data is handed to onnxruntime as the bytes that were checked, and bytes that passed
+        before are not checked again (:mod:`.checked`).
 
         Graph optimisation stops at ``ORT_ENABLE_EXTENDED`` (constant folding, Conv+activation
         and other fusions) instead of onnxruntime's default ``ORT_ENABLE_ALL``, whose extra
@@ -113,9 +115,7 @@ class OnnxRunner:
         such as the reference sign detector the reorders it inserts made a run several times
         slower (docs/performance.md, "Sign detector and camera rendering").
         """
-        from fmionnx.kinds.onnx.interface import load_checked_model
         from fmionnx.kinds.onnx.ortsetup import onnxruntime_module, session_options
-        from fmionnx.kinds.onnx.sizes import check_model_sizes
 
         config = self.component.config
         assert isinstance(config, OnnxConfig)
@@ -129,8 +129,7 @@ class OnnxRunner:
             self._session = SESSIONS.take(self._key)
             if self._session is not None:
                 return  # made from this very file (its identity is in the key), checked then
-        model, _ = load_checked_model(self.component.path)
-        check_model_sizes(model, self.component.path)  # it may have changed since compiling
+        source = self._checked_source()
         options = session_options(ort)
         if threads is not None:
             options.intra_op_num_threads = threads
@@ -139,13 +138,32 @@ class OnnxRunner:
         options.graph_optimization_level = ort.GraphOptimizationLevel.ORT_ENABLE_EXTENDED
         providers = list(config.providers)
         try:
-            self._session = ort.InferenceSession(
-                str(self.component.path), sess_options=options, providers=providers
-            )
+            self._session = ort.InferenceSession(source, sess_options=options, providers=providers)
         except Exception as exc:
             raise fault(
                 self.component.name, f"cannot create the session: {exc}", time=0.0
             ) from None
+
+    def _checked_source(self) -> str | bytes:
+        """What onnxruntime loads: the model's bytes once they passed the check (now or in an
+        earlier run), or its path when it keeps data in external files (checked each time).
+        """
+        from fmionnx.kinds.onnx import checked
+        from fmionnx.kinds.onnx.interface import parse_checked_model, read_model_bytes
+
+        path = self.component.path
+        data = read_model_bytes(path)
+        if checked.passed(data):
+            return data
+        from fmionnx.kinds.onnx.external import has_external_data
+        from fmionnx.kinds.onnx.sizes import check_model_sizes
+
+        model = parse_checked_model(data, path)
+        check_model_sizes(model, path)  # it may have changed since compiling
+        if has_external_data(model):
+            return str(path)
+        checked.remember(data)
+        return data
 
     def setup(self, start: float, stop: float) -> None:
         """Allocate input buffers from start values, run once so outputs hold initial values."""
