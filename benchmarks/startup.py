@@ -11,7 +11,8 @@ tables report medians and ratios.
    C in ``tests/fixtures/fmus``) co-simulated with ``u = 1`` for 200 000 steps of 0.01 s, its
    output ``x`` written to CSV at every step: ``fmpy simulate`` against ``fmionnx run
    MODEL.fmu`` as a user gets it by default (a lone FMU: the guardian, the whole run in one
-   forked child that records into shared memory while this process formats results.csv:
+   forked child whose native loop steps the FMU and records into shared memory, while this
+   process formats results.csv, the child taking a share from the end once its run is done:
    :mod:`fmionnx.runtime.guardian`), with an explicit ``--isolate fmus`` (the FMU in a child
    process of its own, one pipe round trip per step; the default for systems of several
    components), with ``--isolate guardian`` and with ``--isolate none`` (the FMU in

@@ -2,7 +2,10 @@
 
 from __future__ import annotations
 
+import atexit
+import os
 import sys
+import threading
 from importlib.machinery import ModuleSpec
 from pathlib import Path
 
@@ -47,6 +50,59 @@ def main() -> None:
         where = f": `{exc.filename}`" if exc.filename else ""
         print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
         sys.exit(ExitCode.PROBLEMS)
+
+
+#: Modules whose objects may still have work to do when they are torn down (network sessions
+#: that send what is queued as they close): a process that loaded them exits the slow way.
+KEEP_TEARDOWN = ("rclpy", "zenoh")
+
+
+def console() -> None:
+    """The console script's entry point (and ``python -m fmionnx``): :func:`main`, then out
+    without the interpreter's teardown.
+
+    Once a command is done, Python would still tear down every module and object it made
+    before the process ends: about 0.25 s after a lone FMU's run of 1.2 s, and after every
+    other command, for nothing anyone sees (every file fmionnx writes is closed by then). So
+    the exit status is handed to the system directly, after what Python's exit does that
+    matters: its ``atexit`` hooks (the isolated models' zygote, scratch folders, logging) and
+    the standard streams flushed. A process where another (non-daemon) thread still runs, or
+    that loaded a module of :data:`KEEP_TEARDOWN`, or whose streams cannot be flushed, exits
+    the normal way. :func:`main` itself stays an ordinary function for programs that call it.
+    """
+    try:
+        main()
+    except SystemExit as exc:
+        _leave(exc.code)
+        raise
+    _leave(None)
+
+
+def _leave(code: object) -> None:
+    """End the process with ``code`` (as ``SystemExit`` takes it) after the ``atexit`` hooks,
+    skipping the interpreter's teardown; returns only where that is not safe (see
+    :func:`console`)."""
+    others = [t for t in threading.enumerate() if t is not threading.current_thread()]
+    if any(not t.daemon for t in others) or any(name in sys.modules for name in KEEP_TEARDOWN):
+        return
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    except (OSError, ValueError):  # a closed or broken stream: let Python report it
+        return
+    if code is None:
+        status = 0
+    elif isinstance(code, int):
+        status = code
+    else:  # sys.exit("message"): printed, status 1, as Python does
+        print(code, file=sys.stderr)
+        status = 1
+    atexit._run_exitfuncs()
+    try:
+        sys.stdout.flush()
+        sys.stderr.flush()
+    finally:
+        os._exit(status & 0xFF)
 
 
 #: The name of the console script that pip writes (``bin/fmionnx``).
