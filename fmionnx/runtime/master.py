@@ -274,7 +274,8 @@ class Master:
         if views_problem(tracks) is not None:
             return None
         run = self.system.run
-        address = self._marker.t_address()
+        cell = getattr(self._marker, "t_address", None)  # an injected marker may have none
+        address = cell() if callable(cell) else 0
         return BulkLoop(
             group.kernel, group, tracks, start=run.start, step=run.step, h=work.h,
             marker_t=address or None,
