@@ -653,7 +653,10 @@ def run_guarded(
             return _salvage(system, shared, status, reason, time.perf_counter() - started)
         result, placed = outcome
         if follower is not None and published is not None:
-            _adopt(follower, shared, placed)
+            try:
+                _adopt(follower, shared, placed)
+            except Exception:  # an optimisation: the results are formatted without it
+                logger.debug("guardian: the child's pieces could not be read", exc_info=True)
         return result
     finally:
         adoption.close()

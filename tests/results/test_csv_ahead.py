@@ -234,3 +234,20 @@ def test_where_the_child_says_its_share_is_checked(placed: object) -> None:
     finally:
         shared.close()
     assert adopted == []
+
+
+def test_a_share_that_cannot_be_read_back_costs_nothing_but_time(
+    fixture_fmu, write_system, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    def broken(*_: object) -> None:
+        raise OSError("the shared file could not be mapped")
+
+    monkeypatch.setattr(guardian, "_adopt", broken)
+    path = _lone(fixture_fmu, write_system)
+    system = fmionnx.load(path)
+    ahead = _Idle(system.compiled)
+    result = run_guarded(system.compiled, system.run, RunOptions(), follower=ahead)
+    assert result.status is RunStatus.COMPLETED
+    assert not ahead._pieces  # nothing adopted; the file is formatted here
+    plain = fmionnx.load(path).run(isolate="none")
+    assert _csv(result, tmp_path / "guarded.csv", ahead) == _csv(plain, tmp_path / "plain.csv")
