@@ -59,6 +59,7 @@ from fmionnx.core.private import (
     signed_by,
     user_key,
 )
+from fmionnx.core.switches import switched_off
 from fmionnx.core.types import Component
 
 #: The cache folder's name under the cache root.
@@ -95,8 +96,7 @@ class Cached:
 
 def enabled() -> bool:
     """Whether the cache is on (``FMIONNX_COMPILE_CACHE`` unset or not a "no")."""
-    value = os.environ.get(SWITCH, "").strip().lower()
-    return value not in {"0", "off", "no", "false"}
+    return not switched_off(SWITCH)
 
 
 def applies_to(path: Path) -> bool:

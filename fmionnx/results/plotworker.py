@@ -36,6 +36,7 @@ from typing import IO, TYPE_CHECKING, cast
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.cores import usable_cores
+from fmionnx.core.switches import switched_off
 from fmionnx.results.forkdraw import draw_side_by_side, processes_for
 from fmionnx.runtime.result import RunResult
 
@@ -86,7 +87,7 @@ class PlotAnswer:
 def wanted() -> bool:
     """Whether plots go to a worker here: not switched off, and a second core to run it on
     (on one core a second process only adds its own start)."""
-    if os.environ.get(SWITCH, "").strip().lower() in {"0", "off", "no", "false"}:
+    if switched_off(SWITCH):
         return False
     return usable_cores() >= 2
 

@@ -29,6 +29,7 @@ import time
 from pathlib import Path
 
 from fmionnx.core.cachedir import cache_folder
+from fmionnx.core.switches import switched_off
 
 #: The environment variable that turns the keeping off (``0``).
 SWITCH = "FMIONNX_GL_CACHE"
@@ -64,7 +65,7 @@ _BACKENDS = frozenset({"egl", "osmesa"})
 
 def enabled() -> bool:
     """Whether answers are kept (``FMIONNX_GL_CACHE`` unset or not a "no")."""
-    return os.environ.get(SWITCH, "").strip().lower() not in {"0", "off", "no", "false"}
+    return not switched_off(SWITCH)
 
 
 def _stamp(path: str) -> str:

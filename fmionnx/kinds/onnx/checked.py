@@ -39,6 +39,7 @@ from fmionnx.core.private import (
     user_key,
 )
 from fmionnx.core.resources import ARRAY_ELEMENTS, MODEL_ELEMENTS, MODEL_FILE_BYTES
+from fmionnx.core.switches import switched_off
 
 #: The environment variable that turns the remembering off (``0``).
 SWITCH = "FMIONNX_ONNX_CHECKED"
@@ -50,7 +51,7 @@ _LIMITS = (ARRAY_ELEMENTS, MODEL_ELEMENTS, MODEL_FILE_BYTES)
 
 def enabled() -> bool:
     """Whether verdicts are remembered (``FMIONNX_ONNX_CHECKED`` unset or not a "no")."""
-    return os.environ.get(SWITCH, "").strip().lower() not in {"0", "off", "no", "false"}
+    return not switched_off(SWITCH)
 
 
 def key(data: bytes) -> str:

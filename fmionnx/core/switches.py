@@ -1,0 +1,16 @@
+"""Environment switches that turn a speed-up off (``FMIONNX_COMPILE_CACHE=0`` and the like).
+
+One reading of them for every switch, so that each accepts the same words.
+"""
+
+from __future__ import annotations
+
+import os
+
+#: The values that turn a switch off (compared without case or surrounding blanks).
+OFF = frozenset({"0", "off", "no", "false"})
+
+
+def switched_off(variable: str) -> bool:
+    """Whether the environment variable ``variable`` is set to one of :data:`OFF`."""
+    return os.environ.get(variable, "").strip().lower() in OFF
