@@ -88,6 +88,21 @@ def _load_key(file: Path) -> bytes:
     return key
 
 
+def write_private(path: Path, data: bytes) -> None:
+    """Write ``data`` as ``path`` in a private folder: through a new file of this user alone
+    (never through a link), renamed over ``path``, so readers see the old file or the new one
+    whole. Raises OSError; the new file is gone either way."""
+    partial = path.with_name(f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}")
+    handle = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
+    try:
+        with os.fdopen(handle, "wb") as stream:
+            stream.write(data)
+        partial.replace(path)
+    finally:
+        with contextlib.suppress(FileNotFoundError):
+            partial.unlink()
+
+
 def signature(key: bytes, body: bytes) -> str:
     """The hex HMAC-SHA256 of ``body`` under ``key``."""
     return hmac.new(key, body, hashlib.sha256).hexdigest()

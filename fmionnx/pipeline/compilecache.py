@@ -41,7 +41,6 @@ import functools
 import hashlib
 import json
 import os
-import secrets
 import sys
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
@@ -58,6 +57,7 @@ from fmionnx.core.private import (
     signature,
     signed_by,
     user_key,
+    write_private,
 )
 from fmionnx.core.switches import switched_off
 from fmionnx.core.types import Component
@@ -375,13 +375,5 @@ def _write(
     with contextlib.suppress(FileExistsError):
         folder.mkdir(mode=0o700)
     check_private_folder(folder)
-    partial = folder / f".{ENTRY}.{os.getpid()}.{secrets.token_hex(4)}"
-    handle = os.open(partial, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
-    try:
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(data)
-        partial.replace(folder / ENTRY)  # readers see the old entry or the new one, whole
-    finally:
-        with contextlib.suppress(FileNotFoundError):
-            partial.unlink()
+    write_private(folder / ENTRY, data)  # readers see the old entry or the new one, whole
     evict(root, keep=folder, max_bytes=max_bytes, max_days=max_days)

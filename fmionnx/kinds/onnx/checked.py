@@ -24,9 +24,8 @@ one that does not check out, is ignored and the model is checked.
 from __future__ import annotations
 
 import contextlib
+import functools
 import hashlib
-import os
-import secrets
 from pathlib import Path
 
 from fmionnx.core.cachedir import cache_folder
@@ -37,9 +36,11 @@ from fmionnx.core.private import (
     signature,
     signed_by,
     user_key,
+    write_private,
 )
 from fmionnx.core.resources import ARRAY_ELEMENTS, MODEL_ELEMENTS, MODEL_FILE_BYTES
 from fmionnx.core.switches import switched_off
+from fmionnx.kinds.cache import file_identity
 
 #: The environment variable that turns the remembering off (``0``).
 SWITCH = "FMIONNX_ONNX_CHECKED"
@@ -62,9 +63,11 @@ def key(data: bytes) -> str:
     return hashlib.sha256("\0".join(parts).encode()).hexdigest()
 
 
-def _checker_stamps() -> list[str]:
+@functools.cache
+def _checker_stamps() -> tuple[str, ...]:
     """The checking code: the sources of the modules that check, and ``onnx``'s installed
-    package (found without importing it: the import is what a verdict saves)."""
+    package (found without importing it: the import is what a verdict saves). Read once per
+    process, as the code it describes is loaded once."""
     import importlib.util
 
     from fmionnx.core import resources
@@ -77,14 +80,17 @@ def _checker_stamps() -> list[str]:
     with contextlib.suppress(ImportError, ValueError, OSError):
         spec = importlib.util.find_spec("onnx")
         if spec is not None and spec.origin is not None:
-            info = Path(spec.origin).stat()
-            stamps.append(f"onnx:{spec.origin}:{info.st_ino}:{info.st_size}:{info.st_mtime_ns}")
-    return stamps
+            stamps.append(f"onnx:{file_identity(Path(spec.origin))}")
+    return tuple(stamps)
 
 
 def entry(data: bytes) -> Path:
     """The cache file that holds the verdict on the model of bytes ``data``."""
-    return cache_folder(FOLDER) / key(data)[:40]
+    return _entry(key(data))
+
+
+def _entry(verdict_key: str) -> Path:
+    return cache_folder(FOLDER) / verdict_key[:40]
 
 
 def passed(data: bytes) -> bool:
@@ -92,11 +98,12 @@ def passed(data: bytes) -> bool:
     verdict of this user for exactly this key."""
     if not enabled():
         return False
-    path = entry(data)
     try:
+        verdict_key = key(data)
+        path = _entry(verdict_key)
         check_private_folder(path.parent)
         claimed = read_private(path, 64).decode("ascii", "replace")
-        return signed_by(user_key(path.parent, make=False), key(data).encode(), claimed)
+        return signed_by(user_key(path.parent, make=False), verdict_key.encode(), claimed)
     except (OSError, NotPrivateError):
         return False
 
@@ -106,17 +113,10 @@ def remember(data: bytes) -> None:
     cannot be written (or is not this user's alone) is no error: the next run checks again."""
     if not enabled():
         return
-    path = entry(data)
-    root = path.parent
-    scratch = root / f".{path.name}.{os.getpid()}.{secrets.token_hex(4)}"
-    try:
-        root.mkdir(mode=0o700, parents=True, exist_ok=True)
-        check_private_folder(root)
-        verdict = signature(user_key(root, make=True), key(data).encode()).encode()
-        handle = os.open(scratch, os.O_WRONLY | os.O_CREAT | os.O_EXCL | os.O_NOFOLLOW, 0o600)
-        with os.fdopen(handle, "wb") as stream:
-            stream.write(verdict)
-        scratch.replace(path)
-    except (OSError, NotPrivateError):
-        with contextlib.suppress(OSError):
-            scratch.unlink()
+    with contextlib.suppress(OSError, NotPrivateError):
+        verdict_key = key(data)
+        path = _entry(verdict_key)
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        check_private_folder(path.parent)
+        verdict = signature(user_key(path.parent, make=True), verdict_key.encode())
+        write_private(path, verdict.encode())
