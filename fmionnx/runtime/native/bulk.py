@@ -100,15 +100,12 @@ class BulkLoop:
         Any other code is the group's fault at that step (:meth:`NativeGroup.fault`). The
         tracks' counts are brought up to date before this returns.
         """
-        specs, tracks = self._specs, self._tracks
         while True:
             code = self._run_fn(self._group_address, self._run_address, first, last)
-            for spec, track in zip(specs, tracks, strict=False):
-                track.count = spec.count
+            first = self._counted()
             if code != k.FULL:
-                return code, self._run.next
-            first = self._run.next
-            for spec, track in zip(specs, tracks, strict=False):
+                return code, first
+            for spec, track in zip(self._specs, self._tracks, strict=False):
                 if track.count >= len(track.rows):
                     track.reserve()
                     self._place(spec, track)
@@ -116,6 +113,11 @@ class BulkLoop:
     def under_way(self) -> int:
         """The base step a call is in (read from another thread while the call is stuck in a
         model's step: the watchdog's), with the tracks' counts brought up to date."""
+        return self._counted()
+
+    def _counted(self) -> int:
+        """The tracks' counts as the kernel left them, copied to the tracks; the run's next
+        step."""
         for spec, track in zip(self._specs, self._tracks, strict=False):
             track.count = spec.count
         return int(self._run.next)
