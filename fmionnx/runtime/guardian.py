@@ -556,7 +556,8 @@ def _tail(follower: Follower, result: RunResult, shared: _Shared) -> list[_Piece
 
 def _adopt(follower: Follower, shared: _Shared, placed: object) -> None:
     """Hand the follower the pieces the child left in the shared file, each checked to lie
-    inside it (the follower checks their values against the result before it uses them)."""
+    inside it (the follower checks their values against the result before it uses them).
+    The caller keeps the run's result whatever this raises."""
     if not isinstance(placed, list) or not placed:
         return
     size = os.fstat(shared.fd).st_size
@@ -574,10 +575,7 @@ def _adopt(follower: Follower, shared: _Shared, placed: object) -> None:
             values = np.frombuffer(view, np.float64, rows * columns, offset).copy()
             text = view[offset + nbytes : offset + nbytes + length]
             pieces.append((first, values.reshape(rows, columns), text))
-    try:
-        follower.adopt(pieces)
-    except Exception:  # an optimisation: the results are formatted here without it
-        logger.debug("guardian: the follower refused the child's pieces", exc_info=True)
+    follower.adopt(pieces)
 
 
 def run_guarded(
@@ -656,7 +654,7 @@ def run_guarded(
             try:
                 _adopt(follower, shared, placed)
             except Exception:  # an optimisation: the results are formatted without it
-                logger.debug("guardian: the child's pieces could not be read", exc_info=True)
+                logger.debug("guardian: the child's pieces were not taken", exc_info=True)
         return result
     finally:
         adoption.close()
