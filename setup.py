@@ -97,7 +97,14 @@ setup(
             sources=[(NATIVE / MANIFEST.SOURCE_NAME).as_posix()],
             libraries=["m"],
             extra_compile_args=list(MANIFEST.COMPILE_FLAGS),
-            export_symbols=["fx_group_step", "fx_group_run", "fx_abi_version", "fx_abi_layout"],
+            export_symbols=[
+                "fx_group_step",
+                "fx_group_run",
+                "fx_link_step",
+                "fx_serve",
+                "fx_abi_version",
+                "fx_abi_layout",
+            ],
         )
     ],
     cmdclass={"build_ext": BuildKernel},

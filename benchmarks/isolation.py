@@ -21,6 +21,10 @@ in one run, the two modes interleaved (round *r* starts with the other mode than
    Target: the isolated loop within 1.5x of the in-process loop. The recorded signals of
    every run are compared with the first in-process run's: isolation must not change results.
 
+Both run a third mode too: isolated, with the step hand-over in Python (``FMIONNX_NATIVE=0``)
+instead of the native kernel's (``fmionnx/runtime/isolated/handover.py``), to show what the
+kernel's ends of the round trip save. With every FMU isolated, the switch changes nothing else.
+
 Targets are reported, not asserted (a timing depends on the machine and its load). Run:
 ``python benchmarks/isolation.py`` (about a minute on 2 cores), ``--quick`` for a smoke run.
 """
@@ -34,7 +38,8 @@ import statistics
 import sys
 import tempfile
 import time
-from collections.abc import Callable, Sequence
+from collections.abc import Callable, Iterator, Sequence
+from contextlib import contextmanager
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Any
@@ -52,6 +57,9 @@ from benchmarks import chain, machine, report, scenario  # noqa: E402
 
 INPROCESS = "in-process"
 ISOLATED = "isolated"
+ISOLATED_PYTHON = "isolated, hand-over in Python"
+#: What makes a mode's hand-over Python's: the native kernel switched off.
+PYTHON_HANDOVER = (("FMIONNX_NATIVE", "0"),)
 CHAIN_N = 4
 #: The reference scenario's FMUs: what ``--isolate fmus`` (the CLI default) isolates there.
 SCENARIO_ISOLATED = frozenset({"odometry", "tracker"})
@@ -88,6 +96,8 @@ class Mode:
 
     name: str
     isolate: frozenset[str]
+    #: Environment variables set while this mode runs.
+    env: tuple[tuple[str, str], ...] = ()
     samples: list[Sample] = field(default_factory=list)
     #: Whether the native kernel stepped FMUs (``RunResult.details["native"]``).
     native: bool | None = None
@@ -135,11 +145,34 @@ def interleaved(
     for round_ in range(repeats):
         shift = round_ % len(modes)
         for mode in [*modes[shift:], *modes[:shift]]:
-            sample, result = run_once(mode)
+            with environment(mode.env):
+                sample, result = run_once(mode)
             mode.samples.append(sample)
             mode.native = bool(result.details.get("native"))
             results.append((mode, result))
     return results
+
+
+@contextmanager
+def environment(variables: Sequence[tuple[str, str]]) -> Iterator[None]:
+    """``variables`` set in this process's environment for a while (isolated children take it)."""
+    before = {name: os.environ.get(name) for name, _ in variables}
+    os.environ.update(dict(variables))
+    try:
+        yield
+    finally:
+        for name, value in before.items():
+            if value is None:
+                os.environ.pop(name, None)
+            else:
+                os.environ[name] = value
+
+
+def handover(mode: Mode) -> str:
+    """Who makes an isolated mode's step round trips: the native kernel or Python."""
+    if not mode.isolate:
+        return "-"
+    return "Python" if mode.env == PYTHON_HANDOVER else "kernel"
 
 
 def ratio(a: float | None, b: float | None) -> float | None:
@@ -184,7 +217,11 @@ def chain_modes(n: int, steps: int, repeats: int, work: Path | None = None) -> l
             path.write_text(chain.system_text(case), encoding="utf-8")
             system = fmionnx.load(path)
             names = frozenset(f"g{i}" for i in range(n))
-            modes = [Mode(INPROCESS, frozenset()), Mode(ISOLATED, names)]
+            modes = [
+                Mode(INPROCESS, frozenset()),
+                Mode(ISOLATED, names),
+                Mode(ISOLATED_PYTHON, names, PYTHON_HANDOVER),
+            ]
             tail = PortRef(f"g{n - 1}", "y")
             for mode in modes:  # untimed: both modes compute 2**N at the tail
                 check = system.run(
@@ -212,6 +249,7 @@ def chain_rows(modes: Sequence[Mode], n: int) -> list[Row]:
                 "mode": mode.name,
                 "isolated": ", ".join(sorted(mode.isolate)) or "-",
                 "native": None if mode.native is None else ("yes" if mode.native else "no"),
+                "handover": handover(mode),
                 "steps": mode.samples[0].steps if mode.samples else None,
                 "median_us_per_step": per_step,
                 "min_us_per_step": min((s.us_per_step for s in mode.samples), default=None),
@@ -230,7 +268,8 @@ def chain_rows(modes: Sequence[Mode], n: int) -> list[Row]:
 CHAIN_COLUMNS = (
     ("mode", "mode"),
     ("isolated", "isolated components"),
-    ("native", "native kernel"),
+    ("native", "native kernel in-process"),
+    ("handover", "hand-over"),
     ("median_us_per_step", "µs/step (median)"),
     ("min_us_per_step", "µs/step (min)"),
     ("us_per_fmu_step", "µs per FMU-step"),
@@ -255,7 +294,11 @@ def scenario_modes(stop_time: float, repeats: int) -> tuple[float, list[Mode]]:
 
     system = scenario.load_system(stop_time)
     simulated = float(system.compiled.run.stop) - float(system.compiled.run.start)
-    modes = [Mode(INPROCESS, frozenset()), Mode(ISOLATED, SCENARIO_ISOLATED)]
+    modes = [
+        Mode(INPROCESS, frozenset()),
+        Mode(ISOLATED, SCENARIO_ISOLATED),
+        Mode(ISOLATED_PYTHON, SCENARIO_ISOLATED, PYTHON_HANDOVER),
+    ]
     options = {m.name: RunOptions(isolate=m.isolate) for m in modes}
     results = interleaved(modes, repeats, lambda mode: timed(system, options[mode.name]))
     reference = next(r.signals for m, r in results if m.name == INPROCESS)
@@ -274,6 +317,7 @@ def scenario_rows(modes: Sequence[Mode], simulated: float) -> list[Row]:
             {
                 "mode": mode.name,
                 "isolated": ", ".join(sorted(mode.isolate)) or "-",
+                "handover": handover(mode),
                 "simulated_s": simulated,
                 "median_loop_s": loop,
                 "min_loop_s": min((s.loop_s for s in mode.samples), default=None),
@@ -291,6 +335,7 @@ def scenario_rows(modes: Sequence[Mode], simulated: float) -> list[Row]:
 SCENARIO_COLUMNS = (
     ("mode", "mode"),
     ("isolated", "isolated components"),
+    ("handover", "hand-over"),
     ("simulated_s", "simulated s"),
     ("median_loop_s", "loop s (median)"),
     ("min_loop_s", "loop s (min)"),
@@ -356,7 +401,7 @@ def main(argv: Sequence[str] | None = None, console: Console | None = None) -> d
             SCENARIO_COLUMNS,
             rows,
         )
-        measured = rows[-1]["vs_inprocess"]
+        measured = next(r["vs_inprocess"] for r in rows if r["mode"] == ISOLATED)
         targets.append(
             {
                 "target": "reference scenario: isolated FMUs / in-process, loop time",

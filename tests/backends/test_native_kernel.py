@@ -88,8 +88,8 @@ def test_installed_library_is_found_and_fits_the_ctypes_mirrors() -> None:
     assert manifest["built_by"] == "setup.py build_ext"
     assert manifest["source_sha256"] == sha256_of(kernel.SOURCE)
     assert kernel.abi_problem(ctypes.CDLL(str(loaded.path))) is None
-    # one entry per struct and per field of the seven mirrors, then the element types' sizes
-    assert len(kernel.expected_layout()) == 7 + 8 + 13 + 8 + 7 + 7 + 4 + 9 + 11
+    # one entry per struct and per field of the eleven mirrors, then the element types' sizes
+    assert len(kernel.expected_layout()) == 7 + 8 + 13 + 8 + 7 + 7 + 4 + 9 + 8 + 11 + 4 + 19 + 11
 
 
 def test_tampered_library_is_refused(tmp_path: Path) -> None:
@@ -150,8 +150,8 @@ def test_library_built_from_another_source_is_refused(tmp_path: Path) -> None:
     ("change", "reason"),
     [
         (
-            ("#define FX_ABI_VERSION 3u", "#define FX_ABI_VERSION 4u"),
-            r"its ABI version is 4, this fmionnx expects 3",
+            ("#define FX_ABI_VERSION 4u", "#define FX_ABI_VERSION 5u"),
+            r"its ABI version is 5, this fmionnx expects 4",
         ),
         (
             (

@@ -285,5 +285,11 @@ record: [g3.y]
     assert result.details["native_python.g1"] == (
         "a model-exchange FMU (integrated in Python between communication points)"
     )
-    assert result.details["native_python.g2"] == "runs in a child process (--isolate)"
+    assert result.details["native_python.g2"] == (
+        "runs in a child process (--isolate), stepped there by the native kernel"
+    )
     assert result["g3.y"][-1] == 1.5 * 2**4
+    # A model-exchange FMU's child integrates it in Python (the kernel steps co-simulation).
+    both = fmionnx.load(path).run(options=RunOptions(isolate=frozenset({"g1", "g2"})))
+    assert both.details["native_python.g1"] == "runs in a child process (--isolate)"
+    assert both["g3.y"][-1] == 1.5 * 2**4

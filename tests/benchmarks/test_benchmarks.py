@@ -125,8 +125,17 @@ def test_isolation_benchmark_runs_both_modes_to_the_same_results_and_prints_the_
     chain_rows = {r["mode"]: r for r in results["chain"]}
     assert chain_rows[isolation.ISOLATED]["isolated"] == "g0, g1, g2, g3"
     assert all(r["correct"] and r["steps"] == 200 for r in chain_rows.values())
+    assert chain_rows[isolation.ISOLATED_PYTHON]["isolated"] == "g0, g1, g2, g3"
+    assert [chain_rows[m]["handover"] for m in (isolation.ISOLATED, isolation.ISOLATED_PYTHON)] == [
+        "kernel",
+        "Python",
+    ]
     scenario_rows = {r["mode"]: r for r in results["scenario"]}
-    assert set(scenario_rows) == {isolation.INPROCESS, isolation.ISOLATED}
+    assert set(scenario_rows) == {
+        isolation.INPROCESS,
+        isolation.ISOLATED,
+        isolation.ISOLATED_PYTHON,
+    }
     assert all(r["correct"] for r in scenario_rows.values())
     assert scenario_rows[isolation.ISOLATED]["vs_inprocess"] > 0
     assert [t["limit"] for t in results["targets"]] == ["<= 1.5"]

@@ -100,6 +100,8 @@ class Layout:
     size: int
     lazy_outputs: frozenset[str]
     step_labels: tuple[str, ...]
+    #: Whether the native kernel serves the steps in the child (:mod:`.handover`).
+    native: bool = False
 
 
 class Control:
@@ -112,6 +114,10 @@ class Control:
         self.phase = ctypes.c_int32.from_buffer(block, _PHASE_OFFSET)
         self.requests = ctypes.c_uint32.from_buffer(block, _REQUESTS_OFFSET)
         self.replies = ctypes.c_uint32.from_buffer(block, _REPLIES_OFFSET)
+
+
+#: How many times a missed spin doubles the waits that skip theirs, at most (:class:`Spinner`).
+MAX_BACKOFF = 6
 
 
 def _nothing() -> None:
@@ -132,7 +138,9 @@ class Spinner:
 
     __slots__ = ("_backoff", "_skip", "budget_ns", "hits", "max_backoff", "polite", "spins")
 
-    def __init__(self, budget_ns: int, max_backoff: int = 6, *, polite: bool = False) -> None:
+    def __init__(
+        self, budget_ns: int, max_backoff: int = MAX_BACKOFF, *, polite: bool = False
+    ) -> None:
         self.budget_ns = budget_ns
         self.polite = polite
         self.max_backoff = max_backoff
@@ -272,6 +280,7 @@ def layout_document(layout: Layout) -> dict[str, Any]:
         "size": layout.size,
         "lazy_outputs": sorted(layout.lazy_outputs),
         "step_labels": list(layout.step_labels),
+        "native": layout.native,
     }
 
 
@@ -295,11 +304,12 @@ def parse_layout(document: Any, ports: frozenset[str], available: int) -> Layout
         size = document["size"]
         lazy = frozenset(str(p) for p in document["lazy_outputs"]) & ports
         labels = tuple(str(label)[:200] for label in document["step_labels"][:16])
+        native = document.get("native", False) is True
     except (KeyError, TypeError, ValueError) as exc:
         raise MalformedReplyError(f"a malformed layout ({exc})") from None
     if not isinstance(size, int) or not 0 <= size <= available:
         raise MalformedReplyError("a layout larger than the shared block")
-    return Layout(tuple(slots), size, lazy, labels)
+    return Layout(tuple(slots), size, lazy, labels, native)
 
 
 def parse_error(document: Any) -> ParsedError:

@@ -37,10 +37,11 @@ from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.runner import Buffer, Wiring, fault
 from fmionnx.core.scratch import make_scratch, remove_scratch
 from fmionnx.core.types import Component
-from fmionnx.runtime.isolated import channel, launcher
+from fmionnx.runtime.isolated import channel, handover, launcher
 from fmionnx.runtime.isolated.channel import Control
 from fmionnx.runtime.isolated.launcher import ChildProcess
 from fmionnx.runtime.isolated.limits import memory_note
+from fmionnx.runtime.native import kernel as k
 from fmionnx.runtime.parallel import on_lane
 
 #: Seconds a child gets to terminate its model and exit before it is killed.
@@ -211,6 +212,10 @@ class IsolatedRunner:
         #: Commands written and replies read so far (the control block's counters' partners).
         self._sent = self._answered = 0
         self._spinner = channel.Spinner(SPIN_NS)
+        #: The kernel's end of the step hand-over, once set up (:mod:`.handover`).
+        self._link: handover.Link | None = None
+        #: Whether the native kernel steps the model in its child (reported at setup).
+        self.stepped_natively = False
         self._tmp: Path | None = None
         self._time = 0.0
         self._dead = False
@@ -305,6 +310,13 @@ class IsolatedRunner:
             self._buffers[(slot.port, slot.is_input)] = channel.view(self._data, slot)
         self.lazy_outputs = layout.lazy_outputs
         self._labels = channel.FIXED_PHASES + layout.step_labels
+        self.stepped_natively = layout.native
+        kernel = handover.native_kernel()
+        if kernel is not None and self._control is not None:
+            self._link = handover.Link(
+                kernel, self._commands, self._replies, self._control,
+                self._settings.step_timeout, SPIN_NS,
+            )  # fmt: skip
 
     def input_buffer(self, port: str) -> Buffer:
         """The shared slot the child copies into the model's input before each step."""
@@ -328,6 +340,16 @@ class IsolatedRunner:
         times = self._times
         times[0] = t
         times[1] = h
+        link = self._link
+        if link is not None:
+            sent = self._sent
+            code = link.step(sent, self._answered, spin=not on_lane())
+            if code == k.LINK_REPLY and link.tag == channel.OK:
+                self._sent = sent + 1
+                self._answered += 1
+                return
+            self._step_went_wrong(link, code, t, h)
+            return
         self._pending.append(False)
         try:
             channel.write_all(self._commands, channel.STEP)
@@ -340,6 +362,31 @@ class IsolatedRunner:
             # the GIL, which a lane's wait must leave to the loop's thread.
             self._spinner.wait(control.replies, self._answered & channel.COUNTER_MASK)
         self._await(t, h)
+
+    def _step_went_wrong(self, link: handover.Link, code: int, t: float, h: float) -> None:
+        """The kernel's hand-over did not end in an OK: go on exactly as the Python one does
+        at the same point (the child gone, the timeout, an error reply, a signal)."""
+        if not link.written(self._sent):
+            if code == k.LINK_BROKEN:
+                self._died(t, h)
+            raise OSError(link.error, os.strerror(link.error))
+        self._sent += 1
+        self._pending.append(False)
+        if code == k.LINK_REPLY:
+            self._reply(link.tag)
+        elif code == k.LINK_TIMEOUT:
+            self._kill_hung(t, h, self._settings.step_timeout or 0.0)
+        elif code == k.LINK_CLOSED:
+            self._died(t, h)
+        elif code == k.LINK_ERRNO:
+            raise OSError(link.error, os.strerror(link.error))
+        else:  # LINK_INTERRUPTED: the wait goes on in Python, where the signal's handler runs
+            self._await(t, h)
+
+    @property
+    def waits_spun(self) -> int:
+        """How many of this runner's waits for a step's reply spun before they blocked."""
+        return self._spinner.spins + (self._link.spins if self._link is not None else 0)
 
     def produce(self, port: str) -> None:
         """Refresh a lazy output in the child."""
@@ -433,6 +480,10 @@ class IsolatedRunner:
         tag = channel.read_exact(self._replies, 1)
         if tag is None:
             self._died(t, h)
+        return self._reply(tag)
+
+    def _reply(self, tag: bytes) -> object:
+        """The rest of the reply to the oldest pending command, whose first byte was ``tag``."""
         self._answered += 1
         is_request = self._pending.popleft()
         if tag not in (channel.OK, channel.ERROR):
@@ -504,6 +555,7 @@ class IsolatedRunner:
         )
 
     def _cleanup(self) -> None:
+        self._link = None
         self._buffers.clear()
         self._times = np.zeros(2)
         self._control = None

@@ -13,9 +13,10 @@ import numpy as np
 from fmionnx.core.errors import ModelTerminated, RunError
 from fmionnx.core.runner import Buffer, Runner, StateSaving
 from fmionnx.core.types import Causality
-from fmionnx.runtime.isolated import channel
+from fmionnx.runtime.isolated import channel, handover
 from fmionnx.runtime.isolated.channel import Control, Layout, Slot
 from fmionnx.runtime.isolated.limits import memory_note
+from fmionnx.runtime.native import kernel as k
 
 Phase = tuple[str, Callable[[float, float], None]]
 
@@ -45,7 +46,10 @@ class Child:
         self.phases: tuple[Phase, ...] = ()
         #: Commands read and replies written so far (the control block's counters' partners).
         self.consumed = self.written = 0
-        self.spinner = channel.Spinner(SPIN_NS if spin else 0, polite=True)
+        self.spin_ns = SPIN_NS if spin else 0
+        self.spinner = channel.Spinner(self.spin_ns, polite=True)
+        #: The kernel's end of the step hand-over, when it can step the runner (:mod:`.handover`).
+        self.native: handover.Server | None = None
 
     # -- the loop ------------------------------------------------------------------------------
 
@@ -53,11 +57,18 @@ class Child:
         """Answer commands until terminate, or until the command pipe closes."""
         control = self.control
         while True:
-            self.spinner.wait(control.requests, self.consumed & channel.COUNTER_MASK)
-            op = channel.read_exact(self.commands, 1)
-            if op is None:
-                return
-            self.consumed += 1
+            if self.native is not None:  # steps in the kernel until anything else comes
+                op = self._serve_natively(self.native)
+                if op is None:
+                    return
+                if op == channel.STEP:  # a fault of the kernel's step: answered, go on
+                    continue
+            else:
+                self.spinner.wait(control.requests, self.consumed & channel.COUNTER_MASK)
+                op = channel.read_exact(self.commands, 1)
+                if op is None:
+                    return
+                self.consumed += 1
             try:
                 if op == channel.STEP:
                     self.step()
@@ -75,15 +86,50 @@ class Child:
                 self._replied()
                 if name == "terminate":
                     return
-            except RunError as exc:
-                channel.reply(self.replies, channel.ERROR, channel.error_document(exc))
-                self._replied()
             except Exception as exc:
-                detail = f"{type(exc).__name__}: {exc}"
-                if isinstance(exc, MemoryError):  # perhaps the process's memory limit
-                    detail += memory_note()
-                channel.reply(self.replies, channel.ERROR, [detail, None, None])
-                self._replied()
+                self._reply_error(exc)
+
+    def _reply_error(self, exc: Exception) -> None:
+        """Answer the command under way with what it raised."""
+        if isinstance(exc, RunError):
+            channel.reply(self.replies, channel.ERROR, channel.error_document(exc))
+        else:
+            detail = f"{type(exc).__name__}: {exc}"
+            if isinstance(exc, MemoryError):  # perhaps the process's memory limit
+                detail += memory_note()
+            channel.reply(self.replies, channel.ERROR, [detail, None, None])
+        self._replied()
+
+    def _serve_natively(self, native: handover.Server) -> bytes | None:
+        """Let the kernel serve steps; the command it did not serve (STEP: a step of its that
+        failed, answered here), or None when the command pipe closed."""
+        while True:
+            code, read, written = native.serve(self.consumed, self.written)
+            self.consumed += read
+            self.written += written
+            if code == k.SERVE_COMMAND:
+                return native.op
+            if code == k.SERVE_FAULT:
+                self._native_fault(native)
+                return channel.STEP
+            if code == k.LINK_CLOSED:
+                return None
+            if code == k.LINK_ERRNO:
+                raise OSError(native.error, os.strerror(native.error))
+            # LINK_INTERRUPTED: a signal's handler has run; serve on
+
+    def _native_fault(self, native: handover.Server) -> None:
+        """The kernel's step failed: the fault the Python path raises, answered as it is."""
+        t, h = float(self.control.times[0]), float(self.control.times[1])
+        if native.code in (k.DO_STEP, k.TERMINATE):  # a model ending the run: outputs got next
+            self.control.phase.value = channel.FIRST_STEP_PHASE + 2
+        try:
+            error: Exception = native.group.fault(native.code, t, h)
+        except Exception as exc:  # e.g. the gets after a model's end of the run
+            error = exc
+        if isinstance(error, ModelTerminated):
+            self._publish()  # the step completed: the master records its outputs
+        self._reply_error(error)
 
     def _replied(self) -> None:
         """A whole reply is in the pipe: say so in the counter the supervisor may spin on."""
@@ -143,8 +189,12 @@ class Child:
                 (self.inputs if slot.is_input else self.outputs).append((shared, own))
         phases = getattr(runner, "step_phases", None)
         self.phases = phases() if phases is not None else (("the step", runner.step),)
+        self.native = handover.serving(
+            runner, self.control, (self.commands, self.replies), (self.inputs, self.outputs),
+            len(self.phases), self.spin_ns,
+        )  # fmt: skip
         labels = tuple(label for label, _ in self.phases)
-        return Layout(tuple(slots), size, runner.lazy_outputs, labels)
+        return Layout(tuple(slots), size, runner.lazy_outputs, labels, self.native is not None)
 
     def do_produce(self, port: str) -> None:
         runner = self._runner()
@@ -179,6 +229,7 @@ class Child:
         for the next runs of its model: :func:`~.proxy.keep_children`)."""
         self.control.phase.value = channel.PHASE_TERMINATE
         runner, self.runner = self.runner, None
+        self.native = None
         try:
             if runner is not None:
                 runner.terminate()

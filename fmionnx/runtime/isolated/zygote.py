@@ -51,8 +51,10 @@ def _warm_up() -> None:
     """Import what a child needs before it loads a model (the expensive part of its start)."""
     import fmionnx.runtime.isolated.server  # noqa: F401
     from fmionnx.kinds.registry import warm_up
+    from fmionnx.runtime.isolated.handover import native_kernel
 
     warm_up()
+    native_kernel()  # loaded and checked once, not in every child
 
 
 def _close_all_but(keep: set[int]) -> None:

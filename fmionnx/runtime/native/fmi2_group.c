@@ -30,19 +30,31 @@
  * count) and stores the step's time where the run's marker keeps it, so the Python loop is
  * entered only between chunks (progress, checkpoints, stop requests, a track to grow).
  *
+ * fx_link_step and fx_serve are the two ends of an isolated FMU's step hand-over
+ * (fmionnx/runtime/isolated/handover.py): the supervisor writes one byte and waits for one
+ * byte back, the child reads it, steps its FMU as fx_group_step steps a group of one and
+ * answers, both as the Python code of runtime/isolated does (proxy.py, server.py, channel.py),
+ * without a Python instruction on the way. Anything else (another command, a fault, a closed
+ * pipe, a signal) goes back to that Python code, which decides.
+ *
  * Python mirrors the structs below in ctypes (kernel.py) and checks, before it uses the
  * library, that fx_abi_version() and fx_abi_layout() agree with its mirrors. Bump
  * FX_ABI_VERSION on any change of a struct, of fx_group_step's signature, of its return
  * codes or of the element type codes, together with ABI_VERSION in kernel.py.
  */
-#define _POSIX_C_SOURCE 199309L /* clock_gettime under -std=c99 */
+#define _POSIX_C_SOURCE 200809L /* clock_gettime, poll under -std=c99 */
+#include <errno.h>
 #include <math.h>
+#include <poll.h>
+#include <sched.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
+#include <string.h>
 #include <time.h>
+#include <unistd.h>
 
-#define FX_ABI_VERSION 3u
+#define FX_ABI_VERSION 4u
 
 /* Element types of value buffers (kernel.py ELEMENT_TYPES, in this order). */
 enum {
@@ -401,8 +413,215 @@ int fx_group_run(fx_group *group, fx_run *run, size_t first, size_t last) {
     return FX_OK;
 }
 
+/* ---- an isolated FMU's step hand-over ------------------------------------------------------
+ * The pipes and the control block of runtime/isolated/channel.py: a step is the byte 'S' from
+ * the supervisor and the byte 'k' back; each side stores, after a whole message, how many it
+ * has written so far in its counter of the shared block, and the other side may spin on that
+ * counter before it blocks on its pipe (channel.Spinner, whose rules fx_spin follows). The
+ * counter is only a hint a hostile model can forge: a wait always ends by reading the pipe. */
+
+enum { FX_STEP_COMMAND = 'S', FX_OK_REPLY = 'k' };
+
+/* channel.Spinner: spin for at most budget_ns; a miss makes the next 2**backoff - 1 waits skip
+ * their spin (backoff at most max_backoff), a hit resets it. */
+typedef struct {
+    int64_t budget_ns;
+    int polite; /* sched_yield at every turn */
+    int max_backoff;
+    int backoff;
+    int skip;
+    uint64_t spins; /* waits that spun */
+    uint64_t hits;  /* and whose counter moved within the budget */
+} fx_spin;
+
+static int64_t nanoseconds(void) {
+    struct timespec now;
+    clock_gettime(CLOCK_MONOTONIC, &now);
+    return (int64_t)now.tv_sec * 1000000000 + (int64_t)now.tv_nsec;
+}
+
+static void spin_wait(fx_spin *spin, const uint32_t *counter, uint32_t seen) {
+    if (spin->budget_ns <= 0) return;
+    if (spin->skip > 0) {
+        spin->skip -= 1;
+        return;
+    }
+    spin->spins += 1;
+    int64_t deadline = nanoseconds() + spin->budget_ns;
+    while (__atomic_load_n(counter, __ATOMIC_ACQUIRE) == seen) {
+        if (spin->polite) sched_yield();
+        if (nanoseconds() >= deadline) {
+            spin->backoff = spin->backoff < spin->max_backoff ? spin->backoff + 1 : spin->max_backoff;
+            spin->skip = (1 << spin->backoff) - 1;
+            return;
+        }
+    }
+    spin->backoff = 0;
+    spin->hits += 1;
+}
+
+/* Return codes of fx_link_step and fx_serve. */
+enum {
+    FX_LINK_REPLY = 0,       /* a reply's first byte was read: link->tag */
+    FX_LINK_BROKEN = 1,      /* the command could not be written: the child is gone */
+    FX_LINK_TIMEOUT = 2,     /* no reply within timeout_ms */
+    FX_LINK_CLOSED = 3,      /* the reply pipe closed */
+    FX_LINK_INTERRUPTED = 4, /* a signal came while waiting (the command is written) */
+    FX_LINK_ERRNO = 5,       /* another error: link->error */
+    FX_SERVE_COMMAND = 6,    /* a command that is not a step: server->op (consumed) */
+    FX_SERVE_FAULT = 7       /* the step failed: server->code, the group says where */
+};
+
+static int write_byte(int fd, unsigned char byte) {
+    for (;;) {
+        ssize_t n = write(fd, &byte, 1);
+        if (n == 1) return 0;
+        if (n < 0 && errno == EINTR) continue;
+        return n < 0 ? errno : EIO;
+    }
+}
+
+/* The supervisor's end (proxy.py IsolatedRunner.step): the step's times are in the control
+ * block already. */
+typedef struct {
+    int commands;
+    int replies;
+    uint32_t *requests;      /* the control block's counter of commands (this side writes it) */
+    const uint32_t *answers; /* the child's counter of replies */
+    uint32_t sent;           /* commands written so far */
+    uint32_t answered;       /* replies read so far */
+    int timeout_ms;          /* -1: wait for ever */
+    int tag;                 /* out: the reply's first byte */
+    int error;               /* out: errno of FX_LINK_ERRNO */
+    fx_spin spin;
+} fx_link;
+
+/* Writes a step command, spins (if asked) and waits for the reply's first byte. */
+int fx_link_step(fx_link *link, int spin) {
+    int error = write_byte(link->commands, FX_STEP_COMMAND);
+    if (error == EPIPE) return FX_LINK_BROKEN;
+    if (error != 0) {
+        link->error = error;
+        return FX_LINK_ERRNO;
+    }
+    link->sent += 1;
+    __atomic_store_n(link->requests, link->sent, __ATOMIC_RELEASE);
+    if (spin) spin_wait(&link->spin, link->answers, link->answered);
+    struct pollfd wanted = {link->replies, POLLIN | POLLHUP, 0};
+    int ready = poll(&wanted, 1, link->timeout_ms);
+    if (ready < 0) {
+        if (errno == EINTR) return FX_LINK_INTERRUPTED;
+        link->error = errno;
+        return FX_LINK_ERRNO;
+    }
+    if (ready == 0) return FX_LINK_TIMEOUT;
+    unsigned char tag;
+    for (;;) {
+        ssize_t n = read(link->replies, &tag, 1);
+        if (n == 1) break;
+        if (n == 0) return FX_LINK_CLOSED;
+        if (errno != EINTR) {
+            link->error = errno;
+            return FX_LINK_ERRNO;
+        }
+    }
+    link->answered += 1;
+    link->tag = tag;
+    return FX_LINK_REPLY;
+}
+
+/* size bytes from src to dst: a port's slot in the shared block and the runner's buffer. */
+typedef struct {
+    void *dst;
+    const void *src;
+    size_t size;
+} fx_copy;
+
+/* The child's end (server.py Child.serve): steps of one FMU, the group's only member. */
+typedef struct {
+    int commands;
+    int replies;
+    const uint32_t *requests; /* the supervisor's counter of commands */
+    uint32_t *answers;        /* the control block's counter of replies (this side writes it) */
+    int32_t *phase;           /* the control block's phase */
+    const double *times;      /* the control block's t and h */
+    uint32_t consumed;        /* commands read so far */
+    uint32_t written;         /* replies written so far */
+    int first_phase;          /* the phase of setting inputs; doStep + 1, getting outputs + 2 */
+    int op;                   /* out: the command that is not a step (FX_SERVE_COMMAND) */
+    int code;                 /* out: fx_group_step's code (FX_SERVE_FAULT) */
+    int error;                /* out: errno of FX_LINK_ERRNO */
+    fx_group *group;
+    const fx_copy *inputs;
+    size_t n_inputs;
+    const fx_copy *outputs;
+    size_t n_outputs;
+    fx_spin spin;
+} fx_server;
+
+/* One step as server.py Child.step does it through the runner's three step phases. */
+static int serve_step(fx_server *server) {
+    double t = server->times[0], h = server->times[1];
+    for (size_t k = 0; k < server->n_inputs; ++k) {
+        memcpy(server->inputs[k].dst, server->inputs[k].src, server->inputs[k].size);
+    }
+    fx_group *group = server->group;
+    const fx_member *member = &group->members[0];
+    group->failed_member = 0;
+    __atomic_store_n(server->phase, server->first_phase, __ATOMIC_RELAXED);
+    if (call_all(group, member, member->first_set, member->n_set)) return FX_SET;
+    __atomic_store_n(server->phase, server->first_phase + 1, __ATOMIC_RELAXED);
+    int status = do_step(member, t, h);
+    if (FX_FAULT(status)) {
+        group->failed_status = status;
+        return FX_DO_STEP;
+    }
+    if (member->fmi3 && *member->terminate_simulation) return FX_TERMINATE;
+    __atomic_store_n(server->phase, server->first_phase + 2, __ATOMIC_RELAXED);
+    if (call_all(group, member, member->first_get, member->n_get)) return FX_GET;
+    for (size_t k = 0; k < server->n_outputs; ++k) {
+        memcpy(server->outputs[k].dst, server->outputs[k].src, server->outputs[k].size);
+    }
+    return FX_OK;
+}
+
+/* Serves step commands until another command comes (FX_SERVE_COMMAND), a step fails
+ * (FX_SERVE_FAULT: nothing was answered), the command pipe closes (FX_LINK_CLOSED) or a
+ * signal interrupts a read (FX_LINK_INTERRUPTED). */
+int fx_serve(fx_server *server) {
+    for (;;) {
+        spin_wait(&server->spin, server->requests, server->consumed);
+        unsigned char op;
+        ssize_t n = read(server->commands, &op, 1);
+        if (n == 0) return FX_LINK_CLOSED;
+        if (n < 0) {
+            if (errno == EINTR) return FX_LINK_INTERRUPTED;
+            server->error = errno;
+            return FX_LINK_ERRNO;
+        }
+        server->consumed += 1;
+        if (op != FX_STEP_COMMAND) {
+            server->op = op;
+            return FX_SERVE_COMMAND;
+        }
+        int code = serve_step(server);
+        if (code != FX_OK) {
+            server->code = code;
+            return FX_SERVE_FAULT;
+        }
+        int error = write_byte(server->replies, FX_OK_REPLY);
+        if (error != 0) {
+            if (error == EPIPE) return FX_LINK_CLOSED;
+            server->error = error;
+            return FX_LINK_ERRNO;
+        }
+        server->written += 1;
+        __atomic_store_n(server->answers, server->written, __ATOMIC_RELEASE);
+    }
+}
+
 /* The struct layouts Python must mirror: for fx_group, fx_member, fx_transfer, fx_call,
- * fx_track, fx_view and fx_run in turn, sizeof the struct, then offsetof each field in
+ * fx_track, fx_view, fx_run, fx_spin, fx_link, fx_copy and fx_server in turn, sizeof the struct, then offsetof each field in
  * declaration order. */
 static const size_t fx_layout[] = {
     sizeof(fx_group),
@@ -468,6 +687,48 @@ static const size_t fx_layout[] = {
     offsetof(fx_run, marker_t),
     offsetof(fx_run, budget),
     offsetof(fx_run, next),
+    sizeof(fx_spin),
+    offsetof(fx_spin, budget_ns),
+    offsetof(fx_spin, polite),
+    offsetof(fx_spin, max_backoff),
+    offsetof(fx_spin, backoff),
+    offsetof(fx_spin, skip),
+    offsetof(fx_spin, spins),
+    offsetof(fx_spin, hits),
+    sizeof(fx_link),
+    offsetof(fx_link, commands),
+    offsetof(fx_link, replies),
+    offsetof(fx_link, requests),
+    offsetof(fx_link, answers),
+    offsetof(fx_link, sent),
+    offsetof(fx_link, answered),
+    offsetof(fx_link, timeout_ms),
+    offsetof(fx_link, tag),
+    offsetof(fx_link, error),
+    offsetof(fx_link, spin),
+    sizeof(fx_copy),
+    offsetof(fx_copy, dst),
+    offsetof(fx_copy, src),
+    offsetof(fx_copy, size),
+    sizeof(fx_server),
+    offsetof(fx_server, commands),
+    offsetof(fx_server, replies),
+    offsetof(fx_server, requests),
+    offsetof(fx_server, answers),
+    offsetof(fx_server, phase),
+    offsetof(fx_server, times),
+    offsetof(fx_server, consumed),
+    offsetof(fx_server, written),
+    offsetof(fx_server, first_phase),
+    offsetof(fx_server, op),
+    offsetof(fx_server, code),
+    offsetof(fx_server, error),
+    offsetof(fx_server, group),
+    offsetof(fx_server, inputs),
+    offsetof(fx_server, n_inputs),
+    offsetof(fx_server, outputs),
+    offsetof(fx_server, n_outputs),
+    offsetof(fx_server, spin),
     /* the element types' sizes, in FX_* order: a platform whose C types differ from the
      * ctypes ones Python uses for the buffers is refused */
     sizeof(double), sizeof(float), sizeof(int8_t), sizeof(uint8_t), sizeof(int16_t),

@@ -94,12 +94,19 @@ _PLATFORM_CAST = "numpy's result for a float outside the integer's range depends
 _OTHER_KINDS = "only FMI co-simulation FMUs run natively"
 
 
+def _stepped_natively(runner: Runner) -> bool:
+    """Whether an isolated runner says its child steps the model with the kernel
+    (``IsolatedRunner.stepped_natively``; no other runner has the attribute)."""
+    return getattr(runner, "stepped_natively", False) is True
+
+
 def _runner_reason(system: CompiledSystem, name: str, runner: Runner) -> str | None:
     """Why ``name``'s runner cannot be a member, judged before its connections."""
     component = system.component(name)
     if not isinstance(runner, NativeCandidate):
         if has_capability(component, FMI):  # its runner is a proxy of a child process
-            return "runs in a child process (--isolate)"
+            there = ", stepped there by the native kernel" if _stepped_natively(runner) else ""
+            return f"runs in a child process (--isolate){there}"
         article = "an" if component.kind[:1] in "aeiou" else "a"
         return f"{article} {component.kind} component ({_OTHER_KINDS})"
     problem = runner.native_problem()

@@ -26,7 +26,7 @@ from fmionnx.runtime.native.manifest import LIBRARY_NAME, SOURCE_NAME, check_bui
 from fmionnx.runtime.native.runbuild import build_in_cache
 
 #: ``FX_ABI_VERSION`` of the ``fmi2_group.c`` these mirrors follow (bump both together).
-ABI_VERSION = 3
+ABI_VERSION = 4
 
 #: Where the installed library is: beside this module and its source.
 INSTALLED = Path(__file__).parent
@@ -144,6 +144,72 @@ class RunSpec(ctypes.Structure):
     )
 
 
+class SpinSpec(ctypes.Structure):
+    """``fx_spin`` of ``fmi2_group.c``: a hybrid wait's spin (:class:`~fmionnx.runtime.isolated.channel.Spinner`'s rules)."""
+
+    _fields_ = (
+        ("budget_ns", ctypes.c_int64),
+        ("polite", ctypes.c_int),
+        ("max_backoff", ctypes.c_int),
+        ("backoff", ctypes.c_int),
+        ("skip", ctypes.c_int),
+        ("spins", ctypes.c_uint64),
+        ("hits", ctypes.c_uint64),
+    )
+
+
+class LinkSpec(ctypes.Structure):
+    """``fx_link`` of ``fmi2_group.c``: the supervisor's end of an isolated step hand-over."""
+
+    _fields_ = (
+        ("commands", ctypes.c_int),
+        ("replies", ctypes.c_int),
+        ("requests", ctypes.c_void_p),
+        ("answers", ctypes.c_void_p),
+        ("sent", ctypes.c_uint32),
+        ("answered", ctypes.c_uint32),
+        ("timeout_ms", ctypes.c_int),
+        ("tag", ctypes.c_int),
+        ("error", ctypes.c_int),
+        ("spin", SpinSpec),
+    )
+
+
+class CopySpec(ctypes.Structure):
+    """``fx_copy`` of ``fmi2_group.c``: ``size`` bytes from ``src`` to ``dst``."""
+
+    _fields_ = (
+        ("dst", ctypes.c_void_p),
+        ("src", ctypes.c_void_p),
+        ("size", ctypes.c_size_t),
+    )
+
+
+class ServerSpec(ctypes.Structure):
+    """``fx_server`` of ``fmi2_group.c``: an isolated child's end of the step hand-over."""
+
+    _fields_ = (
+        ("commands", ctypes.c_int),
+        ("replies", ctypes.c_int),
+        ("requests", ctypes.c_void_p),
+        ("answers", ctypes.c_void_p),
+        ("phase", ctypes.c_void_p),
+        ("times", ctypes.c_void_p),
+        ("consumed", ctypes.c_uint32),
+        ("written", ctypes.c_uint32),
+        ("first_phase", ctypes.c_int),
+        ("op", ctypes.c_int),
+        ("code", ctypes.c_int),
+        ("error", ctypes.c_int),
+        ("group", ctypes.c_void_p),
+        ("inputs", ctypes.c_void_p),
+        ("n_inputs", ctypes.c_size_t),
+        ("outputs", ctypes.c_void_p),
+        ("n_outputs", ctypes.c_size_t),
+        ("spin", SpinSpec),
+    )
+
+
 #: The mirrors in the order of ``fx_abi_layout``, with their C names.
 MIRRORS: tuple[tuple[str, type[ctypes.Structure]], ...] = (
     ("fx_group", Group),
@@ -153,6 +219,10 @@ MIRRORS: tuple[tuple[str, type[ctypes.Structure]], ...] = (
     ("fx_track", TrackSpec),
     ("fx_view", ViewSpec),
     ("fx_run", RunSpec),
+    ("fx_spin", SpinSpec),
+    ("fx_link", LinkSpec),
+    ("fx_copy", CopySpec),
+    ("fx_server", ServerSpec),
 )
 
 #: The element types the kernel converts and passes to FMI calls, by their ``FX_*`` code
@@ -178,17 +248,25 @@ TYPE_CODES = {name: code for code, (name, _) in enumerate(ELEMENT_TYPES)}
 #: Return codes of ``fx_group_step``, and ``fx_group_run``'s own: a track is full.
 OK, NONFINITE, SET, DO_STEP, GET, TERMINATE, FULL = 0, 1, 2, 3, 4, 5, 6
 
+#: Return codes of ``fx_link_step`` and ``fx_serve`` (:mod:`fmionnx.runtime.isolated.handover`).
+LINK_REPLY, LINK_BROKEN, LINK_TIMEOUT, LINK_CLOSED, LINK_INTERRUPTED, LINK_ERRNO = range(6)
+SERVE_COMMAND, SERVE_FAULT = 6, 7
+
 
 @dataclass(frozen=True)
 class Kernel:
     """The loaded library's functions: ``step(group, t, h) -> code`` (one communication
-    point) and ``run(group, run, first, last) -> code`` (many: :mod:`.bulk`)."""
+    point), ``run(group, run, first, last) -> code`` (many: :mod:`.bulk`), and the two ends of
+    an isolated FMU's step hand-over, ``link_step(link, spin) -> code`` and
+    ``serve(server) -> code`` (:mod:`fmionnx.runtime.isolated.handover`)."""
 
     path: Path
     origin: Origin
     sha256: str
     step: Callable[..., int]
     run: Callable[..., int]
+    link_step: Callable[..., int]
+    serve: Callable[..., int]
 
 
 def expected_layout() -> list[tuple[str, int]]:
@@ -253,7 +331,13 @@ def load_library(folder: Path, origin: Origin, source: Path = SOURCE) -> Kernel 
     run = dll.fx_group_run
     run.argtypes = (ctypes.c_void_p, ctypes.c_void_p, ctypes.c_size_t, ctypes.c_size_t)
     run.restype = ctypes.c_int
-    kernel = Kernel(verified.path, origin, verified.sha256, step, run)
+    link_step = dll.fx_link_step
+    link_step.argtypes = (ctypes.c_void_p, ctypes.c_int)
+    link_step.restype = ctypes.c_int
+    serve = dll.fx_serve
+    serve.argtypes = (ctypes.c_void_p,)
+    serve.restype = ctypes.c_int
+    kernel = Kernel(verified.path, origin, verified.sha256, step, run, link_step, serve)
     _LOADED[key] = kernel
     return kernel
 

@@ -1,0 +1,133 @@
+"""Both ends of an isolated FMU's step hand-over in the native kernel (``runtime/isolated/handover``).
+
+The supervisor's write-and-wait and the child's serving of steps (port copies, set, doStep,
+get, answer) run in C where the kernel is available, and in Python with ``FMIONNX_NATIVE=0``.
+Real child processes step real FMUs either way; every check compares the two: the same values,
+the same faults at the same time in the same FMI function, and a run.json that says which.
+"""
+
+from __future__ import annotations
+
+import os
+import signal
+import threading
+import time
+
+import pytest
+
+import fmionnx
+from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+from tests.backends.isolated_runner import (
+    assert_completed_alike,
+    isolated,
+    isolated_chain,
+    lone_component,
+)
+
+SYSTEM = """
+fmionnx: 1
+name: faulty
+run: {{stop: 0.5, step: 0.01}}
+components:
+  bad: {{kind: fmu, path: {faulty}, parameters: {{mode: {mode}, failAt: 0.3}}}}
+  gain: {{kind: fmu, path: {gain}}}
+connections:
+  - bad.y -> gain.u
+"""
+ERROR, DISCARD, SEGFAULT, TERMINATE, PRINT = 0, 2, 3, 10, 11
+NATIVE = "runs in a child process (--isolate), stepped there by the native kernel"
+PYTHON = "runs in a child process (--isolate)"
+
+
+def _both(monkeypatch, run) -> dict[str, RunResult]:
+    """``run()`` with the kernel's ends of the hand-over, then with Python's."""
+    results = {}
+    for setting in ("1", "0"):
+        monkeypatch.setenv("FMIONNX_NATIVE", setting)
+        results[setting] = run()
+    return results
+
+
+@pytest.mark.parametrize(
+    ("mode", "status"),
+    [
+        (ERROR, RunStatus.FAULT),
+        (DISCARD, RunStatus.FAULT),
+        (SEGFAULT, RunStatus.FAULT),
+        (TERMINATE, RunStatus.COMPLETED),  # the model ended the run after its step
+        (PRINT, RunStatus.COMPLETED),
+    ],
+)
+def test_an_isolated_fmu_ends_alike_through_the_kernel_and_python(
+    fixture_fmu, write_system, monkeypatch, mode: int, status: RunStatus
+) -> None:
+    path = write_system(
+        SYSTEM.format(faulty=fixture_fmu("Faulty"), gain=fixture_fmu("Gain"), mode=mode)
+    )
+    options = RunOptions(isolate=frozenset({"bad", "gain"}))
+    results = _both(monkeypatch, lambda: fmionnx.load(path).run(options=options))
+    kernel, python = results["1"], results["0"]
+    assert kernel.status is python.status is status
+    assert str(kernel.error) == str(python.error)
+    if kernel.error is not None:
+        assert "fmi2DoStep" in str(kernel.error)
+    for name in ("time", "bad.y", "gain.y"):
+        assert kernel[name].tobytes() == python[name].tobytes()
+    assert kernel.details["native_python.bad"] == NATIVE
+    assert python.details["native"] is False  # the kernel off: no component says more
+
+
+def test_isolated_chains_give_the_same_bytes_through_the_kernel_and_python(
+    fixture_fmu, write_system, monkeypatch
+) -> None:
+    """Two Gains the kernel steps in their children, and a model-exchange FMU it does not."""
+    system, options = isolated_chain(fixture_fmu, write_system)
+    results = _both(monkeypatch, lambda: system.run(options=options))
+    assert_completed_alike(results["0"], results["1"])
+    assert results["1"].details["native_python.a"] == NATIVE
+    assert results["1"].details["native_python.b"] == PYTHON  # integrated in Python
+
+
+def test_a_signal_during_the_kernels_wait_is_handled_and_the_step_answered(
+    fixture_fmu, write_system
+) -> None:
+    """The supervisor's wait in C returns to Python on a signal, whose handler runs; the step's
+    answer is still read (here the child is stopped while the signal comes)."""
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    handled: list[int] = []
+    previous = signal.signal(signal.SIGUSR1, lambda number, frame: handled.append(number))
+    try:
+        with isolated(component, 30.0) as runner:
+            assert runner.stepped_natively
+            u, y = runner.input_buffer("u"), runner.output_buffer("y")
+            assert runner._process is not None
+            pid = runner._process.pid
+            os.kill(pid, signal.SIGSTOP)
+            threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGUSR1)).start()
+            threading.Timer(0.5, os.kill, (pid, signal.SIGCONT)).start()
+            u[0] = 2.0
+            started = time.perf_counter()
+            runner.step(0.0, 0.01)
+            assert time.perf_counter() - started >= 0.45
+            assert handled == [signal.SIGUSR1]
+            assert y[0] == 6.0
+            for k in range(1, 30):  # and the kernel's ends go on
+                u[0] = float(k)
+                runner.step(k * 0.01, 0.01)
+                assert y[0] == 3.0 * k
+    finally:
+        signal.signal(signal.SIGUSR1, previous)
+
+
+def test_without_the_kernel_the_child_steps_in_python(
+    fixture_fmu, write_system, monkeypatch
+) -> None:
+    monkeypatch.setenv("FMIONNX_NATIVE", "0")
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 2.0}")
+    with isolated(component, 30.0) as runner:
+        assert not runner.stepped_natively
+        u, y = runner.input_buffer("u"), runner.output_buffer("y")
+        for k in range(20):
+            u[0] = float(k)
+            runner.step(k * 0.01, 0.01)
+            assert y[0] == 2.0 * k
