@@ -116,12 +116,12 @@ class Child:
                 return None
             if code == k.LINK_ERRNO:
                 raise OSError(native.error, os.strerror(native.error))
-            # LINK_INTERRUPTED: a signal's handler has run; serve on
+            # LINK_INTERRUPTED: back in Python, where a signal's handler runs; serve on
 
     def _native_fault(self, native: handover.Server) -> None:
         """The kernel's step failed: the fault the Python path raises, answered as it is."""
         t, h = float(self.control.times[0]), float(self.control.times[1])
-        if native.code in (k.DO_STEP, k.TERMINATE):  # a model ending the run: outputs got next
+        if native.code == k.TERMINATE:  # an FMI 3 model ending the run: its outputs are got
             self.control.phase.value = channel.FIRST_STEP_PHASE + 2
         try:
             error: Exception = native.group.fault(native.code, t, h)
