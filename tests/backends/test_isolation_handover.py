@@ -17,11 +17,13 @@ import pytest
 
 import fmionnx
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
+from fmionnx.runtime.stopping import StopRequested, stop_on_signals
 from tests.backends.isolated_runner import (
     assert_completed_alike,
     isolated,
     isolated_chain,
     lone_component,
+    unstarted,
 )
 
 SYSTEM = """
@@ -117,6 +119,32 @@ def test_a_signal_during_the_kernels_wait_is_handled_and_the_step_answered(
                 assert y[0] == 3.0 * k
     finally:
         signal.signal(signal.SIGUSR1, previous)
+
+
+def test_a_stop_signal_during_the_kernels_wait_leaves_the_step_to_be_answered(
+    fixture_fmu, write_system
+) -> None:
+    """A stop request (Ctrl-C) that comes while the kernel waits for a step's answer is raised
+    once the counters say the step was sent: ending the model then reads that answer first and
+    the child ends by itself, not killed after the grace period."""
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    runner = unstarted(component, 30.0)
+    try:
+        runner.instantiate()
+        runner.setup(0.0, 1.0)
+        assert runner.stepped_natively
+        process = runner._process
+        assert process is not None
+        os.kill(process.pid, signal.SIGSTOP)
+        threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT)).start()
+        threading.Timer(0.5, os.kill, (process.pid, signal.SIGCONT)).start()
+        with pytest.raises(StopRequested), stop_on_signals():
+            runner.step(0.0, 0.01)
+    finally:
+        started = time.perf_counter()
+        runner.terminate()
+    assert time.perf_counter() - started < 4.0  # TERMINATE_GRACE is 5 s
+    assert process.wait() == 0
 
 
 def test_without_the_kernel_the_child_steps_in_python(

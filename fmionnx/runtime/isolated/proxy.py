@@ -43,6 +43,7 @@ from fmionnx.runtime.isolated.launcher import ChildProcess
 from fmionnx.runtime.isolated.limits import memory_note
 from fmionnx.runtime.native import kernel as k
 from fmionnx.runtime.parallel import on_lane
+from fmionnx.runtime.stopping import shield_begin, shield_end
 
 #: Seconds a child gets to terminate its model and exit before it is killed.
 TERMINATE_GRACE = 5.0
@@ -341,14 +342,8 @@ class IsolatedRunner:
         times[0] = t
         times[1] = h
         link = self._link
-        if link is not None:
-            sent = self._sent
-            code = link.step(sent, self._answered, spin=not on_lane())
-            if code == k.LINK_REPLY and link.tag == channel.OK:
-                self._sent = sent + 1
-                self._answered += 1
-                return
-            self._step_went_wrong(link, code, t, h)
+        if link is not None and not self._pending:
+            self._step_through(link, t, h)
             return
         self._pending.append(False)
         try:
@@ -363,15 +358,38 @@ class IsolatedRunner:
             self._spinner.wait(control.replies, self._answered & channel.COUNTER_MASK)
         self._await(t, h)
 
+    def _step_through(self, link: handover.Link, t: float, h: float) -> None:
+        """The step's round trip made by the kernel (:mod:`.handover`).
+
+        The counters and the pending reply are settled inside a shield: a stop signal that
+        comes during the call is raised once they say what the child was sent and answered,
+        so that ending the run waits for exactly the replies still to come.
+        """
+        sent = self._sent
+        shield_begin()
+        try:
+            self._pending.append(False)
+            code = link.step(sent, self._answered, spin=not on_lane())
+            if code == k.LINK_REPLY and link.tag == channel.OK:
+                self._pending.pop()
+                self._sent = sent + 1
+                self._answered += 1
+                return
+            if link.written(sent):
+                self._sent = sent + 1
+            else:
+                self._pending.pop()
+        finally:
+            shield_end()
+        self._step_went_wrong(link, code, t, h)
+
     def _step_went_wrong(self, link: handover.Link, code: int, t: float, h: float) -> None:
         """The kernel's hand-over did not end in an OK: go on exactly as the Python one does
         at the same point (the child gone, the timeout, an error reply, a signal)."""
-        if not link.written(self._sent):
+        if not self._pending:  # the command was not written
             if code == k.LINK_BROKEN:
                 self._died(t, h)
             raise OSError(link.error, os.strerror(link.error))
-        self._sent += 1
-        self._pending.append(False)
         if code == k.LINK_REPLY:
             self._reply(link.tag)
         elif code == k.LINK_TIMEOUT:
