@@ -79,6 +79,26 @@ def test_an_isolated_fmu_ends_alike_through_the_kernel_and_python(
     assert python.details["native"] is False  # the kernel off: no component says more
 
 
+def test_an_isolated_fmi3_model_ends_the_run_alike_through_the_kernel_and_python(
+    fixture_fmu, monkeypatch
+) -> None:
+    """FMI 3's terminateSimulation stops the kernel's step; the child gets the outputs."""
+    system = fmionnx.load(fixture_fmu("Vector3"), step=0.1)
+
+    def run() -> RunResult:
+        return system.run(isolate="fmus", stop_time=2.0, params={"stopAt": 0.5})
+
+    results = _both(monkeypatch, run)
+    kernel, python = results["1"], results["0"]
+    assert kernel.status is python.status is RunStatus.COMPLETED
+    assert kernel.ended_by == python.ended_by
+    assert kernel.ended_by is not None
+    assert kernel.steps_done == python.steps_done == 5
+    for name in kernel.signals:
+        assert kernel[name].tobytes() == python[name].tobytes()
+    assert kernel.details[f"native_python.{system.compiled.name}"] == NATIVE
+
+
 def test_isolated_chains_give_the_same_bytes_through_the_kernel_and_python(
     fixture_fmu, write_system, monkeypatch
 ) -> None:
@@ -96,22 +116,26 @@ def test_a_signal_during_the_kernels_wait_is_handled_and_the_step_answered(
     """The supervisor's wait in C returns to Python on a signal, whose handler runs; the step's
     answer is still read (here the child is stopped while the signal comes)."""
     component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
-    handled: list[int] = []
-    previous = signal.signal(signal.SIGUSR1, lambda number, frame: handled.append(number))
+    handled: list[float] = []
+    previous = signal.signal(
+        signal.SIGUSR1, lambda number, frame: handled.append(time.perf_counter())
+    )
     try:
         with isolated(component, 30.0) as runner:
             assert runner.stepped_natively
+            assert runner._link is not None  # the supervisor's end is the kernel's too
             u, y = runner.input_buffer("u"), runner.output_buffer("y")
             assert runner._process is not None
             pid = runner._process.pid
             os.kill(pid, signal.SIGSTOP)
             threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGUSR1)).start()
-            threading.Timer(0.5, os.kill, (pid, signal.SIGCONT)).start()
+            threading.Timer(0.8, os.kill, (pid, signal.SIGCONT)).start()
             u[0] = 2.0
             started = time.perf_counter()
             runner.step(0.0, 0.01)
-            assert time.perf_counter() - started >= 0.45
-            assert handled == [signal.SIGUSR1]
+            assert time.perf_counter() - started >= 0.75
+            assert len(handled) == 1
+            assert handled[0] - started < 0.7  # while the step was still waited for
             assert y[0] == 6.0
             for k in range(1, 30):  # and the kernel's ends go on
                 u[0] = float(k)
@@ -137,9 +161,12 @@ def test_a_stop_signal_during_the_kernels_wait_leaves_the_step_to_be_answered(
         assert process is not None
         os.kill(process.pid, signal.SIGSTOP)
         threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT)).start()
-        threading.Timer(0.5, os.kill, (process.pid, signal.SIGCONT)).start()
+        threading.Timer(0.8, os.kill, (process.pid, signal.SIGCONT)).start()
+        began = time.perf_counter()
         with pytest.raises(StopRequested), stop_on_signals():
             runner.step(0.0, 0.01)
+        assert time.perf_counter() - began < 0.7  # raised while the child was stopped
+        assert list(runner._pending) == [False]  # the step's answer is still to be read
     finally:
         started = time.perf_counter()
         runner.terminate()

@@ -30,6 +30,7 @@ import ctypes
 import functools
 import math
 import os
+import sys
 from collections.abc import Sequence
 from typing import TYPE_CHECKING
 
@@ -51,6 +52,8 @@ def native_kernel() -> k.Kernel | None:
     """The kernel the native switch allows in this process now, or None (Python ends)."""
     from fmionnx.runtime.native.grouping import SWITCH_ENV
 
+    if sys.platform == "win32":  # the kernel's hand-over is POSIX, as isolation is
+        return None
     return _kernel_for(os.environ.get(SWITCH_ENV, "").strip())
 
 
@@ -118,6 +121,11 @@ class Link:
         """Whether the last :meth:`step` wrote its command (``sent``: the count before it)."""
         return bool(self._spec.sent != sent & _MASK)
 
+    def answered(self, answered: int) -> bool:
+        """Whether the last :meth:`step` read a reply's first byte (``answered``: the count
+        before it)."""
+        return bool(self._spec.answered != answered & _MASK)
+
     @property
     def error(self) -> int:
         """The ``errno`` of ``LINK_ERRNO``."""
@@ -143,6 +151,7 @@ class Server:
         spin_ns: int,
     ) -> None:
         self.group = group
+        self._pairs = copies  # the buffers the kernel copies between, kept alive with it
         inputs, outputs = copies
         self._inputs = _copies([(own, shared) for shared, own in inputs])
         self._outputs = _copies([(shared, own) for shared, own in outputs])

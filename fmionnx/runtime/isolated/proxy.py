@@ -217,6 +217,8 @@ class IsolatedRunner:
         self._link: handover.Link | None = None
         #: Whether the native kernel steps the model in its child (reported at setup).
         self.stepped_natively = False
+        #: The first byte of the oldest pending reply, when the kernel read it already.
+        self._tag: bytes | None = None
         self._tmp: Path | None = None
         self._time = 0.0
         self._dead = False
@@ -361,45 +363,58 @@ class IsolatedRunner:
     def _step_through(self, link: handover.Link, t: float, h: float) -> None:
         """The step's round trip made by the kernel (:mod:`.handover`).
 
-        The counters and the pending reply are settled inside a shield: a stop signal that
-        comes during the call is raised once they say what the child was sent and answered,
-        so that ending the run waits for exactly the replies still to come.
+        Whatever interrupts the call, the counters and the pending reply are brought up to
+        what the kernel did, inside a shield: a stop request is raised once they say what the
+        child was sent and what of its answer was read, so that ending the model reads
+        exactly the rest.
         """
-        sent = self._sent
+        sent, answered = self._sent, self._answered
+        code = k.LINK_INTERRUPTED
         shield_begin()
         try:
             self._pending.append(False)
-            code = link.step(sent, self._answered, spin=not on_lane())
-            if code == k.LINK_REPLY and link.tag == channel.OK:
-                self._pending.pop()
-                self._sent = sent + 1
-                self._answered += 1
-                return
-            if link.written(sent):
-                self._sent = sent + 1
-            else:
-                self._pending.pop()
+            try:
+                code = link.step(sent, answered, spin=not on_lane())
+            finally:
+                self._settle(link, sent, answered)
         finally:
             shield_end()
-        self._step_went_wrong(link, code, t, h)
-
-    def _step_went_wrong(self, link: handover.Link, code: int, t: float, h: float) -> None:
-        """The kernel's hand-over did not end in an OK: go on exactly as the Python one does
-        at the same point (the child gone, the timeout, an error reply, a signal)."""
-        if not self._pending:  # the command was not written
+        if self._pending:  # sent, not answered (or an answer that is not OK, read on)
+            self._step_went_wrong(link, code, t, h)
+        elif code != k.LINK_REPLY:  # not sent
             if code == k.LINK_BROKEN:
                 self._died(t, h)
-            raise OSError(link.error, os.strerror(link.error))
-        if code == k.LINK_REPLY:
-            self._reply(link.tag)
-        elif code == k.LINK_TIMEOUT:
+            if code == k.LINK_ERRNO:
+                raise OSError(link.error, os.strerror(link.error))
+            self.step(t, h)  # a signal came before the command was written: as in Python
+
+    def _settle(self, link: handover.Link, sent: int, answered: int) -> None:
+        """The counters and pending replies after the kernel's call (see :meth:`_step_through`):
+        a reply's first byte that is not OK is kept for :meth:`_await`, which reads the rest."""
+        if not link.written(sent):
+            self._pending.pop()
+            return
+        self._sent = sent + 1
+        if not link.answered(answered):
+            return
+        tag = link.tag
+        if tag == channel.OK:
+            self._pending.pop()
+            self._answered = answered + 1
+        else:
+            self._tag = tag
+
+    def _step_went_wrong(self, link: handover.Link, code: int, t: float, h: float) -> None:
+        """The kernel's hand-over sent the step but did not end in an OK: go on exactly as
+        the Python one does at that point (the timeout, the child gone, an error reply, a
+        signal or a long step: the wait goes on in Python)."""
+        if code == k.LINK_TIMEOUT:
             self._kill_hung(t, h, self._settings.step_timeout or 0.0)
         elif code == k.LINK_CLOSED:
             self._died(t, h)
         elif code == k.LINK_ERRNO:
             raise OSError(link.error, os.strerror(link.error))
-        else:  # LINK_INTERRUPTED: the wait goes on in Python, where the signal's handler runs
-            self._await(t, h)
+        self._await(t, h)
 
     @property
     def waits_spun(self) -> int:
@@ -492,12 +507,14 @@ class IsolatedRunner:
 
     def _await(self, t: float, h: float, timeout: float | None = None) -> object:
         """The child's reply to the oldest pending command; faults become RunErrors."""
-        limit = self._settings.step_timeout if timeout is None else timeout
-        if limit is not None and not channel.readable(self._replies, limit):
-            self._kill_hung(t, h, limit)
-        tag = channel.read_exact(self._replies, 1)
+        tag, self._tag = self._tag, None
         if tag is None:
-            self._died(t, h)
+            limit = self._settings.step_timeout if timeout is None else timeout
+            if limit is not None and not channel.readable(self._replies, limit):
+                self._kill_hung(t, h, limit)
+            tag = channel.read_exact(self._replies, 1)
+            if tag is None:
+                self._died(t, h)
         return self._reply(tag)
 
     def _reply(self, tag: bytes) -> object:

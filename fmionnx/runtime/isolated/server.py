@@ -121,10 +121,13 @@ class Child:
     def _native_fault(self, native: handover.Server) -> None:
         """The kernel's step failed: the fault the Python path raises, answered as it is."""
         t, h = float(self.control.times[0]), float(self.control.times[1])
-        if native.code == k.TERMINATE:  # an FMI 3 model ending the run: its outputs are got
-            self.control.phase.value = channel.FIRST_STEP_PHASE + 2
+        phase = self.control.phase
+
+        def getting() -> None:  # a model ending the run: its outputs are got, as in Python
+            phase.value = channel.FIRST_STEP_PHASE + 2
+
         try:
-            error: Exception = native.group.fault(native.code, t, h)
+            error: Exception = native.group.fault(native.code, t, h, getting)
         except Exception as exc:  # e.g. the gets after a model's end of the run
             error = exc
         if isinstance(error, ModelTerminated):

@@ -45,14 +45,16 @@
 #define _POSIX_C_SOURCE 200809L /* clock_gettime, poll under -std=c99 */
 #include <errno.h>
 #include <math.h>
-#include <poll.h>
-#include <sched.h>
 #include <stdbool.h>
 #include <stddef.h>
 #include <stdint.h>
 #include <string.h>
 #include <time.h>
+#ifndef _WIN32 /* the hand-over is POSIX (isolation is too); its functions refuse elsewhere */
+#include <poll.h>
+#include <sched.h>
 #include <unistd.h>
+#endif
 
 #define FX_ABI_VERSION 4u
 
@@ -440,6 +442,7 @@ static int64_t nanoseconds(void) {
     return (int64_t)now.tv_sec * 1000000000 + (int64_t)now.tv_nsec;
 }
 
+#ifndef _WIN32
 static void spin_wait(fx_spin *spin, const uint32_t *counter, uint32_t seen) {
     if (spin->budget_ns <= 0) return;
     if (spin->skip > 0) {
@@ -459,6 +462,7 @@ static void spin_wait(fx_spin *spin, const uint32_t *counter, uint32_t seen) {
     spin->backoff = 0;
     spin->hits += 1;
 }
+#endif
 
 /* Return codes of fx_link_step and fx_serve. */
 enum {
@@ -466,20 +470,24 @@ enum {
     FX_LINK_BROKEN = 1,      /* the command could not be written: the child is gone */
     FX_LINK_TIMEOUT = 2,     /* no reply within timeout_ms */
     FX_LINK_CLOSED = 3,      /* the reply pipe closed */
-    FX_LINK_INTERRUPTED = 4, /* a signal came while waiting (the command is written) */
+    FX_LINK_INTERRUPTED = 4, /* a signal came, or FX_LINK_SLICE_MS passed: Python goes on */
     FX_LINK_ERRNO = 5,       /* another error: link->error */
     FX_SERVE_COMMAND = 6,    /* a command that is not a step: server->op (consumed) */
     FX_SERVE_FAULT = 7       /* the step failed: server->code, the group says where */
 };
 
+/* The longest the supervisor waits here for a reply before Python waits on: a stop signal
+ * that came just before the poll (which it then does not interrupt) is acted on soon. */
+#define FX_LINK_SLICE_MS 20
+
+#ifndef _WIN32
+/* 0, or errno (EINTR too: the caller returns to Python, whose signal handler may stop). */
 static int write_byte(int fd, unsigned char byte) {
-    for (;;) {
-        ssize_t n = write(fd, &byte, 1);
-        if (n == 1) return 0;
-        if (n < 0 && errno == EINTR) continue;
-        return n < 0 ? errno : EIO;
-    }
+    ssize_t n = write(fd, &byte, 1);
+    if (n == 1) return 0;
+    return n < 0 ? errno : EIO;
 }
+#endif
 
 /* The supervisor's end (proxy.py IsolatedRunner.step): the step's times are in the control
  * block already. */
@@ -496,9 +504,17 @@ typedef struct {
     fx_spin spin;
 } fx_link;
 
-/* Writes a step command, spins (if asked) and waits for the reply's first byte. */
+/* Writes a step command, spins (if asked) and waits for the reply's first byte, at most
+ * FX_LINK_SLICE_MS: a longer step is waited for in Python (FX_LINK_INTERRUPTED). A command
+ * interrupted before it was written is not written (link->sent unchanged). */
 int fx_link_step(fx_link *link, int spin) {
+#ifdef _WIN32
+    (void)spin;
+    link->error = ENOSYS;
+    return FX_LINK_ERRNO;
+#else
     int error = write_byte(link->commands, FX_STEP_COMMAND);
+    if (error == EINTR) return FX_LINK_INTERRUPTED;
     if (error == EPIPE) return FX_LINK_BROKEN;
     if (error != 0) {
         link->error = error;
@@ -507,14 +523,15 @@ int fx_link_step(fx_link *link, int spin) {
     link->sent += 1;
     __atomic_store_n(link->requests, link->sent, __ATOMIC_RELEASE);
     if (spin) spin_wait(&link->spin, link->answers, link->answered);
+    int sliced = link->timeout_ms < 0 || link->timeout_ms > FX_LINK_SLICE_MS;
     struct pollfd wanted = {link->replies, POLLIN | POLLHUP, 0};
-    int ready = poll(&wanted, 1, link->timeout_ms);
+    int ready = poll(&wanted, 1, sliced ? FX_LINK_SLICE_MS : link->timeout_ms);
     if (ready < 0) {
         if (errno == EINTR) return FX_LINK_INTERRUPTED;
         link->error = errno;
         return FX_LINK_ERRNO;
     }
-    if (ready == 0) return FX_LINK_TIMEOUT;
+    if (ready == 0) return sliced ? FX_LINK_INTERRUPTED : FX_LINK_TIMEOUT;
     unsigned char tag;
     for (;;) {
         ssize_t n = read(link->replies, &tag, 1);
@@ -528,6 +545,7 @@ int fx_link_step(fx_link *link, int spin) {
     link->answered += 1;
     link->tag = tag;
     return FX_LINK_REPLY;
+#endif
 }
 
 /* size bytes from src to dst: a port's slot in the shared block and the runner's buffer. */
@@ -559,6 +577,7 @@ typedef struct {
     fx_spin spin;
 } fx_server;
 
+#ifndef _WIN32
 /* One step as server.py Child.step does it through the runner's three step phases. */
 static int serve_step(fx_server *server) {
     double t = server->times[0], h = server->times[1];
@@ -584,11 +603,16 @@ static int serve_step(fx_server *server) {
     }
     return FX_OK;
 }
+#endif
 
 /* Serves step commands until another command comes (FX_SERVE_COMMAND), a step fails
  * (FX_SERVE_FAULT: nothing was answered), the command pipe closes (FX_LINK_CLOSED) or a
  * signal interrupts a read (FX_LINK_INTERRUPTED). */
 int fx_serve(fx_server *server) {
+#ifdef _WIN32
+    server->error = ENOSYS;
+    return FX_LINK_ERRNO;
+#else
     for (;;) {
         spin_wait(&server->spin, server->requests, server->consumed);
         unsigned char op;
@@ -609,7 +633,10 @@ int fx_serve(fx_server *server) {
             server->code = code;
             return FX_SERVE_FAULT;
         }
-        int error = write_byte(server->replies, FX_OK_REPLY);
+        int error;
+        do {
+            error = write_byte(server->replies, FX_OK_REPLY);
+        } while (error == EINTR); /* the child's signals stop nothing: answer */
         if (error != 0) {
             if (error == EPIPE) return FX_LINK_CLOSED;
             server->error = error;
@@ -618,6 +645,7 @@ int fx_serve(fx_server *server) {
         server->written += 1;
         __atomic_store_n(server->answers, server->written, __ATOMIC_RELEASE);
     }
+#endif
 }
 
 /* The struct layouts Python must mirror: for fx_group, fx_member, fx_transfer, fx_call,

@@ -16,7 +16,7 @@ raises (same function, status, time, FMU log); a member that asks to end the run
 from __future__ import annotations
 
 import ctypes
-from collections.abc import Sequence
+from collections.abc import Callable, Sequence
 from dataclasses import dataclass
 
 import numpy as np
@@ -173,10 +173,18 @@ class NativeGroup:
             track.sample()
 
     @staticmethod
-    def _ended(plan: MemberPlan, ending: ModelTerminated, t: float, h: float) -> RunError:
+    def _ended(
+        plan: MemberPlan,
+        ending: ModelTerminated,
+        t: float,
+        h: float,
+        before_gets: Callable[[], None] | None,
+    ) -> RunError:
         """The step completed and the member asks to end the run: get its outputs and sample
         its track as the Python path does before it ends the run (a failing get is the fault).
         """
+        if before_gets is not None:
+            before_gets()
         for function, args, name in plan.calls.get_calls:
             got = int(function(*args))
             if got > STATUS_WARNING:
@@ -187,20 +195,32 @@ class NativeGroup:
         return ending
 
     @classmethod
-    def _do_step_fault(cls, plan: MemberPlan, status: int, t: float, h: float) -> RunError:
+    def _do_step_fault(
+        cls,
+        plan: MemberPlan,
+        status: int,
+        t: float,
+        h: float,
+        before_gets: Callable[[], None] | None,
+    ) -> RunError:
         """A doStep status above Warning: a fault, unless it is FMI 2's ``fmi2Discard`` with
         ``fmi2Terminated`` (asked exactly as the Python path asks)."""
         runner = plan.runner
         if status == STATUS_DISCARD and runner.discard_may_end:
             ending = runner.termination_requested(t, h)
             if ending is not None:
-                return cls._ended(plan, ending, t, h)
+                return cls._ended(plan, ending, t, h, before_gets)
         return runner.fault_for(runner.advance_function, status, t)
 
-    def fault(self, code: int, t: float, h: float) -> RunError:
+    def fault(
+        self, code: int, t: float, h: float, before_gets: Callable[[], None] | None = None
+    ) -> RunError:
         """The kernel stopped the step from ``t`` with ``code``: record what the Python path
         would have recorded, then name the fault as it does (a ModelTerminated when a member
-        asked to end the run)."""
+        asked to end the run).
+
+        ``before_gets`` is called before the outputs of a member that ended the run are got
+        (an isolated child says so in its phase, as its Python step does)."""
         index = int(self._group.failed_member)
         for plan in self._members[:index]:
             for track in plan.tracks:
@@ -218,9 +238,9 @@ class NativeGroup:
         if code == k.SET:
             return plan.runner.fault_for(plan.calls.set_calls[call][2], status, t)
         if code == k.DO_STEP:
-            return self._do_step_fault(plan, status, t, h)
+            return self._do_step_fault(plan, status, t, h, before_gets)
         if code == k.TERMINATE:
             ending = plan.runner.termination_requested(t, h)
             assert ending is not None  # the kernel stops only when the FMU set the flag
-            return self._ended(plan, ending, t, h)
+            return self._ended(plan, ending, t, h, before_gets)
         return plan.runner.fault_for(plan.calls.get_calls[call][2], status, t + h)
