@@ -9,8 +9,10 @@ FMU. The kernel (``fmi2_group.c``: ``fx_link_step``, ``fx_serve``) now does the 
 without a Python instruction:
 
 * :class:`Link`, the supervisor's end, writes the command, spins as :class:`~.channel.Spinner`
-  does and polls with the step timeout; Python sees the reply's first byte, or why there is
-  none (the child gone, the timeout, a signal), and goes on as before.
+  does and polls for the reply, at most 20 ms (a longer step is waited for in Python, where a
+  stop signal that came just before the poll is acted on); Python sees the reply's first byte,
+  or why there is none (the child gone, the timeout, a signal), and goes on as before. A
+  signal that interrupts the write leaves the command unwritten.
 * :class:`Server`, the child's end, serves step commands in a loop: the ports copied from the
   shared block, the runner's set, doStep and get calls made as ``fx_group_step`` makes them
   for a group of one (the phase stored before each part, as the Python child does), the
