@@ -128,7 +128,7 @@ class Child:
 
         try:
             error: Exception = native.group.fault(native.code, t, h, getting)
-        except Exception as exc:  # e.g. the gets after a model's end of the run
+        except Exception as exc:  # naming it failed: answered as a step's exception is
             error = exc
         if isinstance(error, ModelTerminated):
             self._publish()  # the step completed: the master records its outputs
