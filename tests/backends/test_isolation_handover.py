@@ -8,6 +8,7 @@ the same faults at the same time in the same FMI function, and a run.json that s
 
 from __future__ import annotations
 
+import contextlib
 import os
 import signal
 import threading
@@ -172,6 +173,42 @@ def test_a_stop_signal_during_the_kernels_wait_leaves_the_step_to_be_answered(
         runner.terminate()
     assert time.perf_counter() - started < 4.0  # TERMINATE_GRACE is 5 s
     assert process.wait() == 0
+
+
+def test_a_stop_signal_while_the_command_pipe_is_full_stops_the_run(
+    fixture_fmu, write_system
+) -> None:
+    """A child that stops reading its commands (a hostile model can) leaves the pipe full and
+    the supervisor's write blocked: a stop request still ends that write, as in Python, and
+    nothing is left pending. (A watchdog kills the child after 5 s: a write that waited for
+    ever would end there in a fault, not in the stop.)"""
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    runner = unstarted(component, 30.0)
+    try:
+        runner.instantiate()
+        runner.setup(0.0, 1.0)
+        process = runner._process
+        assert process is not None
+        assert runner._link is not None
+        os.kill(process.pid, signal.SIGSTOP)
+        commands = runner._commands
+        os.set_blocking(commands, False)
+        with contextlib.suppress(BlockingIOError):
+            while True:
+                os.write(commands, bytes(4096))
+        os.set_blocking(commands, True)
+        threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT)).start()
+        watchdog = threading.Timer(5.0, os.kill, (process.pid, signal.SIGKILL))
+        watchdog.start()
+        began = time.perf_counter()
+        with pytest.raises(StopRequested), stop_on_signals():
+            runner.step(0.0, 0.01)
+        watchdog.cancel()
+        assert time.perf_counter() - began < 4.0
+        assert not runner._pending  # the step was never written
+        os.kill(process.pid, signal.SIGKILL)
+    finally:
+        runner.terminate()
 
 
 def test_without_the_kernel_the_child_steps_in_python(
