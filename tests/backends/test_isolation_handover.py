@@ -9,14 +9,18 @@ the same faults at the same time in the same FMI function, and a run.json that s
 from __future__ import annotations
 
 import contextlib
+import errno
 import os
 import signal
 import threading
 import time
+from collections.abc import Callable
 
 import pytest
 
 import fmionnx
+from fmionnx.runtime.isolated.proxy import IsolatedRunner
+from fmionnx.runtime.native import kernel as k
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from fmionnx.runtime.stopping import StopRequested, stop_on_signals
 from tests.backends.isolated_runner import (
@@ -114,8 +118,9 @@ def test_isolated_chains_give_the_same_bytes_through_the_kernel_and_python(
 def test_a_signal_during_the_kernels_wait_is_handled_and_the_step_answered(
     fixture_fmu, write_system
 ) -> None:
-    """The supervisor's wait in C returns to Python on a signal, whose handler runs; the step's
-    answer is still read (here the child is stopped while the signal comes)."""
+    """A signal while a step is waited for (in the kernel for 20 ms, then in Python) has its
+    handler run during the wait, and the step's answer is still read (the child is stopped
+    while the signal comes). The kernel's own part is covered with a stand-in below."""
     component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
     handled: list[float] = []
     previous = signal.signal(
@@ -149,9 +154,9 @@ def test_a_signal_during_the_kernels_wait_is_handled_and_the_step_answered(
 def test_a_stop_signal_during_the_kernels_wait_leaves_the_step_to_be_answered(
     fixture_fmu, write_system
 ) -> None:
-    """A stop request (Ctrl-C) that comes while the kernel waits for a step's answer is raised
-    once the counters say the step was sent: ending the model then reads that answer first and
-    the child ends by itself, not killed after the grace period."""
+    """A stop request (Ctrl-C) while a step's answer is waited for (the kernel's 20 ms, then
+    Python's wait) is raised with the step counted as sent: ending the model then reads that
+    answer first and the child ends by itself, not killed after the grace period."""
     component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
     runner = unstarted(component, 30.0)
     try:
@@ -181,7 +186,9 @@ def test_a_stop_signal_while_the_command_pipe_is_full_stops_the_run(
     """A child that stops reading its commands (a hostile model can) leaves the pipe full and
     the supervisor's write blocked: a stop request still ends that write, as in Python, and
     nothing is left pending. (A watchdog kills the child after 5 s: a write that waited for
-    ever would end there in a fault, not in the stop.)"""
+    ever would end there in a fault, not in the stop.) The child is killed before the model
+    is ended: ending it asks the child to terminate through the same full pipe, which would
+    block, as Python's own write of that request always did."""
     component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
     runner = unstarted(component, 30.0)
     try:
@@ -223,3 +230,156 @@ def test_without_the_kernel_the_child_steps_in_python(
             u[0] = float(k)
             runner.step(k * 0.01, 0.01)
             assert y[0] == 2.0 * k
+
+
+# -- the supervisor's bookkeeping around the kernel's call ---------------------------------------
+
+
+class _Link:
+    """Stands in for the kernel's end (:class:`fmionnx.runtime.isolated.handover.Link`): each
+    call does what its outcome says the kernel did -- write the command, read a reply's first
+    byte -- then, maybe, something that interrupts (``then``), and returns the outcome's code."""
+
+    def __init__(self, *outcomes: tuple[int, bool, bytes | None, Callable[[], None] | None]):
+        self._outcomes = list(outcomes)
+        self._sent = self._answered = 0
+        self.tag = b"?"
+        self.error = errno.EIO
+        self.spins = 0
+        self.calls = 0
+
+    def prepare(self, sent: int, answered: int) -> None:
+        self._sent, self._answered = sent, answered
+
+    def call(self, *, spin: bool) -> int:
+        code, written, tag, then = self._outcomes.pop(0)
+        self.calls += 1
+        if written:
+            self._sent += 1
+        if tag is not None:
+            self._answered += 1
+            self.tag = tag
+        if then is not None:
+            then()
+        return code
+
+    def written(self, sent: int) -> bool:
+        return self._sent != sent
+
+    def answered(self, answered: int) -> bool:
+        return self._answered != answered
+
+
+class _Waited(Exception):  # noqa: N818 - a marker: the Python wait was entered
+    pass
+
+
+def _interrupt() -> None:
+    raise KeyboardInterrupt
+
+
+def _stop_signal() -> None:
+    os.kill(os.getpid(), signal.SIGINT)
+
+
+def _counts(runner: IsolatedRunner) -> tuple[int, int, int]:
+    """Commands sent and replies read in this run, and replies pending."""
+    return (runner._sent - KEPT, runner._answered - KEPT, len(runner._pending))
+
+
+def _bookkept(fixture_fmu, write_system, link: _Link) -> IsolatedRunner:
+    """An isolated runner (no process) whose steps go through ``link``; its Python wait, death
+    and hang handling raise :class:`_Waited` and record which was entered."""
+    runner = unstarted(lone_component(fixture_fmu, write_system, "Gain"))
+    runner._link = link  # type: ignore[assignment]
+    runner._sent = runner._answered = KEPT  # a kept child's counters go on from its last run
+    entered: list[str] = []
+    runner.entered = entered  # type: ignore[attr-defined]
+
+    def waited(name: str) -> Callable[..., object]:
+        def enter(*args: object, **kwargs: object) -> object:
+            entered.append(name)
+            raise _Waited(name)
+
+        return enter
+
+    runner._await = waited("await")  # type: ignore[method-assign]
+    runner._died = waited("died")  # type: ignore[method-assign]
+    runner._kill_hung = waited("kill_hung")  # type: ignore[method-assign]
+    return runner
+
+
+OK, ERROR = b"k", b"e"
+#: Commands and replies a kept child had exchanged before (its counters do not start at 0).
+KEPT = 7
+
+
+@pytest.mark.parametrize(
+    ("outcomes", "entered", "counts", "tag"),
+    [
+        ([(k.LINK_REPLY, True, OK, None)], [], (1, 1, 0), None),
+        ([(k.LINK_REPLY, True, ERROR, None)], ["await"], (1, 0, 1), ERROR),
+        ([(k.LINK_INTERRUPTED, True, None, None)], ["await"], (1, 0, 1), None),
+        ([(k.LINK_TIMEOUT, True, None, None)], ["kill_hung"], (1, 0, 1), None),
+        ([(k.LINK_CLOSED, True, None, None)], ["died"], (1, 0, 1), None),
+        ([(k.LINK_BROKEN, False, None, None)], ["died"], (0, 0, 0), None),
+        (  # a signal interrupted the write: written again
+            [(k.LINK_INTERRUPTED, False, None, None), (k.LINK_REPLY, True, OK, None)],
+            [],
+            (1, 1, 0),
+            None,
+        ),
+    ],
+    ids=["ok", "error-reply", "long-step", "timeout", "closed", "broken", "write-again"],
+)
+def test_the_supervisor_settles_what_the_kernel_did(
+    fixture_fmu, write_system, outcomes, entered, counts, tag
+) -> None:
+    link = _Link(*outcomes)
+    runner = _bookkept(fixture_fmu, write_system, link)
+    if entered:
+        with pytest.raises(_Waited):
+            runner.step(0.0, 0.01)
+    else:
+        runner.step(0.0, 0.01)
+    assert runner.entered == entered  # type: ignore[attr-defined]
+    assert _counts(runner) == counts
+    assert runner._tag == tag
+    assert link.calls == len(outcomes)
+
+
+@pytest.mark.parametrize(
+    ("written", "tag", "counts"),
+    [
+        (True, OK, (1, 1, 0)),
+        (True, None, (1, 0, 1)),
+        (True, ERROR, (1, 0, 1)),
+        (False, None, (0, 0, 0)),
+    ],
+    ids=["answered", "unanswered", "error-read", "unwritten"],
+)
+def test_an_interrupt_right_after_the_kernels_call_leaves_whole_counts(
+    fixture_fmu, write_system, written: bool, tag: bytes | None, counts: tuple[int, int, int]
+) -> None:
+    """A KeyboardInterrupt (Python's own handler) raised as the call returns: the counts
+    still say what the kernel wrote and read, so ending the model reads exactly the rest."""
+    code = k.LINK_REPLY if tag is not None else k.LINK_INTERRUPTED
+    runner = _bookkept(fixture_fmu, write_system, _Link((code, written, tag, _interrupt)))
+    with pytest.raises(KeyboardInterrupt):
+        runner.step(0.0, 0.01)
+    assert _counts(runner) == counts
+    assert runner._tag == (tag if tag == ERROR else None)
+    assert runner.entered == []  # type: ignore[attr-defined]
+
+
+def test_a_stop_held_by_the_shield_is_raised_once_the_counts_are_whole(
+    fixture_fmu, write_system
+) -> None:
+    """A stop signal during the kernel's wait (``fmionnx run``'s handler): held while the
+    counts are settled, raised before the Python wait begins."""
+    link = _Link((k.LINK_INTERRUPTED, True, None, _stop_signal))
+    runner = _bookkept(fixture_fmu, write_system, link)
+    with pytest.raises(StopRequested), stop_on_signals():
+        runner.step(0.0, 0.01)
+    assert _counts(runner) == (1, 0, 1)
+    assert runner.entered == []  # type: ignore[attr-defined]

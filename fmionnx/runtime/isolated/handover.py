@@ -106,12 +106,16 @@ class Link:
         self._address = ctypes.addressof(self._spec)
         self._call = kernel.link_step
 
-    def step(self, sent: int, answered: int, *, spin: bool) -> int:
-        """Write a step command (``sent``, ``answered``: the counters so far) and wait for the
-        reply; a ``LINK_*`` code of :mod:`~fmionnx.runtime.native.kernel`."""
+    def prepare(self, sent: int, answered: int) -> None:
+        """The counters so far, before :meth:`call` (so that :meth:`written` and
+        :meth:`answered` compare with them whatever interrupts the call)."""
         spec = self._spec
         spec.sent = sent & _MASK
         spec.answered = answered & _MASK
+
+    def call(self, *, spin: bool) -> int:
+        """Write a step command and wait for the reply; a ``LINK_*`` code of
+        :mod:`~fmionnx.runtime.native.kernel`."""
         return self._call(self._address, int(spin))
 
     @property

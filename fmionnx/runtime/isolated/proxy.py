@@ -366,43 +366,45 @@ class IsolatedRunner:
         Whatever interrupts the call, the counters and the pending reply are brought up to
         what the kernel did, inside a shield: a stop request is raised once they say what the
         child was sent and what of its answer was read, so that ending the model reads
-        exactly the rest.
+        exactly the rest. A signal that interrupts the write leaves the command unwritten:
+        it is written again, as Python's own write does, unless the signal stopped the run.
         """
-        sent, answered = self._sent, self._answered
-        code = k.LINK_INTERRUPTED
-        shield_begin()
-        try:
-            self._pending.append(False)
+        while True:
+            sent, answered = self._sent, self._answered
+            link.prepare(sent, answered)
+            code = k.LINK_INTERRUPTED
+            shield_begin()
             try:
-                code = link.step(sent, answered, spin=not on_lane())
+                try:
+                    code = link.call(spin=not on_lane())
+                finally:
+                    self._settle(link, sent, answered)
             finally:
-                self._settle(link, sent, answered)
-        finally:
-            shield_end()
-        if self._pending:  # sent, not answered (or an answer that is not OK, read on)
-            self._step_went_wrong(link, code, t, h)
-        elif code != k.LINK_REPLY:  # not sent
+                shield_end()
+            if self._pending:  # sent, not answered (or an answer that is not OK, read on)
+                self._step_went_wrong(link, code, t, h)
+                return
+            if code == k.LINK_REPLY:
+                return
             if code == k.LINK_BROKEN:
                 self._died(t, h)
             if code == k.LINK_ERRNO:
                 raise OSError(link.error, os.strerror(link.error))
-            self.step(t, h)  # a signal came before the command was written: as in Python
 
     def _settle(self, link: handover.Link, sent: int, answered: int) -> None:
         """The counters and pending replies after the kernel's call (see :meth:`_step_through`):
-        a reply's first byte that is not OK is kept for :meth:`_await`, which reads the rest."""
-        if not link.written(sent):
-            self._pending.pop()
+        a reply's first byte that is not OK is kept for :meth:`_await`, which reads the rest.
+        The pending reply is recorded last, once everything it depends on is."""
+        written, replied, tag = link.written(sent), link.answered(answered), link.tag
+        if not written:
             return
         self._sent = sent + 1
-        if not link.answered(answered):
-            return
-        tag = link.tag
-        if tag == channel.OK:
-            self._pending.pop()
+        if replied and tag == channel.OK:
             self._answered = answered + 1
-        else:
+            return
+        if replied:
             self._tag = tag
+        self._pending.append(False)
 
     def _step_went_wrong(self, link: handover.Link, code: int, t: float, h: float) -> None:
         """The kernel's hand-over sent the step but did not end in an OK: go on exactly as
