@@ -124,11 +124,11 @@ class Link:
         return bytes((self._spec.tag & 0xFF,))
 
     def written(self, sent: int) -> bool:
-        """Whether the last :meth:`step` wrote its command (``sent``: the count before it)."""
+        """Whether the last :meth:`call` wrote its command (``sent``: the count before it)."""
         return bool(self._spec.sent != sent & _MASK)
 
     def answered(self, answered: int) -> bool:
-        """Whether the last :meth:`step` read a reply's first byte (``answered``: the count
+        """Whether the last :meth:`call` read a reply's first byte (``answered``: the count
         before it)."""
         return bool(self._spec.answered != answered & _MASK)
 
