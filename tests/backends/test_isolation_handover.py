@@ -19,6 +19,7 @@ from collections.abc import Callable
 import pytest
 
 import fmionnx
+from fmionnx.runtime.isolated import proxy
 from fmionnx.runtime.isolated.proxy import IsolatedRunner
 from fmionnx.runtime.native import kernel as k
 from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
@@ -181,14 +182,14 @@ def test_a_stop_signal_during_the_kernels_wait_leaves_the_step_to_be_answered(
 
 
 def test_a_stop_signal_while_the_command_pipe_is_full_stops_the_run(
-    fixture_fmu, write_system
+    fixture_fmu, write_system, monkeypatch
 ) -> None:
     """A child that stops reading its commands (a hostile model can) leaves the pipe full and
     the supervisor's write blocked: a stop request still ends that write, as in Python, and
     nothing is left pending. (A watchdog kills the child after 5 s: a write that waited for
-    ever would end there in a fault, not in the stop.) The child is killed before the model
-    is ended: ending it asks the child to terminate through the same full pipe, which would
-    block, as Python's own write of that request always did."""
+    ever would end there in a fault, not in the stop.) Ending the model then does not wait
+    for ever to ask the child to terminate through the same full pipe (as it did, in Python
+    too): after the grace period it kills the child."""
     component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
     runner = unstarted(component, 30.0)
     try:
@@ -213,9 +214,15 @@ def test_a_stop_signal_while_the_command_pipe_is_full_stops_the_run(
         watchdog.cancel()
         assert time.perf_counter() - began < 4.0
         assert not runner._pending  # the step was never written
-        os.kill(process.pid, signal.SIGKILL)
     finally:
+        monkeypatch.setattr(proxy, "TERMINATE_GRACE", 0.5)
+        rescue = threading.Timer(10.0, os.kill, (process.pid, signal.SIGKILL))  # if it hangs
+        rescue.start()
+        ending = time.perf_counter()
         runner.terminate()
+        rescue.cancel()
+    assert time.perf_counter() - ending < 3.0
+    assert process.wait() == -signal.SIGKILL
 
 
 def test_without_the_kernel_the_child_steps_in_python(

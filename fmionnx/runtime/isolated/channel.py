@@ -185,6 +185,14 @@ def readable(fd: int, timeout: float | None) -> bool:
     return bool(poller.poll(None if timeout is None else max(timeout, 0.0) * 1000.0))
 
 
+def writable(fd: int, timeout: float) -> bool:
+    """Whether a small message can be written to ``fd`` without blocking, or its other end
+    closed (the write then fails at once), within ``timeout`` seconds."""
+    poller = select.poll()
+    poller.register(fd, select.POLLOUT)
+    return bool(poller.poll(max(timeout, 0.0) * 1000.0))
+
+
 def write_all(fd: int, data: bytes) -> None:
     """``os.write`` until everything is written (pipes may take less at once)."""
     written = memoryview(data)

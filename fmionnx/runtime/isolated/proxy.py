@@ -451,10 +451,13 @@ class IsolatedRunner:
         self._process = None
         try:
             if not self._dead and process.poll() is None:
-                with contextlib.suppress(OSError, RunError):
-                    self._request("terminate")
-                    while self._pending:  # a step interrupted by Ctrl-C answers first
-                        self._await(self._time, 0.0, timeout=TERMINATE_GRACE)
+                if channel.writable(self._commands, TERMINATE_GRACE):
+                    with contextlib.suppress(OSError, RunError):
+                        self._request("terminate")
+                        while self._pending:  # a step interrupted by Ctrl-C answers first
+                            self._await(self._time, 0.0, timeout=TERMINATE_GRACE)
+                else:  # it stopped reading its commands (a hostile model can): nothing to ask
+                    process.kill()
             process.wait(TERMINATE_GRACE)
         except subprocess.TimeoutExpired:
             pass
