@@ -180,17 +180,19 @@ def view(block: mmap.mmap, slot: Slot) -> npt.NDArray[np.generic]:
 def readable(fd: int, timeout: float | None) -> bool:
     """Whether ``fd`` has something to read, or its other end closed, within ``timeout``
     seconds (None: wait for ever)."""
-    poller = select.poll()
-    poller.register(fd, select.POLLIN | select.POLLHUP)
-    return bool(poller.poll(None if timeout is None else max(timeout, 0.0) * 1000.0))
+    return _ready(fd, select.POLLIN | select.POLLHUP, timeout)
 
 
 def writable(fd: int, timeout: float) -> bool:
     """Whether a small message can be written to ``fd`` without blocking, or its other end
     closed (the write then fails at once), within ``timeout`` seconds."""
+    return _ready(fd, select.POLLOUT, timeout)
+
+
+def _ready(fd: int, events: int, timeout: float | None) -> bool:
     poller = select.poll()
-    poller.register(fd, select.POLLOUT)
-    return bool(poller.poll(max(timeout, 0.0) * 1000.0))
+    poller.register(fd, events)
+    return bool(poller.poll(None if timeout is None else max(timeout, 0.0) * 1000.0))
 
 
 def write_all(fd: int, data: bytes) -> None:

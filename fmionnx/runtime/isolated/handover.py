@@ -61,7 +61,9 @@ def native_kernel() -> k.Kernel | None:
 
 @functools.cache
 def _kernel_for(setting: str) -> k.Kernel | None:
-    if setting not in ("", "1", "build"):
+    from fmionnx.runtime.native.grouping import SETTINGS
+
+    if setting == "0" or setting not in SETTINGS:  # as the in-process kernel's switch reads
         return None
     kernel = k.load_kernel(build=setting == "build")
     return None if isinstance(kernel, str) else kernel
