@@ -17,7 +17,7 @@ NO_MODEL_FILE = ""
 class StrictModel(BaseModel):
     """Base of every raw model: unknown keys are errors, values are immutable."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, defer_build=True)
 
 
 class ComponentSpecBase(StrictModel):

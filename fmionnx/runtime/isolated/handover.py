@@ -52,18 +52,14 @@ _MASK = channel.COUNTER_MASK
 
 def native_kernel() -> k.Kernel | None:
     """The kernel the native switch allows in this process now, or None (Python ends)."""
-    from fmionnx.runtime.native.grouping import SWITCH_ENV
-
     if sys.platform == "win32":  # the kernel's hand-over is POSIX, as isolation is
         return None
-    return _kernel_for(os.environ.get(SWITCH_ENV, "").strip())
+    return _kernel_for(os.environ.get(k.SWITCH_ENV, "").strip())
 
 
 @functools.cache
 def _kernel_for(setting: str) -> k.Kernel | None:
-    from fmionnx.runtime.native.grouping import SETTINGS
-
-    if setting == "0" or setting not in SETTINGS:  # as the in-process kernel's switch reads
+    if setting == "0" or setting not in k.SETTINGS:  # as the in-process kernel's switch reads
         return None
     kernel = k.load_kernel(build=setting == "build")
     return None if isinstance(kernel, str) else kernel

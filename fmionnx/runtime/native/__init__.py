@@ -5,10 +5,7 @@ request at run time (:mod:`.runbuild`); :mod:`.kernel` loads it after checking i
 manifest (:mod:`.manifest`) and its ABI, :mod:`.grouping` decides which components it steps,
 :mod:`.group` drives one group and reports faults like the Python path. Results are
 bit-identical to the Python path; ``FMIONNX_NATIVE=0`` turns it off.
+
+The package itself imports nothing: an isolated child loads :mod:`.kernel` without
+:mod:`.grouping`, which brings the compiled system's types (and pydantic) with it.
 """
-
-from __future__ import annotations
-
-from fmionnx.runtime.native.grouping import NativePlan, NativeStatus, plan_native
-
-__all__ = ["NativePlan", "NativeStatus", "plan_native"]

@@ -31,17 +31,12 @@ from fmionnx.core.runner import Buffer, Runner
 from fmionnx.kinds.base import FMI
 from fmionnx.kinds.registry import has_capability
 from fmionnx.runtime.native.group import MemberPlan, NativeGroup, call_type, type_code
-from fmionnx.runtime.native.kernel import load_kernel
+from fmionnx.runtime.native.kernel import SETTINGS, SWITCH_ENV, load_kernel
 from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.transfer import connection_views
 
 LOG = logging.getLogger(__name__)
 
-#: Environment switch: ``0`` keeps every component in the Python path, ``build`` compiles
-#: the kernel at run time instead of loading the installed one, unset or ``1`` loads that.
-SWITCH_ENV = "FMIONNX_NATIVE"
-#: Its values; any other keeps the Python path, with that as the reason.
-SETTINGS = ("", "1", "0", "build")
 
 Tracks = Mapping[str, tuple[Track | None, Track | None]]
 

@@ -25,6 +25,14 @@ from typing import Any, Literal
 from fmionnx.runtime.native.manifest import LIBRARY_NAME, SOURCE_NAME, check_built
 from fmionnx.runtime.native.runbuild import build_in_cache
 
+#: Environment switch: ``0`` keeps every component in the Python path, ``build`` compiles
+#: the kernel at run time instead of loading the installed one, unset or ``1`` loads that.
+#: Defined here rather than in :mod:`.grouping` so that an isolated child reads it without
+#: importing the compiled system's types (and pydantic).
+SWITCH_ENV = "FMIONNX_NATIVE"
+#: Its values; any other keeps the Python path, with that as the reason.
+SETTINGS = ("", "1", "0", "build")
+
 #: ``FX_ABI_VERSION`` of the ``fmi2_group.c`` these mirrors follow (bump both together).
 ABI_VERSION = 4
 
