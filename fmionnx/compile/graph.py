@@ -12,21 +12,133 @@ before) and publishes its outputs at the end of its step.
   reads the value published at the end of the producer's previous step, which is the value at
   the current time. Ties are broken by declaration order, so the order is deterministic.
 
-networkx is imported by the functions that need a graph: a system without connections (a
-single model run as ``fmionnx run model.fmu``) has no loop and is ordered as declared, and
-its compile does not pay the library's import.
+The three graph algorithms the compile needs (strongly connected parts, one cycle through a
+part, the topological order that takes the earliest declared component first) are written
+here, on plain dicts: networkx took a fifth of a second to import in every compile that was
+not served from the cache. :func:`dataflow_graph`, for the ``graph`` command's export, still
+builds a networkx graph. ``tests/compile/test_graph_properties.py`` holds these functions to
+networkx's answers.
 """
 
 from __future__ import annotations
 
-from collections.abc import Iterable, Sequence
-from typing import TYPE_CHECKING
+import heapq
+import itertools
+from collections.abc import Callable, Hashable, Iterable, Iterator, Mapping, Sequence
+from typing import TYPE_CHECKING, TypeVar
 
 from fmionnx.compile.ir import CompiledSystem, Connection
 from fmionnx.core.types import Causality, Component, Port
 
 if TYPE_CHECKING:
     import networkx as nx
+
+N = TypeVar("N", bound=Hashable)
+#: A directed graph: each node's successors, in the order their edges were first added (a
+#: dict as an ordered set), so that every walk over it is the same in every process.
+Digraph = dict[N, dict[N, None]]
+#: A port of the feedthrough graph: (component, port).
+PortNode = tuple[str, str]
+
+
+def _add_edge(graph: Digraph[N], a: N, b: N) -> None:
+    graph.setdefault(a, {})[b] = None
+    graph.setdefault(b, {})
+
+
+def strongly_connected_parts(graph: Mapping[N, Mapping[N, None]]) -> list[set[N]]:
+    """The strongly connected parts of ``graph`` (Tarjan's algorithm, without recursion)."""
+    index: dict[N, int] = {}
+    low: dict[N, int] = {}
+    stack: list[N] = []
+    on_stack: set[N] = set()
+    parts: list[set[N]] = []
+    for root in graph:
+        if root in index:
+            continue
+        index[root] = low[root] = len(index)
+        stack.append(root)
+        on_stack.add(root)
+        walk: list[tuple[N, Iterator[N]]] = [(root, iter(graph[root]))]
+        while walk:
+            node, successors = walk[-1]
+            for successor in successors:
+                if successor not in index:
+                    index[successor] = low[successor] = len(index)
+                    stack.append(successor)
+                    on_stack.add(successor)
+                    walk.append((successor, iter(graph[successor])))
+                    break
+                if successor in on_stack:
+                    low[node] = min(low[node], index[successor])
+            else:
+                walk.pop()
+                if walk:
+                    parent = walk[-1][0]
+                    low[parent] = min(low[parent], low[node])
+                if low[node] == index[node]:
+                    part: set[N] = set()
+                    while True:
+                        member = stack.pop()
+                        on_stack.discard(member)
+                        part.add(member)
+                        if member == node:
+                            break
+                    parts.append(part)
+    return parts
+
+
+def cycle_through(graph: Mapping[N, Mapping[N, None]], part: set[N], start: N) -> list[tuple[N, N]]:
+    """The first cycle a depth-first walk from ``start`` inside ``part`` closes, as its edges
+    from the node it closes on; successors are tried in the order of their edges.
+
+    ``part`` is a strongly connected part with a cycle, so the walk always closes one. The
+    same cycle as ``networkx.find_cycle(graph.subgraph(part), source=start)``.
+    """
+    path: list[N] = [start]
+    on_path = {start: 0}
+    finished: set[N] = set()
+    walk: list[Iterator[N]] = [iter(graph[start])]
+    while walk:
+        node = path[-1]
+        for successor in walk[-1]:
+            if successor not in part or successor in finished:
+                continue
+            if successor in on_path:
+                loop = [*path[on_path[successor] :], successor]
+                return list(itertools.pairwise(loop))
+            on_path[successor] = len(path)
+            path.append(successor)
+            walk.append(iter(graph[successor]))
+            break
+        else:
+            walk.pop()
+            finished.add(path.pop())
+            del on_path[node]
+    raise ValueError(f"no cycle through {start!r}")  # not a part with a cycle: a caller's bug
+
+
+def earliest_first_order(
+    graph: Mapping[N, Mapping[N, None]], key: Callable[[N], int]
+) -> list[N] | None:
+    """A topological order of ``graph`` that takes, of the nodes whose predecessors are all
+    placed, the one of the smallest ``key`` first (unique keys: one answer); ``None`` if the
+    graph has a cycle."""
+    waiting = dict.fromkeys(graph, 0)
+    for successors in graph.values():
+        for successor in successors:
+            waiting[successor] += 1
+    ready = [(key(node), node) for node, count in waiting.items() if count == 0]
+    heapq.heapify(ready)
+    order: list[N] = []
+    while ready:
+        _, node = heapq.heappop(ready)
+        order.append(node)
+        for successor in graph[node]:
+            waiting[successor] -= 1
+            if waiting[successor] == 0:
+                heapq.heappush(ready, (key(successor), successor))
+    return order if len(order) == len(waiting) else None
 
 
 def direct_inputs(component: Component, output: Port) -> tuple[str, ...]:
@@ -38,38 +150,35 @@ def direct_inputs(component: Component, output: Port) -> tuple[str, ...]:
 
 def _feedthrough_graph(
     components: Sequence[Component], connections: Iterable[Connection]
-) -> nx.DiGraph:
-    """Port-level graph: connections, and each used output's direct dependencies."""
-    import networkx as nx
-
+) -> tuple[Digraph[PortNode], dict[PortNode, int]]:
+    """Port-level graph: connections, and each used output's direct dependencies; with each
+    used output's rank (the position of its first connection)."""
     by_name = {c.name: c for c in components}
-    graph: nx.DiGraph = nx.DiGraph()
-    used_outputs: dict[tuple[str, str], int] = {}  # a dict: insertion order, not hash order
+    graph: Digraph[PortNode] = {}
+    used_outputs: dict[PortNode, int] = {}  # a dict: insertion order, not hash order
     for rank, connection in enumerate(connections):
         src = (connection.src.component, connection.src.port)
-        graph.add_edge(src, (connection.dst.component, connection.dst.port))
+        _add_edge(graph, src, (connection.dst.component, connection.dst.port))
         used_outputs.setdefault(src, rank)
-    nx.set_node_attributes(graph, used_outputs, "rank")
     for component_name, port_name in used_outputs:
         component = by_name[component_name]
         output = component.port(port_name)
         for input_name in direct_inputs(component, output):
-            graph.add_edge((component_name, input_name), (component_name, port_name))
-    return graph
+            _add_edge(graph, (component_name, input_name), (component_name, port_name))
+    return graph, used_outputs
 
 
-def _loop_parts(graph: nx.DiGraph) -> list[tuple[set[str], list[str]]]:
+def _loop_parts(
+    graph: Digraph[PortNode], ranks: Mapping[PortNode, int]
+) -> list[tuple[set[str], list[str]]]:
     """Each strongly connected part with a cycle: its components and one cycle (``comp.port``)."""
-    import networkx as nx
-
     parts = []
-    ranks = nx.get_node_attributes(graph, "rank")
-    for scc in nx.strongly_connected_components(graph):
+    for scc in strongly_connected_parts(graph):
         if len(scc) > 1:
             # from the output of the part's first declared connection, so that the cycle
             # named does not depend on the order of a set (string hashes vary per process)
             start = min((node for node in scc if node in ranks), key=ranks.__getitem__)
-            cycle = nx.find_cycle(graph.subgraph(scc), source=start)
+            cycle = cycle_through(graph, scc, start)
             names = [f"{edge[0][0]}.{edge[0][1]}" for edge in cycle]
             parts.append(({component for component, _ in scc}, names))
     return parts
@@ -82,8 +191,7 @@ def find_algebraic_loops(
     connections = list(connections)
     if not connections:  # no edge, no cycle
         return []
-    graph = _feedthrough_graph(components, connections)
-    return sorted(cycle for _, cycle in _loop_parts(graph))
+    return sorted(cycle for _, cycle in _loop_parts(*_feedthrough_graph(components, connections)))
 
 
 def loop_groups(
@@ -100,7 +208,7 @@ def loop_groups(
     position = {c.name: i for i, c in enumerate(components)}
     merged: list[tuple[set[str], list[str]]] = []
     for part, cycle in sorted(
-        _loop_parts(_feedthrough_graph(components, connections)), key=lambda p: p[1]
+        _loop_parts(*_feedthrough_graph(components, connections)), key=lambda p: p[1]
     ):
         members = set(part)
         touching = [group for group in merged if group[0] & members]
@@ -166,8 +274,6 @@ def execution_order_with_loops(
     """
     if not connections and not loops:  # nothing to sort: the declaration order
         return tuple(c.name for c in components)
-    import networkx as nx
-
     position = {c.name: i for i, c in enumerate(components)}
     by_name = {c.name: c for c in components}
     node_of = {c.name: c.name for c in components}
@@ -177,27 +283,23 @@ def execution_order_with_loops(
         members_of[head] = loop
         for member in loop:
             node_of[member] = head
-    graph: nx.DiGraph = nx.DiGraph()
-    graph.add_nodes_from(set(node_of.values()))
+    graph: Digraph[str] = {node: {} for node in node_of.values()}
     delayed: set[tuple[str, str]] = set()
     for connection in connections:
         a, b = node_of[connection.src.component], node_of[connection.dst.component]
         if a == b:
             continue
-        graph.add_edge(a, b)
+        _add_edge(graph, a, b)
         source = by_name[connection.src.component]
         if not direct_inputs(source, source.port(connection.src.port)):
             delayed.add((a, b))
-    for scc in list(nx.strongly_connected_components(graph)):
-        if len(scc) < 2:
-            continue
-        for a, b in list(graph.subgraph(scc).edges):
-            if (a, b) in delayed:
-                graph.remove_edge(a, b)
-    if nx.is_directed_acyclic_graph(graph):
-        nodes = list(nx.lexicographical_topological_sort(graph, key=lambda n: f"{position[n]:08d}"))
-    else:  # a component-level cycle that is no port-level loop: declaration order
-        nodes = sorted(graph.nodes, key=position.__getitem__)
+    for scc in strongly_connected_parts(graph):
+        for a, b in delayed:
+            if a in scc and b in scc:
+                graph[a].pop(b, None)
+    nodes = earliest_first_order(graph, position.__getitem__)
+    if nodes is None:  # a component-level cycle that is no port-level loop: declaration order
+        nodes = sorted(graph, key=position.__getitem__)
     order: list[str] = []
     for node in nodes:
         order.extend(members_of.get(node, (node,)))

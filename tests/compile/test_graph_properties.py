@@ -8,7 +8,13 @@ import networkx as nx
 from hypothesis import given, settings
 from hypothesis import strategies as st
 
-from fmionnx.compile.graph import execution_order, find_algebraic_loops
+from fmionnx.compile.graph import (
+    cycle_through,
+    earliest_first_order,
+    execution_order,
+    find_algebraic_loops,
+    strongly_connected_parts,
+)
 from fmionnx.compile.ir import Connection
 from fmionnx.core.types import (
     Causality,
@@ -92,3 +98,56 @@ def test_whole_multiples_are_recognised(k: int, step: float) -> None:
 @given(st.floats(0.1, 0.9), st.sampled_from([1e-3, 0.01, 0.1]))
 def test_fractional_multiples_are_rejected(fraction: float, step: float) -> None:
     assert is_whole_multiple((3 + fraction) * step, step) is None
+
+
+# The compile's own graph algorithms (compile/graph.py), held to networkx's answers on random
+# directed graphs: networkx is no longer imported by a compile, so these are what order it.
+
+digraphs = st.integers(min_value=1, max_value=9).flatmap(
+    lambda n: st.lists(st.tuples(st.integers(0, n - 1), st.integers(0, n - 1)), max_size=3 * n).map(
+        lambda edges: (n, edges)
+    )
+)
+
+
+def _both(n: int, edges: list[tuple[int, int]]) -> tuple[dict[int, dict[int, None]], nx.DiGraph]:
+    ours: dict[int, dict[int, None]] = {node: {} for node in range(n)}
+    theirs = nx.DiGraph()
+    theirs.add_nodes_from(range(n))
+    for a, b in edges:
+        ours[a][b] = None
+        theirs.add_edge(a, b)
+    return ours, theirs
+
+
+@given(digraphs)
+@settings(max_examples=300, deadline=None)
+def test_strongly_connected_parts_are_networkx_s(graph: tuple[int, list[tuple[int, int]]]) -> None:
+    ours, theirs = _both(*graph)
+    found = sorted(sorted(part) for part in strongly_connected_parts(ours))
+    assert found == sorted(sorted(part) for part in nx.strongly_connected_components(theirs))
+
+
+@given(digraphs)
+@settings(max_examples=300, deadline=None)
+def test_the_cycle_through_a_part_is_networkx_s(graph: tuple[int, list[tuple[int, int]]]) -> None:
+    """The same cycle, not only a cycle: loop errors (E035) name it."""
+    ours, theirs = _both(*graph)
+    for part in strongly_connected_parts(ours):
+        if len(part) > 1:
+            start = min(part)
+            expected = nx.find_cycle(theirs.subgraph(part), source=start)
+            assert cycle_through(ours, part, start) == [tuple(edge) for edge in expected]
+
+
+@given(digraphs)
+@settings(max_examples=300, deadline=None)
+def test_the_earliest_first_order_is_networkx_s(graph: tuple[int, list[tuple[int, int]]]) -> None:
+    ours, theirs = _both(*graph)
+    rank = {node: (node * 7) % 11 for node in range(graph[0])}  # not the nodes' own order
+    found = earliest_first_order(ours, rank.__getitem__)
+    if nx.is_directed_acyclic_graph(theirs):
+        expected = list(nx.lexicographical_topological_sort(theirs, key=rank.__getitem__))
+        assert found == expected
+    else:
+        assert found is None
