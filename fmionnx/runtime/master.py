@@ -179,6 +179,8 @@ class Master:
                 profile.timed_once(component.name, "instantiate", partial(self._make, component))
         for component in system.components:  # back in the system's order, in place
             self.runners[component.name] = self.runners.pop(component.name)
+            if profile is not None and component.name in profile.entries:
+                profile.entries[component.name] = profile.entries.pop(component.name)
         for name in system.order:
             setup = partial(self.runners[name].setup, run.start, run.stop)
             if profile is None:

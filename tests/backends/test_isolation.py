@@ -20,7 +20,11 @@ import numpy as np
 import pytest
 
 import fmionnx
+from fmionnx.core.runner import Runner, RunnerFactory, Wiring
+from fmionnx.core.types import Component
 from fmionnx.results.csvfile import read_csv
+from fmionnx.runtime.instruments import Instruments
+from fmionnx.runtime.master import Master
 from fmionnx.runtime.result import RunOptions, RunStatus
 from tests.conftest import finish
 
@@ -302,3 +306,36 @@ def test_sandboxed_models_give_the_same_results(fixture_fmu, write_system, tmp_p
         assert code == 0, output
         runs[name] = (out / "results.csv").read_bytes()
     assert runs["plain"] == runs["sandboxed"]
+
+
+def test_isolated_models_are_made_after_the_in_process_ones(fixture_fmu, write_system) -> None:
+    """Their children wait for the zygote's imports, which go on while the in-process models
+    load (``Master._making_order``); the runners stay in the system's order, and so do the
+    results, column for column and byte for byte."""
+    from tests.backends.isolated_runner import assert_completed_alike, isolated_chain
+
+    system, _ = isolated_chain(fixture_fmu, write_system)  # a, b, c, in that order
+    made: list[str] = []
+
+    def noting(factory: RunnerFactory) -> RunnerFactory:
+        def make(component: Component, wiring: Wiring) -> Runner:
+            made.append(component.name)
+            return factory(component, wiring)
+
+        return make
+
+    isolate = frozenset({"a", "c"})
+    options = RunOptions(isolate=isolate, profile=True, instruments=Instruments(runners=noting))
+    result = system.run(options=options)
+    assert made == ["b", "a", "c"]
+    assert_completed_alike(system.run(options=RunOptions()), result)
+
+    # and the profile, which a paced run's live view lists in its order
+    master = Master(system.compiled, RunOptions(isolate=isolate, profile=True))
+    try:
+        master.prepare()
+        assert list(master.runners) == ["a", "b", "c"]
+        assert master.profile is not None
+        assert list(master.profile.entries) == ["a", "b", "c"]
+    finally:
+        master._terminate()
