@@ -41,7 +41,10 @@ def column_names(component: str, port: Port, index: tuple[int, ...] | None = Non
         return [f"{component}.{port.name}[{element_index(port, flat_index(port, index))}]"]
     if port.is_scalar:
         return [f"{component}.{port.name}"]
-    size = port.size or 1
+    size = port.size
+    if size is None:  # a symbolic dimension, not resolved: one column stands for the port
+        size = 1
+    # an array of no elements (an FMI 3 dimension of size 0) has no column
     return [f"{component}.{port.name}[{element_index(port, i)}]" for i in range(size)]
 
 
