@@ -293,10 +293,10 @@ def execution_order_with_loops(
         source = by_name[connection.src.component]
         if not direct_inputs(source, source.port(connection.src.port)):
             delayed.add((a, b))
-    for scc in strongly_connected_parts(graph):
-        for a, b in delayed:
-            if a in scc and b in scc:
-                graph[a].pop(b, None)
+    part_of = {node: i for i, part in enumerate(strongly_connected_parts(graph)) for node in part}
+    for a, b in delayed:  # inside a cycle only: elsewhere the edge orders as it is
+        if part_of[a] == part_of[b]:
+            graph[a].pop(b, None)
     nodes = earliest_first_order(graph, position.__getitem__)
     if nodes is None:  # a component-level cycle that is no port-level loop: declaration order
         nodes = sorted(graph, key=position.__getitem__)

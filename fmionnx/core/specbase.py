@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 from pydantic import BaseModel, ConfigDict, Field
+from pydantic import main as _pydantic_main
 
 #: A scalar in a system file. ``bool`` first so that ``true`` stays a bool, not 1.
 ScalarLiteral = bool | int | float | str
@@ -14,10 +15,18 @@ ParameterLiteral = ScalarLiteral | list[ScalarLiteral] | list[list[ScalarLiteral
 NO_MODEL_FILE = ""
 
 
+#: Whether a model's validator is built on first use instead of at import: a process that only
+#: reads a compiled system back (a run from the compile cache, a study worker, an isolated
+#: model's process) then builds none. Only where pydantic builds lazily under a lock (its
+#: ``_rebuild_lock``, in recent 2.x): before that, two threads validating a model first at
+#: the same time (a multi-threaded Dask worker) could use a half-built one.
+DEFER_BUILD = hasattr(_pydantic_main, "_rebuild_lock")
+
+
 class StrictModel(BaseModel):
     """Base of every raw model: unknown keys are errors, values are immutable."""
 
-    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, defer_build=True)
+    model_config = ConfigDict(extra="forbid", frozen=True, strict=False, defer_build=DEFER_BUILD)
 
 
 class ComponentSpecBase(StrictModel):

@@ -221,8 +221,10 @@ class Master:
         An isolated component's child is forked by the zygote, which imports what children
         need (about half a second of CPU) from the start of :meth:`prepare`: made after the
         in-process models (a MuJoCo scene, an ONNX session), the first child waits for the
-        zygote while those load instead of before. Nothing else depends on the order of
-        making; :attr:`runners` keeps the system's order.
+        zygote while those load instead of before. :attr:`runners` and the profile's entries
+        are put back in the system's order. The order of making shows in one place: when an
+        isolated model and a later in-process one both fail to instantiate, the in-process
+        one's error is reported (an isolated model's own errors come at setup, in order).
         """
         isolated = self.options.isolate
         return sorted(self.system.components, key=lambda c: c.name in isolated)

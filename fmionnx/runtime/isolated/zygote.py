@@ -202,6 +202,5 @@ if __name__ == "__main__":
     # The supervisor waits for this exit at the end of every run; tearing down the
     # interpreter (numpy, pydantic, the kinds) would add about a tenth of a second to it, and
     # nothing is left to flush or free: the children have ended and been reaped.
-    sys.stdout.flush()
-    sys.stderr.flush()
+    _flush_all()
     os._exit(code)
