@@ -70,9 +70,19 @@ def typestore(distro: RosDistro = DEFAULT_DISTRO) -> Any:
     return get_typestore(_STORES[distro])
 
 
+@functools.cache
+def fielddefs(distro: RosDistro = DEFAULT_DISTRO) -> Any:
+    """Every message's constants and fields in ``distro`` (the typestore's ``fielddefs``),
+    kept in the cache folder so that a compile need not import the typestore
+    (:mod:`.typecache`)."""
+    from fmionnx.compile.ros2.typecache import kept_fielddefs
+
+    return kept_fielddefs(_STORES[distro].value, lambda: typestore(distro).fielddefs)
+
+
 def message_types(distro: RosDistro = DEFAULT_DISTRO) -> tuple[str, ...]:
     """Every message type the store defines, e.g. ``geometry_msgs/msg/Twist``."""
-    return tuple(sorted(typestore(distro).fielddefs))
+    return tuple(sorted(fielddefs(distro)))
 
 
 def normalize_type(name: str) -> str:
@@ -138,7 +148,7 @@ def field_info(definition: tuple[Any, Any]) -> FieldInfo:
 
 def members(msgtype: str, distro: RosDistro = DEFAULT_DISTRO) -> tuple[str, ...]:
     """Member names of a message type, in declaration order."""
-    return tuple(name for name, _ in typestore(distro).fielddefs[msgtype][1])
+    return tuple(name for name, _ in fielddefs(distro)[msgtype][1])
 
 
 def resolve_field(msgtype: str, path: str, distro: RosDistro = DEFAULT_DISTRO) -> FieldInfo:
@@ -147,7 +157,7 @@ def resolve_field(msgtype: str, path: str, distro: RosDistro = DEFAULT_DISTRO) -
     Raises :class:`FieldError` naming the first part that does not exist, and
     :class:`KeyError` when ``msgtype`` is unknown.
     """
-    store = typestore(distro)
+    definitions_of = fielddefs(distro)
     current = FieldInfo(
         FieldKind.MESSAGE, msgtype, element_is_message=True, members=members(msgtype, distro)
     )
@@ -159,7 +169,7 @@ def resolve_field(msgtype: str, path: str, distro: RosDistro = DEFAULT_DISTRO) -
                 f"`{where}` is a {current.kind.value} of {current.base}, it has no member `{part}`"
             )
             raise FieldError(msg, ())
-        definitions = dict(store.fielddefs[current.base][1])
+        definitions = dict(definitions_of[current.base][1])
         if part not in definitions:
             owner = ".".join(walked) or current.base
             msg = f"`{owner}` has no member `{part}`"
@@ -182,7 +192,7 @@ def numeric_leaves(msgtype: str, distro: RosDistro = DEFAULT_DISTRO) -> tuple[st
     None when a member is not a numeric scalar; used to map an array port onto a struct.
     """
     names: list[str] = []
-    for name, definition in typestore(distro).fielddefs[msgtype][1]:
+    for name, definition in fielddefs(distro)[msgtype][1]:
         info = field_info(definition)
         if info.kind is not FieldKind.SCALAR or info.base == "string":
             return None
