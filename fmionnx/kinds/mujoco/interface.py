@@ -9,7 +9,7 @@ from __future__ import annotations
 
 import dataclasses
 import hashlib
-from collections.abc import Mapping
+from collections.abc import Mapping, Sequence
 from pathlib import Path
 from typing import Any
 
@@ -143,10 +143,21 @@ def _relocatable(path: Path) -> Any:
 def read_mujoco_interface(
     path: Path, cameras: Mapping[str, tuple[int, int]] | None
 ) -> ComponentInterface:
-    """Ports of the scene; ``cameras`` maps camera name -> (width, height) (None: all, 640x480)."""
+    """Ports of the scene; ``cameras`` maps camera name -> (width, height) (None: all, 640x480).
+
+    The scene's own ports and facts come from :func:`~.keptfacts.scene_facts` (kept in the
+    cache folder: a compile of an unchanged scene does not import MuJoCo).
+    """
+    from fmionnx.kinds.mujoco.keptfacts import scene_facts
+
+    facts = scene_facts(path)
+    return interface_from(facts.ports, facts.cameras, facts.facts, facts.digest, path, cameras)
+
+
+def scene_ports(model: Any) -> tuple[list[Port], list[str], tuple[tuple[str, str], ...]]:
+    """The loaded scene's sensor, actuator and site ports, its named cameras and its facts."""
     import mujoco
 
-    model, digest = load_model(path)
     ports: list[Port] = []
     for i in range(model.nsensor):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SENSOR, i)
@@ -194,6 +205,26 @@ def read_mujoco_interface(
             )
     names = [mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_CAMERA, i) for i in range(model.ncam)]
     names = [n for n in names if n]
+    facts = (
+        ("timestep", repr(float(model.opt.timestep))),
+        ("nbody", str(model.nbody)),
+        ("ngeom", str(model.ngeom)),
+        ("cameras", ",".join(names)),
+    )
+    return ports, names, facts
+
+
+def interface_from(
+    scene: Sequence[Port],
+    names: Sequence[str],
+    facts: tuple[tuple[str, str], ...],
+    digest: str,
+    path: Path,
+    cameras: Mapping[str, tuple[int, int]] | None,
+) -> ComponentInterface:
+    """The interface of the scene at ``path`` from its ports, camera names, facts and digest
+    (:func:`scene_ports`), with a port per camera of ``cameras`` (None: each, 640x480)."""
+    ports = list(scene)
     wanted = cameras if cameras is not None else dict.fromkeys(names, (640, 480))
     for camera, (width, height) in wanted.items():
         if camera not in names:
@@ -210,12 +241,6 @@ def read_mujoco_interface(
                 depends_on=(),
             )
         )
-    facts = (
-        ("timestep", repr(float(model.opt.timestep))),
-        ("nbody", str(model.nbody)),
-        ("ngeom", str(model.ngeom)),
-        ("cameras", ",".join(names)),
-    )
     _check_unique(ports, path)
     origin = Span(Path(path.name))
     ports = [dataclasses.replace(p, origin=origin) for p in ports]

@@ -186,15 +186,19 @@ class MujocoKind:
 
     def sites(self, path: Path) -> Mapping[str, Site]:
         """The scene's named sites: the landmarks checks measure distances to."""
+        from fmionnx.kinds.mujoco.keptfacts import scene_facts
         from fmionnx.kinds.mujoco.sites import read_sites
 
-        return read_sites(path)
+        kept = scene_facts(path).sites
+        return dict(kept) if kept is not None else read_sites(path)
 
     def scene_map(self, path: Path) -> SceneMap:
         """The scene's fixed landmarks seen from above: what trajectory plots draw underneath."""
+        from fmionnx.kinds.mujoco.keptfacts import scene_facts
         from fmionnx.kinds.mujoco.scenemap import read_scene_map
 
-        return read_scene_map(path)
+        kept = scene_facts(path).scene_map
+        return kept if kept is not None else read_scene_map(path)
 
 
 MUJOCO_KIND = MujocoKind()

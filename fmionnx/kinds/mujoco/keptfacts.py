@@ -1,0 +1,193 @@
+"""What a compile reads from a MuJoCo scene, kept between processes (``<cache>/mujoco-scenes``).
+
+A compile asks a scene for its ports (:mod:`.interface`), its sites (a check's distance to
+``world.site.B``) and its map (a plot drawn over the scene). Each answer needs MuJoCo to
+compile the scene, and importing MuJoCo alone takes about a third of a second: most of a
+``validate`` that the compile cache cannot serve (a system file just edited). Those answers
+depend only on the scene's files, the MuJoCo install, the code that reads them and the limits
+in force, so they are kept under a key of exactly those: the bytes of every file the scene is
+shipped with (:func:`~.files.scene_files`, by their names in its folder), MuJoCo's installed
+package (path, size and modification time of its files), fmionnx's reading modules, and the
+``FMIONNX_*`` environment. A compile of an unchanged scene then reads them back without
+importing MuJoCo. A run still loads the scene as before: it steps and renders it.
+
+The checks made before MuJoCo reads a scene (its files stay in its folder, its cost is
+bounded: :func:`~.interface.check_scene_before_loading`) run every time, kept or not. Only a
+scene that loaded is kept; a failing one is read, and fails, every time. A site or map that
+could not be read is not kept either: asked for, it is read from the scene again, and fails
+as it did. Entries are kept as the compile cache keeps its own (:mod:`fmionnx.core.private`):
+private, signed with this user's key, ignored when they do not check out or do not decode.
+``FMIONNX_MUJOCO_FACTS=0`` turns the keeping off.
+"""
+
+from __future__ import annotations
+
+import contextlib
+import functools
+import hashlib
+import importlib.util
+import json
+import os
+from dataclasses import dataclass
+from pathlib import Path
+
+from fmionnx.core.cachedir import cache_folder
+from fmionnx.core.private import (
+    NotPrivateError,
+    check_private_folder,
+    read_private,
+    signature,
+    signed_by,
+    user_key,
+    write_private,
+)
+from fmionnx.core.switches import switched_off
+from fmionnx.core.types import Port
+from fmionnx.kinds.base import SceneMap, Site
+from fmionnx.kinds.cache import file_identity, sha256_file
+
+#: The environment variable that turns the keeping off (``0``).
+SWITCH = "FMIONNX_MUJOCO_FACTS"
+#: The folder's name in the cache.
+FOLDER = "mujoco-scenes"
+#: The entries' format; a new one makes every older entry a miss.
+FORMAT = "fmionnx-mujoco-scene-facts-1"
+#: An entry is larger than this only if someone else wrote it.
+MAX_ENTRY_BYTES = 16 << 20
+
+
+@dataclass(frozen=True)
+class SceneFacts:
+    """What a compile reads from a scene: its ports without cameras, its named cameras, its
+    facts, the compiled model's digest, its sites and its map (None: not readable, asked of
+    the scene itself)."""
+
+    ports: tuple[Port, ...]
+    cameras: tuple[str, ...]
+    facts: tuple[tuple[str, str], ...]
+    digest: str
+    sites: tuple[tuple[str, Site], ...] | None
+    scene_map: SceneMap | None
+
+
+def enabled() -> bool:
+    """Whether scene facts are kept (``FMIONNX_MUJOCO_FACTS`` unset or not a "no")."""
+    return not switched_off(SWITCH)
+
+
+#: This process's answers, by the scene file's identity (as :func:`~.interface.load_model`
+#: keeps the loaded model): a compile asks for ports, sites and map in turn.
+_FACTS: dict[tuple[str, int, int], SceneFacts] = {}
+
+
+def scene_facts(path: Path) -> SceneFacts:
+    """The facts of the scene at ``path``: kept ones when an entry checks out, else read with
+    MuJoCo (and kept). Raises ModelError as loading the scene does."""
+    if not path.is_file():
+        return _read_scene(path)  # the error loading it gives
+    identity = file_identity(path)
+    found = _FACTS.get(identity)
+    if found is None:
+        found = _FACTS[identity] = _kept_or_read(path)
+    return found
+
+
+def _kept_or_read(path: Path) -> SceneFacts:
+    from fmionnx.kinds.mujoco.interface import check_scene_before_loading
+
+    if not enabled() or path.suffix == ".mjb":
+        return _read_scene(path)
+    check_scene_before_loading(path)
+    entry = _entry(path)
+    if entry is not None:
+        found = _read(*entry)
+        if found is not None:
+            return found
+    facts = _read_scene(path)
+    if entry is not None:
+        _write(*entry, facts)
+    return facts
+
+
+def _read_scene(path: Path) -> SceneFacts:
+    """The facts, read from the scene with MuJoCo (errors as loading it raises them)."""
+    from fmionnx.kinds.mujoco.interface import load_model, scene_ports
+    from fmionnx.kinds.mujoco.scenemap import read_scene_map
+    from fmionnx.kinds.mujoco.sites import read_sites
+
+    model, digest = load_model(path)
+    ports, cameras, facts = scene_ports(model)
+    sites: tuple[tuple[str, Site], ...] | None = None
+    scene_map: SceneMap | None = None
+    with contextlib.suppress(Exception):  # asked for later, they are read (and fail) again
+        sites = tuple(read_sites(path).items())
+    with contextlib.suppress(Exception):
+        scene_map = read_scene_map(path)
+    return SceneFacts(tuple(ports), tuple(cameras), facts, digest, sites, scene_map)
+
+
+def _entry(path: Path) -> tuple[Path, str] | None:
+    """(file, key) of the scene's entry; None when its files or MuJoCo cannot be stamped."""
+    from fmionnx.core.modelfiles import ShippingError
+    from fmionnx.kinds.mujoco.files import scene_files
+
+    code = _code_stamps()
+    if code is None:
+        return None
+    try:
+        files = [f"{f.name}:{sha256_file(f.source)}" for f in scene_files(path)]
+    except (OSError, ShippingError, ValueError):
+        return None
+    environment = [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("FMIONNX_")]
+    parts = [FORMAT, path.name, *code, *files, *environment]
+    key = hashlib.sha256("\0".join(parts).encode()).hexdigest()
+    return cache_folder(FOLDER) / f"{key[:40]}.json", key
+
+
+@functools.cache
+def _code_stamps() -> tuple[str, ...] | None:
+    """MuJoCo's installed package (found without importing it: that import is what an entry
+    saves) and fmionnx's modules that read a scene."""
+    from fmionnx.kinds.mujoco import interface, scenemap, sites
+
+    try:
+        spec = importlib.util.find_spec("mujoco")
+        if spec is None or not spec.submodule_search_locations:
+            return None
+        package = Path(next(iter(spec.submodule_search_locations)))
+        installed = [str(file_identity(f)) for f in sorted(package.glob("*.so"))]
+        installed.append(str(file_identity(package / "__init__.py")))
+        readers = [Path(str(m.__file__)) for m in (interface, scenemap, sites)]
+        readers.append(Path(__file__))
+        return (*installed, *(sha256_file(f) for f in readers))
+    except (ImportError, ValueError, OSError):
+        return None
+
+
+def _read(path: Path, key: str) -> SceneFacts | None:
+    """The facts in ``path`` when it is this user's, signed for ``key`` and decodes."""
+    from fmionnx.compile.systemfile import CompiledFileError, decode_value
+
+    try:
+        check_private_folder(path.parent)
+        data = read_private(path, MAX_ENTRY_BYTES)
+        claimed, _, body = data.partition(b"\n")
+        secret = user_key(path.parent, make=False)
+        if not signed_by(secret, key.encode() + b"\0" + body, claimed.decode("ascii", "replace")):
+            return None
+        facts = decode_value(SceneFacts, json.loads(body), "kept scene facts")
+    except (OSError, NotPrivateError, ValueError, CompiledFileError):
+        return None
+    return facts if isinstance(facts, SceneFacts) else None
+
+
+def _write(path: Path, key: str, facts: SceneFacts) -> None:
+    """Keep ``facts`` under ``key``; a cache that cannot be written is no error."""
+    from fmionnx.compile.systemfile import encode_value
+
+    with contextlib.suppress(OSError, NotPrivateError, TypeError, ValueError):
+        body = json.dumps(encode_value(facts), separators=(",", ":")).encode()
+        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
+        check_private_folder(path.parent)
+        signed = signature(user_key(path.parent, make=True), key.encode() + b"\0" + body)
+        write_private(path, signed.encode() + b"\n" + body)

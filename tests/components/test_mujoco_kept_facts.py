@@ -1,0 +1,128 @@
+"""What a compile reads from a MuJoCo scene, kept in the cache folder
+(``fmionnx.kinds.mujoco.keptfacts``): the same answers as MuJoCo's, a new entry when any file
+of the scene changes, a tampered entry ignored, and a compile of an unchanged scene that does
+not import MuJoCo."""
+
+from __future__ import annotations
+
+import os
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from fmionnx.kinds.mujoco import keptfacts
+from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, MujocoSpec
+from tests.conftest import REPO
+
+REFERENCE_SCENE = REPO / "models" / "world" / "sign_course.xml"
+
+SCENE = """<mujoco>
+  <include file="parts.xml"/>
+  <worldbody>
+    <site name="B" pos="3 1 0"/>
+    <body name="cart" pos="0 0 0.1">
+      <joint name="slide" type="slide" axis="1 0 0"/>
+      <geom type="box" size="0.1 0.1 0.1" rgba="1 0 0 1"/>
+      <site name="nose" pos="0.1 0 0"/>
+    </body>
+    <geom name="board" type="box" pos="2 2 0.5" size="0.1 0.5 0.5" rgba="0 0 1 1"/>
+  </worldbody>
+  <actuator><motor name="push" joint="slide"/></actuator>
+</mujoco>
+"""
+PARTS = """<mujoco><sensor><jointpos name="{name}" joint="slide"/></sensor></mujoco>"""
+
+
+def _scene(folder: Path, sensor: str = "x") -> Path:
+    folder.mkdir(exist_ok=True)
+    (folder / "parts.xml").write_text(PARTS.format(name=sensor))
+    scene = folder / "scene.xml"
+    scene.write_text(SCENE)
+    return scene
+
+
+def _forget() -> None:
+    """As a new process starts: nothing read yet in this one."""
+    keptfacts._FACTS.clear()
+    from fmionnx.kinds.mujoco import interface
+
+    interface._MODELS.clear()
+
+
+def _answers(scene: Path) -> tuple[object, ...]:
+    spec = MujocoSpec(path=scene.name)
+    interface = MUJOCO_KIND.read_interface(scene, spec)
+    return interface, dict(MUJOCO_KIND.sites(scene)), MUJOCO_KIND.scene_map(scene)
+
+
+@pytest.mark.parametrize("which", ["reference", "made here"])
+def test_kept_answers_are_mujocos_own(which: str, tmp_path: Path, monkeypatch) -> None:
+    scene = REFERENCE_SCENE if which == "reference" else _scene(tmp_path / "s")
+    monkeypatch.setenv(keptfacts.SWITCH, "0")
+    _forget()
+    read = _answers(scene)
+    monkeypatch.delenv(keptfacts.SWITCH)
+    _forget()
+    first = _answers(scene)  # read with MuJoCo, and kept
+    _forget()
+    kept = _answers(scene)  # from the cache folder
+    assert len(list((keptfacts.cache_folder(keptfacts.FOLDER)).glob("*.json"))) == 1
+    assert first == read
+    assert kept == read
+
+
+def test_an_included_file_that_changes_makes_a_new_entry(tmp_path: Path) -> None:
+    scene = _scene(tmp_path / "s", sensor="before")
+    _forget()
+    assert MUJOCO_KIND.read_interface(scene, MujocoSpec(path="scene.xml")).port("before")
+    (scene.parent / "parts.xml").write_text(PARTS.format(name="after"))
+    _forget()
+    interface = MUJOCO_KIND.read_interface(scene, MujocoSpec(path="scene.xml"))
+    assert interface.port("after") is not None
+    assert interface.port("before") is None
+    assert len(list(keptfacts.cache_folder(keptfacts.FOLDER).glob("*.json"))) == 2
+
+
+def test_a_tampered_entry_is_ignored(tmp_path: Path) -> None:
+    scene = _scene(tmp_path / "s", sensor="honest")
+    _forget()
+    expected = _answers(scene)
+    (entry,) = keptfacts.cache_folder(keptfacts.FOLDER).glob("*.json")
+    signed, _, body = entry.read_bytes().partition(b"\n")
+    forged = body.replace(b'"honest"', b'"forged"')
+    assert forged != body
+    entry.write_bytes(signed + b"\n" + forged)
+    _forget()
+    assert _answers(scene) == expected
+
+
+def test_switched_off_nothing_is_kept(tmp_path: Path, monkeypatch) -> None:
+    monkeypatch.setenv(keptfacts.SWITCH, "0")
+    _forget()
+    _answers(_scene(tmp_path / "s"))
+    assert not keptfacts.cache_folder(keptfacts.FOLDER).exists()
+
+
+CHECK = """
+import sys
+from pathlib import Path
+from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, MujocoSpec
+scene = Path(sys.argv[1])
+MUJOCO_KIND.read_interface(scene, MujocoSpec(path=scene.name))
+MUJOCO_KIND.sites(scene)
+MUJOCO_KIND.scene_map(scene)
+print("mujoco" in sys.modules)
+"""
+
+
+def test_an_unchanged_scene_is_read_without_mujoco() -> None:
+    runs = [
+        subprocess.run(
+            [sys.executable, "-c", CHECK, str(REFERENCE_SCENE)],
+            env=dict(os.environ), capture_output=True, text=True, check=True,
+        ).stdout.strip()
+        for _ in range(2)
+    ]  # fmt: skip
+    assert runs == ["True", "False"]
