@@ -68,7 +68,7 @@ def test_kept_answers_are_mujocos_own(which: str, tmp_path: Path, monkeypatch) -
     first = _answers(scene)  # read with MuJoCo, and kept
     _forget()
     kept = _answers(scene)  # from the cache folder
-    assert len(list((keptfacts.cache_folder(keptfacts.FOLDER)).glob("*.json"))) == 1
+    assert len(list((keptfacts.cache_folder(keptfacts.FOLDER)).glob("*/facts.json"))) == 1
     assert first == read
     assert kept == read
 
@@ -82,14 +82,14 @@ def test_an_included_file_that_changes_makes_a_new_entry(tmp_path: Path) -> None
     interface = MUJOCO_KIND.read_interface(scene, MujocoSpec(path="scene.xml"))
     assert interface.port("after") is not None
     assert interface.port("before") is None
-    assert len(list(keptfacts.cache_folder(keptfacts.FOLDER).glob("*.json"))) == 2
+    assert len(list(keptfacts.cache_folder(keptfacts.FOLDER).glob("*/facts.json"))) == 2
 
 
 def test_a_tampered_entry_is_ignored(tmp_path: Path) -> None:
     scene = _scene(tmp_path / "s", sensor="honest")
     _forget()
     expected = _answers(scene)
-    (entry,) = keptfacts.cache_folder(keptfacts.FOLDER).glob("*.json")
+    (entry,) = keptfacts.cache_folder(keptfacts.FOLDER).glob("*/facts.json")
     signed, _, body = entry.read_bytes().partition(b"\n")
     forged = body.replace(b'"honest"', b'"forged"')
     assert forged != body

@@ -16,7 +16,8 @@ bounded: :func:`~.interface.check_scene_before_loading`) run every time, kept or
 scene that loaded is kept; a failing one is read, and fails, every time. A site or map that
 could not be read is not kept either: asked for, it is read from the scene again, and fails
 as it did. Entries are kept as the compile cache keeps its own (:mod:`fmionnx.core.private`):
-private, signed with this user's key, ignored when they do not check out or do not decode.
+private, signed with this user's key, ignored when they do not check out or do not decode,
+and bounded in size and age as it is.
 ``FMIONNX_MUJOCO_FACTS=0`` turns the keeping off.
 """
 
@@ -31,7 +32,7 @@ import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from fmionnx.core.cachedir import cache_folder
+from fmionnx.core.cachedir import cache_folder, evict
 from fmionnx.core.private import (
     NotPrivateError,
     check_private_folder,
@@ -54,6 +55,8 @@ FOLDER = "mujoco-scenes"
 FORMAT = "fmionnx-mujoco-scene-facts-1"
 #: An entry is larger than this only if someone else wrote it.
 MAX_ENTRY_BYTES = 16 << 20
+#: The file of an entry, in a folder of its own (the unit the cache's eviction removes).
+ENTRY = "facts.json"
 
 
 @dataclass(frozen=True)
@@ -141,7 +144,7 @@ def _entry(path: Path) -> tuple[Path, str] | None:
     environment = [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("FMIONNX_")]
     parts = [FORMAT, path.name, *code, *files, *environment]
     key = hashlib.sha256("\0".join(parts).encode()).hexdigest()
-    return cache_folder(FOLDER) / f"{key[:40]}.json", key
+    return cache_folder(FOLDER) / key[:40] / ENTRY, key
 
 
 @functools.cache
@@ -168,11 +171,13 @@ def _read(path: Path, key: str) -> SceneFacts | None:
     """The facts in ``path`` when it is this user's, signed for ``key`` and decodes."""
     from fmionnx.compile.systemfile import CompiledFileError, decode_value
 
+    root = path.parent.parent
     try:
+        check_private_folder(root)
         check_private_folder(path.parent)
         data = read_private(path, MAX_ENTRY_BYTES)
         claimed, _, body = data.partition(b"\n")
-        secret = user_key(path.parent, make=False)
+        secret = user_key(root, make=False)
         if not signed_by(secret, key.encode() + b"\0" + body, claimed.decode("ascii", "replace")):
             return None
         facts = decode_value(SceneFacts, json.loads(body), "kept scene facts")
@@ -182,12 +187,19 @@ def _read(path: Path, key: str) -> SceneFacts | None:
 
 
 def _write(path: Path, key: str, facts: SceneFacts) -> None:
-    """Keep ``facts`` under ``key``; a cache that cannot be written is no error."""
+    """Keep ``facts`` under ``key``, the cache bounded as the compile cache is (size and
+    age); a cache that cannot be written is no error."""
     from fmionnx.compile.systemfile import encode_value
+    from fmionnx.core.resources import CACHE_DAYS, COMPILE_CACHE_BYTES
 
+    root, folder = path.parent.parent, path.parent
     with contextlib.suppress(OSError, NotPrivateError, TypeError, ValueError):
         body = json.dumps(encode_value(facts), separators=(",", ":")).encode()
-        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-        check_private_folder(path.parent)
-        signed = signature(user_key(path.parent, make=True), key.encode() + b"\0" + body)
+        root.mkdir(mode=0o700, parents=True, exist_ok=True)
+        check_private_folder(root)
+        with contextlib.suppress(FileExistsError):
+            folder.mkdir(mode=0o700)
+        check_private_folder(folder)
+        signed = signature(user_key(root, make=True), key.encode() + b"\0" + body)
         write_private(path, signed.encode() + b"\n" + body)
+        evict(root, keep=folder, max_bytes=COMPILE_CACHE_BYTES.value(), max_days=CACHE_DAYS.value())
