@@ -15,25 +15,20 @@ is read back through the kind table (``kind`` names its class).
 from __future__ import annotations
 
 import dataclasses
-import enum
-import functools
 import json
 import math
 import os
 import re
 import shutil
 import stat
-import sys
 import tempfile
-import types
-import typing
-from collections.abc import Mapping
 from pathlib import Path
 from typing import Any
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.resolve import check_port_total
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
+from fmionnx.core.datacodec import Codec
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.modelfiles import ShippingError, copy_model_files
 from fmionnx.core.regularfile import read_regular
@@ -66,27 +61,10 @@ class CompiledFileError(FmionnxError):
 # -- encoding -----------------------------------------------------------------------------------
 
 
-def _encode(value: Any) -> Any:
-    if value is None or isinstance(value, bool | int | float | str):
-        return value
-    if isinstance(value, enum.Enum):
-        return value.value
-    if isinstance(value, Path):
-        return value.as_posix()
-    if isinstance(value, tuple | list):
-        return [_encode(v) for v in value]
-    if isinstance(value, Mapping):
-        return {str(k): _encode(v) for k, v in value.items()}
-    if dataclasses.is_dataclass(value) and not isinstance(value, type):
-        return {f.name: _encode(getattr(value, f.name)) for f in dataclasses.fields(value)}
-    msg = f"cannot serialise a {type(value).__name__} in a compiled system"
-    raise TypeError(msg)
-
-
 def encode_value(value: Any) -> Any:
     """``value`` (a dataclass of the IR or the diagnostics, or a list of them) as JSON data,
     by the same rules as the compiled-system file."""
-    return _encode(value)
+    return _CODEC.encode(value)
 
 
 def to_json(system: CompiledSystem) -> str:
@@ -98,7 +76,7 @@ def to_json(system: CompiledSystem) -> str:
         "models": {
             c.name: c.interface.content_hash for c in system.components if has_model_file(c)
         },
-        "system": _encode(system),
+        "system": _CODEC.encode(system),
     }
     return json.dumps(document, indent=1, sort_keys=False) + "\n"
 
@@ -109,113 +87,25 @@ def to_json(system: CompiledSystem) -> str:
 _HINT_NAMES: dict[str, Any] = {"Ros2Plan": Ros2Plan, "Ros2Settings": Ros2Settings}
 
 
-@functools.cache
-def _hints(cls: type) -> dict[str, Any]:
-    """The resolved type hints of ``cls``, once per class: resolving evaluates every
-    annotation's text, and a system has hundreds of ports and connections of a few classes."""
-    module = sys.modules[cls.__module__]
-    return typing.get_type_hints(cls, globalns=vars(module), localns=_HINT_NAMES)
+def _kind_config(base: type, data: dict[str, Any], where: str) -> type:
+    """A component's config is read as the class of the kind its ``kind`` names."""
+    kind = data.get("kind")
+    if kind not in COMPONENT_KINDS:
+        raise _CODEC.bad(f"{where}.kind", f"one of {sorted(COMPONENT_KINDS)}", kind)
+    return config_type(str(kind))
+
+
+#: The codec of the compiled system's dataclasses (:mod:`fmionnx.core.datacodec`).
+_CODEC = Codec(
+    "compiled system",
+    names=_HINT_NAMES,
+    error=CompiledFileError,
+    resolve={KindConfig: _kind_config},
+)
 
 
 def _decode(hint: Any, data: Any, where: str) -> Any:
-    origin = typing.get_origin(hint)
-    args = typing.get_args(hint)
-    if hint is Any or hint is object:
-        return data
-    if origin is typing.Union or origin is types.UnionType:
-        return _decode_union(args, data, where)
-    if origin is typing.Literal:
-        if data not in args:
-            raise _bad(where, f"one of {args}", data)
-        return data
-    if origin is tuple:
-        if not isinstance(data, list):
-            raise _bad(where, "a list", data)
-        if len(args) == 2 and args[1] is Ellipsis:
-            return tuple(_decode(args[0], item, f"{where}[{i}]") for i, item in enumerate(data))
-        if len(args) != len(data):
-            raise _bad(where, f"{len(args)} items", data)
-        return tuple(
-            _decode(a, item, f"{where}[{i}]")
-            for i, (a, item) in enumerate(zip(args, data, strict=True))
-        )
-    if isinstance(hint, type):
-        return _decode_class(hint, data, where)
-    msg = f"{where}: unsupported type {hint!r} in the compiled system"
-    raise CompiledFileError(msg)
-
-
-def _decode_union(args: tuple[Any, ...], data: Any, where: str) -> Any:
-    if data is None:
-        if type(None) in args:
-            return None
-        raise _bad(where, "a value", data)
-    plain = [a for a in args if a is not type(None)]
-    for option in plain:  # a JSON scalar keeps its own type (bool before int, int before float)
-        if isinstance(option, type) and option in (bool, int, float, str) and type(data) is option:
-            return data
-    if isinstance(data, int) and not isinstance(data, bool) and float in plain:
-        return float(data)
-    for option in plain:
-        try:
-            return _decode(option, data, where)
-        except (CompiledFileError, TypeError, ValueError, KeyError):
-            continue
-    raise _bad(where, " or ".join(str(a) for a in plain), data)
-
-
-def _decode_class(cls: type, data: Any, where: str) -> Any:
-    if cls is bool:
-        if not isinstance(data, bool):
-            raise _bad(where, "true or false", data)
-        return data
-    if cls is int:
-        if not isinstance(data, int) or isinstance(data, bool):
-            raise _bad(where, "an integer", data)
-        return data
-    if cls is float:
-        if not isinstance(data, int | float) or isinstance(data, bool):
-            raise _bad(where, "a number", data)
-        return float(data)
-    if cls is str:
-        if not isinstance(data, str):
-            raise _bad(where, "a string", data)
-        return data
-    if issubclass(cls, enum.Enum):
-        try:
-            return cls(data)
-        except ValueError:
-            raise _bad(where, f"one of {[m.value for m in cls]}", data) from None
-    if issubclass(cls, Path):
-        if not isinstance(data, str):
-            raise _bad(where, "a path", data)
-        return Path(data)
-    if dataclasses.is_dataclass(cls):
-        if not isinstance(data, dict):
-            raise _bad(where, "an object", data)
-        if cls is KindConfig:
-            kind = data.get("kind")
-            if kind not in COMPONENT_KINDS:
-                raise _bad(f"{where}.kind", f"one of {sorted(COMPONENT_KINDS)}", kind)
-            cls = config_type(str(kind))
-        hints = _hints(cls)
-        known = {f.name for f in dataclasses.fields(cls) if f.init}
-        unknown = sorted(set(data) - known)
-        if unknown:  # also what tells apart the members of a union of dataclasses
-            msg = f"{where}.{unknown[0]}: unknown field of {cls.__name__}"
-            raise CompiledFileError(msg)
-        values = {}
-        for f in dataclasses.fields(cls):
-            if not f.init:
-                continue
-            if f.name not in data:
-                if f.default is dataclasses.MISSING and f.default_factory is dataclasses.MISSING:
-                    raise _bad(f"{where}.{f.name}", "a value", None)
-                continue
-            values[f.name] = _decode(hints[f.name], data[f.name], f"{where}.{f.name}")
-        return cls(**values)
-    msg = f"{where}: unsupported type {cls.__name__} in the compiled system"
-    raise CompiledFileError(msg)
+    return _CODEC.decode(hint, data, where)
 
 
 def decode_value(hint: Any, data: Any, where: str) -> Any:
@@ -226,12 +116,6 @@ def decode_value(hint: Any, data: Any, where: str) -> Any:
     except RecursionError:
         msg = f"{where}: nested too deeply"
         raise CompiledFileError(msg) from None
-
-
-def _bad(where: str, expected: str, got: Any) -> CompiledFileError:
-    shown = json.dumps(got)
-    shown = shown if len(shown) <= 60 else shown[:57] + "..."
-    return CompiledFileError(f"{where}: expected {expected}, got {shown}")
 
 
 def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:

@@ -32,15 +32,7 @@ from typing import Any
 from rosbags.interfaces import Nodetype
 
 from fmionnx.core.cachedir import cache_folder
-from fmionnx.core.private import (
-    NotPrivateError,
-    check_private_folder,
-    read_private,
-    signature,
-    signed_by,
-    user_key,
-    write_private,
-)
+from fmionnx.core.keptentries import read_signed, write_signed
 from fmionnx.core.switches import switched_off
 from fmionnx.kinds.cache import file_identity
 
@@ -102,26 +94,20 @@ def _store_stamps() -> tuple[str, ...] | None:
 
 def _read(path: Path, key: str) -> Fielddefs | None:
     """The definitions in ``path`` when it is this user's, signed for ``key`` and well formed."""
+    body = read_signed(path.parent, path, key, MAX_ENTRY_BYTES)
+    if body is None:
+        return None
     try:
-        check_private_folder(path.parent)
-        data = read_private(path, MAX_ENTRY_BYTES)
-        claimed, _, body = data.partition(b"\n")
-        secret = user_key(path.parent, make=False)
-        if not signed_by(secret, key.encode() + b"\0" + body, claimed.decode("ascii", "replace")):
-            return None
         return _decode(json.loads(body))
-    except (OSError, NotPrivateError, ValueError, TypeError, KeyError, IndexError):
+    except (ValueError, TypeError, KeyError, IndexError):
         return None
 
 
 def _write(path: Path, key: str, definitions: Fielddefs) -> None:
     """Keep ``definitions`` under ``key``; a cache that cannot be written is no error."""
-    with contextlib.suppress(OSError, NotPrivateError, TypeError, ValueError):
+    with contextlib.suppress(TypeError, ValueError):
         body = json.dumps(definitions, separators=(",", ":")).encode()
-        path.parent.mkdir(mode=0o700, parents=True, exist_ok=True)
-        check_private_folder(path.parent)
-        signed = signature(user_key(path.parent, make=True), key.encode() + b"\0" + body)
-        write_private(path, signed.encode() + b"\n" + body)
+        write_signed(path.parent, path, key, body)
 
 
 def _decode(data: object) -> Fielddefs | None:

@@ -33,15 +33,8 @@ from dataclasses import dataclass
 from pathlib import Path
 
 from fmionnx.core.cachedir import cache_folder, evict
-from fmionnx.core.private import (
-    NotPrivateError,
-    check_private_folder,
-    read_private,
-    signature,
-    signed_by,
-    user_key,
-    write_private,
-)
+from fmionnx.core.datacodec import Codec, CodecError
+from fmionnx.core.keptentries import read_signed, write_signed
 from fmionnx.core.switches import switched_off
 from fmionnx.core.types import Port
 from fmionnx.kinds.base import SceneMap, Site
@@ -71,6 +64,10 @@ class SceneFacts:
     digest: str
     sites: tuple[tuple[str, Site], ...] | None
     scene_map: SceneMap | None
+
+
+#: How facts are written and read back (:mod:`fmionnx.core.datacodec`).
+_CODEC = Codec("kept scene facts")
 
 
 def enabled() -> bool:
@@ -150,7 +147,9 @@ def _entry(path: Path) -> tuple[Path, str] | None:
 @functools.cache
 def _code_stamps() -> tuple[str, ...] | None:
     """MuJoCo's installed package (found without importing it: that import is what an entry
-    saves) and fmionnx's modules that read a scene."""
+    saves), and fmionnx's modules that read a scene and define what an entry holds."""
+    from fmionnx.core import datacodec, types, units
+    from fmionnx.kinds import base
     from fmionnx.kinds.mujoco import interface, scenemap, sites
 
     try:
@@ -160,7 +159,10 @@ def _code_stamps() -> tuple[str, ...] | None:
         package = Path(next(iter(spec.submodule_search_locations)))
         installed = [str(file_identity(f)) for f in sorted(package.glob("*.so"))]
         installed.append(str(file_identity(package / "__init__.py")))
-        readers = [Path(str(m.__file__)) for m in (interface, scenemap, sites)]
+        # the readers, and the classes (and codec) an entry is written as: a field added to
+        # a port must not be read back from an older entry as its default
+        modules = (interface, scenemap, sites, types, units, base, datacodec)
+        readers = [Path(str(m.__file__)) for m in modules]
         readers.append(Path(__file__))
         return (*installed, *(sha256_file(f) for f in readers))
     except (ImportError, ValueError, OSError):
@@ -169,19 +171,12 @@ def _code_stamps() -> tuple[str, ...] | None:
 
 def _read(path: Path, key: str) -> SceneFacts | None:
     """The facts in ``path`` when it is this user's, signed for ``key`` and decodes."""
-    from fmionnx.compile.systemfile import CompiledFileError, decode_value
-
-    root = path.parent.parent
+    body = read_signed(path.parent.parent, path, key, MAX_ENTRY_BYTES)
+    if body is None:
+        return None
     try:
-        check_private_folder(root)
-        check_private_folder(path.parent)
-        data = read_private(path, MAX_ENTRY_BYTES)
-        claimed, _, body = data.partition(b"\n")
-        secret = user_key(root, make=False)
-        if not signed_by(secret, key.encode() + b"\0" + body, claimed.decode("ascii", "replace")):
-            return None
-        facts = decode_value(SceneFacts, json.loads(body), "kept scene facts")
-    except (OSError, NotPrivateError, ValueError, CompiledFileError):
+        facts = _CODEC.decode(SceneFacts, json.loads(body), "facts")
+    except (ValueError, CodecError, RecursionError):
         return None
     return facts if isinstance(facts, SceneFacts) else None
 
@@ -189,17 +184,11 @@ def _read(path: Path, key: str) -> SceneFacts | None:
 def _write(path: Path, key: str, facts: SceneFacts) -> None:
     """Keep ``facts`` under ``key``, the cache bounded as the compile cache is (size and
     age); a cache that cannot be written is no error."""
-    from fmionnx.compile.systemfile import encode_value
     from fmionnx.core.resources import CACHE_DAYS, COMPILE_CACHE_BYTES
 
-    root, folder = path.parent.parent, path.parent
-    with contextlib.suppress(OSError, NotPrivateError, TypeError, ValueError):
-        body = json.dumps(encode_value(facts), separators=(",", ":")).encode()
-        root.mkdir(mode=0o700, parents=True, exist_ok=True)
-        check_private_folder(root)
-        with contextlib.suppress(FileExistsError):
-            folder.mkdir(mode=0o700)
-        check_private_folder(folder)
-        signed = signature(user_key(root, make=True), key.encode() + b"\0" + body)
-        write_private(path, signed.encode() + b"\n" + body)
-        evict(root, keep=folder, max_bytes=COMPILE_CACHE_BYTES.value(), max_days=CACHE_DAYS.value())
+    root = path.parent.parent
+    body = json.dumps(_CODEC.encode(facts), separators=(",", ":")).encode()
+    if write_signed(root, path, key, body):
+        with contextlib.suppress(OSError):
+            evict(root, keep=path.parent, max_bytes=COMPILE_CACHE_BYTES.value(),
+                  max_days=CACHE_DAYS.value())  # fmt: skip
