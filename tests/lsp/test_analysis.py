@@ -36,7 +36,7 @@ def test_a_keystroke_reads_no_model_again_and_a_rebuilt_model_is_read(
     shutil.copy(fixture_fmu("Gain"), tmp_path / "Gain.fmu")
     shutil.copy(built_model("sign_detector.onnx"), tmp_path / "detector.onnx")
     reads: list[str] = []
-    real_fmu, real_onnx = fmu_kind.load_fmu_interface, onnx_interface._read
+    real_fmu, real_onnx = fmu_kind.load_fmu_interface, onnx_interface.read_signature
 
     def counted_fmu(path: Path):  # type: ignore[no-untyped-def]
         reads.append(path.name)
@@ -47,7 +47,7 @@ def test_a_keystroke_reads_no_model_again_and_a_rebuilt_model_is_read(
         return real_onnx(path)
 
     monkeypatch.setattr(fmu_kind, "load_fmu_interface", counted_fmu)
-    monkeypatch.setattr(onnx_interface, "_read", counted_onnx)
+    monkeypatch.setattr(onnx_interface, "read_signature", counted_onnx)
     path = tmp_path / "system.yaml"
     path.write_text(SYSTEM, encoding="utf-8")
 

@@ -19,7 +19,7 @@ from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import ARRAY_ELEMENTS, MODEL_FILE_BYTES
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.kinds.cache import cached_interface, file_identity
-from fmionnx.kinds.onnx.external import check_external_data
+from fmionnx.kinds.onnx.external import EXTERNAL, all_tensors, check_external_data
 from fmionnx.kinds.onnx.sizes import check_model_sizes
 
 #: ONNX ``TensorProto.DataType`` numbers -> fmionnx dtypes.
@@ -47,7 +47,9 @@ def read_onnx_interface(path: Path) -> ComponentInterface:
     if not path.is_file():
         msg = f"`{path}` is a directory or special file, not an ONNX model"
         raise ModelError(codes.NOT_A_FILE, msg)
-    return cached_interface(("onnx", *file_identity(path)), path, lambda: _read(path))
+    from fmionnx.kinds.onnx.keptinterface import kept_interface
+
+    return cached_interface(("onnx", *file_identity(path)), path, lambda: kept_interface(path))
 
 
 def load_checked_model(path: Path) -> tuple[Any, bytes]:
@@ -89,8 +91,15 @@ def parse_checked_model(data: bytes, path: Path) -> Any:
     return model
 
 
-def _read(path: Path) -> ComponentInterface:
+def read_signature(path: Path) -> tuple[ComponentInterface, bool]:
+    """The interface of the model at ``path`` read with ``onnx``, and whether the model keeps
+    a tensor in an external file."""
     model, data = load_checked_model(path)
+    external = any(t.data_location == EXTERNAL for t in all_tensors(model))
+    return _interface(model, data, path), external
+
+
+def _interface(model: Any, data: bytes, path: Path) -> ComponentInterface:
     graph = model.graph
     if not graph.output:
         msg = f"`{path}` is not an ONNX model with a graph (no outputs)"
