@@ -14,7 +14,6 @@ import functools
 from dataclasses import dataclass
 from typing import Any
 
-import numpy as np
 from rosbags.interfaces import Nodetype
 from rosbags.typesys import Stores, get_typestore
 
@@ -210,6 +209,8 @@ def default_message(msgtype: str, distro: RosDistro = DEFAULT_DISTRO) -> Any:
 
 
 def _default_value(info: FieldInfo, distro: RosDistro) -> Any:
+    import numpy as np  # only here: a compile checks topics without numpy
+
     if info.kind is FieldKind.MESSAGE:
         return default_message(info.base, distro)
     if info.kind is FieldKind.SCALAR:

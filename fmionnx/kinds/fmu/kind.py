@@ -229,7 +229,7 @@ class FmuKind:
         if path.is_dir() and not identity_of.is_file():
             read_fmu_files(path)  # raises the folder's error
         key = ("fmu", *file_identity(identity_of))
-        return cached_interface(key, path, lambda: load_fmu_interface(path))
+        return cached_interface(key, path, lambda: _kept_or_loaded(path))
 
 
 def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindProblem]:
@@ -258,6 +258,13 @@ def _missing_functions(interface: ComponentInterface, chosen: str) -> list[KindP
             "exports the unprefixed FMI names",
         )
     ]
+
+
+def _kept_or_loaded(path: Path) -> ComponentInterface:
+    """The interface kept in the cache folder for this archive, else read (and kept)."""
+    from fmionnx.kinds.fmu.keptinterface import kept_interface
+
+    return kept_interface(path, lambda: load_fmu_interface(path))
 
 
 def load_fmu_interface(path: Path) -> ComponentInterface:
