@@ -187,7 +187,8 @@ def test_switched_off_it_neither_reads_nor_writes(
     compile_system("system.yaml")
     compile_system("system.yaml")
     assert len(compiles) == 2
-    assert not (tmp_path / "cache").exists()
+    # its own folder only: the models' kept answers have switches of their own (running.md)
+    assert not (tmp_path / "cache" / "compiled").exists()
 
 
 # -- refused entries ----------------------------------------------------------------------------
