@@ -17,10 +17,11 @@ import pytest
 from fmionnx.kinds.cache import clear_cache
 from fmionnx.kinds.fmu import keptinterface
 from fmionnx.kinds.fmu.kind import FMU_KIND, load_fmu_interface
+from tests.keptstores import entries, forge
 
 
 def _entries() -> list[Path]:
-    return sorted(keptinterface.cache_folder(keptinterface.FOLDER).glob(f"*/{keptinterface.ENTRY}"))
+    return entries(keptinterface.STORE)
 
 
 def _fresh(path: Path):  # type: ignore[no-untyped-def]
@@ -51,10 +52,7 @@ def test_a_tampered_entry_is_ignored(fixture_fmu: Callable[[str], Path], tmp_pat
     shutil.copy(fixture_fmu("Gain"), path)
     expected = _fresh(path)
     (entry,) = _entries()
-    signed, _, body = entry.read_bytes().partition(b"\n")
-    forged = body.replace(b'"name":"k"', b'"name":"q"')
-    assert forged != body
-    entry.write_bytes(signed + b"\n" + forged)
+    forge(entry, b'"name":"k"', b'"name":"q"')
     assert _fresh(path) == expected
 
 
@@ -69,7 +67,7 @@ def test_an_unpacked_fmu_is_never_kept(fixture_fmu: Callable[[str], Path], tmp_p
 def test_switched_off_nothing_is_kept(
     fixture_fmu: Callable[[str], Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    monkeypatch.setenv(keptinterface.SWITCH, "0")
+    monkeypatch.setenv(keptinterface.STORE.switch, "0")
     path = tmp_path / "Gain.fmu"
     shutil.copy(fixture_fmu("Gain"), path)
     _fresh(path)

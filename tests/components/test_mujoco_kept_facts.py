@@ -15,6 +15,7 @@ import pytest
 from fmionnx.kinds.mujoco import keptfacts
 from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, MujocoSpec
 from tests.conftest import REPO
+from tests.keptstores import entries, forge
 
 REFERENCE_SCENE = REPO / "models" / "world" / "sign_course.xml"
 
@@ -60,15 +61,15 @@ def _answers(scene: Path) -> tuple[object, ...]:
 @pytest.mark.parametrize("which", ["reference", "made here"])
 def test_kept_answers_are_mujocos_own(which: str, tmp_path: Path, monkeypatch) -> None:
     scene = REFERENCE_SCENE if which == "reference" else _scene(tmp_path / "s")
-    monkeypatch.setenv(keptfacts.SWITCH, "0")
+    monkeypatch.setenv(keptfacts.STORE.switch, "0")
     _forget()
     read = _answers(scene)
-    monkeypatch.delenv(keptfacts.SWITCH)
+    monkeypatch.delenv(keptfacts.STORE.switch)
     _forget()
     first = _answers(scene)  # read with MuJoCo, and kept
     _forget()
     kept = _answers(scene)  # from the cache folder
-    assert len(list((keptfacts.cache_folder(keptfacts.FOLDER)).glob("*/facts.json"))) == 1
+    assert len(entries(keptfacts.STORE)) == 1
     assert first == read
     assert kept == read
 
@@ -82,27 +83,24 @@ def test_an_included_file_that_changes_makes_a_new_entry(tmp_path: Path) -> None
     interface = MUJOCO_KIND.read_interface(scene, MujocoSpec(path="scene.xml"))
     assert interface.port("after") is not None
     assert interface.port("before") is None
-    assert len(list(keptfacts.cache_folder(keptfacts.FOLDER).glob("*/facts.json"))) == 2
+    assert len(entries(keptfacts.STORE)) == 2
 
 
 def test_a_tampered_entry_is_ignored(tmp_path: Path) -> None:
     scene = _scene(tmp_path / "s", sensor="honest")
     _forget()
     expected = _answers(scene)
-    (entry,) = keptfacts.cache_folder(keptfacts.FOLDER).glob("*/facts.json")
-    signed, _, body = entry.read_bytes().partition(b"\n")
-    forged = body.replace(b'"honest"', b'"forged"')
-    assert forged != body
-    entry.write_bytes(signed + b"\n" + forged)
+    (entry,) = entries(keptfacts.STORE)
+    forge(entry, b'"honest"', b'"forged"')
     _forget()
     assert _answers(scene) == expected
 
 
 def test_switched_off_nothing_is_kept(tmp_path: Path, monkeypatch) -> None:
-    monkeypatch.setenv(keptfacts.SWITCH, "0")
+    monkeypatch.setenv(keptfacts.STORE.switch, "0")
     _forget()
     _answers(_scene(tmp_path / "s"))
-    assert not keptfacts.cache_folder(keptfacts.FOLDER).exists()
+    assert not entries(keptfacts.STORE)
 
 
 CHECK = """

@@ -18,11 +18,12 @@ from fmionnx.kinds.onnx import keptinterface
 from fmionnx.kinds.onnx.interface import read_onnx_interface, read_signature
 from tests.conftest import built_model
 from tests.fixtures.onnx.build_models import scale
+from tests.keptstores import entries, forge
 from tests.security.test_onnx_files import WEIGHTS, _scale
 
 
 def _entries() -> list[Path]:
-    return sorted(keptinterface.cache_folder(keptinterface.FOLDER).glob(f"*/{keptinterface.ENTRY}"))
+    return entries(keptinterface.STORE)
 
 
 def _fresh(path: Path):  # type: ignore[no-untyped-def]
@@ -56,10 +57,7 @@ def test_a_tampered_entry_is_ignored(tmp_path: Path) -> None:
     onnx.save(scale(), path)
     expected = _fresh(path)
     (entry,) = _entries()
-    signed, _, body = entry.read_bytes().partition(b"\n")
-    forged = body.replace(b'"x scaled element-wise"', b'"forged"')
-    assert forged != body
-    entry.write_bytes(signed + b"\n" + forged)
+    forge(entry, b'"x scaled element-wise"', b'"forged"')
     assert _fresh(path) == expected
 
 
@@ -74,7 +72,7 @@ def test_a_model_with_external_data_is_never_kept(tmp_path: Path) -> None:
 
 
 def test_switched_off_nothing_is_kept(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv(keptinterface.SWITCH, "0")
+    monkeypatch.setenv(keptinterface.STORE.switch, "0")
     path = tmp_path / "scale.onnx"
     onnx.save(scale(), path)
     _fresh(path)

@@ -42,9 +42,9 @@ def test_a_keystroke_reads_no_model_again_and_a_rebuilt_model_is_read(
         reads.append(path.name)
         return real_fmu(path)
 
-    def counted_onnx(path: Path):  # type: ignore[no-untyped-def]
+    def counted_onnx(path: Path, data: bytes | None = None):  # type: ignore[no-untyped-def]
         reads.append(path.name)
-        return real_onnx(path)
+        return real_onnx(path, data)
 
     monkeypatch.setattr(fmu_kind, "load_fmu_interface", counted_fmu)
     # an FMU touched but unchanged is served by its kept interface (its bytes are the same):

@@ -13,12 +13,13 @@ import pytest
 
 from fmionnx.compile.ros2 import typecache
 from fmionnx.compile.ros2.messages import _STORES, RosDistro, typestore
+from tests.keptstores import entries, forge
 
 
 def _entry(distro: RosDistro) -> Path:
     entry = typecache._entry(_STORES[distro].value)
     assert entry is not None
-    return entry[0]
+    return entry.file
 
 
 @pytest.mark.parametrize("distro", list(RosDistro))
@@ -43,10 +44,7 @@ def test_a_tampered_entry_is_ignored_and_written_again() -> None:
     expected = typestore(distro).fielddefs
     typecache.kept_fielddefs(store, lambda: expected)
     path = _entry(distro)
-    signed, _, body = path.read_bytes().partition(b"\n")
-    forged = body.replace(b'"float64"', b'"float32"', 1)
-    assert forged != body
-    path.write_bytes(signed + b"\n" + forged)
+    forge(path, b'"float64"', b'"float32"')
     calls: list[int] = []
 
     def load() -> typecache.Fielddefs:
@@ -60,11 +58,12 @@ def test_a_tampered_entry_is_ignored_and_written_again() -> None:
 
 
 def test_switched_off_nothing_is_kept(monkeypatch: pytest.MonkeyPatch) -> None:
-    monkeypatch.setenv(typecache.SWITCH, "0")
+    monkeypatch.setenv(typecache.STORE.switch, "0")
     distro = RosDistro.HUMBLE
     expected = typestore(distro).fielddefs
     assert typecache.kept_fielddefs(_STORES[distro].value, lambda: expected) is expected
     assert not _entry(distro).exists()
+    assert entries(typecache.STORE) == []
 
 
 CHECK = """

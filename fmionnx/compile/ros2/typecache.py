@@ -10,104 +10,86 @@ to the cache folder the first time, as JSON, and read back in a few milliseconds
 Encoding and serialization (the ROS 2 backend) still use the typestore itself.
 
 The key is the distribution and rosbags' installed store modules (each file's path, size and
-modification time), so an upgraded rosbags makes a new entry. Entries are kept as the
-compile cache keeps its own (:mod:`fmionnx.core.private`): in a folder of this user's that
-nobody else may write, never read through a link, signed with this user's key. An entry that
-does not check out, or does not have the shape of the definitions, is ignored: the
-definitions then come from rosbags and the entry is written again. ``FMIONNX_ROS2_TYPES=0``
-turns the keeping off.
+modification time), so an upgraded rosbags makes a new entry. Entries are kept as every kept
+answer is (:mod:`fmionnx.core.keptentries`): in a folder of this user's that nobody else may
+write, never read through a link, signed with this user's key, bounded in size and age as the
+compile cache is. An entry that does not check out, or does not have the shape of the
+definitions, is ignored: the definitions then come from rosbags and the entry is written
+again. ``FMIONNX_ROS2_TYPES=0`` turns the keeping off.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
-import hashlib
-import importlib.util
 import json
 from collections.abc import Callable
-from pathlib import Path
 from typing import Any
 
 from rosbags.interfaces import Nodetype
 
-from fmionnx.core.cachedir import cache_folder
-from fmionnx.core.keptentries import read_signed, write_signed
-from fmionnx.core.switches import switched_off
+from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.kinds.cache import file_identity
 
-#: The environment variable that turns the keeping off (``0``).
-SWITCH = "FMIONNX_ROS2_TYPES"
-#: The folder's name in the cache.
-FOLDER = "ros2-types"
-#: The entries' format; a new one makes every older entry a miss.
-FORMAT = "fmionnx-ros2-types-1"
-#: An entry is larger than this only if someone else wrote it (a distribution's definitions
-#: take about 40 KB).
-MAX_ENTRY_BYTES = 8 << 20
+#: The store: ``FMIONNX_ROS2_TYPES=0`` turns it off. No limit bears on the definitions: the
+#: environment is no part of the key. (A distribution's definitions take about 40 KB.)
+STORE = KeptAnswers(
+    switch="FMIONNX_ROS2_TYPES",
+    folder="ros2-types",
+    format="fmionnx-ros2-types-2",
+    max_bytes=8 << 20,
+    file_name="types.json",
+    keyed_by_environment=False,
+)
 
 #: A store's definitions as rosbags gives them: message type -> (constants, fields).
 Fielddefs = dict[str, tuple[list[tuple[str, str, Any]], list[tuple[str, Any]]]]
 
 
-def enabled() -> bool:
-    """Whether definitions are kept (``FMIONNX_ROS2_TYPES`` unset or not a "no")."""
-    return not switched_off(SWITCH)
-
-
 def kept_fielddefs(store: str, load: Callable[[], Fielddefs]) -> Fielddefs:
     """The definitions of rosbags' store ``store`` (``ros2_humble``): the kept ones when an
     entry checks out, else ``load()``'s, which are then kept."""
-    if not enabled():
+    if not STORE.enabled():
         return load()
     entry = _entry(store)
     if entry is not None:
-        found = _read(*entry)
+        found = _read(entry)
         if found is not None:
             return found
     definitions = load()
     if entry is not None:
-        _write(*entry, definitions)
+        with contextlib.suppress(TypeError, ValueError):
+            STORE.write(entry, json.dumps(definitions, separators=(",", ":")).encode())
     return definitions
 
 
-def _entry(store: str) -> tuple[Path, str] | None:
-    """(file, key) of ``store``'s entry; None when rosbags' stores cannot be found."""
+def _entry(store: str) -> Entry | None:
+    """``store``'s entry; None when rosbags' stores cannot be found."""
     stamps = _store_stamps()
-    if stamps is None:
-        return None
-    key = hashlib.sha256("\0".join([FORMAT, store, *stamps]).encode()).hexdigest()
-    return cache_folder(FOLDER) / f"{key[:40]}.json", key
+    return None if stamps is None else STORE.entry([store, *stamps])
 
 
 @functools.cache
 def _store_stamps() -> tuple[str, ...] | None:
     """rosbags' store modules (found without importing them: that import is what an entry
     saves), by path, size and modification time."""
-    with contextlib.suppress(ImportError, ValueError, OSError):
-        spec = importlib.util.find_spec("rosbags.typesys.stores")
-        if spec is not None and spec.submodule_search_locations:
-            folder = Path(next(iter(spec.submodule_search_locations)))
-            return tuple(str(file_identity(f)) for f in sorted(folder.glob("*.py")))
+    folder = installed_package("rosbags.typesys.stores")
+    if folder is None:
+        return None
+    with contextlib.suppress(OSError):
+        return tuple(str(file_identity(f)) for f in sorted(folder.glob("*.py")))
     return None
 
 
-def _read(path: Path, key: str) -> Fielddefs | None:
-    """The definitions in ``path`` when it is this user's, signed for ``key`` and well formed."""
-    body = read_signed(path.parent, path, key, MAX_ENTRY_BYTES)
+def _read(entry: Entry) -> Fielddefs | None:
+    """The definitions in ``entry`` when it checks out and is well formed."""
+    body = STORE.read(entry)
     if body is None:
         return None
     try:
         return _decode(json.loads(body))
     except (ValueError, TypeError, KeyError, IndexError):
         return None
-
-
-def _write(path: Path, key: str, definitions: Fielddefs) -> None:
-    """Keep ``definitions`` under ``key``; a cache that cannot be written is no error."""
-    with contextlib.suppress(TypeError, ValueError):
-        body = json.dumps(definitions, separators=(",", ":")).encode()
-        write_signed(path.parent, path, key, body)
 
 
 def _decode(data: object) -> Fielddefs | None:

@@ -65,8 +65,9 @@ def _sensor_unit(model: Any, sensor: int, kind: str) -> str | None:
 _MODELS: dict[tuple[str, int, int], tuple[Any, str]] = {}
 
 
-def load_model(path: Path) -> tuple[Any, str]:
-    """The compiled MjModel of the scene at ``path`` and the scene's content hash (cached)."""
+def load_model(path: Path, *, checked: bool = False) -> tuple[Any, str]:
+    """The compiled MjModel of the scene at ``path`` and the scene's content hash (cached);
+    ``checked``: the caller ran :func:`check_scene_before_loading` on it just now."""
     if not path.exists():
         msg = f"`{path}` does not exist"
         raise ModelError(codes.FILE_NOT_FOUND, msg)
@@ -77,7 +78,8 @@ def load_model(path: Path) -> tuple[Any, str]:
     key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
     if key not in _MODELS:
         mujoco = mujoco_module()
-        check_scene_before_loading(path)
+        if not checked:
+            check_scene_before_loading(path)
         try:
             if path.suffix == ".mjb":
                 model = mujoco.MjModel.from_binary_path(str(path))

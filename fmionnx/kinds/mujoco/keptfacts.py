@@ -15,41 +15,32 @@ The checks made before MuJoCo reads a scene (its files stay in its folder, its c
 bounded: :func:`~.interface.check_scene_before_loading`) run every time, kept or not. Only a
 scene that loaded is kept; a failing one is read, and fails, every time. A site or map that
 could not be read is not kept either: asked for, it is read from the scene again, and fails
-as it did. Entries are kept as the compile cache keeps its own (:mod:`fmionnx.core.private`):
-private, signed with this user's key, ignored when they do not check out or do not decode,
-and bounded in size and age as it is.
-``FMIONNX_MUJOCO_FACTS=0`` turns the keeping off.
+as it did. Entries are kept as every kept answer is (:mod:`fmionnx.core.keptentries`): private,
+signed with this user's key, ignored when they do not check out or do not decode, and bounded
+in size and age as the compile cache is. ``FMIONNX_MUJOCO_FACTS=0`` turns the keeping off.
 """
 
 from __future__ import annotations
 
 import contextlib
 import functools
-import hashlib
-import importlib.util
-import json
-import os
 from dataclasses import dataclass
 from pathlib import Path
 
-from fmionnx.core.cachedir import cache_folder, evict
-from fmionnx.core.datacodec import Codec, CodecError
-from fmionnx.core.keptentries import read_signed, write_signed
-from fmionnx.core.switches import switched_off
+from fmionnx.core.datacodec import Codec
+from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.core.types import Port
 from fmionnx.kinds.base import SceneMap, Site
 from fmionnx.kinds.cache import file_identity, sha256_file
 
-#: The environment variable that turns the keeping off (``0``).
-SWITCH = "FMIONNX_MUJOCO_FACTS"
-#: The folder's name in the cache.
-FOLDER = "mujoco-scenes"
-#: The entries' format; a new one makes every older entry a miss.
-FORMAT = "fmionnx-mujoco-scene-facts-1"
-#: An entry is larger than this only if someone else wrote it.
-MAX_ENTRY_BYTES = 16 << 20
-#: The file of an entry, in a folder of its own (the unit the cache's eviction removes).
-ENTRY = "facts.json"
+#: The store: ``FMIONNX_MUJOCO_FACTS=0`` turns it off.
+STORE = KeptAnswers(
+    switch="FMIONNX_MUJOCO_FACTS",
+    folder="mujoco-scenes",
+    format="fmionnx-mujoco-scene-facts-1",
+    max_bytes=16 << 20,
+    file_name="facts.json",
+)
 
 
 @dataclass(frozen=True)
@@ -68,12 +59,6 @@ class SceneFacts:
 
 #: How facts are written and read back (:mod:`fmionnx.core.datacodec`).
 _CODEC = Codec("kept scene facts")
-
-
-def enabled() -> bool:
-    """Whether scene facts are kept (``FMIONNX_MUJOCO_FACTS`` unset or not a "no")."""
-    return not switched_off(SWITCH)
-
 
 #: This process's answers, by the scene file's identity (as :func:`~.interface.load_model`
 #: keeps the loaded model): a compile asks for ports, sites and map in turn.
@@ -95,27 +80,28 @@ def scene_facts(path: Path) -> SceneFacts:
 def _kept_or_read(path: Path) -> SceneFacts:
     from fmionnx.kinds.mujoco.interface import check_scene_before_loading
 
-    if not enabled() or path.suffix == ".mjb":
+    if not STORE.enabled() or path.suffix == ".mjb":
         return _read_scene(path)
     check_scene_before_loading(path)
     entry = _entry(path)
     if entry is not None:
-        found = _read(*entry)
+        found = STORE.read_value(entry, _CODEC, SceneFacts)
         if found is not None:
             return found
-    facts = _read_scene(path)
+    facts = _read_scene(path, checked=True)
     if entry is not None:
-        _write(*entry, facts)
+        STORE.write_value(entry, _CODEC, facts)
     return facts
 
 
-def _read_scene(path: Path) -> SceneFacts:
-    """The facts, read from the scene with MuJoCo (errors as loading it raises them)."""
+def _read_scene(path: Path, *, checked: bool = False) -> SceneFacts:
+    """The facts, read from the scene with MuJoCo (errors as loading it raises them);
+    ``checked``: the checks before loading it passed already."""
     from fmionnx.kinds.mujoco.interface import load_model, scene_ports
     from fmionnx.kinds.mujoco.scenemap import read_scene_map
     from fmionnx.kinds.mujoco.sites import read_sites
 
-    model, digest = load_model(path)
+    model, digest = load_model(path, checked=checked)
     ports, cameras, facts = scene_ports(model)
     sites: tuple[tuple[str, Site], ...] | None = None
     scene_map: SceneMap | None = None
@@ -126,8 +112,8 @@ def _read_scene(path: Path) -> SceneFacts:
     return SceneFacts(tuple(ports), tuple(cameras), facts, digest, sites, scene_map)
 
 
-def _entry(path: Path) -> tuple[Path, str] | None:
-    """(file, key) of the scene's entry; None when its files or MuJoCo cannot be stamped."""
+def _entry(path: Path) -> Entry | None:
+    """The scene's entry; None when its files or MuJoCo cannot be stamped."""
     from fmionnx.core.modelfiles import ShippingError
     from fmionnx.kinds.mujoco.files import scene_files
 
@@ -138,57 +124,28 @@ def _entry(path: Path) -> tuple[Path, str] | None:
         files = [f"{f.name}:{sha256_file(f.source)}" for f in scene_files(path)]
     except (OSError, ShippingError, ValueError):
         return None
-    environment = [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("FMIONNX_")]
-    parts = [FORMAT, path.name, *code, *files, *environment]
-    key = hashlib.sha256("\0".join(parts).encode()).hexdigest()
-    return cache_folder(FOLDER) / key[:40] / ENTRY, key
+    return STORE.entry([path.name, *code, *files])
 
 
 @functools.cache
 def _code_stamps() -> tuple[str, ...] | None:
     """MuJoCo's installed package (found without importing it: that import is what an entry
     saves), and fmionnx's modules that read a scene and define what an entry holds."""
-    from fmionnx.core import datacodec, types, units
+    from fmionnx.core import datacodec, keptentries, types, units
     from fmionnx.kinds import base
     from fmionnx.kinds.mujoco import interface, scenemap, sites
 
+    package = installed_package("mujoco")
+    if package is None:
+        return None
     try:
-        spec = importlib.util.find_spec("mujoco")
-        if spec is None or not spec.submodule_search_locations:
-            return None
-        package = Path(next(iter(spec.submodule_search_locations)))
         installed = [str(file_identity(f)) for f in sorted(package.glob("*.so"))]
         installed.append(str(file_identity(package / "__init__.py")))
         # the readers, and the classes (and codec) an entry is written as: a field added to
         # a port must not be read back from an older entry as its default
-        modules = (interface, scenemap, sites, types, units, base, datacodec)
+        modules = (interface, scenemap, sites, types, units, base, datacodec, keptentries)
         readers = [Path(str(m.__file__)) for m in modules]
         readers.append(Path(__file__))
         return (*installed, *(sha256_file(f) for f in readers))
-    except (ImportError, ValueError, OSError):
+    except OSError:
         return None
-
-
-def _read(path: Path, key: str) -> SceneFacts | None:
-    """The facts in ``path`` when it is this user's, signed for ``key`` and decodes."""
-    body = read_signed(path.parent.parent, path, key, MAX_ENTRY_BYTES)
-    if body is None:
-        return None
-    try:
-        facts = _CODEC.decode(SceneFacts, json.loads(body), "facts")
-    except (ValueError, CodecError, RecursionError):
-        return None
-    return facts if isinstance(facts, SceneFacts) else None
-
-
-def _write(path: Path, key: str, facts: SceneFacts) -> None:
-    """Keep ``facts`` under ``key``, the cache bounded as the compile cache is (size and
-    age); a cache that cannot be written is no error."""
-    from fmionnx.core.resources import CACHE_DAYS, COMPILE_CACHE_BYTES
-
-    root = path.parent.parent
-    body = json.dumps(_CODEC.encode(facts), separators=(",", ":")).encode()
-    if write_signed(root, path, key, body):
-        with contextlib.suppress(OSError):
-            evict(root, keep=path.parent, max_bytes=COMPILE_CACHE_BYTES.value(),
-                  max_days=CACHE_DAYS.value())  # fmt: skip

@@ -91,10 +91,13 @@ def parse_checked_model(data: bytes, path: Path) -> Any:
     return model
 
 
-def read_signature(path: Path) -> tuple[ComponentInterface, bool]:
-    """The interface of the model at ``path`` read with ``onnx``, and whether the model keeps
-    a tensor in an external file."""
-    model, data = load_checked_model(path)
+def read_signature(path: Path, data: bytes | None = None) -> tuple[ComponentInterface, bool]:
+    """The interface of the model at ``path`` (whose bytes are ``data`` when the caller has
+    read them already) read with ``onnx``, and whether the model keeps a tensor in an
+    external file."""
+    if data is None:
+        data = read_model_bytes(path)
+    model = parse_checked_model(data, path)
     external = any(t.data_location == EXTERNAL for t in all_tensors(model))
     return _interface(model, data, path), external
 

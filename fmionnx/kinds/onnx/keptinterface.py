@@ -9,124 +9,83 @@ exactly those, and a compile of an unchanged model reads it back without importi
 A model with external data (whose files could change without its bytes changing) is read
 every time, as a model that fails is.
 
-Entries are kept as the compile cache keeps its own (:mod:`fmionnx.core.keptentries`):
-private, signed with this user's key, ignored when they do not check out or do not decode,
-bounded in size and age as it is. ``FMIONNX_ONNX_INTERFACES=0`` turns the keeping off.
+Entries are kept as every kept answer is (:mod:`fmionnx.core.keptentries`): private, signed
+with this user's key, ignored when they do not check out or do not decode, bounded in size and
+age as the compile cache is. ``FMIONNX_ONNX_INTERFACES=0`` turns the keeping off.
 """
 
 from __future__ import annotations
 
-import contextlib
 import dataclasses
 import functools
 import hashlib
-import importlib.util
-import json
-import os
 from pathlib import Path
 
-from fmionnx.core.cachedir import cache_folder, evict
-from fmionnx.core.datacodec import Codec, CodecError
-from fmionnx.core.keptentries import read_signed, write_signed
-from fmionnx.core.switches import switched_off
+from fmionnx.core.datacodec import Codec
+from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.core.types import ComponentInterface
 from fmionnx.kinds.cache import file_identity, sha256_file
 
-#: The environment variable that turns the keeping off (``0``).
-SWITCH = "FMIONNX_ONNX_INTERFACES"
-#: The folder's name in the cache.
-FOLDER = "onnx-interfaces"
-#: The entries' format; a new one makes every older entry a miss.
-FORMAT = "fmionnx-onnx-interface-1"
-#: The file of an entry, in a folder of its own (the unit the cache's eviction removes).
-ENTRY = "interface.json"
-#: An entry is larger than this only if someone else wrote it.
-MAX_ENTRY_BYTES = 16 << 20
+#: The store: ``FMIONNX_ONNX_INTERFACES=0`` turns it off.
+STORE = KeptAnswers(
+    switch="FMIONNX_ONNX_INTERFACES",
+    folder="onnx-interfaces",
+    format="fmionnx-onnx-interface-1",
+    max_bytes=16 << 20,
+    file_name="interface.json",
+)
 
 #: How interfaces are written and read back (:mod:`fmionnx.core.datacodec`).
 _CODEC = Codec("kept ONNX interface")
-
-
-def enabled() -> bool:
-    """Whether interfaces are kept (``FMIONNX_ONNX_INTERFACES`` unset or not a "no")."""
-    return not switched_off(SWITCH)
 
 
 def kept_interface(path: Path) -> ComponentInterface:
     """The interface of the ONNX model at ``path``: a kept one when an entry checks out, else
     read with ``onnx`` (and kept when the model has no external data). Raises ModelError as
     reading the model does."""
+    from fmionnx.core.errors import ModelError
     from fmionnx.kinds.onnx import interface
 
-    entry = _entry(path) if enabled() else None
+    if not STORE.enabled():
+        return interface.read_signature(path)[0]
+    try:
+        data: bytes | None = interface.read_model_bytes(path)
+    except ModelError:
+        data = None  # reading the signature reports it
+    entry = _entry(path, data) if data is not None else None
     if entry is not None:
-        found = _read(*entry)
+        found = STORE.read_value(entry, _CODEC, ComponentInterface)
         if found is not None:
             return dataclasses.replace(found, path=path)
-    read, external = interface.read_signature(path)
+    read, external = interface.read_signature(path, data)
     if entry is not None and not external:
-        _write(*entry, read)
+        STORE.write_value(entry, _CODEC, read)
     return read
 
 
-def _entry(path: Path) -> tuple[Path, str] | None:
-    """(file, key) of the model's entry; None when it or ``onnx`` cannot be stamped (the
-    model is then read, and its errors reported, as without this module)."""
-    from fmionnx.core.errors import ModelError
-    from fmionnx.kinds.onnx.interface import read_model_bytes
-
+def _entry(path: Path, data: bytes) -> Entry | None:
+    """The entry of the model at ``path`` whose bytes are ``data``; None when ``onnx`` cannot
+    be stamped (the model is then read, and its errors reported, as without this module)."""
     code = _code_stamps()
     if code is None:
         return None
-    try:
-        data = read_model_bytes(path)
-    except ModelError:
-        return None
-    environment = [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("FMIONNX_")]
-    parts = [FORMAT, path.name, hashlib.sha256(data).hexdigest(), *code, *environment]
-    key = hashlib.sha256("\0".join(parts).encode()).hexdigest()
-    return cache_folder(FOLDER) / key[:40] / ENTRY, key
+    return STORE.entry([path.name, hashlib.sha256(data).hexdigest(), *code])
 
 
 @functools.cache
 def _code_stamps() -> tuple[str, ...] | None:
     """``onnx``'s installed package (found without importing it) and fmionnx's modules that
     read a model and define what an entry holds."""
-    from fmionnx.core import datacodec, types, units
+    from fmionnx.core import datacodec, keptentries, types, units
     from fmionnx.kinds.onnx import external, interface, sizes
 
+    package = installed_package("onnx")
+    if package is None:
+        return None
     try:
-        spec = importlib.util.find_spec("onnx")
-        if spec is None or spec.origin is None:
-            return None
-        modules = (interface, external, sizes, types, units, datacodec)
+        modules = (interface, external, sizes, types, units, datacodec, keptentries)
         readers = [Path(str(m.__file__)) for m in modules]
         readers.append(Path(__file__))
-        return (str(file_identity(Path(spec.origin))), *(sha256_file(f) for f in readers))
-    except (ImportError, ValueError, OSError):
+        return (str(file_identity(package / "__init__.py")), *(sha256_file(f) for f in readers))
+    except OSError:
         return None
-
-
-def _read(path: Path, key: str) -> ComponentInterface | None:
-    """The interface in ``path`` when it is this user's, signed for ``key`` and decodes."""
-    body = read_signed(path.parent.parent, path, key, MAX_ENTRY_BYTES)
-    if body is None:
-        return None
-    try:
-        found = _CODEC.decode(ComponentInterface, json.loads(body), "interface")
-    except (ValueError, CodecError, RecursionError):
-        return None
-    return found if isinstance(found, ComponentInterface) else None
-
-
-def _write(path: Path, key: str, interface: ComponentInterface) -> None:
-    """Keep ``interface`` under ``key``, the cache bounded as the compile cache is."""
-    from fmionnx.core.resources import CACHE_DAYS, COMPILE_CACHE_BYTES
-
-    root = path.parent.parent
-    with contextlib.suppress(TypeError, ValueError):
-        body = json.dumps(_CODEC.encode(interface), separators=(",", ":")).encode()
-        if write_signed(root, path, key, body):
-            with contextlib.suppress(OSError):
-                evict(root, keep=path.parent, max_bytes=COMPILE_CACHE_BYTES.value(),
-                      max_days=CACHE_DAYS.value())  # fmt: skip
