@@ -217,7 +217,7 @@ def _override_port(
         msg = f"--param `{key}`: `{component_name}` has no {what} `{port_name}`; {hint}"
         raise OverrideError(msg)
     flat = value if isinstance(value, list) else [value]
-    size = port.size or 1
+    size = 1 if port.size is None else port.size  # None: known at run time, one value
     for item in flat:  # before coercing: float() of a huge integer raises OverflowError
         problem = port.dtype.out_of_range(item)
         if problem is not None:

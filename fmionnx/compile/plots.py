@@ -125,11 +125,12 @@ def _marks(
         return None
     count = 1 if resolved.ref.index is not None else resolved.port.size
     if count != 1:
+        has = "a size known only at run time" if count is None else f"{count} elements"
         bag.emit(
             codes.PLOT_SIGNAL,
-            f"plot marks: follow one signal; `{text}` has {count or 'several'} elements",
+            f"plot marks: follow one signal; `{text}` has {has}",
             span,
-            hint=f"select one element, e.g. `{text}[0]`",
+            hint=f"select one element, e.g. `{text}[0]`" if count else "follow another signal",
         )
         return None
     if not _drawable(resolved, text, on_xy=False, span=span, bag=bag):

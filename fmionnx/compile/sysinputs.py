@@ -49,7 +49,7 @@ def compile_inputs(
                     notes=declared_note(port),
                 )
                 continue
-            if ref.index is not None or (port.size or 1) != 1:
+            if ref.index is not None or port.size not in (1, None):  # None: known at run time
                 bag.emit(
                     codes.PARAMETER_CAUSALITY,
                     f"system input `{name}` reaches `{ref}`: a system input sets one value on "

@@ -154,7 +154,7 @@ class FmuRunner(NativeCandidate):
     def _load(self) -> None:
         path = self.component.path
         if path.is_dir():
-            root = path
+            root = path.absolute()  # fmpy changes the working folder before it loads the library
         else:
             self._tmp = make_scratch(self.component.name)
             try:
