@@ -86,6 +86,26 @@ def test_an_included_file_that_changes_makes_a_new_entry(tmp_path: Path) -> None
     assert len(entries(keptfacts.STORE)) == 2
 
 
+def test_a_long_running_process_sees_an_included_file_change(tmp_path: Path) -> None:
+    """The editor's language server reads a scene again when a file it includes changes,
+    though the scene's own file did not (it kept the first answer)."""
+    from fmionnx.kinds.mujoco.interface import load_model
+
+    scene = _scene(tmp_path / "s", sensor="before")
+    _forget()
+    spec = MujocoSpec(path="scene.xml")
+    assert MUJOCO_KIND.read_interface(scene, spec).port("before") is not None
+    model, _ = load_model(scene)
+    assert load_model(scene)[0] is model  # unchanged: the same loaded model
+    (scene.parent / "parts.xml").write_text(PARTS.format(name="after_edit"))
+    interface = MUJOCO_KIND.read_interface(scene, spec)
+    assert interface.port("after_edit") is not None
+    assert interface.port("before") is None
+    reloaded, _ = load_model(scene)
+    assert reloaded is not model
+    assert reloaded.nsensor == 1
+
+
 def test_a_tampered_entry_is_ignored(tmp_path: Path) -> None:
     scene = _scene(tmp_path / "s", sensor="honest")
     _forget()

@@ -23,6 +23,7 @@ from fmionnx.core.units import builtin_unit
 from fmionnx.kinds.mujoco.budget import check_compiled_memory, check_scene_budget
 from fmionnx.kinds.mujoco.files import check_scene_files, scene_files
 from fmionnx.kinds.mujoco.library import mujoco_module
+from fmionnx.kinds.mujoco.scenememo import SceneMemo, scene_stamps
 
 #: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case); every
 #: name is a built-in unit (:data:`fmionnx.core.units.BUILTIN_UNITS`), so it has a definition.
@@ -62,7 +63,8 @@ def _sensor_unit(model: Any, sensor: int, kind: str) -> str | None:
     return _SENSOR_UNITS.get(kind)
 
 
-_MODELS: dict[tuple[str, int, int], tuple[Any, str]] = {}
+#: This process's loaded scenes, while their files are unchanged (:mod:`.scenememo`).
+_MODELS: SceneMemo[tuple[Any, str]] = SceneMemo()
 
 
 def load_model(path: Path, *, checked: bool = False) -> tuple[Any, str]:
@@ -74,9 +76,9 @@ def load_model(path: Path, *, checked: bool = False) -> tuple[Any, str]:
     if not path.is_file():
         msg = f"`{path}` is a directory or special file, not a MuJoCo scene"
         raise ModelError(codes.NOT_A_FILE, msg)
-    stat = path.stat()
-    key = (str(path.resolve()), stat.st_mtime_ns, stat.st_size)
-    if key not in _MODELS:
+    loaded = _MODELS.get(path)
+    if loaded is None:
+        stamps = scene_stamps(path)  # before reading: a file changed meanwhile reads again
         mujoco = mujoco_module()
         if not checked:
             check_scene_before_loading(path)
@@ -90,8 +92,9 @@ def load_model(path: Path, *, checked: bool = False) -> tuple[Any, str]:
             msg = f"`{path}` is not a valid MuJoCo scene: {text}"
             raise ModelError(codes.BAD_MODEL, msg) from None
         check_compiled_memory(model, path)
-        _MODELS[key] = (model, _compiled_digest(model, path))
-    return _MODELS[key]
+        loaded = (model, _compiled_digest(model, path))
+        _MODELS.put(stamps, loaded)
+    return loaded
 
 
 def check_scene_before_loading(path: Path) -> None:

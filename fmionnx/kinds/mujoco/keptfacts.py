@@ -32,6 +32,7 @@ from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.core.types import Port
 from fmionnx.kinds.base import SceneMap, Site
 from fmionnx.kinds.cache import file_identity, sha256_file
+from fmionnx.kinds.mujoco.scenememo import SceneMemo, scene_stamps
 
 #: The store: ``FMIONNX_MUJOCO_FACTS=0`` turns it off.
 STORE = KeptAnswers(
@@ -60,9 +61,10 @@ class SceneFacts:
 #: How facts are written and read back (:mod:`fmionnx.core.datacodec`).
 _CODEC = Codec("kept scene facts")
 
-#: This process's answers, by the scene file's identity (as :func:`~.interface.load_model`
-#: keeps the loaded model): a compile asks for ports, sites and map in turn.
-_FACTS: dict[tuple[str, int, int], SceneFacts] = {}
+#: This process's answers, while the scene's files are unchanged (:mod:`.scenememo`, as
+#: :func:`~.interface.load_model` keeps the loaded model): a compile asks for ports, sites
+#: and map in turn.
+_FACTS: SceneMemo[SceneFacts] = SceneMemo()
 
 
 def scene_facts(path: Path) -> SceneFacts:
@@ -70,10 +72,11 @@ def scene_facts(path: Path) -> SceneFacts:
     MuJoCo (and kept). Raises ModelError as loading the scene does."""
     if not path.is_file():
         return _read_scene(path)  # the error loading it gives
-    identity = file_identity(path)
-    found = _FACTS.get(identity)
+    found = _FACTS.get(path)
     if found is None:
-        found = _FACTS[identity] = _kept_or_read(path)
+        stamps = scene_stamps(path)  # before reading: a file changed meanwhile reads again
+        found = _kept_or_read(path)
+        _FACTS.put(stamps, found)
     return found
 
 
