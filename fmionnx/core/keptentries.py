@@ -69,7 +69,7 @@ class KeptAnswers:
     max_bytes: int
     file_name: str = "entry.json"
     #: Whether the ``FMIONNX_*`` environment is part of the key (the limits a model is read
-    #: under); False for answers no limit bears on.
+    #: under: :func:`limits_in_force`); False for answers no limit bears on.
     keyed_by_environment: bool = True
 
     def enabled(self) -> bool:
@@ -80,7 +80,7 @@ class KeptAnswers:
         """The entry of the answer that depends on exactly ``parts`` (and the environment)."""
         keyed = [self.format, *parts]
         if self.keyed_by_environment:
-            keyed += [f"{k}={v}" for k, v in sorted(os.environ.items()) if k.startswith("FMIONNX_")]
+            keyed += [f"{k}={v}" for k, v in limits_in_force()]
         key = hashlib.sha256("\0".join(keyed).encode()).hexdigest()
         return Entry(cache_folder(self.folder) / key[:40] / self.file_name, key)
 
@@ -116,6 +116,15 @@ class KeptAnswers:
         """Keep ``value`` in ``entry`` as ``codec`` writes it."""
         with contextlib.suppress(TypeError, ValueError):
             self.write(entry, json.dumps(codec.encode(value), separators=(",", ":")).encode())
+
+
+def limits_in_force() -> list[tuple[str, str]]:
+    """The ``FMIONNX_*`` variables an answer may depend on (sorted): every one but the
+    cache's own (its folder, bounds and switches), which change where and whether answers
+    are kept, never what they are."""
+    return sorted(
+        (k, v) for k, v in os.environ.items() if k.startswith("FMIONNX_") and "CACHE" not in k
+    )
 
 
 def installed_package(name: str) -> Path | None:

@@ -50,6 +50,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.runflags import RunFlags
 from fmionnx.core.cachedir import cache_folder, discard, evict, touch
 from fmionnx.core.diagnostics import Diagnostic
+from fmionnx.core.keptentries import limits_in_force
 from fmionnx.core.private import (
     NotPrivateError,
     check_private_folder,
@@ -151,9 +152,7 @@ def _key(path: Path, flags: RunFlags | None) -> str | None:
         data = stream.read(MAX_SYSTEM_BYTES + 1)
     if len(data) > MAX_SYSTEM_BYTES:
         return None
-    environment = sorted(
-        (k, v) for k, v in os.environ.items() if k.startswith("FMIONNX_") and "CACHE" not in k
-    )
+    environment = limits_in_force()
     flags = flags or RunFlags()
     material = {
         "format": [FORMAT, VERSION],

@@ -8,10 +8,12 @@ from __future__ import annotations
 import os
 import subprocess
 import sys
+import time
 from pathlib import Path
 
 import pytest
 
+from fmionnx.core.cachedir import cache_folder
 from fmionnx.kinds.mujoco import keptfacts
 from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, MujocoSpec
 from tests.conftest import REPO
@@ -86,24 +88,66 @@ def test_an_included_file_that_changes_makes_a_new_entry(tmp_path: Path) -> None
     assert len(entries(keptfacts.STORE)) == 2
 
 
+def _age(folder: Path) -> None:
+    """Every file in ``folder`` last modified a minute ago: older than the racy window."""
+    old = time.time() - 60
+    for file in folder.iterdir():
+        os.utime(file, (old, old), follow_symlinks=False)
+
+
 def test_a_long_running_process_sees_an_included_file_change(tmp_path: Path) -> None:
     """The editor's language server reads a scene again when a file it includes changes,
     though the scene's own file did not (it kept the first answer)."""
     from fmionnx.kinds.mujoco.interface import load_model
 
     scene = _scene(tmp_path / "s", sensor="before")
+    _age(scene.parent)
     _forget()
     spec = MujocoSpec(path="scene.xml")
     assert MUJOCO_KIND.read_interface(scene, spec).port("before") is not None
     model, _ = load_model(scene)
     assert load_model(scene)[0] is model  # unchanged: the same loaded model
     (scene.parent / "parts.xml").write_text(PARTS.format(name="after_edit"))
+    _age(scene.parent)
     interface = MUJOCO_KIND.read_interface(scene, spec)
     assert interface.port("after_edit") is not None
     assert interface.port("before") is None
     reloaded, _ = load_model(scene)
     assert reloaded is not model
     assert reloaded.nsensor == 1
+
+
+def test_an_included_link_retargeted_is_a_change(tmp_path: Path) -> None:
+    from fmionnx.kinds.mujoco.interface import load_model
+
+    scene = _scene(tmp_path / "s")
+    (scene.parent / "parts.xml").unlink()
+    (scene.parent / "a.xml").write_text(PARTS.format(name="from_a"))
+    (scene.parent / "b.xml").write_text(PARTS.format(name="from_b"))
+    (scene.parent / "parts.xml").symlink_to("a.xml")
+    _age(scene.parent)
+    _forget()
+    model, _ = load_model(scene)
+    assert load_model(scene)[0] is model
+    (scene.parent / "parts.xml").unlink()
+    (scene.parent / "parts.xml").symlink_to("b.xml")
+    _age(scene.parent)
+    assert MUJOCO_KIND.read_interface(scene, MujocoSpec(path="scene.xml")).port("from_b")
+    assert load_model(scene)[0] is not model
+
+
+def test_a_scene_modified_just_before_it_was_read_is_read_again(tmp_path: Path) -> None:
+    """Within its modification time's resolution a file can change unseen: an answer read
+    right after a file changed is not given back (racily clean, as git has it)."""
+    from fmionnx.kinds.mujoco.interface import load_model
+
+    scene = _scene(tmp_path / "s")  # written just now
+    _forget()
+    model, _ = load_model(scene)
+    assert load_model(scene)[0] is not model
+    _age(scene.parent)
+    settled, _ = load_model(scene)
+    assert load_model(scene)[0] is settled
 
 
 def test_a_tampered_entry_is_ignored(tmp_path: Path) -> None:
@@ -120,7 +164,7 @@ def test_switched_off_nothing_is_kept(tmp_path: Path, monkeypatch) -> None:
     monkeypatch.setenv(keptfacts.STORE.switch, "0")
     _forget()
     _answers(_scene(tmp_path / "s"))
-    assert not entries(keptfacts.STORE)
+    assert not cache_folder(keptfacts.STORE.folder).exists()
 
 
 CHECK = """

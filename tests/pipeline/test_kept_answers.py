@@ -44,6 +44,13 @@ def test_the_key_follows_the_parts_and_the_limits_in_force(monkeypatch: pytest.M
     assert STORE.entry(["model", "other digest"]) != first
     monkeypatch.setenv("FMIONNX_MAX_STEPS", "7")
     assert STORE.entry(["model", "digest"]) != first
+    monkeypatch.setenv("FMIONNX_CACHE_MAX_DAYS", "3")  # where and how long, not what
+    monkeypatch.setenv("FMIONNX_COMPILE_CACHE", "0")
+    with_limit = STORE.entry(["model", "digest"])
+    assert with_limit != first
+    monkeypatch.delenv("FMIONNX_CACHE_MAX_DAYS")
+    monkeypatch.delenv("FMIONNX_COMPILE_CACHE")
+    assert STORE.entry(["model", "digest"]) == with_limit
     unkeyed = KeptAnswers("S", "test-answers", "t-1", 4096, keyed_by_environment=False)
     keyed_elsewhere = unkeyed.entry(["model", "digest"])
     monkeypatch.delenv("FMIONNX_MAX_STEPS")
@@ -63,12 +70,27 @@ def test_an_entry_checks_out_only_for_its_own_key() -> None:
 def test_a_forged_oversized_or_shared_entry_is_ignored() -> None:
     entry = STORE.entry(["model"])
     STORE.write_value(entry, CODEC, Answer("honest", ()))
+    assert STORE.read(entry) is not None
     forge(entry.file, b"honest", b"forged")
     assert STORE.read(entry) is None
     STORE.write_value(entry, CODEC, Answer("x" * 5000, ()))  # larger than the bound
+    assert entry.file.stat().st_size > STORE.max_bytes
     assert STORE.read(entry) is None
     STORE.write_value(entry, CODEC, Answer("honest", ()))
+    assert STORE.read(entry) is not None
     entry.file.parent.chmod(0o777)  # a folder others may write into
+    assert STORE.read(entry) is None
+
+
+@pytest.mark.parametrize("linked", ["file", "folder", "root"])
+def test_an_entry_reached_through_a_link_is_ignored(linked: str, tmp_path: Path) -> None:
+    entry = STORE.entry(["model"])
+    STORE.write_value(entry, CODEC, Answer("honest", ()))
+    assert STORE.read(entry) is not None
+    place = {"file": entry.file, "folder": entry.file.parent, "root": entry.root}[linked]
+    moved = tmp_path / f"moved-{linked}"
+    place.rename(moved)
+    place.symlink_to(moved)
     assert STORE.read(entry) is None
 
 

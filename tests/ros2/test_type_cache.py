@@ -57,6 +57,18 @@ def test_a_tampered_entry_is_ignored_and_written_again() -> None:
     assert calls == [1]
 
 
+def test_entries_of_the_first_format_are_removed() -> None:
+    """Format 1 kept each distribution in a flat file, which eviction never removes."""
+    distro = RosDistro.HUMBLE
+    root = _entry(distro).parent.parent
+    root.mkdir(mode=0o700, parents=True, exist_ok=True)
+    flat = root / ("0" * 40 + ".json")
+    flat.write_text("{}")
+    typecache.kept_fielddefs(_STORES[distro].value, lambda: typestore(distro).fielddefs)
+    assert not flat.exists()
+    assert _entry(distro).is_file()
+
+
 def test_switched_off_nothing_is_kept(monkeypatch: pytest.MonkeyPatch) -> None:
     monkeypatch.setenv(typecache.STORE.switch, "0")
     distro = RosDistro.HUMBLE

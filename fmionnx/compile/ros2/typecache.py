@@ -24,6 +24,7 @@ import contextlib
 import functools
 import json
 from collections.abc import Callable
+from pathlib import Path
 from typing import Any
 
 from rosbags.interfaces import Nodetype
@@ -60,7 +61,17 @@ def kept_fielddefs(store: str, load: Callable[[], Fielddefs]) -> Fielddefs:
     if entry is not None:
         with contextlib.suppress(TypeError, ValueError):
             STORE.write(entry, json.dumps(definitions, separators=(",", ":")).encode())
+        _drop_flat_entries(entry.root)
     return definitions
+
+
+def _drop_flat_entries(root: Path) -> None:
+    """Remove the entries of format 1, which lay flat in the folder (``<key>.json``), where
+    the store's eviction (which removes entry folders) never reaches them."""
+    with contextlib.suppress(OSError):
+        for old in root.glob("*.json"):
+            if old.is_file() and not old.is_symlink():
+                old.unlink()
 
 
 def _entry(store: str) -> Entry | None:

@@ -23,7 +23,7 @@ from fmionnx.core.units import builtin_unit
 from fmionnx.kinds.mujoco.budget import check_compiled_memory, check_scene_budget
 from fmionnx.kinds.mujoco.files import check_scene_files, scene_files
 from fmionnx.kinds.mujoco.library import mujoco_module
-from fmionnx.kinds.mujoco.scenememo import SceneMemo, scene_stamps
+from fmionnx.kinds.mujoco.scenememo import SceneMemo, stamped_now
 
 #: Units of sensor types whose quantity is unambiguous (mjtSensor names, lower case); every
 #: name is a built-in unit (:data:`fmionnx.core.units.BUILTIN_UNITS`), so it has a definition.
@@ -67,9 +67,8 @@ def _sensor_unit(model: Any, sensor: int, kind: str) -> str | None:
 _MODELS: SceneMemo[tuple[Any, str]] = SceneMemo()
 
 
-def load_model(path: Path, *, checked: bool = False) -> tuple[Any, str]:
-    """The compiled MjModel of the scene at ``path`` and the scene's content hash (cached);
-    ``checked``: the caller ran :func:`check_scene_before_loading` on it just now."""
+def load_model(path: Path) -> tuple[Any, str]:
+    """The compiled MjModel of the scene at ``path`` and the scene's content hash (cached)."""
     if not path.exists():
         msg = f"`{path}` does not exist"
         raise ModelError(codes.FILE_NOT_FOUND, msg)
@@ -78,10 +77,9 @@ def load_model(path: Path, *, checked: bool = False) -> tuple[Any, str]:
         raise ModelError(codes.NOT_A_FILE, msg)
     loaded = _MODELS.get(path)
     if loaded is None:
-        stamps = scene_stamps(path)  # before reading: a file changed meanwhile reads again
+        stamps, stamped_at = stamped_now(path)  # before reading (:mod:`.scenememo`)
         mujoco = mujoco_module()
-        if not checked:
-            check_scene_before_loading(path)
+        check_scene_before_loading(path)  # right before MuJoCo reads it, MuJoCo imported
         try:
             if path.suffix == ".mjb":
                 model = mujoco.MjModel.from_binary_path(str(path))
@@ -93,7 +91,7 @@ def load_model(path: Path, *, checked: bool = False) -> tuple[Any, str]:
             raise ModelError(codes.BAD_MODEL, msg) from None
         check_compiled_memory(model, path)
         loaded = (model, _compiled_digest(model, path))
-        _MODELS.put(stamps, loaded)
+        _MODELS.put(stamps, loaded, stamped_at)
     return loaded
 
 

@@ -32,7 +32,7 @@ from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.core.types import Port
 from fmionnx.kinds.base import SceneMap, Site
 from fmionnx.kinds.cache import file_identity, sha256_file
-from fmionnx.kinds.mujoco.scenememo import SceneMemo, scene_stamps
+from fmionnx.kinds.mujoco.scenememo import SceneMemo, stamped_now
 
 #: The store: ``FMIONNX_MUJOCO_FACTS=0`` turns it off.
 STORE = KeptAnswers(
@@ -74,9 +74,9 @@ def scene_facts(path: Path) -> SceneFacts:
         return _read_scene(path)  # the error loading it gives
     found = _FACTS.get(path)
     if found is None:
-        stamps = scene_stamps(path)  # before reading: a file changed meanwhile reads again
+        stamps, stamped_at = stamped_now(path)  # before reading (:mod:`.scenememo`)
         found = _kept_or_read(path)
-        _FACTS.put(stamps, found)
+        _FACTS.put(stamps, found, stamped_at)
     return found
 
 
@@ -91,20 +91,19 @@ def _kept_or_read(path: Path) -> SceneFacts:
         found = STORE.read_value(entry, _CODEC, SceneFacts)
         if found is not None:
             return found
-    facts = _read_scene(path, checked=True)
+    facts = _read_scene(path)
     if entry is not None:
         STORE.write_value(entry, _CODEC, facts)
     return facts
 
 
-def _read_scene(path: Path, *, checked: bool = False) -> SceneFacts:
-    """The facts, read from the scene with MuJoCo (errors as loading it raises them);
-    ``checked``: the checks before loading it passed already."""
+def _read_scene(path: Path) -> SceneFacts:
+    """The facts, read from the scene with MuJoCo (errors as loading it raises them)."""
     from fmionnx.kinds.mujoco.interface import load_model, scene_ports
     from fmionnx.kinds.mujoco.scenemap import read_scene_map
     from fmionnx.kinds.mujoco.sites import read_sites
 
-    model, digest = load_model(path, checked=checked)
+    model, digest = load_model(path)
     ports, cameras, facts = scene_ports(model)
     sites: tuple[tuple[str, Site], ...] | None = None
     scene_map: SceneMap | None = None

@@ -52,16 +52,6 @@ def read_onnx_interface(path: Path) -> ComponentInterface:
     return cached_interface(("onnx", *file_identity(path)), path, lambda: kept_interface(path))
 
 
-def load_checked_model(path: Path) -> tuple[Any, bytes]:
-    """The ``onnx.ModelProto`` at ``path`` and its bytes, external data checked (not loaded).
-
-    Raises ModelError: E012 not a model, E017 external data outside the model's folder, E011
-    a model file that is not a regular file, E008 one too large.
-    """
-    data = read_model_bytes(path)
-    return parse_checked_model(data, path), data
-
-
 def read_model_bytes(path: Path) -> bytes:
     """The bytes of the ONNX model at ``path`` (a regular file within the size limit).
 
