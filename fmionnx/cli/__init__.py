@@ -47,9 +47,26 @@ def main() -> None:
         sys.stderr.close()
         sys.exit(ExitCode.PROBLEMS)
     except OSError as exc:
+        _exit_if_stopped(exc)
         where = f": `{exc.filename}`" if exc.filename else ""
         print(f"error: {exc.strerror or exc}{where}", file=sys.stderr)
         sys.exit(ExitCode.PROBLEMS)
+    except Exception as exc:
+        _exit_if_stopped(exc)
+        raise
+
+
+def _exit_if_stopped(exc: BaseException) -> None:
+    """Exit as stopped (one line, 128 + the signal) when ``exc`` was raised because of a stop
+    signal: a Ctrl-C landing in the import of a C extension, which then fails with an error
+    of its own (:func:`~fmionnx.runtime.stopping.stop_behind`)."""
+    from fmionnx.runtime.stopping import exit_code, stop_behind, stop_reason
+
+    stop = stop_behind(exc)
+    if stop is not None:
+        reason = stop_reason(stop)
+        print(f"error: interrupted by {reason}", file=sys.stderr)
+        sys.exit(exit_code(reason))
 
 
 #: Modules whose objects may still have work to do when they are torn down (network sessions

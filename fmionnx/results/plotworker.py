@@ -12,9 +12,9 @@ same data. A study's worker (``--study``) draws a study's summary plots the same
 
 ``python -m fmionnx.results.plotworker``: reads one job (a pickle from the process that
 started it, its own parent: nothing from outside) on stdin, answers on stdout, exits. It ends
-when its stdin closes (the parent finished without plots, or died) and ignores Ctrl-C, which
-the terminal sends to the whole process group: the parent decides when the results are
-written. Whatever goes wrong in the worker (it cannot start, dies, or drawing raises), the
+when its stdin closes (the parent finished without plots, or died). It runs in a process group
+of its own, out of reach of the terminal's Ctrl-C (sent to the whole foreground group), and
+ignores SIGINT besides: the parent decides when the results are written. Whatever goes wrong in the worker (it cannot start, dies, or drawing raises), the
 parent draws the plots itself, so an error is reported as it always was.
 """
 
@@ -102,6 +102,10 @@ class PlotWorker:
             stdin=subprocess.PIPE,
             stdout=subprocess.PIPE,
             env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
+            # Out of the terminal's process group: its Ctrl-C is the parent's alone. The worker
+            # ignores SIGINT once its code runs, but a Ctrl-C during its imports printed a
+            # KeyboardInterrupt traceback. It still ends with its parent (stdin closes).
+            process_group=0,
         )
 
     def submit(self, job: PlotJob | StudyPlotJob) -> bool:

@@ -33,6 +33,22 @@ def stop_reason(exc: BaseException) -> str:
     return exc.signal_name if isinstance(exc, StopRequested) else "SIGINT"
 
 
+def stop_behind(exc: BaseException) -> KeyboardInterrupt | None:
+    """The stop request ``exc`` was raised because of, if any: a signal's
+    :class:`StopRequested` lands wherever the main thread is, and code that catches what it
+    calls turns it into an error of its own -- a C extension interrupted while it is imported
+    fails with ``ImportError: initialization failed`` (onnxruntime does), a library wraps it.
+    Such an error is the stop, not a fault."""
+    seen: set[int] = set()
+    cause: BaseException | None = exc
+    while cause is not None and id(cause) not in seen:
+        if isinstance(cause, KeyboardInterrupt):
+            return cause
+        seen.add(id(cause))
+        cause = cause.__cause__ or cause.__context__
+    return None
+
+
 def exit_code(reason: str | None) -> int:
     """The conventional exit code of a process stopped by ``reason`` (128 + signal number)."""
     if reason is None:
