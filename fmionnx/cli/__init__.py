@@ -128,18 +128,24 @@ SCRIPT_NAME = "fmionnx"
 
 def _children_skip_the_script() -> None:
     """Let the processes that ``multiprocessing`` spawns from this one (a local study's Dask
-    workers) start without running the console script again.
+    workers) start without running the console script again, ignoring Ctrl-C from the start.
 
     A spawned process re-runs the parent's main script, unless the parent was started as a
     module (``python -m``): for ``bin/fmionnx`` that imports this package's whole command
     line (typer, every command's module), which a worker never uses, in every worker. Given
-    the spec of ``python -m fmionnx``, a spawned process leaves its main module alone, as it
-    does for ``python -m fmionnx``. Only the console script's module is touched: a program
-    that calls :func:`main` from a main module of its own keeps its spec.
+    the spec of a module, a spawned process runs that module instead: :mod:`fmionnx.spawned`,
+    a few lines that make it ignore SIGINT (the driver decides; a Ctrl-C while a worker
+    imported Dask printed a traceback). ``python -m fmionnx`` is given it too. Only the
+    console script's module and ``fmionnx.__main__`` are touched: a program that calls
+    :func:`main` from a main module of its own keeps its spec.
     """
     script = sys.modules.get("__main__")
-    if script is None or getattr(script, "__spec__", None) is not None:
+    if script is None:
         return
-    if Path(getattr(script, "__file__", "") or "").name != SCRIPT_NAME:
+    spec = getattr(script, "__spec__", None)
+    if spec is None:
+        if Path(getattr(script, "__file__", "") or "").name != SCRIPT_NAME:
+            return
+    elif spec.name != "fmionnx.__main__":
         return
-    script.__spec__ = ModuleSpec("fmionnx.__main__", None)
+    script.__spec__ = ModuleSpec("fmionnx.spawned", None)
