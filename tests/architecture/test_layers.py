@@ -36,6 +36,7 @@ LAYER_OF = {
     "reporters": "surface",
     "__init__": "surface",
     "__main__": "surface",
+    "spawned": "surface",
 }
 
 #: What each layer may import besides itself. ``compile`` holds both the compiler and the
