@@ -125,3 +125,36 @@ def test_after_a_study_killed_outright_the_next_one_removes_what_it_left(project
     unmapped = _unmapped_semaphores()
     assert [path for path in left if path in unmapped] == []
     assert list((project / "tmp").iterdir()) == []
+
+
+def test_after_a_stop_the_results_in_flight_meeting_the_closed_cluster_say_nothing() -> None:
+    """A case's result arriving as the stopped study's cluster closed made Dask's tracking of
+    it log a ``CommClosedError`` traceback through tornado (one run in ten of the Ctrl-C test
+    above on a fast machine); once a study stopped, those reports are dropped, others kept."""
+    import logging
+
+    from distributed.comm.core import CommClosedError
+
+    from fmionnx.backends.sweep import engine
+
+    logger = logging.getLogger("tornado.application")
+
+    def record(error: BaseException) -> logging.LogRecord:
+        return logger.makeRecord(
+            logger.name, logging.ERROR, __file__, 1, "Exception in callback", (),
+            (type(error), error, None),
+        )  # fmt: skip
+
+    before = list(logger.filters)  # an earlier study of this process may have added it
+    kept = [f for f in before if not isinstance(f, engine._ClosedComm)]
+    logger.filters[:] = kept
+    try:
+        assert logger.filter(record(CommClosedError("in <TCP (closed)>: Stream is closed")))
+        engine._quiet_closed_comms()
+        engine._quiet_closed_comms()  # once is enough
+        assert len(logger.filters) == len(kept) + 1
+
+        assert not logger.filter(record(CommClosedError("in <TCP (closed)>: Stream is closed")))
+        assert logger.filter(record(ValueError("something else")))
+    finally:
+        logger.filters[:] = before

@@ -34,6 +34,7 @@ from fmionnx.backends.sweep.batching import BatchSizer
 from fmionnx.backends.sweep.case import CaseOutcome, CaseRunner, Job, run_batch
 from fmionnx.backends.sweep.leftovers import sweep_orphan_semaphores
 from fmionnx.backends.sweep.models import pack_models
+from fmionnx.backends.sweep.pinning import CORES_KEY, cores_for
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
 from fmionnx.core.errors import FmionnxError
@@ -63,7 +64,10 @@ LOCAL_CONFIG = {
     # idle cluster takes under 2 %.
     "distributed.admin.tick.interval": "500ms",
     # Workers leave Ctrl-C to the driver, which closes them in order (see the module).
-    "distributed.worker.preload": ["fmionnx.backends.sweep.quiet"],
+    "distributed.worker.preload": [
+        "fmionnx.backends.sweep.quiet",
+        "fmionnx.backends.sweep.pinning",
+    ],
 }
 #: Tasks in hand per worker thread once the study's first tasks (one per thread) return: one
 #: running, one queued on its worker to start the moment the first returns. The rest wait on
@@ -254,7 +258,8 @@ def _local_cluster(workers: int, scratch: Path) -> Any:
 
     # The scheduler and the nannies make their scratch space in Dask's temporary directory,
     # not in the workers' local directory: both are the study's own folder.
-    settings = {**LOCAL_CONFIG, "temporary-directory": str(scratch)}
+    settings: dict[str, Any] = {**LOCAL_CONFIG, "temporary-directory": str(scratch)}
+    settings[CORES_KEY] = cores_for(workers)  # one core each (:mod:`.pinning`), or None
     with dask.config.set(settings):
         return LocalCluster(
             n_workers=workers,
@@ -406,33 +411,57 @@ def run_study(
         ]
         submit(groups)
 
-    refill()
-    for future, result in running:
-        group, lone, place = in_flight.pop(future.key)
-        outcomes: list[CaseOutcome] | None = result if future.status == "finished" else None
-        if outcomes is None:
-            cluster.changed()
-        if outcomes is None and not lone:
-            # Its worker died (a crash in a component that is not isolated). Dask counts a
-            # death against every task assigned to that worker, running or queued, so the
-            # culprit is not known: each of the task's cases runs again alone, with nothing
-            # else on the cluster, and a death then is that case's own.
-            alone.extend(group)
-            fallbacks += len(group)
-            outcomes = []
-        elif outcomes is None:
-            outcomes = [CaseOutcome(group[0].id, "failed", _died(future))]
-        else:
-            # A task that used up its budget ran only its first cases: the rest are handed
-            # out again, first.
-            waiting.extendleft(reversed(group[len(outcomes) :]))
-            sizes[place] = len(outcomes)
-        future.release()
-        for outcome in outcomes:
-            sizer.observe(outcome.wall_time)
-            on_done(outcome)
-        refill(outcomes[0].worker if outcomes else None)
+    try:
+        refill()
+        for future, result in running:
+            group, lone, place = in_flight.pop(future.key)
+            outcomes: list[CaseOutcome] | None = result if future.status == "finished" else None
+            if outcomes is None:
+                cluster.changed()
+            if outcomes is None and not lone:
+                # Its worker died (a crash in a component that is not isolated). Dask counts a
+                # death against every task assigned to that worker, running or queued, so the
+                # culprit is not known: each of the task's cases runs again alone, with nothing
+                # else on the cluster, and a death then is that case's own.
+                alone.extend(group)
+                fallbacks += len(group)
+                outcomes = []
+            elif outcomes is None:
+                outcomes = [CaseOutcome(group[0].id, "failed", _died(future))]
+            else:
+                # A task that used up its budget ran only its first cases: the rest are handed
+                # out again, first.
+                waiting.extendleft(reversed(group[len(outcomes) :]))
+                sizes[place] = len(outcomes)
+            future.release()
+            for outcome in outcomes:
+                sizer.observe(outcome.wall_time)
+                on_done(outcome)
+            refill(outcomes[0].worker if outcomes else None)
+    except BaseException:  # a stop request, mostly: the cluster closes next
+        _quiet_closed_comms()
+        raise
     return StudyRun(tuple(sizes), fallbacks)
+
+
+class _ClosedComm(logging.Filter):
+    """Drops tornado's report of a callback that met a closed connection to the cluster."""
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        from distributed.comm.core import CommClosedError
+
+        error = record.exc_info[1] if record.exc_info else None
+        return not isinstance(error, CommClosedError)
+
+
+def _quiet_closed_comms() -> None:
+    """After a study stopped early (Ctrl-C), its results still in flight meet the cluster as it
+    closes: Dask's tracking of each logs a ``CommClosedError`` with a traceback on the user's
+    terminal (from tornado, on the client's loop), about results the study no longer wants.
+    From then on this process drops those reports; nothing else of tornado's is touched."""
+    quiet = logging.getLogger("tornado.application")
+    if not any(isinstance(f, _ClosedComm) for f in quiet.filters):
+        quiet.addFilter(_ClosedComm())
 
 
 def _shared(

@@ -51,8 +51,17 @@ TERMINATE_GRACE = 5.0
 #: Python interpreter, which is not the model's time and takes seconds on a loaded machine.
 PROCESS_START_ALLOWANCE = 10.0
 #: How long the supervisor spins on the child's reply counter before it blocks on the pipe
-#: (see :class:`~.channel.Spinner`; the figures behind the choice: docs/performance.md).
+#: (see :class:`~.channel.Spinner`; the figures behind the choice: docs/performance.md). A
+#: supervisor confined to one core does not spin (:func:`supervisor_spin_ns`).
 SPIN_NS = 60_000
+
+
+def supervisor_spin_ns() -> int:
+    """:data:`SPIN_NS`, or 0 in a process confined to one core (a study's pinned worker,
+    ``taskset -c 0``): its children run on that core too, and only once it waits."""
+    from fmionnx.core.cores import usable_cores
+
+    return SPIN_NS if usable_cores() > 1 else 0
 
 
 #: Whether children started from now on in this process spin before they block (see
@@ -212,7 +221,7 @@ class IsolatedRunner:
         self._pending: deque[bool] = deque()
         #: Commands written and replies read so far (the control block's counters' partners).
         self._sent = self._answered = 0
-        self._spinner = channel.Spinner(SPIN_NS)
+        self._spinner = channel.Spinner(supervisor_spin_ns())
         #: The kernel's end of the step hand-over, once set up (:mod:`.handover`).
         self._link: handover.Link | None = None
         #: Whether the native kernel steps the model in its child (reported at setup).
@@ -318,7 +327,7 @@ class IsolatedRunner:
         if kernel is not None and self._control is not None:
             self._link = handover.Link(
                 kernel, self._commands, self._replies, self._control,
-                self._settings.step_timeout, SPIN_NS,
+                self._settings.step_timeout, self._spinner.budget_ns,
             )  # fmt: skip
 
     def input_buffer(self, port: str) -> Buffer:
