@@ -202,12 +202,22 @@ def test_spinning_leaves_a_multi_fmu_system_byte_identical(
         assert_completed_alike(plain, result)
 
 
-@pytest.mark.parametrize(("spin", "flag"), [(True, []), (False, ["--no-spin"])])
+@pytest.mark.parametrize(
+    ("spin", "cores", "flag"),
+    [(True, 2, []), (False, 2, ["--no-spin"]), (True, 1, ["--no-spin"])],
+    ids=["spins", "one-core-each", "confined-to-one-core"],
+)
 def test_a_child_is_told_not_to_spin_once_cases_have_one_core_each(
-    fixture_fmu, write_system, monkeypatch: pytest.MonkeyPatch, spin: bool, flag: list[str]
+    fixture_fmu,
+    write_system,
+    monkeypatch: pytest.MonkeyPatch,
+    spin: bool,
+    cores: int,
+    flag: list[str],
 ) -> None:
     seen: list[list[str]] = []
     launch = launcher.launch
+    monkeypatch.setattr(os, "sched_getaffinity", lambda pid: set(range(cores)))
 
     def recording(fds: tuple[int, int, int], argv: list[str], env: dict[str, str]) -> object:
         seen.append(list(argv))

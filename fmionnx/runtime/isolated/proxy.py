@@ -70,8 +70,12 @@ _children_spin = [True]
 
 
 def children_spin() -> bool:
-    """Whether an isolated child spins on its command counter before it blocks."""
-    return _children_spin[0]
+    """Whether an isolated child spins on its command counter before it blocks: not once
+    cases have one core each (:func:`one_core_each`), nor in a process confined to one core
+    (the child would spin on the core its supervisor needs to send the next command)."""
+    from fmionnx.core.cores import usable_cores
+
+    return _children_spin[0] and usable_cores() > 1
 
 
 def one_core_each() -> None:
