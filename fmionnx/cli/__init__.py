@@ -65,7 +65,7 @@ def _exit_if_stopped(exc: BaseException) -> None:
     stop = stop_behind(exc)
     if stop is not None:
         reason = stop_reason(stop)
-        print(f"error: interrupted by {reason}", file=sys.stderr)
+        print(f"error: interrupted by {reason} ({type(exc).__name__}: {exc})", file=sys.stderr)
         sys.exit(exit_code(reason))
 
 

@@ -103,8 +103,9 @@ class PlotWorker:
             stdout=subprocess.PIPE,
             env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
             # Out of the terminal's process group: its Ctrl-C is the parent's alone. The worker
-            # ignores SIGINT once its code runs, but a Ctrl-C during its imports printed a
-            # KeyboardInterrupt traceback. It still ends with its parent (stdin closes).
+            # ignores SIGINT once its code runs, but a Ctrl-C during its imports (a third of a
+            # second) printed a KeyboardInterrupt traceback. It still ends with its parent
+            # (stdin closes), and ignores the terminal's job control (see main).
             process_group=0,
         )
 
@@ -229,6 +230,10 @@ def main() -> int:
     """The worker: import the plotting code (``--study``: a study's too), then draw the one
     job that comes on stdin."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; it ignores it by then
+    # Its own process group is a background one: with ``stty tostop`` a library's warning
+    # written to the terminal would stop it (SIGTTOU), and the run would wait for it.
+    signal.signal(signal.SIGTTOU, signal.SIG_IGN)
+    signal.signal(signal.SIGTTIN, signal.SIG_IGN)
     import matplotlib.figure  # noqa: F401 - the point of the worker: imported while the run goes on
 
     import fmionnx.results.plots

@@ -38,14 +38,20 @@ def stop_behind(exc: BaseException) -> KeyboardInterrupt | None:
     :class:`StopRequested` lands wherever the main thread is, and code that catches what it
     calls turns it into an error of its own -- a C extension interrupted while it is imported
     fails with ``ImportError: initialization failed`` (onnxruntime does), a library wraps it.
-    Such an error is the stop, not a fault."""
+    Such an error is the stop, not a fault. An error raised ``from None`` replaced what it
+    was raised during on purpose: the chain ends there."""
     seen: set[int] = set()
     cause: BaseException | None = exc
     while cause is not None and id(cause) not in seen:
         if isinstance(cause, KeyboardInterrupt):
             return cause
         seen.add(id(cause))
-        cause = cause.__cause__ or cause.__context__
+        if cause.__cause__ is not None:
+            cause = cause.__cause__
+        elif cause.__suppress_context__:
+            cause = None
+        else:
+            cause = cause.__context__
     return None
 
 

@@ -1,10 +1,9 @@
 """A Ctrl-C while a command starts ends it with one line, never a traceback.
 
-A terminal's Ctrl-C goes to its whole foreground process group. The helper processes a run
-starts (the plot worker, the isolated models' zygote, a child spawned without one) leave it
-to their parent, but each ignored SIGINT only once its own code ran: a Ctrl-C during their
-imports printed a ``KeyboardInterrupt`` traceback. They now run in process groups of their
-own. And in the command's process, a stop request landing inside the import of a C extension
+A terminal's Ctrl-C goes to its whole foreground process group. The plot worker a run starts
+leaves it to its parent, but ignored SIGINT only once its own code ran: a Ctrl-C during its
+imports (a third of a second) printed a ``KeyboardInterrupt`` traceback. It now runs in a
+process group of its own. And in the command's process, a stop request landing inside the import of a C extension
 (onnxruntime's, while its models load) came out as ``ImportError: initialization failed``
 with a traceback; it now ends the command as the stop it is.
 """
@@ -14,12 +13,13 @@ from __future__ import annotations
 import os
 import signal
 import sys
+import time
+from pathlib import Path
 
 import pytest
 
 from fmionnx import cli
 from fmionnx.results import plotworker
-from fmionnx.runtime.isolated.launcher import Zygote
 from fmionnx.runtime.stopping import StopRequested, stop_behind
 
 
@@ -33,6 +33,16 @@ def _interrupted_import() -> ImportError:
         return exc
 
 
+def _replaced_on_purpose() -> ValueError:
+    try:
+        try:
+            raise StopRequested(signal.SIGINT)
+        except KeyboardInterrupt:
+            raise ValueError("replaced on purpose") from None
+    except ValueError as exc:
+        return exc
+
+
 def test_the_stop_behind_an_error_is_found() -> None:
     wrapped = _interrupted_import()
     assert isinstance(stop_behind(wrapped), StopRequested)
@@ -40,6 +50,7 @@ def test_the_stop_behind_an_error_is_found() -> None:
     caused.__cause__ = wrapped
     assert isinstance(stop_behind(caused), StopRequested)
     assert stop_behind(ValueError("plain")) is None
+    assert stop_behind(_replaced_on_purpose()) is None
     looped = ValueError("a")
     other = ValueError("b")
     looped.__context__, other.__context__ = other, looped
@@ -60,7 +71,8 @@ def test_a_stop_inside_an_import_ends_the_command_as_stopped(
         cli.main()
     assert stopped.value.code == 128 + signal.SIGINT
     err = capsys.readouterr().err
-    assert err.strip().splitlines()[-1] == "error: interrupted by SIGINT"
+    last = err.strip().splitlines()[-1]
+    assert last == "error: interrupted by SIGINT (ImportError: initialization failed)"
     assert "Traceback" not in err
 
 
@@ -76,12 +88,27 @@ def test_another_error_still_propagates(monkeypatch: pytest.MonkeyPatch) -> None
         cli.main()
 
 
-def test_the_plot_worker_and_the_zygote_are_out_of_the_terminals_group() -> None:
+def _ignored(pid: int) -> int:
+    """The signals process ``pid`` ignores, as a bit mask (``/proc/PID/status``)."""
+    for line in Path(f"/proc/{pid}/status").read_text().splitlines():
+        if line.startswith("SigIgn:"):
+            return int(line.split()[1], 16)
+    return 0
+
+
+def test_the_plot_worker_is_out_of_the_terminals_group_and_its_job_control() -> None:
+    """Out of the terminal's process group, Ctrl-C does not reach it; in a background group,
+    ``stty tostop`` would stop it at its first write to the terminal, unless it ignores
+    SIGTTOU (and SIGTTIN), which it does once it runs."""
     worker = plotworker.PlotWorker()
-    zygote = Zygote()
+    assert worker._process is not None
+    pid = worker._process.pid
     try:
-        for pid in (worker._process.pid, zygote.pid):  # type: ignore[union-attr]
-            assert os.getpgid(pid) == pid != os.getpgrp()
+        assert os.getpgid(pid) == pid != os.getpgrp()
+        wanted = (1 << (signal.SIGTTOU - 1)) | (1 << (signal.SIGTTIN - 1))
+        deadline = time.monotonic() + 60
+        while _ignored(pid) & wanted != wanted and time.monotonic() < deadline:
+            time.sleep(0.05)
+        assert _ignored(pid) & wanted == wanted
     finally:
         worker.close()
-        zygote.close()

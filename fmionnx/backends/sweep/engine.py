@@ -171,22 +171,23 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     # outright leaves it to the next fmionnx process's sweep.
     scratch = make_scratch("dask")
     try:
-        try:
-            cluster = _local_cluster(workers or default_workers(), scratch)
-        except (RuntimeError, OSError, TimeoutError) as exc:
-            msg = (
-                f"the local Dask cluster could not start its workers ({exc}); "
-                f"if a script calls fmionnx.sweep, {SCRIPT_GUARD}"
-            )
-            raise ClusterStartError(msg) from None
-        try:
-            with Client(cluster, set_as_default=False) as client:
-                yield client
-        finally:
-            cluster.close()
-            # Models a stop signal killed inside a case (their process ended without its
-            # exit handlers) left their unpacked FMUs: their owners are gone now.
-            sweep_stale()
+        with _closed_comms_quiet():
+            try:
+                cluster = _local_cluster(workers or default_workers(), scratch)
+            except (RuntimeError, OSError, TimeoutError) as exc:
+                msg = (
+                    f"the local Dask cluster could not start its workers ({exc}); "
+                    f"if a script calls fmionnx.sweep, {SCRIPT_GUARD}"
+                )
+                raise ClusterStartError(msg) from None
+            try:
+                with Client(cluster, set_as_default=False) as client:
+                    yield client
+            finally:
+                cluster.close()
+                # Models a stop signal killed inside a case (their process ended without its
+                # exit handlers) left their unpacked FMUs: their owners are gone now.
+                sweep_stale()
     finally:
         _restore(before)
         remove_scratch(scratch)
@@ -411,36 +412,32 @@ def run_study(
         ]
         submit(groups)
 
-    try:
-        refill()
-        for future, result in running:
-            group, lone, place = in_flight.pop(future.key)
-            outcomes: list[CaseOutcome] | None = result if future.status == "finished" else None
-            if outcomes is None:
-                cluster.changed()
-            if outcomes is None and not lone:
-                # Its worker died (a crash in a component that is not isolated). Dask counts a
-                # death against every task assigned to that worker, running or queued, so the
-                # culprit is not known: each of the task's cases runs again alone, with nothing
-                # else on the cluster, and a death then is that case's own.
-                alone.extend(group)
-                fallbacks += len(group)
-                outcomes = []
-            elif outcomes is None:
-                outcomes = [CaseOutcome(group[0].id, "failed", _died(future))]
-            else:
-                # A task that used up its budget ran only its first cases: the rest are handed
-                # out again, first.
-                waiting.extendleft(reversed(group[len(outcomes) :]))
-                sizes[place] = len(outcomes)
-            future.release()
-            for outcome in outcomes:
-                sizer.observe(outcome.wall_time)
-                on_done(outcome)
-            refill(outcomes[0].worker if outcomes else None)
-    except BaseException:  # a stop request, mostly: the cluster closes next
-        _quiet_closed_comms()
-        raise
+    refill()
+    for future, result in running:
+        group, lone, place = in_flight.pop(future.key)
+        outcomes: list[CaseOutcome] | None = result if future.status == "finished" else None
+        if outcomes is None:
+            cluster.changed()
+        if outcomes is None and not lone:
+            # Its worker died (a crash in a component that is not isolated). Dask counts a
+            # death against every task assigned to that worker, running or queued, so the
+            # culprit is not known: each of the task's cases runs again alone, with nothing
+            # else on the cluster, and a death then is that case's own.
+            alone.extend(group)
+            fallbacks += len(group)
+            outcomes = []
+        elif outcomes is None:
+            outcomes = [CaseOutcome(group[0].id, "failed", _died(future))]
+        else:
+            # A task that used up its budget ran only its first cases: the rest are handed
+            # out again, first.
+            waiting.extendleft(reversed(group[len(outcomes) :]))
+            sizes[place] = len(outcomes)
+        future.release()
+        for outcome in outcomes:
+            sizer.observe(outcome.wall_time)
+            on_done(outcome)
+        refill(outcomes[0].worker if outcomes else None)
     return StudyRun(tuple(sizes), fallbacks)
 
 
@@ -454,14 +451,20 @@ class _ClosedComm(logging.Filter):
         return not isinstance(error, CommClosedError)
 
 
-def _quiet_closed_comms() -> None:
-    """After a study stopped early (Ctrl-C), its results still in flight meet the cluster as it
-    closes: Dask's tracking of each logs a ``CommClosedError`` with a traceback on the user's
-    terminal (from tornado, on the client's loop), about results the study no longer wants.
-    From then on this process drops those reports; nothing else of tornado's is touched."""
+@contextmanager
+def _closed_comms_quiet() -> Iterator[None]:
+    """While a local cluster of this study's lives and closes, drop tornado's reports of a
+    ``CommClosedError``: a study stopped early (Ctrl-C) has results in flight, whose tracking
+    by Dask meets the cluster as it closes and logged a traceback on the user's terminal (one
+    run in ten on a fast machine), about results the study no longer wants. Nothing else of
+    tornado's is touched, and the filter goes with the cluster."""
     quiet = logging.getLogger("tornado.application")
-    if not any(isinstance(f, _ClosedComm) for f in quiet.filters):
-        quiet.addFilter(_ClosedComm())
+    dropping = _ClosedComm()
+    quiet.addFilter(dropping)
+    try:
+        yield
+    finally:
+        quiet.removeFilter(dropping)
 
 
 def _shared(

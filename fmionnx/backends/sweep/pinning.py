@@ -33,10 +33,10 @@ SWITCH = "FMIONNX_PIN_WORKERS"
 
 def cores_for(workers: int) -> list[list[int]] | None:
     """The cores of each worker of a local cluster of ``workers``: this process's cores cut
-    into that many equal shares (one core each when there are as many workers as cores; the
-    rest of a cut that does not come out even is left to the system). None for one worker
-    (all cores are its own), more workers than cores (the system then places them), no
-    affinity here, or ``FMIONNX_PIN_WORKERS=0``."""
+    into that many shares, as equal as they come (one core each when there are as many
+    workers as cores; 3 workers on 8 cores get 3, 3 and 2). None for one worker (all cores
+    are its own), more workers than cores (the system then places them), no affinity here,
+    or ``FMIONNX_PIN_WORKERS=0``."""
     from fmionnx.core.switches import switched_off
 
     if switched_off(SWITCH):
@@ -47,8 +47,9 @@ def cores_for(workers: int) -> list[list[int]] | None:
         return None
     if not 1 < workers <= len(cores):
         return None
-    share = len(cores) // workers
-    return [cores[i * share : (i + 1) * share] for i in range(workers)]
+    share, extra = divmod(len(cores), workers)
+    bounds = [i * share + min(i, extra) for i in range(workers + 1)]
+    return [cores[bounds[i] : bounds[i + 1]] for i in range(workers)]
 
 
 def pin_process(cores: list[int]) -> None:

@@ -175,7 +175,6 @@ class Zygote:
                 pass_fds=(theirs.fileno(),),
                 stdin=subprocess.DEVNULL,
                 env=dict(os.environ, **ZYGOTE_ENVIRONMENT),
-                process_group=0,  # Ctrl-C is the supervisor's: none during the zygote's imports
             )
         except OSError as exc:
             ours.close()
@@ -311,7 +310,5 @@ def launch(fds: tuple[int, int, int], argv: list[str], env: dict[str, str]) -> C
                 _no_zygote.get_or_make(lambda: True)
                 break
     command = [sys.executable, "-m", "fmionnx.runtime.isolated.child", *map(str, fds), *argv]
-    process = subprocess.Popen(
-        command, pass_fds=fds, stdin=subprocess.DEVNULL, env=env, process_group=0
-    )  # Ctrl-C is the supervisor's, also while the child imports (see the zygote)
+    process = subprocess.Popen(command, pass_fds=fds, stdin=subprocess.DEVNULL, env=env)
     return SpawnedChild(process)
