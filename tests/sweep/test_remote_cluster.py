@@ -119,6 +119,10 @@ def _cluster(tmp_path: Path, worker_args: list[str]) -> Iterator[tuple[str, Path
             client.wait_for_workers(1, timeout=90)
         yield address, home
     finally:
+        # The clients studies kept for it first: left open they would try to reconnect in the
+        # background for the rest of the worker's tests, drawing from the global ``random``,
+        # which Hypothesis then reports as a flaky property test (as the ``cluster`` fixture).
+        engine.close_shared_clients()
         for process in reversed(processes):
             _stop(process)
 
