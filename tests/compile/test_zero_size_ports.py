@@ -63,3 +63,15 @@ def test_a_param_on_a_port_of_no_elements_takes_no_value(tmp_path: Path) -> None
     ):
         loaded.with_overrides(params={"v.u": 1.0})
     assert loaded.with_overrides(params={"v.u": []}).compiled is not None
+
+
+def test_a_ros2_proxy_of_a_port_of_no_elements_holds_none(tmp_path: Path) -> None:
+    """The buffer standing in for another node's output: it had one element."""
+    from fmionnx.backends.ros2.node import ProxyRunner
+
+    assert _errors(tmp_path, "") == []
+    system = api.compile_system(tmp_path / "system.yaml").system
+    assert system is not None
+    proxy = ProxyRunner(system.component("v"))
+    assert proxy.output_buffer("y").size == 0
+    assert proxy.output_buffer("count").size == 1

@@ -149,7 +149,7 @@ class ProxyRunner:
         if buffer is None:
             spec = self.component.port(port)
             dtype = np.float64 if spec.dtype in (DType.STRING, DType.BINARY) else spec.dtype.value
-            buffer = np.zeros(spec.size or 1, dtype=dtype)
+            buffer = np.zeros(1 if spec.size is None else spec.size, dtype=dtype)
             self._buffers[port] = buffer
         return buffer
 
