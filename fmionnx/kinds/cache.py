@@ -11,8 +11,9 @@ import dataclasses
 import hashlib
 import os
 from collections import OrderedDict
-from collections.abc import Callable, Hashable
+from collections.abc import Callable, Hashable, Iterable
 from pathlib import Path
+from types import ModuleType
 from typing import Generic, TypeVar
 
 from fmionnx.core.types import ComponentInterface
@@ -75,6 +76,21 @@ def cached_interface(
 def clear_cache() -> None:
     """Forget every cached interface (tests, long-running processes)."""
     _CACHE.clear()
+
+
+def code_stamps(installed: Iterable[Path], readers: Iterable[Path]) -> tuple[str, ...] | None:
+    """What a kept model answer's key holds of the code behind it: the identity of each file
+    of the installed library (found without importing it) and the digest of each of
+    fmionnx's modules that read the model; None when one of them cannot be read."""
+    try:
+        return (*(str(file_identity(f)) for f in installed), *(sha256_file(f) for f in readers))
+    except OSError:
+        return None
+
+
+def module_files(*modules: ModuleType) -> list[Path]:
+    """The source files of ``modules``."""
+    return [Path(str(module.__file__)) for module in modules]
 
 
 def sha256_file(path: Path) -> str:

@@ -12,21 +12,32 @@ import pytest
 
 from tests.conftest import REPO
 
-#: A console script as pip writes it, that spawns one process and prints what it imported.
+#: A console script as pip writes it, that spawns one process running ``{probe}`` (of
+#: tests/cli/spawn_probe.py) and prints its answer, then whether its own SIGINT is Python's.
 SCRIPT = """\
-import sys
+import signal, sys
 from fmionnx.cli import main, _children_skip_the_script
 if __name__ == "__main__":
     {skip}
     import multiprocessing
-    from tests.cli.spawn_probe import report
+    from tests.cli.spawn_probe import {probe}
     context = multiprocessing.get_context("spawn")
     queue = context.Queue()
-    child = context.Process(target=report, args=(queue,))
+    child = context.Process(target={probe}, args=(queue,))
     child.start()
-    print("child imported the command line:", queue.get(timeout=60))
+    print(queue.get(timeout=60), signal.getsignal(signal.SIGINT) is signal.default_int_handler)
     child.join()
 """
+
+
+def _spawn_probe(tmp_path: Path, probe: str, *, skip: bool) -> list[str]:
+    """What :data:`SCRIPT` prints, run as the console script (only that name is changed)."""
+    script = tmp_path / "fmionnx"
+    call = "_children_skip_the_script()" if skip else "pass"
+    script.write_text(SCRIPT.format(skip=call, probe=probe), encoding="utf-8")
+    done = _run_script(script)
+    assert done.returncode == 0, done.stderr
+    return done.stdout.split()
 
 
 def _run_script(script: Path) -> subprocess.CompletedProcess[str]:
@@ -41,12 +52,7 @@ def _run_script(script: Path) -> subprocess.CompletedProcess[str]:
 def test_a_spawned_process_leaves_the_console_script_alone(
     tmp_path: Path, skip: bool, imported: bool
 ) -> None:
-    script = tmp_path / "fmionnx"  # the console script's name: only that one is changed
-    call = "_children_skip_the_script()" if skip else "pass"
-    script.write_text(SCRIPT.format(skip=call), encoding="utf-8")
-    done = _run_script(script)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.strip() == f"child imported the command line: {imported}"
+    assert _spawn_probe(tmp_path, "report", skip=skip) == [str(imported), "True"]
 
 
 def test_a_main_module_of_another_name_keeps_its_spec(tmp_path: Path) -> None:
@@ -61,33 +67,12 @@ def test_a_main_module_of_another_name_keeps_its_spec(tmp_path: Path) -> None:
     assert done.stdout.strip() == "None"
 
 
-PROBE_SIGINT = """\
-import signal
-from fmionnx.cli import _children_skip_the_script
-if __name__ == "__main__":
-    {skip}
-    import multiprocessing
-    from tests.cli.spawn_probe import sigint_ignored
-    context = multiprocessing.get_context("spawn")
-    queue = context.Queue()
-    child = context.Process(target=sigint_ignored, args=(queue,))
-    child.start()
-    print(queue.get(timeout=60), signal.getsignal(signal.SIGINT) is signal.default_int_handler)
-    child.join()
-"""
-
-
 @pytest.mark.parametrize(("skip", "ignored"), [(True, True), (False, False)])
 def test_a_spawned_process_ignores_ctrl_c_from_its_start(
     tmp_path: Path, skip: bool, ignored: bool
 ) -> None:
     """A Ctrl-C while a worker imported Dask printed a traceback; the driver keeps its own."""
-    script = tmp_path / "fmionnx"
-    call = "_children_skip_the_script()" if skip else "pass"
-    script.write_text(PROBE_SIGINT.format(skip=call), encoding="utf-8")
-    done = _run_script(script)
-    assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == [str(ignored), "True"]
+    assert _spawn_probe(tmp_path, "sigint_ignored", skip=skip) == [str(ignored), "True"]
 
 
 def test_importing_the_spawned_main_elsewhere_changes_nothing() -> None:

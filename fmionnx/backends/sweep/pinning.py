@@ -37,15 +37,11 @@ def cores_for(workers: int) -> list[list[int]] | None:
     workers as cores; 3 workers on 8 cores get 3, 3 and 2). None for one worker (all cores
     are its own), more workers than cores (the system then places them), no affinity here,
     or ``FMIONNX_PIN_WORKERS=0``."""
+    from fmionnx.core.cores import usable_core_ids
     from fmionnx.core.switches import switched_off
 
-    if switched_off(SWITCH):
-        return None
-    try:
-        cores = sorted(os.sched_getaffinity(0))
-    except AttributeError:  # not Linux
-        return None
-    if not 1 < workers <= len(cores):
+    cores = None if switched_off(SWITCH) else usable_core_ids()
+    if cores is None or not 1 < workers <= len(cores):
         return None
     share, extra = divmod(len(cores), workers)
     bounds = [i * share + min(i, extra) for i in range(workers + 1)]

@@ -30,7 +30,7 @@ from typing import Any
 from rosbags.interfaces import Nodetype
 
 from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
-from fmionnx.kinds.cache import file_identity
+from fmionnx.kinds.cache import code_stamps
 
 #: The store: ``FMIONNX_ROS2_TYPES=0`` turns it off. No limit bears on the definitions: the
 #: environment is no part of the key. (A distribution's definitions take about 40 KB.)
@@ -85,11 +85,7 @@ def _store_stamps() -> tuple[str, ...] | None:
     """rosbags' store modules (found without importing them: that import is what an entry
     saves), by path, size and modification time."""
     folder = installed_package("rosbags.typesys.stores")
-    if folder is None:
-        return None
-    with contextlib.suppress(OSError):
-        return tuple(str(file_identity(f)) for f in sorted(folder.glob("*.py")))
-    return None
+    return None if folder is None else code_stamps(sorted(folder.glob("*.py")), ())
 
 
 def _read(entry: Entry) -> Fielddefs | None:

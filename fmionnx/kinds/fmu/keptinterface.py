@@ -23,7 +23,7 @@ from pathlib import Path
 from fmionnx.core.datacodec import Codec
 from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.core.types import ComponentInterface
-from fmionnx.kinds.cache import file_identity, sha256_file
+from fmionnx.kinds.cache import code_stamps, module_files, sha256_file
 
 #: The store: ``FMIONNX_FMU_INTERFACES=0`` turns it off.
 STORE = KeptAnswers(
@@ -73,11 +73,6 @@ def _code_stamps() -> tuple[str, ...] | None:
     package = installed_package("fmpy")
     if package is None:
         return None
-    try:
-        installed = [str(file_identity(package / "__init__.py"))]
-        installed.append(str(file_identity(package / "model_description.py")))
-        kind = sorted(Path(__file__).parent.glob("*.py"))
-        modules = [Path(str(m.__file__)) for m in (types, units, datacodec, xmlsafe, keptentries)]
-        return (*installed, *(sha256_file(f) for f in [*kind, *modules]))
-    except OSError:
-        return None
+    kind = sorted(Path(__file__).parent.glob("*.py"))
+    modules = module_files(types, units, datacodec, xmlsafe, keptentries)
+    return code_stamps([package / "__init__.py", package / "model_description.py"], kind + modules)

@@ -31,7 +31,7 @@ from fmionnx.core.datacodec import Codec
 from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.core.types import Port
 from fmionnx.kinds.base import SceneMap, Site
-from fmionnx.kinds.cache import file_identity, sha256_file
+from fmionnx.kinds.cache import code_stamps, module_files, sha256_file
 from fmionnx.kinds.mujoco.scenememo import SceneMemo, stamped_now
 
 #: The store: ``FMIONNX_MUJOCO_FACTS=0`` turns it off.
@@ -140,14 +140,8 @@ def _code_stamps() -> tuple[str, ...] | None:
     package = installed_package("mujoco")
     if package is None:
         return None
-    try:
-        installed = [str(file_identity(f)) for f in sorted(package.glob("*.so"))]
-        installed.append(str(file_identity(package / "__init__.py")))
-        # the readers, and the classes (and codec) an entry is written as: a field added to
-        # a port must not be read back from an older entry as its default
-        modules = (interface, scenemap, sites, types, units, base, datacodec, keptentries)
-        readers = [Path(str(m.__file__)) for m in modules]
-        readers.append(Path(__file__))
-        return (*installed, *(sha256_file(f) for f in readers))
-    except OSError:
-        return None
+    installed = [*sorted(package.glob("*.so")), package / "__init__.py"]
+    # the readers, and the classes (and codec) an entry is written as: a field added to a
+    # port must not be read back from an older entry as its default
+    modules = (interface, scenemap, sites, types, units, base, datacodec, keptentries)
+    return code_stamps(installed, [*module_files(*modules), Path(__file__)])

@@ -24,7 +24,7 @@ from pathlib import Path
 from fmionnx.core.datacodec import Codec
 from fmionnx.core.keptentries import Entry, KeptAnswers, installed_package
 from fmionnx.core.types import ComponentInterface
-from fmionnx.kinds.cache import file_identity, sha256_file
+from fmionnx.kinds.cache import code_stamps, module_files
 
 #: The store: ``FMIONNX_ONNX_INTERFACES=0`` turns it off.
 STORE = KeptAnswers(
@@ -82,10 +82,5 @@ def _code_stamps() -> tuple[str, ...] | None:
     package = installed_package("onnx")
     if package is None:
         return None
-    try:
-        modules = (interface, external, sizes, types, units, datacodec, keptentries)
-        readers = [Path(str(m.__file__)) for m in modules]
-        readers.append(Path(__file__))
-        return (str(file_identity(package / "__init__.py")), *(sha256_file(f) for f in readers))
-    except OSError:
-        return None
+    readers = module_files(interface, external, sizes, types, units, datacodec, keptentries)
+    return code_stamps([package / "__init__.py"], [*readers, Path(__file__)])
