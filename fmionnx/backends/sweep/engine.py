@@ -260,7 +260,7 @@ def _local_cluster(workers: int, scratch: Path) -> Any:
     # The scheduler and the nannies make their scratch space in Dask's temporary directory,
     # not in the workers' local directory: both are the study's own folder.
     settings: dict[str, Any] = {**LOCAL_CONFIG, "temporary-directory": str(scratch)}
-    settings[CORES_KEY] = cores_for(workers)  # one core each (:mod:`.pinning`), or None
+    settings[CORES_KEY] = cores_for(workers)  # each worker's share (:mod:`.pinning`), or None
     with dask.config.set(settings):
         return LocalCluster(
             n_workers=workers,
