@@ -490,6 +490,12 @@ def scaling(args: argparse.Namespace, console: Console) -> dict[str, Any]:
             scale.reference_study(folder, "plain", cases, args.scaling_stop, isolated=False),
             cases,
         )
+        spawned = scale.Study(
+            "reference, workers spawned",
+            reference.path,
+            cases,
+            environ={"FMIONNX_FORK_WORKERS": "0"},
+        )
         with chain.built_gain(folder) as (gain, _):
             (folder / "small.yaml").write_text(SMALL_SYSTEM.format(gain=gain), encoding="utf-8")
             small_path = folder / "small-study.yaml"
@@ -501,10 +507,12 @@ def scaling(args: argparse.Namespace, console: Console) -> dict[str, Any]:
                 study.walls.clear()
                 study.case_walls.clear()
                 study.failed = 0
-            runs = [(reference, w) for w in counts] + [(plain, pair)] + [(small, w) for w in counts]
+            runs = [(reference, w) for w in counts] + [(plain, pair), (spawned, pair)]
+            runs += [(small, w) for w in counts]
             load_before = os.getloadavg()
             scale.measure(runs, args.scaling_rounds, folder, env)
-    found_rows = [*scale.rows(reference), *scale.rows(plain), *scale.rows(small)]
+    found_rows = [*scale.rows(reference), *scale.rows(plain), *scale.rows(spawned)]
+    found_rows += scale.rows(small)
     ratio = scale.isolation_ratio(reference, plain, pair)
     found_targets = scale.targets(scale.rows(reference), ratio, cores)
     report.print_table(
@@ -520,7 +528,7 @@ def scaling(args: argparse.Namespace, console: Console) -> dict[str, Any]:
         f"machine: {machine.cpu_model()}, {machine.usable_cores()} usable cores, workers up to "
         f"{cores}; load average before {load_before[0]:.2f}, after {os.getloadavg()[0]:.2f}"
     )
-    failed = reference.failed + plain.failed + small.failed
+    failed = reference.failed + plain.failed + spawned.failed + small.failed
     return {"rows": found_rows, "targets": found_targets, "failed": failed, "counts": counts}
 
 

@@ -22,8 +22,10 @@ Two studies: the reference scenario (``systems/sign_follower.yaml``, the tracker
 varied, 8 s simulated each, at least 4 cases per worker of the largest count and 16 in all:
 the issue's "16 reference cases of 8 s"), with the defaults a user gets (FMUs isolated, one
 thread per worker), and the small FMU study of :mod:`benchmarks.sweep` (200 one-millisecond
-cases). Beside them the reference study with ``isolate: [none]`` on 2 workers, interleaved
-with the isolated one: an isolated case's time against a case in the worker's own process.
+cases). Beside them, on 2 workers and interleaved with the others: the reference study with
+``isolate: [none]`` (an isolated case's time against a case in the worker's own process), and
+the reference study with its workers spawned by Dask's nanny (``FMIONNX_FORK_WORKERS=0``)
+rather than forked from the command's fork server (:mod:`fmionnx.backends.sweep.workerfork`).
 """
 
 from __future__ import annotations
@@ -79,6 +81,8 @@ class Study:
     #: after the last case (:func:`timeline`).
     phases: dict[int, list[tuple[float, float, float]]] = field(default_factory=dict)
     failed: int = 0
+    #: Variables the command is given besides the benchmark's (``FMIONNX_FORK_WORKERS=0``).
+    environ: dict[str, str] = field(default_factory=dict)
 
 
 def worker_counts(cores: int) -> list[int]:
@@ -116,6 +120,7 @@ def sweep_once(study: Study, workers: int, out: Path, env: dict[str, str]) -> No
     argv = [*fmionnx_command(), "sweep", str(study.path), "--out", str(out)]
     argv += ["--workers", str(workers), "--force", "-q"]
     began, began_at = time.perf_counter(), time.time()
+    env = {**env, **study.environ}
     done = subprocess.run(argv, env=env, capture_output=True, text=True, check=False)
     wall = time.perf_counter() - began
     ended_at = time.time()

@@ -87,12 +87,24 @@ def console() -> None:
     that loaded a module of :data:`KEEP_TEARDOWN`, or whose streams cannot be flushed, exits
     the normal way. :func:`main` itself stays an ordinary function for programs that call it.
     """
+    global _whole_process  # noqa: PLW0603 - set once, by the process's entry point
+    _whole_process = True
     try:
         main()
     except SystemExit as exc:
         _leave(exc.code)
         raise
     _leave(None)
+
+
+_whole_process = False
+
+
+def whole_process() -> bool:
+    """Whether this process is one command and nothing else (started by :func:`console`), so
+    that a command may start helpers that keep this process's environment for their whole
+    life (a local study's worker fork server): not so in a program calling :func:`main`."""
+    return _whole_process
 
 
 def _leave(code: object) -> None:

@@ -73,6 +73,8 @@ def sweep(
     applied, run in-process on a worker (FMUs isolated by default). A failing case is
     recorded with its diagnostic and the study goes on.
     """
+    if scheduler is None:
+        _fork_server()
     from fmionnx.backends.sweep.engine import ClusterStartError, SchedulerError
     from fmionnx.cli.app import refused
     from fmionnx.cli.console import make_console
@@ -108,6 +110,17 @@ def sweep(
     failed = int((result.table["status"] != "ok").sum())
     if failed:
         raise typer.Exit(ExitCode.PROBLEMS)
+
+
+def _fork_server() -> None:
+    """Start the server the local cluster's workers are forked from, while the study compiles
+    (:mod:`fmionnx.backends.sweep.workerfork`), in a process that is this command alone; it
+    also imports the pipeline's case runner and the backend it runs a case on."""
+    from fmionnx.backends.sweep import workerfork
+    from fmionnx.cli import whole_process
+
+    if whole_process():
+        workerfork.start(also=("fmionnx.pipeline.study", "fmionnx.backends.inprocess"))
 
 
 def _interrupted(console: Console, out: Path, stop: KeyboardInterrupt) -> typer.Exit:

@@ -45,6 +45,7 @@ def test_quick_sweep_benchmark_runs_every_mode_to_the_loops_metrics() -> None:
     assert by_study == {
         "reference": [1, 2],
         "reference, isolate: [none]": [2],
+        "reference, workers spawned": [2],
         "small FMU system": [1, 2],
     }
     reference_rows = [row for row in scaling["rows"] if row["study"] == "reference"]

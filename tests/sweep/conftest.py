@@ -6,7 +6,7 @@ run of the same system with the same parameters.
 
 from __future__ import annotations
 
-from collections.abc import Callable
+from collections.abc import Callable, Iterator
 from pathlib import Path
 
 import pytest
@@ -77,3 +77,20 @@ def _collect_garbage() -> object:
 
     yield
     gc.collect()
+
+
+@pytest.fixture
+def forked(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
+    """This process's fork server running, and its local clusters forking their workers from
+    it until the test ends (the server then stays, unused: it ends with this process)."""
+    import dask
+    import distributed  # noqa: F401 - Dask's distributed settings
+
+    from fmionnx.backends.sweep import workerfork
+
+    monkeypatch.setattr(workerfork, "_started", False)  # put back when the test ends
+    method = dask.config.get(workerfork.METHOD_KEY)
+    if not workerfork.start():
+        pytest.skip("no fork server on this platform")
+    yield
+    dask.config.set({workerfork.METHOD_KEY: method})

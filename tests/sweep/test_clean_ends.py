@@ -15,7 +15,9 @@ import os
 import signal
 import subprocess
 import sys
+import tempfile
 import time
+from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
@@ -40,20 +42,27 @@ metrics:
 
 
 @pytest.fixture
-def project(tmp_path: Path, fixture_fmu) -> Path:
+def project(tmp_path: Path, fixture_fmu) -> Iterator[Path]:
+    """The study, and its temporary folder (``tmp``): a link to a folder of a short path, as
+    a user's is, where the command's fork server can make its socket (107 bytes at most; the
+    workers are spawned otherwise)."""
     (tmp_path / "system.yaml").write_text(SYSTEM.format(gain=fixture_fmu("Gain")), "utf-8")
     (tmp_path / "study.yaml").write_text(STUDY, "utf-8")
-    (tmp_path / "tmp").mkdir()
-    return tmp_path
+    with tempfile.TemporaryDirectory(prefix="fmionnx-test-") as temporary:
+        (tmp_path / "tmp").symlink_to(temporary)
+        yield tmp_path
 
 
-def _sweep(project: Path, *extra: str) -> subprocess.Popen[str]:
+def _sweep(project: Path, *extra: str, fork: bool = True) -> subprocess.Popen[str]:
     """``fmionnx sweep`` in a session of its own (a terminal's process group), with its own
-    temporary folder and Ctrl-C delivered as a terminal delivers it."""
+    temporary folder and Ctrl-C delivered as a terminal delivers it; its workers forked
+    from its fork server, or spawned by Dask's nanny (``fork=False``)."""
+    env = {**os.environ, "TMPDIR": str((project / "tmp").resolve())}
+    env["FMIONNX_FORK_WORKERS"] = "1" if fork else "0"
     return subprocess.Popen(
         [sys.executable, "-m", "fmionnx", "sweep", "study.yaml", "--out", "out",
          "--workers", "2", *extra],
-        cwd=project, env={**os.environ, "TMPDIR": str(project / "tmp")},
+        cwd=project, env=env,
         stdout=subprocess.PIPE, stderr=subprocess.PIPE, text=True, start_new_session=True,
         preexec_fn=lambda: signal.signal(signal.SIGINT, signal.SIG_DFL),  # noqa: PLW1509
     )  # fmt: skip
@@ -69,8 +78,9 @@ def _after_the_first_case(project: Path, process: subprocess.Popen[str]) -> None
         time.sleep(0.1)
 
 
-def test_ctrl_c_stops_the_study_cleanly_and_keeps_its_records(project: Path) -> None:
-    process = _sweep(project)
+@pytest.mark.parametrize("fork", [True, False], ids=["forked", "spawned"])
+def test_ctrl_c_stops_the_study_cleanly_and_keeps_its_records(project: Path, fork: bool) -> None:
+    process = _sweep(project, fork=fork)
     _after_the_first_case(project, process)
     os.killpg(process.pid, signal.SIGINT)  # as a terminal does: every process of the group
     out, err = finish(process, 120)

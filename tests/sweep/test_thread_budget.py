@@ -100,10 +100,16 @@ def study() -> Path:
     return path
 
 
+@pytest.mark.parametrize("start", ["spawned", "forked"])
 def test_a_worker_runs_its_cases_within_one_thread_budget_and_keeps_its_models(
-    study: Path,
+    study: Path, start: str, request: pytest.FixtureRequest
 ) -> None:
+    """Spawned by Dask's nanny (a program calling ``fmionnx.sweep``) or forked from the
+    command's fork server (``fmionnx sweep``, :mod:`fmionnx.backends.sweep.workerfork`)."""
     import sys
+
+    if start == "forked":
+        request.getfixturevalue("forked")
 
     import cloudpickle
 
