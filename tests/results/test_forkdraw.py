@@ -11,6 +11,7 @@ from pathlib import Path
 import pytest
 
 from fmionnx.results.forkdraw import DrawingFailedError, draw_side_by_side, processes_for
+from tests.processes import child_pids
 
 
 def _drawing(folder: Path, index: int, logged: list[tuple[int, str]]) -> Callable[[], Path]:
@@ -27,10 +28,7 @@ def _drawing(folder: Path, index: int, logged: list[tuple[int, str]]) -> Callabl
 
 def _children() -> set[int]:
     """This process's child processes now (any thread's), zombies included."""
-    found: set[int] = set()
-    for task in Path("/proc/self/task").iterdir():
-        found.update(int(pid) for pid in (task / "children").read_text("ascii").split())
-    return found
+    return set(child_pids())
 
 
 @pytest.fixture

@@ -25,6 +25,7 @@ from fmionnx.compile.studyir import apply_case
 from fmionnx.pipeline.study import run_study_case
 from fmionnx.pipeline.sweep import plan_study
 from tests.conftest import REPO, built_model
+from tests.processes import child_pids
 
 pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
 
@@ -60,13 +61,8 @@ def _threads(pid: int) -> Counter[str]:
 
 def _descendants(pid: int) -> list[int]:
     found = []
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        try:
-            children = (task / "children").read_text().split()
-        except OSError:
-            continue
-        for child in map(int, children):
-            found += [child, *_descendants(child)]
+    for child in child_pids(pid):
+        found += [child, *_descendants(child)]
     return found
 
 

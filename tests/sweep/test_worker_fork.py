@@ -20,6 +20,7 @@ import pytest
 import fmionnx
 from fmionnx.backends.sweep.workerboot import pre_spawn_environment
 from tests.conftest import REPO, finish
+from tests.processes import child_pids, command_line
 from tests.sweep.conftest import WriteStudy
 
 pytestmark = pytest.mark.filterwarnings("ignore::pytest.PytestUnraisableExceptionWarning")
@@ -47,10 +48,6 @@ def _worker_facts() -> dict[str, Any]:
     }
 
 
-def _command_line(pid: int) -> str:
-    return Path(f"/proc/{pid}/cmdline").read_bytes().replace(b"\0", b" ").decode()
-
-
 def test_forked_workers_are_the_servers_children_with_dasks_budget_and_ctrl_c_ignored(
     forked: None,
 ) -> None:
@@ -68,7 +65,7 @@ def test_forked_workers_are_the_servers_children_with_dasks_budget_and_ctrl_c_ig
         assert len(servers) == 1
         assert os.getpid() not in servers
         (server,) = servers
-        assert "multiprocessing.forkserver" in _command_line(server)
+        assert "multiprocessing.forkserver" in command_line(server)
         for fact in facts.values():
             assert fact["sigint_ignored"]
             assert {k: fact["environ"].get(k) for k in budget} == budget
@@ -160,29 +157,13 @@ def test_the_command_forks_its_workers_and_leaves_nothing_in_the_temporary_folde
         )  # fmt: skip
         workers: list[int] = []
         while process.poll() is None and not workers:
-            servers = [pid for pid, line in _children(process.pid) if "forkserver" in line]
-            workers = [pid for server in servers for pid, _ in _children(server)]
+            servers = [pid for pid in child_pids(process.pid) if _is_fork_server(pid)]
+            workers = [pid for server in servers for pid in child_pids(server)]
             time.sleep(0.02)
         _, err = finish(process, 120)
         assert process.returncode == 0, err
         assert workers, "no worker forked by a fork server of the command's"
         assert list(Path(temporary).iterdir()) == []
-
-
-def _children(pid: int) -> list[tuple[int, str]]:
-    """``pid``'s children, with their command lines."""
-    found = []
-    for task in Path(f"/proc/{pid}/task").iterdir():
-        try:
-            children = (task / "children").read_text().split()
-        except OSError:
-            continue
-        for child in map(int, children):
-            try:
-                found.append((child, _command_line(child)))
-            except OSError:
-                continue
-    return found
 
 
 def test_the_server_ends_without_tearing_down_its_interpreter() -> None:
@@ -201,3 +182,10 @@ def test_the_server_ends_without_tearing_down_its_interpreter() -> None:
     )
     assert done.returncode == 0, done.stderr
     assert done.stdout.split() == ["True", "1"]
+
+
+def _is_fork_server(pid: int) -> bool:
+    try:
+        return "multiprocessing.forkserver" in command_line(pid)
+    except OSError:  # ended meanwhile
+        return False

@@ -71,11 +71,6 @@ def _own_temporary_folder() -> None:
         config["tempdir"] = str(make_scratch("mp"))
 
 
-def started() -> bool:
-    """Whether this process's fork server runs (:func:`start`)."""
-    return _started
-
-
 def fork_local_workers() -> None:
     """Have the nannies of this process's local clusters fork their workers from the server,
     when it runs: the first ones and those that replace a worker that died. A process-wide
