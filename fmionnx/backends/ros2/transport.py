@@ -131,8 +131,14 @@ class RawWriter:
             raise TransportError(msg)
 
     def matched(self) -> int:
-        """Number of readers matched right now."""
-        return len(self.writer.get_matched_subscriptions())
+        """Number of readers matched right now.
+
+        Read from the writer's matched status (one call). Cyclone's Python binding lists the
+        matched readers in two calls, a count and then that many handles, and failed with an
+        ``IndexError`` when a reader matched in between (a node of a starting run faulted so,
+        once in a CI run)."""
+        status: Any = self.writer.get_publication_matched_status  # untyped in the binding
+        return int(status().current_count)
 
     def wait_for_readers(self, count: int = 1, timeout: float = 5.0) -> bool:
         """Wait until ``count`` readers matched (samples written before are lost to them)."""
@@ -180,8 +186,10 @@ class RawReader:
         return self._waitset.wait(duration(seconds=max(timeout, 0.0))) > 0
 
     def matched(self) -> int:
-        """Number of writers matched right now."""
-        return len(self.reader.get_matched_publications())
+        """Number of writers matched right now (the reader's matched status: one call, see
+        :meth:`RawWriter.matched`)."""
+        status: Any = self.reader.get_subscription_matched_status  # untyped in the binding
+        return int(status().current_count)
 
 
 class Participant:
