@@ -82,15 +82,35 @@ def _collect_garbage() -> object:
 @pytest.fixture
 def forked(monkeypatch: pytest.MonkeyPatch) -> Iterator[None]:
     """This process's fork server running, and its local clusters forking their workers from
-    it until the test ends (the server then stays, unused: it ends with this process)."""
+    it until the test ends.
+
+    What stays in this test process afterwards, unused by tests that do not ask for it: the
+    server (with this process's environment when the first such test started it; it ends
+    with the process), ``multiprocessing``'s temporary folder of the process (an fmionnx
+    scratch folder, removed at exit) and Dask's note that its fork server's preload is set."""
+    import multiprocessing
+
     import dask
     import distributed  # noqa: F401 - Dask's distributed settings
 
     from fmionnx.backends.sweep import workerfork
 
-    monkeypatch.setattr(workerfork, "_started", False)  # put back when the test ends
-    method = dask.config.get(workerfork.METHOD_KEY)
-    if not workerfork.start():
+    if "forkserver" not in multiprocessing.get_all_start_methods():
         pytest.skip("no fork server on this platform")
+    monkeypatch.setattr(workerfork, "_started", False)  # put back when the test ends
+    monkeypatch.delenv(workerfork.SWITCH, raising=False)
+    method = dask.config.get(workerfork.METHOD_KEY)
+    assert workerfork.start(), "the fork server did not start (see the debug log)"
     yield
     dask.config.set({workerfork.METHOD_KEY: method})
+
+
+@pytest.fixture
+def short_tmpdir() -> Iterator[Path]:
+    """An empty temporary folder of a short path, as a user's ``TMPDIR`` is: the command's
+    fork server makes its socket in a scratch folder there, and a socket's path has at most
+    107 bytes (under a longer one Python's own folder is used, or the workers are spawned)."""
+    import tempfile
+
+    with tempfile.TemporaryDirectory(prefix="fmionnx-test-") as folder:
+        yield Path(folder)

@@ -11,18 +11,18 @@ workers leave Ctrl-C to the driver, SIGTERM and SIGHUP stop a study as Ctrl-C do
 
 from __future__ import annotations
 
+import json
 import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
-from collections.abc import Iterator
 from pathlib import Path
 
 import pytest
 
 from tests.conftest import finish
+from tests.processes import child_pids, command_line
 
 SYSTEM = """\
 fmionnx: 1
@@ -42,15 +42,13 @@ metrics:
 
 
 @pytest.fixture
-def project(tmp_path: Path, fixture_fmu) -> Iterator[Path]:
-    """The study, and its temporary folder (``tmp``): a link to a folder of a short path, as
-    a user's is, where the command's fork server can make its socket (107 bytes at most; the
-    workers are spawned otherwise)."""
+def project(tmp_path: Path, fixture_fmu, short_tmpdir: Path) -> Path:
+    """The study, and its temporary folder (``tmp``): a link to a folder of a short path
+    (``short_tmpdir``), as a user's is."""
     (tmp_path / "system.yaml").write_text(SYSTEM.format(gain=fixture_fmu("Gain")), "utf-8")
     (tmp_path / "study.yaml").write_text(STUDY, "utf-8")
-    with tempfile.TemporaryDirectory(prefix="fmionnx-test-") as temporary:
-        (tmp_path / "tmp").symlink_to(temporary)
-        yield tmp_path
+    (tmp_path / "tmp").symlink_to(short_tmpdir)
+    return tmp_path
 
 
 def _sweep(project: Path, *extra: str, fork: bool = True) -> subprocess.Popen[str]:
@@ -101,6 +99,45 @@ def test_sigterm_to_the_driver_stops_the_study_as_ctrl_c_does(project: Path) -> 
     assert "interrupted by SIGTERM" in out
     assert "Traceback" not in err
     assert list((project / "tmp").iterdir()) == []
+
+
+def test_a_killed_fork_server_takes_its_workers_and_the_study_runs_their_cases_again(
+    project: Path,
+) -> None:
+    """The workers are the fork server's children, and a nanny learns from the server that
+    its worker ended: killed alone (an out-of-memory killer), the server told every nanny
+    so while the workers ran on, the nannies started new ones beside them and the study
+    could wait for ever. The workers now end with it; new ones are forked from a new server
+    and the study finishes every case."""
+    process = _sweep(project)
+    _after_the_first_case(project, process)
+    servers = [pid for pid in child_pids(process.pid) if _is_fork_server(pid)]
+    assert len(servers) == 1, "the command has no fork server"
+    workers = child_pids(servers[0])
+    assert workers, "the fork server has no worker"
+    os.kill(servers[0], signal.SIGKILL)
+    _, err = finish(process, 180)
+    assert process.returncode == 0, err
+    assert "Traceback" not in err
+    records = sorted((project / "out" / "records").glob("*.json"))
+    assert len(records) == 16
+    assert all(json.loads(r.read_text("utf-8"))["status"] == "ok" for r in records)
+    for worker in workers:  # gone with their server
+        assert not Path(f"/proc/{worker}").exists() or _zombie(worker)
+
+
+def _is_fork_server(pid: int) -> bool:
+    try:
+        return "multiprocessing.forkserver" in command_line(pid)
+    except OSError:  # ended meanwhile
+        return False
+
+
+def _zombie(pid: int) -> bool:
+    try:
+        return Path(f"/proc/{pid}/stat").read_text().rsplit(")", 1)[1].split()[0] == "Z"
+    except OSError:
+        return True
 
 
 def _unmapped_semaphores() -> set[Path]:

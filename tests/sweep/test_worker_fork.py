@@ -1,8 +1,12 @@
 """The workers of the command's local cluster are forked from a server that imported what they
-need (fmionnx.backends.sweep.workerfork): children of that server, with Dask's thread budget
-and SIGINT ignored from their start, replaced by another fork when one dies, giving the
-results spawned workers give; the server is started by the ``fmionnx`` command only, and its
-preload does nothing imported anywhere else."""
+need (fmionnx.backends.sweep.workerfork): children of that server, started with Dask's thread
+budget and hash seed in its environment, its preload run (SIGINT ignored), replaced by another
+fork when one dies, giving the results spawned workers give; the server is started by the
+``fmionnx`` command only, and its preload does nothing imported anywhere else.
+
+A worker's environment as the nanny leaves it says nothing here (the nanny sets the same
+variables in every worker once it runs): what counts is the environment the server *started*
+with, before numpy loaded (``/proc/<pid>/environ``), and how the worker hashes."""
 
 from __future__ import annotations
 
@@ -10,7 +14,6 @@ import os
 import signal
 import subprocess
 import sys
-import tempfile
 import time
 from pathlib import Path
 from typing import Any
@@ -18,7 +21,7 @@ from typing import Any
 import pytest
 
 import fmionnx
-from fmionnx.backends.sweep.workerboot import pre_spawn_environment
+from fmionnx.backends.sweep.workerfork import DASK_HASH_SEED, pre_spawn_environment
 from tests.conftest import REPO, finish
 from tests.processes import child_pids, command_line
 from tests.sweep.conftest import WriteStudy
@@ -39,13 +42,23 @@ metrics:
 
 
 def _worker_facts() -> dict[str, Any]:
-    """On a worker: its parent, what it does with SIGINT, the environment it started with."""
+    """On a worker: its parent, whether the server's preload ran in what it was forked from,
+    the environment its process started with, how it hashes a string."""
+    booted = sys.modules.get("fmionnx.backends.sweep.workerboot")
+    started = Path("/proc/self/environ").read_bytes().split(b"\0")
     return {
         "pid": os.getpid(),
         "parent": os.getppid(),
-        "sigint_ignored": signal.getsignal(signal.SIGINT) is signal.SIG_IGN,
-        "environ": dict(os.environ),
+        "booted": booted is not None and booted.booted(),
+        "started_with": dict(v.decode().split("=", 1) for v in started if b"=" in v),
+        "hash": hash("fmionnx"),
     }
+
+
+def _hash_with_dasks_seed() -> int:
+    probe = [sys.executable, "-c", "print(hash('fmionnx'))"]
+    env = {**os.environ, "PYTHONHASHSEED": DASK_HASH_SEED}
+    return int(subprocess.run(probe, env=env, capture_output=True, check=True).stdout)
 
 
 def test_forked_workers_are_the_servers_children_with_dasks_budget_and_ctrl_c_ignored(
@@ -58,6 +71,7 @@ def test_forked_workers_are_the_servers_children_with_dasks_budget_and_ctrl_c_ig
     cloudpickle.register_pickle_by_value(sys.modules[__name__])  # the workers cannot import us
     budget = pre_spawn_environment()
     assert budget["OMP_NUM_THREADS"] == os.environ.get("OMP_NUM_THREADS", "1")
+    assert budget["PYTHONHASHSEED"] == os.environ.get("PYTHONHASHSEED", DASK_HASH_SEED)
     with open_client(workers=2) as client:
         client.wait_for_workers(2)
         facts = client.run(_worker_facts)
@@ -66,10 +80,12 @@ def test_forked_workers_are_the_servers_children_with_dasks_budget_and_ctrl_c_ig
         assert os.getpid() not in servers
         (server,) = servers
         assert "multiprocessing.forkserver" in command_line(server)
+        hashed = _hash_with_dasks_seed()
         for fact in facts.values():
-            assert fact["sigint_ignored"]
-            assert {k: fact["environ"].get(k) for k in budget} == budget
-            assert "MALLOC_TRIM_THRESHOLD_" not in fact["environ"]  # fmionnx's setting kept
+            assert fact["booted"]  # the preload ran (SIGINT ignored, the imports done)
+            assert {k: fact["started_with"].get(k) for k in budget} == budget
+            assert "MALLOC_TRIM_THRESHOLD_" not in fact["started_with"]  # fmionnx's setting
+            assert fact["hash"] == hashed  # as a spawned worker hashes
 
         # A worker that dies (a crashing model) is replaced by another fork of the server.
         gone = next(iter(facts))
@@ -100,25 +116,26 @@ def test_a_study_on_forked_workers_gives_what_spawned_workers_give(
 
 def test_the_preload_does_nothing_when_imported_elsewhere() -> None:
     probe = (
-        "import os, signal, sys\n"
-        "import fmionnx.backends.sweep.workerboot\n"
+        "import signal, sys\n"
+        "import fmionnx.backends.sweep.workerboot as boot\n"
         "print(signal.getsignal(signal.SIGINT) is signal.default_int_handler,"
-        " 'distributed' in sys.modules, 'OMP_NUM_THREADS' in os.environ)\n"
+        " 'distributed' in sys.modules, boot.booted())\n"
     )
-    env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
-    done = subprocess.run(
-        [sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True
-    )
+    done = subprocess.run([sys.executable, "-c", probe], capture_output=True, text=True, check=True)
     assert done.stdout.split() == ["True", "False", "False"]
 
 
 def test_the_budget_is_dasks_with_the_users_configuration_and_variables(tmp_path: Path) -> None:
     probe = (
-        "from fmionnx.backends.sweep.workerboot import pre_spawn_environment\n"
+        "from fmionnx.backends.sweep.workerfork import pre_spawn_environment\n"
         "print(sorted(pre_spawn_environment().items()))\n"
     )
     env = {
-        **{k: v for k, v in os.environ.items() if not k.startswith(("OMP_", "MKL_", "DASK_"))},
+        **{
+            k: v
+            for k, v in os.environ.items()
+            if not k.startswith(("OMP_", "MKL_", "DASK_", "PYTHONHASHSEED"))
+        },
         "DASK_CONFIG": str(tmp_path),  # the user's Dask configuration
         "OPENBLAS_NUM_THREADS": "2",  # set in the environment: kept, as the nanny keeps it
     }
@@ -128,60 +145,56 @@ def test_the_budget_is_dasks_with_the_users_configuration_and_variables(tmp_path
     done = subprocess.run(
         [sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=True
     )
-    expected = [("MKL_NUM_THREADS", "3"), ("OMP_NUM_THREADS", "1"), ("OPENBLAS_NUM_THREADS", "2")]
+    expected = [
+        ("MKL_NUM_THREADS", "3"),
+        ("OMP_NUM_THREADS", "1"),
+        ("OPENBLAS_NUM_THREADS", "2"),
+        ("PYTHONHASHSEED", DASK_HASH_SEED),
+    ]
     assert done.stdout.strip() == str(expected)
 
 
 def test_the_command_forks_its_workers_and_leaves_nothing_in_the_temporary_folder(
-    write_study: WriteStudy, tmp_path: Path
+    write_study: WriteStudy, tmp_path: Path, short_tmpdir: Path
 ) -> None:
     """``fmionnx sweep`` (the whole process) starts the server: its workers are its children,
     not the command's; its socket's folder is a scratch folder, gone with the command. (The
     temporary folder is a short path: a socket's is limited to 107 bytes, and under a longer
     one the workers are spawned.)"""
     study = write_study(GRID.replace("gain.k: [0.5, 2, 3]", "gain.k: [0.5, 2, 3, 4, 5, 6, 7]"))
-    with tempfile.TemporaryDirectory(prefix="fmionnx-test-") as temporary:
-        env = {**os.environ, "TMPDIR": temporary}
-        command = [
-            sys.executable,
-            "-m",
-            "fmionnx",
-            "sweep",
-            str(study),
-            "--out",
-            str(tmp_path / "o"),
-        ]
-        process = subprocess.Popen(
-            [*command, "--workers", "2", "--force", "-q"], cwd=REPO, env=env, text=True,
-            stdout=subprocess.PIPE, stderr=subprocess.PIPE,
-        )  # fmt: skip
-        workers: list[int] = []
-        while process.poll() is None and not workers:
-            servers = [pid for pid in child_pids(process.pid) if _is_fork_server(pid)]
-            workers = [pid for server in servers for pid in child_pids(server)]
-            time.sleep(0.02)
-        _, err = finish(process, 120)
-        assert process.returncode == 0, err
-        assert workers, "no worker forked by a fork server of the command's"
-        assert list(Path(temporary).iterdir()) == []
+    env = {**os.environ, "TMPDIR": str(short_tmpdir)}
+    command = [sys.executable, "-m", "fmionnx", "sweep", str(study), "--out", str(tmp_path / "o")]
+    process = subprocess.Popen(
+        [*command, "--workers", "2", "--force", "-q"], cwd=REPO, env=env, text=True,
+        stdout=subprocess.PIPE, stderr=subprocess.PIPE,
+    )  # fmt: skip
+    workers: list[int] = []
+    while process.poll() is None and not workers:
+        servers = [pid for pid in child_pids(process.pid) if _is_fork_server(pid)]
+        workers = [pid for server in servers for pid in child_pids(server)]
+        time.sleep(0.02)
+    _, err = finish(process, 120)
+    assert process.returncode == 0, err
+    assert workers, "no worker forked by a fork server of the command's"
+    assert list(short_tmpdir.iterdir()) == []
 
 
 def test_the_server_ends_without_tearing_down_its_interpreter() -> None:
     """Torn down, the server held the command's standard output for 0.1-0.15 s after the
-    command ended (a caller reading it waited): it leaves from its first exit hook."""
+    command ended (a caller reading it waited): it leaves from an exit hook, before the
+    teardown and before the hooks registered ahead of it."""
     probe = (
-        "import atexit, os, signal\n"
+        "import atexit, signal\n"
         "atexit.register(print, 'torn down')\n"  # runs after boot's hook, if ever
-        "from fmionnx.backends.sweep.workerboot import boot\n"
-        "boot()\n"
-        "print(signal.getsignal(signal.SIGINT) is signal.SIG_IGN, os.environ['OMP_NUM_THREADS'])\n"
+        "from fmionnx.backends.sweep import workerboot\n"
+        "workerboot.boot()\n"
+        "print(signal.getsignal(signal.SIGINT) is signal.SIG_IGN, workerboot.booted())\n"
     )
-    env = {k: v for k, v in os.environ.items() if k != "OMP_NUM_THREADS"}
     done = subprocess.run(
-        [sys.executable, "-c", probe], env=env, capture_output=True, text=True, check=False
+        [sys.executable, "-c", probe], capture_output=True, text=True, check=False
     )
     assert done.returncode == 0, done.stderr
-    assert done.stdout.split() == ["True", "1"]
+    assert done.stdout.split() == ["True", "True"]
 
 
 def _is_fork_server(pid: int) -> bool:

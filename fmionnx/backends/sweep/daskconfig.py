@@ -3,6 +3,8 @@ local workers' fork server (:mod:`.workerboot`) reads them before it loads any l
 
 from __future__ import annotations
 
+#: Dask's configuration key of the variables its nanny sets before it starts a worker.
+PRE_SPAWN = "distributed.nanny.pre-spawn-environ"
 #: How often the local cluster's scheduler retries a task whose worker died: never. The driver
 #: does it (:func:`.engine.run_study` runs the task's cases again, alone), and Dask would charge the
 #: death to every task queued on that worker, not only to the one that crashed it.

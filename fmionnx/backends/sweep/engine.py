@@ -15,6 +15,7 @@ on."""
 
 from __future__ import annotations
 
+import asyncio
 import atexit
 import contextlib
 import logging
@@ -33,7 +34,7 @@ from typing import Any
 from fmionnx.backends.sweep import workerfork
 from fmionnx.backends.sweep.batching import BatchSizer
 from fmionnx.backends.sweep.case import CaseOutcome, CaseRunner, Job, run_batch
-from fmionnx.backends.sweep.daskconfig import LOCAL_CONFIG
+from fmionnx.backends.sweep.daskconfig import LOCAL_CONFIG, PRE_SPAWN
 from fmionnx.backends.sweep.leftovers import sweep_orphan_semaphores
 from fmionnx.backends.sweep.models import pack_models
 from fmionnx.backends.sweep.pinning import CORES_KEY, cores_for
@@ -259,7 +260,7 @@ def _nanny_variables() -> tuple[str, ...]:
     import dask
     import distributed  # noqa: F401 - loads Dask's distributed configuration
 
-    return (*dask.config.get("distributed.nanny.pre-spawn-environ"), "PYTHONHASHSEED")
+    return (*dask.config.get(PRE_SPAWN), workerfork.HASH_SEED)
 
 
 def _restore(before: Mapping[str, str | None]) -> None:
@@ -322,7 +323,8 @@ def run_study(
     in_flight: dict[str, tuple[tuple[Case, ...], bool, int]] = {}
     sizes: list[int] = []
     fallbacks = 0
-    running = as_completed(loop=client.loop, with_results=True, raise_errors=False)
+    # Without Dask fetching the results itself: see _outcomes.
+    running = as_completed(loop=client.loop)
 
     def submit(
         groups: list[tuple[Case, ...]], worker: str | None = None, *, lone: bool = False
@@ -387,9 +389,9 @@ def run_study(
         submit(groups)
 
     refill()
-    for future, result in running:
+    for future in running:
         group, lone, place = in_flight.pop(future.key)
-        outcomes: list[CaseOutcome] | None = result if future.status == "finished" else None
+        outcomes = _outcomes(future)
         if outcomes is None:
             cluster.changed()
         if outcomes is None and not lone:
@@ -524,8 +526,28 @@ def _value(value: object) -> object:
     return value
 
 
+def _outcomes(future: Any) -> list[CaseOutcome] | None:
+    """A returned task's outcomes; None when it did not finish or its result is gone.
+
+    Fetched here, not by ``as_completed(with_results=True)``: a task that finished on a
+    worker that died before its result was fetched (workers dying together: the local
+    cluster's fork server killed, an out-of-memory killer) made Dask's fetch raise
+    ``KilledWorker`` inside ``as_completed``, which then never handed the task back, and the
+    study waited for ever (4 times in 16 such deaths). Gone with its worker, the result is
+    as good as a death under the task: its cases run again."""
+    if future.status != "finished":
+        return None
+    try:
+        outcomes: list[CaseOutcome] = future.result()
+    except (Exception, asyncio.CancelledError):
+        return None
+    return outcomes
+
+
 def _died(future: Any) -> str:
     """Why a case's task failed (the case itself never raises: its worker died)."""
+    if future.status == "finished":  # its result went with its worker (see _outcomes)
+        return "the worker running the case died before its result was taken"
     try:
         exception = future.exception()
     except Exception as exc:

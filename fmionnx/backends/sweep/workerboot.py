@@ -9,10 +9,10 @@ In this order, because a worker is a copy of the server:
    ignores SIGINT from its first instruction (a spawned one does from
    :mod:`fmionnx.spawned`).
 2. The environment Dask's nanny sets before it spawns a worker (``pre-spawn-environ``: one
-   OpenMP, MKL and OpenBLAS thread by default) is set here, from Dask's defaults, the user's
-   Dask configuration and :data:`.daskconfig.LOCAL_CONFIG`, as the nanny computes it: those
-   libraries read it once, when they are loaded, and they are loaded next. The nanny sets it
-   in the driver only, which a forked worker no longer inherits.
+   OpenMP, MKL and OpenBLAS thread by default, a fixed hash seed) is the server's from its
+   start: the command starts it with those variables (:func:`.workerfork.start`), and a
+   server ``multiprocessing`` starts again later is started by a nanny, which has set them.
+   The libraries that read them do so when they are loaded, next.
 3. Dask's ``distributed`` and fmionnx's case modules are imported (the caller's case runner
    after them, :func:`.workerfork.start`): what every worker would import before its first
    case, the runtime and every kind's module included. The models' libraries (MuJoCo,
@@ -30,33 +30,6 @@ import os
 import signal
 import sys
 
-#: Dask's configuration key of the variables set before a worker starts.
-PRE_SPAWN = "distributed.nanny.pre-spawn-environ"
-
-
-def pre_spawn_environment() -> dict[str, str]:
-    """The variables Dask's nanny would set for a local cluster's worker, without importing
-    ``distributed`` (which loads numpy, and with it OpenBLAS): its defaults are read from its
-    own file, as its configuration module does; a variable already set keeps its value."""
-    import importlib.util
-    from pathlib import Path
-
-    import dask.config
-
-    from fmionnx.backends.sweep.daskconfig import LOCAL_CONFIG
-
-    spec = importlib.util.find_spec("distributed")
-    if spec is not None and spec.origin is not None:
-        defaults = Path(spec.origin).with_name("distributed.yaml")
-        for found in dask.config.collect_yaml([str(defaults)]):
-            dask.config.update_defaults(found)
-    ours = {key: value for key, value in LOCAL_CONFIG.items() if key.startswith(PRE_SPAWN)}
-    with dask.config.set(ours):  # undone on leaving, in the dictionary ``get`` returns too
-        wanted = dict(dask.config.get(PRE_SPAWN, default={}) or {})
-    return {
-        key: os.environ.get(key, str(value)) for key, value in wanted.items() if value is not None
-    }
-
 
 def _in_fork_server_start() -> bool:
     """Whether this import is the fork server's preload: its ``main`` is a caller."""
@@ -73,10 +46,13 @@ def _in_fork_server_start() -> bool:
 
 def boot() -> None:
     """Make this process what a forked worker starts from (the steps above), and a server
-    that ends at once when the command has (:func:`_end_at_once`)."""
+    whose workers end with it (:func:`_worker_dies_with_server`) and that ends at once when
+    the command has (:func:`_end_at_once`)."""
+    global _server  # noqa: PLW0603 - set once, in the server
+    _server = os.getpid()
     atexit.register(_end_at_once)
+    os.register_at_fork(before=_note_forker, after_in_child=_worker_dies_with_server)
     signal.signal(signal.SIGINT, signal.SIG_IGN)
-    os.environ.update(pre_spawn_environment())
     import distributed  # noqa: F401
 
     import fmionnx.backends.sweep.case
@@ -92,11 +68,49 @@ def boot() -> None:
         pass
 
 
+#: The fork server's process id (in the server and its workers), once :func:`boot` ran.
+_server: int | None = None
+#: Whether the process forking now is the server (set in it before each fork, so a worker
+#: learns it was forked by the server, not by a worker of its own forking later).
+_forked_by_server = False
+
+
+def booted() -> bool:
+    """Whether this process is the fork server or was forked by it (:func:`boot` ran)."""
+    return _server is not None
+
+
+def _note_forker() -> None:
+    global _forked_by_server  # noqa: PLW0603 - read by the child, in its copy
+    _forked_by_server = os.getpid() == _server
+
+
+def _worker_dies_with_server() -> None:
+    """In a worker, from its first instruction: die when the server dies (SIGKILL).
+
+    A worker is the server's child, and the nanny learns that its worker ended from the
+    server. Killed (an out-of-memory killer, a user), the server told every nanny that its
+    worker had ended while the workers ran on; the nannies started new ones beside them and
+    a study could wait for ever. Now the workers end with the server, the nannies start new
+    ones from a new server (``multiprocessing`` starts it again) and the study runs their
+    cases again, as after any worker's death."""
+    global _forked_by_server  # noqa: PLW0603 - this process's copy
+    if not _forked_by_server:
+        return
+    _forked_by_server = False
+    from fmionnx.runtime.lifetime import die_with_parent
+
+    die_with_parent()
+    if os.getppid() != _server:  # the server died before the request took: end now
+        os._exit(1)
+
+
 def _end_at_once() -> None:
-    """End the server without tearing down its interpreter (Dask, numpy, fmionnx's modules):
-    0.1-0.15 s after the command itself ended, during which the server still held the
-    command's standard output and error, and a caller reading them (a script, CI) waited.
-    Its workers never run it: a process ``multiprocessing`` starts ends with ``os._exit``."""
+    """End the server without tearing down its interpreter (Dask, numpy, fmionnx's modules),
+    from an exit hook (before the teardown): torn down, the server held the command's
+    standard output and error 0.1-0.15 s after the command itself ended, and a caller reading
+    them (a script, CI) waited. Its workers never run it: a process ``multiprocessing``
+    starts ends with ``os._exit``."""
     with contextlib.suppress(OSError, ValueError):
         sys.stdout.flush()
         sys.stderr.flush()

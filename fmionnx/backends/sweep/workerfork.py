@@ -14,12 +14,17 @@ Only a process that is the command and nothing else starts the server
 (:func:`fmionnx.cli.whole_process`): the server keeps the environment it was started with
 for every worker it forks, while a program calling :func:`fmionnx.sweep` may change its
 environment between two studies, which spawned workers see. ``FMIONNX_FORK_WORKERS=0`` turns
-it off; where Python has no fork server (Windows), the workers are spawned.
+it off; where Python has no fork server (Windows) or the server cannot start, the workers are
+spawned (said at debug level, logger ``fmionnx.backends.sweep.workerfork``). The server's
+workers end with it (:mod:`.workerboot`): killed, it is started again by the next nanny that
+starts a worker, and the study runs the cases of the workers it lost again.
 """
 
 from __future__ import annotations
 
+import logging
 import multiprocessing
+import os
 from collections.abc import Sequence
 
 #: The environment variable that turns the fork server off (``0``).
@@ -28,30 +33,85 @@ SWITCH = "FMIONNX_FORK_WORKERS"
 BOOT = "fmionnx.backends.sweep.workerboot"
 #: Dask's choice of how the nanny starts a worker.
 METHOD_KEY = "distributed.worker.multiprocessing-method"
+#: The hash seed Dask's nanny gives its workers unless the configuration names one (every
+#: worker of a cluster hashes alike).
+HASH_SEED, DASK_HASH_SEED = "PYTHONHASHSEED", "6640"
+#: A Unix socket's path, in bytes with its final zero (Linux); and the bytes the fork
+#: server's socket adds to its folder's (``/listener-`` and 8 characters).
+SOCKET_PATH_BYTES, SOCKET_NAME_BYTES = 108, 19
+
+LOG = logging.getLogger(__name__)
 
 _started = False
 
 
 def start(also: Sequence[str] = ()) -> bool:
     """Start the fork server of this process's local workers (once), importing the modules
-    ``also`` after :data:`BOOT`'s (what the caller's case runner needs); whether it runs."""
+    ``also`` after :data:`BOOT`'s (what the caller's case runner needs); whether it runs.
+
+    The server starts with the variables Dask's nanny sets before it starts a worker
+    (:func:`pre_spawn_environment`): they are set in this process's environment only while
+    the server starts, as the nanny sets them while it starts a worker."""
     global _started  # noqa: PLW0603 - one server per process, like Python's own
     from fmionnx.core.switches import switched_off
 
     if _started:
         return True
-    if switched_off(SWITCH) or "forkserver" not in multiprocessing.get_all_start_methods():
+    if switched_off(SWITCH):
+        LOG.debug("local workers spawned: %s=0", SWITCH)
+        return False
+    if "forkserver" not in multiprocessing.get_all_start_methods():
+        LOG.debug("local workers spawned: no fork server on this platform")
         return False
     from multiprocessing import forkserver
 
+    wanted = pre_spawn_environment()
+    before = {key: os.environ.get(key) for key in wanted}
     try:
         _own_temporary_folder()
         forkserver.set_forkserver_preload([BOOT, *also])
+        os.environ.update(wanted)
         forkserver.ensure_running()
-    except (OSError, ValueError):  # no process could start: the nanny spawns them as before
+    except (OSError, ValueError) as exc:  # no process could start: the nanny spawns them
+        LOG.debug("local workers spawned: the fork server could not start (%s)", exc)
         return False
+    finally:
+        for key, value in before.items():
+            if value is None:
+                os.environ.pop(key, None)
+            else:
+                os.environ[key] = value
     _started = True
     return True
+
+
+def pre_spawn_environment() -> dict[str, str]:
+    """The variables Dask's nanny sets before it starts a local cluster's worker, as it
+    computes them (``pre-spawn-environ`` from Dask's defaults, the user's Dask configuration
+    and :data:`.daskconfig.LOCAL_CONFIG`, a variable already set keeping its value, and a
+    fixed hash seed unless one is given), without importing ``distributed``: its defaults
+    are read from its own file, as its configuration module reads them."""
+    import importlib.util
+    from pathlib import Path
+
+    import dask.config
+
+    from fmionnx.backends.sweep.daskconfig import LOCAL_CONFIG, PRE_SPAWN
+
+    spec = importlib.util.find_spec("distributed")
+    if spec is not None and spec.origin is not None:
+        defaults = Path(spec.origin).with_name("distributed.yaml")
+        for found in dask.config.collect_yaml([str(defaults)]):
+            dask.config.update_defaults(found)
+    ours = {key: value for key, value in LOCAL_CONFIG.items() if key.startswith(PRE_SPAWN)}
+    with dask.config.set(ours):  # undone on leaving, in the dictionary ``get`` returns too
+        wanted = dict(dask.config.get(PRE_SPAWN, default={}) or {})
+    found = {
+        key: os.environ.get(key, str(value)) for key, value in wanted.items() if value is not None
+    }
+    if found.get(HASH_SEED) in (None, "0"):
+        found[HASH_SEED] = DASK_HASH_SEED
+    return found
 
 
 def _own_temporary_folder() -> None:
@@ -61,14 +121,22 @@ def _own_temporary_folder() -> None:
     Python makes it as ``pymp-*`` in the temporary directory and removes it at exit; a study
     killed outright (SIGKILL) left it for good. As a scratch folder it is removed at exit as
     well, and otherwise by the next fmionnx process (:mod:`fmionnx.core.scratch`). Python
-    keeps its place in the process's ``_config``, where ``get_temp_dir`` finds it."""
+    keeps its place in the process's ``_config``, where ``get_temp_dir`` finds it. Where the
+    scratch folder's path leaves the socket's too long (a ``TMPDIR`` of over about 60
+    characters), Python's shorter ``pymp-*`` folder is used, as without fmionnx."""
     from multiprocessing import process
 
-    from fmionnx.core.scratch import make_scratch
+    from fmionnx.core.scratch import make_scratch, remove_scratch
 
     config = process.current_process()._config  # type: ignore[attr-defined]
-    if config.get("tempdir") is None:
-        config["tempdir"] = str(make_scratch("mp"))
+    if config.get("tempdir") is not None:
+        return
+    folder = make_scratch("mp")
+    if len(os.fsencode(folder)) + SOCKET_NAME_BYTES > SOCKET_PATH_BYTES:
+        remove_scratch(folder)  # too long a path for the socket: Python's shorter one
+        LOG.debug("the fork server's socket in Python's temporary folder: %s is long", folder)
+        return
+    config["tempdir"] = str(folder)
 
 
 def fork_local_workers() -> None:
