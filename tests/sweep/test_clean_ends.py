@@ -27,7 +27,7 @@ from tests.processes import child_pids, command_line
 SYSTEM = """\
 fmionnx: 1
 name: gain
-run: {{stop: 0.5, step: 0.0001}}
+run: {{stop: 1.5, step: 0.0001}}
 components:
   gain: {{kind: fmu, path: {gain}, parameters: {{u: 1, v: [0, 0, 0]}}}}
 """
@@ -86,7 +86,7 @@ def test_ctrl_c_stops_the_study_cleanly_and_keeps_its_records(project: Path, for
     assert "interrupted by SIGINT: the finished cases are in out; `--resume` runs the rest" in out
     assert "Traceback" not in err
     recorded = len(list((project / "out" / "records").glob("*.json")))
-    assert 1 <= recorded < 16
+    assert 1 <= recorded < 16, (out, err)  # stopped before its last case
     assert list((project / "tmp").iterdir()) == []  # no dask-scratch-space, no unpacked FMU
 
 
@@ -119,6 +119,7 @@ def test_a_killed_fork_server_takes_its_workers_and_the_study_runs_their_cases_a
     _, err = finish(process, 180)
     assert process.returncode == 0, err
     assert "Traceback" not in err
+    assert "ERROR" not in err  # the scheduler's reports of lost tasks: the study says it
     records = sorted((project / "out" / "records").glob("*.json"))
     assert len(records) == 16
     assert all(json.loads(r.read_text("utf-8"))["status"] == "ok" for r in records)
@@ -199,3 +200,29 @@ def test_while_a_local_cluster_lives_its_closed_connections_say_nothing() -> Non
         assert not logger.filter(closed)
         assert logger.filter(record(ValueError("something else")))
     assert logger.filter(closed)
+
+
+def test_while_a_local_cluster_lives_the_schedulers_reports_of_lost_tasks_say_nothing() -> None:
+    """A worker's death made the scheduler log ``ERROR`` lines on the user's terminal (task
+    keys, "marked as failed because 1 workers died", "Couldn't gather keys") about what the
+    study handles and reports itself. While a local cluster of a study lives, those are
+    dropped, the scheduler's other reports kept; the filter goes with the cluster."""
+    import logging
+
+    from fmionnx.backends.sweep import engine
+
+    logger = logging.getLogger("distributed.scheduler")
+
+    def record(message: str, *args: object) -> logging.LogRecord:
+        return logger.makeRecord(logger.name, logging.ERROR, __file__, 1, message, args, None)
+
+    lost = record("Task %s marked as failed because %d workers died while trying to run it",
+                  "fmionnx-case-0000", 1)  # fmt: skip
+    gone = record("Couldn't gather keys: %s", {"fmionnx-case-0001": "queued"})
+    other = record("Something else went wrong: %s", "here")
+    assert logger.filter(lost)
+    with engine.open_client(workers=1):
+        assert not logger.filter(lost)
+        assert not logger.filter(gone)
+        assert logger.filter(other)
+    assert logger.filter(lost)

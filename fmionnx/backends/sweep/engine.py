@@ -427,20 +427,38 @@ class _ClosedComm(logging.Filter):
         return not isinstance(error, CommClosedError)
 
 
+class _DeathsSaid(logging.Filter):
+    """Drops the scheduler's reports of a task lost with its worker: the study says it."""
+
+    #: The scheduler's messages (``distributed.scheduler``), as it formats them.
+    SAID = ("Task %s marked as failed because %d workers died", "Couldn't gather keys: ")
+
+    def filter(self, record: logging.LogRecord) -> bool:
+        return not str(record.msg).startswith(self.SAID)
+
+
 @contextmanager
 def _closed_comms_quiet() -> Iterator[None]:
-    """While a local cluster of this study's lives and closes, drop tornado's reports of a
-    ``CommClosedError``: a study stopped early (Ctrl-C) has results in flight, whose tracking
-    by Dask meets the cluster as it closes and logged a traceback on the user's terminal (one
-    run in ten on a fast machine), about results the study no longer wants. Nothing else of
-    tornado's is touched, and the filter goes with the cluster."""
-    quiet = logging.getLogger("tornado.application")
-    dropping = _ClosedComm()
-    quiet.addFilter(dropping)
+    """While a local cluster of this study's lives and closes, drop what Dask logs on the
+    user's terminal about what the study handles itself:
+
+    * tornado's reports of a ``CommClosedError``: a study stopped early (Ctrl-C) has results
+      in flight, whose tracking by Dask meets the cluster as it closes and logged a
+      traceback (one run in ten on a fast machine), about results the study no longer wants;
+    * the scheduler's ``ERROR`` lines about tasks lost with a worker that died (a model
+      crashing it, the workers' fork server killed): the study runs their cases again, or
+      records them as failed with the reason, and says so in its table.
+
+    Nothing else of tornado's or the scheduler's is touched, and the filters go with the
+    cluster."""
+    filters = (("tornado.application", _ClosedComm()), ("distributed.scheduler", _DeathsSaid()))
+    for name, dropping in filters:
+        logging.getLogger(name).addFilter(dropping)
     try:
         yield
     finally:
-        quiet.removeFilter(dropping)
+        for name, dropping in filters:
+            logging.getLogger(name).removeFilter(dropping)
 
 
 def _shared(
