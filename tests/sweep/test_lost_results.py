@@ -53,3 +53,28 @@ def test_a_task_that_did_not_finish_is_a_death() -> None:
     assert _outcomes(died) is None
     assert _died(died) == "the worker running the case died (a model crashed its process)"
     assert _outcomes(_Future("cancelled")) is None
+
+
+def test_a_task_sent_to_a_worker_that_is_gone_does_not_wait_for_ever() -> None:
+    """Dask keeps a task whose only named worker is gone unrunnable even when the restriction
+    is loose (``allow_other_workers``), whatever workers the cluster has: a study whose task
+    went to the worker that had just returned one, as the whole cluster died, waited for
+    ever. The local cluster fails such a task after ``no-workers-timeout`` (the engine then
+    runs its cases again); were Dask to run it elsewhere instead, it would finish."""
+    import time
+
+    from fmionnx.backends.sweep.engine import open_client
+
+    with open_client(workers=1) as client:
+        client.wait_for_workers(1)
+        (gone,) = client.scheduler_info()["workers"]
+        client.cluster.scale(0)  # the whole cluster dies ...
+        while client.scheduler_info()["workers"]:
+            time.sleep(0.05)
+        future = client.submit(int, "1", workers=[gone], allow_other_workers=True, pure=False)
+        client.cluster.scale(1)  # ... and a new worker replaces it
+        client.wait_for_workers(1)
+        deadline = time.monotonic() + 60
+        while future.status == "pending" and time.monotonic() < deadline:
+            time.sleep(0.1)
+        assert future.status in ("error", "finished"), future.status

@@ -28,6 +28,13 @@ LOCAL_CONFIG = {
     # GIL from its case 50 times a second. At 500 ms (what Dask's own test clusters use) the
     # idle cluster takes under 2 %.
     "distributed.admin.tick.interval": "500ms",
+    # A task sent to the worker that had just returned one, as that worker died, stayed
+    # unrunnable for ever once new workers replaced it: Dask keeps a task whose named worker
+    # is gone in ``no-worker`` even when the restriction is loose (the engine hands such tasks
+    # out again when it learns of the death; this catches the orderings it cannot see). After
+    # this long unrunnable, or with no worker at all, a task fails, and the engine runs its
+    # cases again, alone (a worker restarts in 1-3 s).
+    "distributed.scheduler.no-workers-timeout": "15s",
     # Workers leave Ctrl-C to the driver, which closes them in order (see the module).
     "distributed.worker.preload": [
         "fmionnx.backends.sweep.quiet",

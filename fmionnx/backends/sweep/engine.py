@@ -323,6 +323,11 @@ def run_study(
     in_flight: dict[str, tuple[tuple[Case, ...], bool, int]] = {}
     sizes: list[int] = []
     fallbacks = 0
+    #: Tasks sent to the worker that returned the last one, by key: that worker's address.
+    pinned: dict[str, str] = {}
+    #: Futures of the tasks in flight, by key; and keys of tasks cancelled and handed out again.
+    futures_of: dict[str, Any] = {}
+    superseded: set[str] = set()
     # Without Dask fetching the results itself: see _outcomes.
     running = as_completed(loop=client.loop)
 
@@ -357,8 +362,29 @@ def run_study(
         )
         for future, group in zip(futures, groups, strict=True):
             in_flight[future.key] = (group, lone, len(sizes))
+            futures_of[future.key] = future
+            if worker:
+                pinned[future.key] = worker
             sizes.append(len(group))
             running.add(future)
+
+    def unpin_from_the_dead() -> None:
+        """Hand out again the tasks sent to a worker that is gone.
+
+        A task sent to the worker that had just returned one, as that worker died (the
+        whole cluster at once: its fork server killed), waited for it for ever: Dask keeps a
+        task whose only named worker is gone unrunnable (``no-worker``) even though the
+        restriction is loose, and new workers never take it. Such a task is cancelled and its
+        cases go back to the front of the queue (it ran nothing)."""
+        cluster.refresh()
+        for key, address in list(pinned.items()):
+            if key in in_flight and not cluster.alive(address):
+                group, lone, place = in_flight.pop(key)
+                del pinned[key]
+                sizes[place] = 0
+                (alone if lone else waiting).extendleft(reversed(group))
+                superseded.add(key)
+                futures_of.pop(key).cancel()
 
     def refill(finished_on: str | None = None) -> None:
         """Hand out cases until every worker thread has ``DEPTH`` tasks in hand; a single task
@@ -390,10 +416,17 @@ def run_study(
 
     refill()
     for future in running:
+        futures_of.pop(future.key, None)
+        pinned.pop(future.key, None)
+        if future.key in superseded:  # cancelled above: its cases were handed out again
+            superseded.discard(future.key)
+            future.release()
+            continue
         group, lone, place = in_flight.pop(future.key)
         outcomes = _outcomes(future)
         if outcomes is None:
             cluster.changed()
+            unpin_from_the_dead()
         if outcomes is None and not lone:
             # Its worker died (a crash in a component that is not isolated). Dask counts a
             # death against every task assigned to that worker, running or queued, so the
@@ -431,7 +464,11 @@ class _DeathsSaid(logging.Filter):
     """Drops the scheduler's reports of a task lost with its worker: the study says it."""
 
     #: The scheduler's messages (``distributed.scheduler``), as it formats them.
-    SAID = ("Task %s marked as failed because %d workers died", "Couldn't gather keys: ")
+    SAID = (
+        "Task %s marked as failed because %d workers died",
+        "Task %s marked as failed because it timed out waiting",
+        "Couldn't gather keys: ",
+    )
 
     def filter(self, record: logging.LogRecord) -> bool:
         return not str(record.msg).startswith(self.SAID)
@@ -537,6 +574,10 @@ class _Cluster:
     def changed(self) -> None:
         """A worker may have died: ask again at the next refill."""
         self._asked = -math.inf
+
+    def alive(self, address: str) -> bool:
+        """Whether the scheduler, when last asked, had a worker at ``address``."""
+        return address in self._addresses.values()
 
 
 def _value(value: object) -> object:

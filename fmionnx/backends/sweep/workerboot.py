@@ -30,6 +30,8 @@ import os
 import signal
 import sys
 
+from fmionnx.runtime import lifetime  # standard library only: used at a worker's fork
+
 
 def _in_fork_server_start() -> bool:
     """Whether this import is the fork server's preload: its ``main`` is a caller."""
@@ -90,17 +92,15 @@ def _worker_dies_with_server() -> None:
 
     A worker is the server's child, and the nanny learns that its worker ended from the
     server. Killed (an out-of-memory killer, a user), the server told every nanny that its
-    worker had ended while the workers ran on; the nannies started new ones beside them and
-    a study could wait for ever. Now the workers end with the server, the nannies start new
-    ones from a new server (``multiprocessing`` starts it again) and the study runs their
-    cases again, as after any worker's death."""
+    worker had ended while the workers ran on, beside the new ones the nannies started. Now
+    the workers end with the server, the nannies start new ones from a new server
+    (``multiprocessing`` starts it again) and the study runs their cases again, as after any
+    worker's death."""
     global _forked_by_server  # noqa: PLW0603 - this process's copy
     if not _forked_by_server:
         return
     _forked_by_server = False
-    from fmionnx.runtime.lifetime import die_with_parent
-
-    die_with_parent()
+    lifetime.die_with_parent()
     if os.getppid() != _server:  # the server died before the request took: end now
         os._exit(1)
 
