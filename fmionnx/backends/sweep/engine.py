@@ -40,6 +40,7 @@ from fmionnx.backends.sweep.models import pack_models
 from fmionnx.backends.sweep.pinning import CORES_KEY, cores_for
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
+from fmionnx.core.environ import put_back
 from fmionnx.core.errors import FmionnxError
 from fmionnx.core.scratch import make_scratch, remove_scratch, sweep_stale
 
@@ -163,7 +164,9 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
                 # exit handlers) left their unpacked FMUs: their owners are gone now.
                 sweep_stale()
     finally:
-        _restore(before)
+        # What the nanny set in this process: after ``fmionnx.sweep`` in a notebook, a program
+        # the user starts would otherwise run OpenMP and BLAS on one thread.
+        put_back(before)
         remove_scratch(scratch)
 
 
@@ -261,16 +264,6 @@ def _nanny_variables() -> tuple[str, ...]:
     import distributed  # noqa: F401 - loads Dask's distributed configuration
 
     return (*dask.config.get(PRE_SPAWN), workerfork.HASH_SEED)
-
-
-def _restore(before: Mapping[str, str | None]) -> None:
-    """Put back the variables the nanny set in this process: after ``fmionnx.sweep`` in a
-    notebook, a program the user starts would otherwise run OpenMP and BLAS on one thread."""
-    for key, value in before.items():
-        if value is None:
-            os.environ.pop(key, None)
-        else:
-            os.environ[key] = value
 
 
 @dataclass(frozen=True)

@@ -65,22 +65,16 @@ def start(also: Sequence[str] = ()) -> bool:
         return False
     from multiprocessing import forkserver
 
-    wanted = pre_spawn_environment()
-    before = {key: os.environ.get(key) for key in wanted}
+    from fmionnx.core.environ import variables_set
+
     try:
         _own_temporary_folder()
         forkserver.set_forkserver_preload([BOOT, *also])
-        os.environ.update(wanted)
-        forkserver.ensure_running()
+        with variables_set(pre_spawn_environment()):
+            forkserver.ensure_running()
     except (OSError, ValueError) as exc:  # no process could start: the nanny spawns them
         LOG.debug("local workers spawned: the fork server could not start (%s)", exc)
         return False
-    finally:
-        for key, value in before.items():
-            if value is None:
-                os.environ.pop(key, None)
-            else:
-                os.environ[key] = value
     _started = True
     return True
 
