@@ -146,7 +146,7 @@ def open_client(scheduler: str | None = None, workers: int | None = None) -> Ite
     # outright leaves it to the next fmionnx process's sweep.
     scratch = make_scratch("dask")
     try:
-        with _closed_comms_quiet():
+        with _handled_reports_quiet():
             try:
                 cluster = _local_cluster(workers or default_workers(), scratch)
             except (RuntimeError, OSError, TimeoutError) as exc:
@@ -311,16 +311,9 @@ def run_study(
     waiting = deque(cases)
     #: Cases of a task whose worker died: each runs again alone on the cluster, before the rest.
     alone: deque[Case] = deque()
-    #: Task key -> its cases, whether it runs alone (then a death is the case's own), and its
-    #: place in ``sizes``.
-    in_flight: dict[str, tuple[tuple[Case, ...], bool, int]] = {}
+    in_flight: dict[str, _InFlight] = {}  # by task key
     sizes: list[int] = []
     fallbacks = 0
-    #: Tasks sent to the worker that returned the last one, by key: that worker's address.
-    pinned: dict[str, str] = {}
-    #: Futures of the tasks in flight, by key; and keys of tasks cancelled and handed out again.
-    futures_of: dict[str, Any] = {}
-    superseded: set[str] = set()
     # Without Dask fetching the results itself: see _outcomes.
     running = as_completed(loop=client.loop)
 
@@ -354,10 +347,7 @@ def run_study(
             **({"workers": [worker], "allow_other_workers": True} if worker else {}),
         )
         for future, group in zip(futures, groups, strict=True):
-            in_flight[future.key] = (group, lone, len(sizes))
-            futures_of[future.key] = future
-            if worker:
-                pinned[future.key] = worker
+            in_flight[future.key] = _InFlight(future, group, lone, len(sizes), worker)
             sizes.append(len(group))
             running.add(future)
 
@@ -370,14 +360,12 @@ def run_study(
         restriction is loose, and new workers never take it. Such a task is cancelled and its
         cases go back to the front of the queue (it ran nothing)."""
         cluster.refresh()
-        for key, address in list(pinned.items()):
-            if key in in_flight and not cluster.alive(address):
-                group, lone, place = in_flight.pop(key)
-                del pinned[key]
-                sizes[place] = 0
-                (alone if lone else waiting).extendleft(reversed(group))
-                superseded.add(key)
-                futures_of.pop(key).cancel()
+        for key, task in list(in_flight.items()):
+            if task.worker is not None and not cluster.alive(task.worker):
+                del in_flight[key]
+                sizes[task.place] = 0
+                (alone if task.lone else waiting).extendleft(reversed(task.cases))
+                task.future.cancel()
 
     def refill(finished_on: str | None = None) -> None:
         """Hand out cases until every worker thread has ``DEPTH`` tasks in hand; a single task
@@ -409,13 +397,11 @@ def run_study(
 
     refill()
     for future in running:
-        futures_of.pop(future.key, None)
-        pinned.pop(future.key, None)
-        if future.key in superseded:  # cancelled above: its cases were handed out again
-            superseded.discard(future.key)
+        task = in_flight.pop(future.key, None)
+        if task is None:  # cancelled by unpin_from_the_dead: its cases were handed out again
             future.release()
             continue
-        group, lone, place = in_flight.pop(future.key)
+        group, lone, place = task.cases, task.lone, task.place
         outcomes = _outcomes(future)
         if outcomes is None:
             cluster.changed()
@@ -443,6 +429,20 @@ def run_study(
     return StudyRun(tuple(sizes), fallbacks)
 
 
+@dataclass(frozen=True)
+class _InFlight:
+    """A task of a study's, sent and not yet handed back."""
+
+    future: Any
+    cases: tuple[Case, ...]
+    #: Whether it runs alone (a death is then the case's own).
+    lone: bool
+    #: Its place in the study's task sizes.
+    place: int
+    #: The worker it was sent to (the one that had just returned a task), if any.
+    worker: str | None
+
+
 class _ClosedComm(logging.Filter):
     """Drops tornado's report of a callback that met a closed connection to the cluster."""
 
@@ -468,7 +468,7 @@ class _DeathsSaid(logging.Filter):
 
 
 @contextmanager
-def _closed_comms_quiet() -> Iterator[None]:
+def _handled_reports_quiet() -> Iterator[None]:
     """While a local cluster of this study's lives and closes, drop what Dask logs on the
     user's terminal about what the study handles itself:
 

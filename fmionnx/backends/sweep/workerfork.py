@@ -95,8 +95,8 @@ def pre_spawn_environment() -> dict[str, str]:
     spec = importlib.util.find_spec("distributed")
     if spec is not None and spec.origin is not None:
         defaults = Path(spec.origin).with_name("distributed.yaml")
-        for found in dask.config.collect_yaml([str(defaults)]):
-            dask.config.update_defaults(found)
+        for read in dask.config.collect_yaml([str(defaults)]):
+            dask.config.update_defaults(read)
     ours = {key: value for key, value in LOCAL_CONFIG.items() if key.startswith(PRE_SPAWN)}
     with dask.config.set(ours):  # undone on leaving, in the dictionary ``get`` returns too
         wanted = dict(dask.config.get(PRE_SPAWN, default={}) or {})
