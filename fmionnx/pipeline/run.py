@@ -44,6 +44,7 @@ from fmionnx.pipeline.outcome import RunOutcome, exit_status
 from fmionnx.pipeline.outputs import check_output_file, check_results_folder
 from fmionnx.pipeline.request import RunRequest, RunSettings, build_request
 from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
+from fmionnx.runtime.instruments import Instruments
 from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 if TYPE_CHECKING:
@@ -86,7 +87,13 @@ def execute(
     start = RunStart(
         system, backend.name, options.where(), options.how(), options.publishes_rows, out
     )
-    plotter = _plot_worker(system, request, out)
+    # Rows formatted ahead by nothing else, and recorded by the master's own recorder (the
+    # live views' feed brings its own): the plot worker follows them.
+    plotter = _plot_worker(
+        system, request, out, backend, follow=ahead is None and run.instruments is None
+    )
+    if plotter is not None and plotter.rows is not None:  # it formats results.csv meanwhile
+        run = dataclasses.replace(run, instruments=Instruments(recorder=plotter.rows.recorder))
     try:
         watch.before_run(start)
         try:
@@ -346,21 +353,46 @@ def _run_options(
 
 def _csv_ahead(system: System, options: BackendOptions, out: Path | None) -> CsvAhead | None:
     """A run that publishes its rows while it goes gets results.csv formatted meanwhile."""
-    if not options.publishes_rows or out is None:
+    if not options.publishes_rows or out is None or not _ahead_wanted():
         return None
     from fmionnx.results.csvahead import CsvAhead
 
-    return CsvAhead(system.compiled)
+    return CsvAhead.of(system.compiled)
 
 
-def _plot_worker(system: System, request: RunRequest, out: Path | None) -> PlotWorker | None:
+def _plot_worker(
+    system: System, request: RunRequest, out: Path | None, backend: Backend, *, follow: bool
+) -> PlotWorker | None:
     """A run that will draw into a results folder starts its plot worker now: matplotlib is
-    imported on another core while the run goes on (:mod:`fmionnx.results.plotworker`)."""
+    imported on another core while the run goes on (:mod:`fmionnx.results.plotworker`).
+
+    ``follow``: nothing else formats the run's results.csv ahead, nor records it; if the
+    run steps in this process, the worker follows its rows and writes the file
+    (:mod:`fmionnx.results.csvfollow`).
+    """
     if out is None or not (system.compiled.plots or request.output.plot):
         return None
     from fmionnx.results.plotworker import start
 
-    return start()
+    return start(follow=system.compiled if follow and _follows(backend) else None)
+
+
+def _follows(backend: Backend) -> bool:
+    """Whether ``backend`` steps the run in this process with the master's instruments (the
+    in-process backend: its rows can be recorded where a plot worker reads them)."""
+    from fmionnx.results.csvfollow import wanted
+    from fmionnx.runtime.guardian import BACKEND_NAME
+
+    return backend.name == BACKEND_NAME and wanted()
+
+
+def _ahead_wanted() -> bool:
+    """Whether a guarded run's results.csv may be formatted while it goes on
+    (``FMIONNX_CSV_AHEAD=0``: only at its end, as the results are written)."""
+    from fmionnx.core.switches import switched_off
+    from fmionnx.results.csvahead import SWITCH
+
+    return not switched_off(SWITCH)
 
 
 def _finish(

@@ -49,7 +49,9 @@ def write_results(
     (:mod:`fmionnx.results.csvahead`); the file's bytes are the same without it.
 
     ``plotter``: a plot worker started before the run (:mod:`fmionnx.results.plotworker`);
-    it draws the plots while results.csv is written here. The figures are the same without.
+    it draws the plots while results.csv is written here, or writes results.csv too when it
+    followed the run's rows (:mod:`fmionnx.results.csvfollow`). The files are the same
+    without it.
 
     ``run.json`` is written last and lists every file of the run (``also``: files written
     by others, e.g. ``--record`` into ``out``); then the folder's ownership record is made to
@@ -71,13 +73,22 @@ def write_results(
     if not checkpoint and (system.plots or plot_signals):
         from fmionnx.results.plotworker import PlotJob
 
-        job = PlotJob(result, system, out, bool(system.plots), plot_signals, aliases)
+        by_worker = plotter is not None and plotter.follows  # it formatted the rows ahead
+        job = PlotJob(result, system, out, bool(system.plots), plot_signals, aliases, by_worker)
     submitted = job is not None and plotter is not None and plotter.submit(job)
-    files = [write_csv(result, out / "results.csv", aliases=aliases, ahead=ahead)]
+    csv = out / "results.csv"
+    csv_by_worker = submitted and job is not None and job.results_csv
+    files = [] if csv_by_worker else [write_csv(result, csv, aliases=aliases, ahead=ahead)]
     if job is not None:
         from fmionnx.results.plotworker import draw_here
 
         drawn = plotter.collect() if submitted and plotter is not None else None
+        if csv_by_worker:  # written there beside the figures, else here (the same bytes)
+            if drawn is not None and csv in drawn:
+                drawn.remove(csv)
+                files.append(csv)
+            else:
+                files.append(write_csv(result, csv, aliases=aliases))
         files.extend(drawn if drawn is not None else draw_here(job))
     path = out / RUN_JSON
     listed = [*files, *(also or []), path]

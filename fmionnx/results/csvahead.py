@@ -34,6 +34,9 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.runtime.published import Published, TailPiece
 from fmionnx.runtime.result import RunResult
 
+#: The environment variable that leaves results.csv to be formatted at the run's end (``0``):
+#: neither the guardian nor a plot worker formats rows while the run goes on.
+SWITCH = "FMIONNX_CSV_AHEAD"
 #: Rows formatted per piece: small enough that little is left when the run ends, large
 #: enough that the per-call cost of formatting stays negligible.
 PIECE_ROWS = 8192
@@ -52,21 +55,31 @@ class _Piece:
 class CsvAhead:
     """Pieces of ``results.csv``'s rows formatted while the run goes on (see the module)."""
 
-    def __init__(self, system: CompiledSystem) -> None:
-        run = system.run
-        self._start, self._step = run.start, run.step
-        self._every = max(1, run.output_every)
+    def __init__(
+        self, start: float, step: float, every: int, *, piece_rows: int = PIECE_ROWS
+    ) -> None:
+        """Rows on the grid of a run from ``start`` by ``step``, a row every ``every`` base
+        steps (:meth:`of`), formatted in pieces of ``piece_rows``."""
+        self._start, self._step = start, step
+        self._every = max(1, every)
+        self._piece = max(1, piece_rows)
         self._pieces: dict[int, _Piece] = {}  # first row -> piece
         self._next = 0  # the next piece's first row
         self._names: list[str] | None = None
         self._bytes = 0  # text and values held (see MAX_AHEAD_BYTES)
+
+    @classmethod
+    def of(cls, system: CompiledSystem, *, piece_rows: int = PIECE_ROWS) -> CsvAhead:
+        """For a run of ``system`` (its start, step and output interval)."""
+        run = system.run
+        return cls(run.start, run.step, run.output_every, piece_rows=piece_rows)
 
     def follow(self, published: Published) -> bool:
         """Format the next piece if the child has published every row it needs."""
         if self._bytes >= MAX_AHEAD_BYTES:
             return False
         first = self._next
-        rows = np.arange(first, first + PIECE_ROWS, dtype=np.int64)
+        rows = np.arange(first, first + self._piece, dtype=np.int64)
         steps = rows * self._every  # the base steps of those rows (RunResult.after's grid)
         if published.refresh() <= steps[-1]:
             return False
@@ -80,14 +93,14 @@ class CsvAhead:
         values = np.column_stack([time, published.values(steps)])
         text = format_rows(values)
         self._pieces[first] = _Piece(values, text)
-        self._next = first + PIECE_ROWS
+        self._next = first + self._piece
         self._bytes += len(text) + values.nbytes
         return True
 
     @property
     def rows(self) -> int:
         """Rows formatted ahead so far."""
-        return len(self._pieces) * PIECE_ROWS
+        return len(self._pieces) * self._piece
 
     @property
     def front(self) -> int:
@@ -101,20 +114,20 @@ class CsvAhead:
         from fmionnx.results.csvfile import format_rows, result_table
 
         table = result_table(result)
-        first = (len(table) - 1) // PIECE_ROWS * PIECE_ROWS
+        first = (len(table) - 1) // self._piece * self._piece
         spent = 0
         while first > front() and spent < MAX_AHEAD_BYTES:
-            values = table[first : first + PIECE_ROWS]
+            values = table[first : first + self._piece]
             text = format_rows(values).encode("ascii")
             spent += len(text) + values.nbytes
             yield first, values, text
-            first -= PIECE_ROWS
+            first -= self._piece
 
     def adopt(self, pieces: Sequence[TailPiece]) -> None:
         """Take the child's pieces (:meth:`tail`); a piece is used only where its values are
         the result's, bit for bit (:meth:`text`), like every other."""
         for first, values, text in pieces:
-            if first % PIECE_ROWS == 0 and first not in self._pieces:
+            if first % self._piece == 0 and first not in self._pieces:
                 self._pieces[first] = _Piece(values, text.decode("ascii"))
 
     def text(self, table: npt.NDArray[np.float64], first: int) -> tuple[str, int] | None:
@@ -136,8 +149,8 @@ class CsvAhead:
 
     def next_start(self, first: int) -> int | None:
         """Where the next piece after row ``first`` starts (None: no piece after it)."""
-        later = (first // PIECE_ROWS + 1) * PIECE_ROWS
+        later = (first // self._piece + 1) * self._piece
         return later if later in self._pieces else None
 
 
-__all__ = ["MAX_AHEAD_BYTES", "PIECE_ROWS", "CsvAhead"]
+__all__ = ["MAX_AHEAD_BYTES", "PIECE_ROWS", "SWITCH", "CsvAhead"]

@@ -22,6 +22,7 @@ from __future__ import annotations
 
 import contextlib
 import dataclasses
+import io
 import logging
 import os
 import pickle
@@ -37,6 +38,7 @@ from typing import IO, TYPE_CHECKING, cast
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.cores import usable_cores
 from fmionnx.core.switches import switched_off
+from fmionnx.results.csvfollow import FollowRows
 from fmionnx.results.forkdraw import draw_side_by_side, processes_for
 from fmionnx.runtime.result import RunResult
 
@@ -44,7 +46,9 @@ if TYPE_CHECKING:
     import pandas as pd
 
     from fmionnx.compile.studyir import StudyPlan
+    from fmionnx.results.csvahead import CsvAhead
     from fmionnx.results.plots import Drawing
+    from fmionnx.runtime.guardian import RowsShared
 
 #: The environment variable that keeps plots in the run's own process (``0``).
 SWITCH = "FMIONNX_PLOT_WORKER"
@@ -63,6 +67,8 @@ class PlotJob:
     system_plots: bool
     signals_plot: bool
     aliases: Mapping[str, str] | None = None
+    #: Write ``results.csv`` too (the worker followed the run's rows: :mod:`.csvfollow`).
+    results_csv: bool = False
 
 
 @dataclass(frozen=True)
@@ -82,6 +88,8 @@ class PlotAnswer:
     files: tuple[Path, ...] | None
     problem: str = ""
     logged: tuple[tuple[int, str], ...] = ()
+    #: Rows of results.csv formatted while the run went on (:mod:`.csvfollow`).
+    rows_ahead: int = 0
 
 
 def wanted() -> bool:
@@ -95,8 +103,25 @@ def wanted() -> bool:
 class PlotWorker:
     """This process's end of a plot worker (see the module docstring)."""
 
-    def __init__(self, *, study: bool = False) -> None:
-        """``study``: the worker of a study (it loads pandas and the study's plots too)."""
+    def __init__(self, *, study: bool = False, follow: CompiledSystem | None = None) -> None:
+        """``study``: the worker of a study (it loads pandas and the study's plots too).
+
+        ``follow``: the system of an in-process run about to start; the worker follows its
+        rows and writes ``results.csv`` (:mod:`.csvfollow`): the run records through
+        :attr:`rows`.
+        """
+        #: The run's rows, shared with the worker (None: it does not follow them).
+        self.rows: RowsShared | None = None
+        #: Rows of results.csv the worker formatted while the run went on (after collect).
+        self.rows_ahead = 0
+        if follow is not None:
+            from fmionnx.runtime.guardian import RowsShared
+
+            rows = RowsShared()
+            if rows.sealed:
+                self.rows = rows
+            else:  # a follower could not map it safely: the run records privately
+                rows.close()
         self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
             [sys.executable, "-m", __name__, *(["--study"] if study else [])],
             stdin=subprocess.PIPE,
@@ -107,7 +132,32 @@ class PlotWorker:
             # second) printed a KeyboardInterrupt traceback. It still ends with its parent
             # (stdin closes), and ignores the terminal's job control (see main).
             process_group=0,
+            pass_fds=() if self.rows is None else (self.rows.fd,),
         )
+        if follow is not None and self.rows is not None:
+            from fmionnx.results.csvfollow import FollowRows
+
+            run = follow.run
+            message = FollowRows(self.rows.fd, run.steps, run.start, run.step, run.output_every)
+            if not self._send(message):
+                self.rows.close()
+                self.rows = None
+
+    @property
+    def follows(self) -> bool:
+        """Whether the worker follows the run's rows (and so writes ``results.csv``)."""
+        return self.rows is not None and self._process is not None
+
+    def _send(self, message: object) -> bool:
+        process = self._process
+        if process is None or process.stdin is None:
+            return False
+        try:
+            _send(process.stdin, pickle.dumps(message))
+        except (OSError, pickle.PickleError):
+            self.close()
+            return False
+        return True
 
     def submit(self, job: PlotJob | StudyPlotJob) -> bool:
         """Hand ``job`` to the worker, which draws it while this process goes on; False if
@@ -118,12 +168,10 @@ class PlotWorker:
         if isinstance(job, PlotJob):
             lean = dataclasses.replace(job.result, error=None, details={}, ended_by=None)
             job = dataclasses.replace(job, result=lean)
-        try:
-            _send(process.stdin, pickle.dumps(job))
-            process.stdin.close()
-        except (OSError, pickle.PickleError):
-            self.close()
+        if not self._send(job):
             return False
+        with contextlib.suppress(OSError):
+            process.stdin.close()
         return True
 
     def collect(self) -> list[Path] | None:
@@ -141,10 +189,13 @@ class PlotWorker:
             return None
         for level, message in answer.logged:
             LOG.log(level, "%s", message)
+        self.rows_ahead = answer.rows_ahead
         return None if answer.files is None else list(answer.files)
 
     def close(self) -> None:
         """End the worker (it ends by itself once its stdin closes)."""
+        if self.rows is not None:
+            self.rows.close()  # the run's recorder keeps its mappings
         process, self._process = self._process, None
         if process is None:
             return
@@ -159,13 +210,14 @@ class PlotWorker:
             process.wait()
 
 
-def start(*, study: bool = False) -> PlotWorker | None:
-    """A plot worker (``study``: a study's), or None where none is wanted or one cannot be
-    started."""
+def start(*, study: bool = False, follow: CompiledSystem | None = None) -> PlotWorker | None:
+    """A plot worker (``study``: a study's; ``follow``: one that follows an in-process run
+    of that system and writes its results.csv), or None where none is wanted or one cannot
+    be started."""
     if not wanted():
         return None
     try:
-        return PlotWorker(study=study)
+        return PlotWorker(study=study, follow=follow)
     except OSError:
         return None
 
@@ -205,14 +257,20 @@ def _send(stream: IO[bytes], data: bytes) -> None:
 
 
 def _receive(stream: IO[bytes]) -> bytes:
-    head = stream.read(_LENGTH.size)
-    if len(head) != _LENGTH.size:
-        raise EOFError
-    (size,) = _LENGTH.unpack(head)
-    data = stream.read(size)
-    if len(data) != size:
-        raise EOFError
-    return data
+    (size,) = _LENGTH.unpack(_exactly(stream, _LENGTH.size))
+    return _exactly(stream, size)
+
+
+def _exactly(stream: IO[bytes], size: int) -> bytes:
+    """``size`` bytes from ``stream`` (buffered or not: a raw pipe returns what it has)."""
+    parts: list[bytes] = []
+    while size > 0:
+        part = stream.read(size)
+        if not part:
+            raise EOFError
+        parts.append(part)
+        size -= len(part)
+    return b"".join(parts)
 
 
 class _Collect(logging.Handler):
@@ -247,9 +305,10 @@ def main() -> int:
     # The answer goes on the pipe that was stdout; anything a library prints goes to stderr.
     stdout = os.fdopen(os.dup(1), "wb")
     os.dup2(2, 1)
-    stdin = cast(IO[bytes], sys.stdin.buffer)
+    # Unbuffered: while following a run, whether the job has come is asked of the pipe itself.
+    stdin = cast(IO[bytes], io.FileIO(0, "rb", closefd=False))
     try:
-        job = pickle.loads(_receive(stdin))  # from the process that started us
+        job, ahead = _job(stdin)
     except EOFError:
         return 0  # the run ended without plots to draw, or its process is gone
     collect = _Collect()
@@ -257,13 +316,41 @@ def main() -> int:
     LOG.propagate = False
     try:
         figures = drawings(job)
+        if ahead is not None and isinstance(job, PlotJob) and job.results_csv:
+            figures.insert(0, _results_csv(job, ahead))  # drawn first, beside the figures
         files = draw_side_by_side(figures, processes_for(len(figures)), collect.records)
-        answer = PlotAnswer(tuple(files), logged=tuple(collect.records))
+        rows = ahead.rows if ahead is not None else 0
+        answer = PlotAnswer(tuple(files), logged=tuple(collect.records), rows_ahead=rows)
     except Exception as exc:  # the parent draws again, and reports it as it always did
         answer = PlotAnswer(None, f"{type(exc).__name__}: {exc}")
     with contextlib.suppress(OSError):
         _send(stdout, pickle.dumps(answer))
     return 0
+
+
+def _job(stdin: IO[bytes]) -> tuple[PlotJob | StudyPlotJob, CsvAhead | None]:
+    """The job from the process that started us, and the rows of results.csv formatted
+    while its run went on when the first message asked to follow them (:mod:`.csvfollow`)."""
+    message = pickle.loads(_receive(stdin))  # from the process that started us: trusted
+    if not isinstance(message, FollowRows):
+        return message, None
+    from fmionnx.results.csvfollow import follow_until_readable
+
+    ahead = follow_until_readable(message, stdin.fileno())
+    return pickle.loads(_receive(stdin)), ahead
+
+
+def _results_csv(job: PlotJob, ahead: CsvAhead) -> Drawing:
+    """Writing ``results.csv`` as one of the job's drawings: the bytes the run's process
+    would write (:func:`~fmionnx.results.csvfile.write_csv`, the same pieces check)."""
+    from fmionnx.results.csvfile import write_csv
+
+    aliases = dict(job.aliases) if job.aliases is not None else None
+
+    def write() -> Path:
+        return write_csv(job.result, job.out / "results.csv", aliases=aliases, ahead=ahead)
+
+    return write
 
 
 if __name__ == "__main__":

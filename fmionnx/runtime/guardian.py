@@ -152,16 +152,7 @@ class _Shared:
     # -- the guardian's side -------------------------------------------------------------------
 
     def directory(self) -> dict[str, Any] | None:
-        chosen = int(self.cells[_DIRECTORY])
-        if chosen not in (1, 2):
-            return None
-        start = _CELLS * 8 + (chosen - 1) * _SLOT
-        length = min(int.from_bytes(self.control[start : start + 8], "little"), _SLOT - 8)
-        try:
-            parsed = json.loads(self.control[start + 8 : start + 8 + length])
-        except (ValueError, RecursionError):  # also read while the child runs: torn, or hostile
-            return None
-        return parsed if isinstance(parsed, dict) else None
+        return _directory_in(self.control)
 
     def count(self, offset: int, capacity: int) -> int:
         """The row count of the track region at ``offset`` (0 when outside the file)."""
@@ -183,10 +174,73 @@ class _Shared:
         return count, rows.reshape(count, columns)
 
     def close(self) -> None:
+        """Unmap the control cells and close the descriptor; again, nothing: a second
+        ``os.close`` of the number would close whatever file has it by then."""
         with contextlib.suppress(BufferError):
             self.control.close()
-        with contextlib.suppress(OSError):
-            os.close(self.fd)
+        fd, self.fd = self.fd, -1
+        if fd >= 0:
+            with contextlib.suppress(OSError):
+                os.close(fd)
+
+
+def _directory_in(control: mmap.mmap) -> dict[str, Any] | None:
+    """The directory of tracks in the control region (None: none yet, torn or not a dict)."""
+    chosen = int(np.frombuffer(control, np.float64, 1, _DIRECTORY * 8)[0])
+    if chosen not in (1, 2):
+        return None
+    start = _CELLS * 8 + (chosen - 1) * _SLOT
+    length = min(int.from_bytes(control[start : start + 8], "little"), _SLOT - 8)
+    try:
+        parsed = json.loads(control[start + 8 : start + 8 + length])
+    except (ValueError, RecursionError):  # also read while the child runs: torn, or hostile
+        return None
+    return parsed if isinstance(parsed, dict) else None
+
+
+class RowsShared:
+    """Rows this process records into a sealed memfd, for another process to follow.
+
+    The guardian's child records so for the guardian; an unguarded in-process run records so
+    for its plot worker, which formats ``results.csv`` while the run goes on
+    (:mod:`fmionnx.results.csvfollow`). The follower gets :attr:`fd` (inherited) and reads
+    it with :func:`follow_rows`.
+    """
+
+    def __init__(self) -> None:
+        self._shared = _Shared()
+        self._registry = _SharedTracks(self._shared)
+
+    @property
+    def fd(self) -> int:
+        return self._shared.fd
+
+    @property
+    def sealed(self) -> bool:
+        """Whether a follower may map the file (it can never shrink under the mapping)."""
+        return self._shared.sealed
+
+    def recorder(self) -> SharedRecorder:
+        """A recorder whose rows land in the file (the master's :class:`Instruments`)."""
+        return SharedRecorder(self._registry)
+
+    def close(self) -> None:
+        """Close this process's descriptor (the recorder's mappings stay valid)."""
+        self._shared.close()
+
+
+def follow_rows(fd: int, steps: int) -> Published | None:
+    """The rows another process records into the memfd ``fd`` (:class:`RowsShared`), as
+    :class:`Published` for a run of ``steps`` base steps; None when the file is not sealed
+    against shrinking (a mapping of it could then fault) or cannot be mapped."""
+    try:
+        seals = fcntl.fcntl(fd, fcntl.F_GET_SEALS)
+        if not seals & fcntl.F_SEAL_SHRINK:
+            return None
+        control = mmap.mmap(fd, CONTROL, prot=mmap.PROT_READ)
+    except (OSError, ValueError, AttributeError):
+        return None
+    return Published(fd, lambda: _directory_in(control), steps, sealed=True)
 
 
 # -- the child: recording and marking into shared memory ---------------------------------------
@@ -233,9 +287,12 @@ _REGISTRY: list[_SharedTracks] = []
 
 
 class SharedTrack(recording.Track):
-    """A track whose rows and count live in the guardian's shared file (child only)."""
+    """A track whose rows and count live in a shared file (the guardian's child, or a run
+    followed by its plot worker: :class:`RowsShared`)."""
 
     offset: int = -1
+    #: The registry of the file it lives in (None: this process's, the guardian's child).
+    registry: _SharedTracks | None = None
     _count: Any = None
     _count_cell: Any = None
     _block: mmap.mmap | None = None
@@ -249,7 +306,7 @@ class SharedTrack(recording.Track):
         self._place(len(self.rows) + max(extra, 1))
 
     def _place(self, rows: int) -> None:
-        registry = _REGISTRY[0]
+        registry = self.registry if self.registry is not None else _REGISTRY[0]
         columns = len(self.columns)
         block, offset = registry.shared.allocate(8 + rows * columns * 8)
         count = memoryview(block)[:8].cast("q")  # a memoryview store: the cheapest there is
@@ -297,12 +354,16 @@ class SharedTrack(recording.Track):
 class SharedRecorder(recording.Recorder):
     """A recorder whose tracks are :class:`SharedTrack` (child only)."""
 
-    def __init__(self) -> None:
+    def __init__(self, registry: _SharedTracks | None = None) -> None:
+        """``registry``: the file's (:class:`RowsShared`); None: this process's, in the
+        guardian's child."""
         super().__init__()
-        _REGISTRY[0].recorders.append(self)
+        self._registry = registry if registry is not None else _REGISTRY[0]
+        self._registry.recorders.append(self)
 
     def track(self, period_steps: int, total_steps: int) -> recording.Track:
         track = SharedTrack(period_steps, total_steps // period_steps + 2)
+        track.registry = self._registry
         self.tracks.append(track)
         return track
 

@@ -55,7 +55,7 @@ def _csv(result: RunResult, path: Path, ahead: CsvAhead | None = None) -> bytes:
 
 def _guarded(path: Path) -> tuple[RunResult, CsvAhead]:
     system = fmionnx.load(path)
-    ahead = CsvAhead(system.compiled)
+    ahead = CsvAhead.of(system.compiled)
     result = run_guarded(system.compiled, system.run, RunOptions(), follower=ahead)
     return result, ahead
 
@@ -167,7 +167,7 @@ def test_the_child_formats_its_share_from_the_end(
 ) -> None:
     path = _lone(fixture_fmu, write_system)
     system = fmionnx.load(path)
-    ahead = _Idle(system.compiled)
+    ahead = _Idle.of(system.compiled)
     result = run_guarded(system.compiled, system.run, RunOptions(), follower=ahead)
     assert result.status is RunStatus.COMPLETED
     assert result.details["native_loop"] is True
@@ -181,7 +181,7 @@ def test_the_childs_share_stops_at_the_front(fixture_fmu, write_system) -> None:
     path = _lone(fixture_fmu, write_system)
     system = fmionnx.load(path)
     result = system.run(isolate="none")
-    ahead = CsvAhead(system.compiled)
+    ahead = CsvAhead.of(system.compiled)
     last = STEPS // PIECE_ROWS * PIECE_ROWS
     firsts = [first for first, _, _ in ahead.tail(result, lambda: 3 * PIECE_ROWS)]
     assert firsts == list(range(last, 3 * PIECE_ROWS, -PIECE_ROWS))
@@ -199,7 +199,7 @@ def test_a_share_that_is_not_the_results_is_not_used(
     path = _lone(fixture_fmu, write_system)
     system = fmionnx.load(path)
     result = system.run(isolate="none")
-    ahead = CsvAhead(system.compiled)
+    ahead = CsvAhead.of(system.compiled)
     pieces = list(ahead.tail(result, lambda: 0))
     forged = [(first, values + 1.0, text) for first, values, text in pieces]  # other numbers
     misplaced = [(first + 1, values, text) for first, values, text in pieces]  # off the grid
@@ -245,7 +245,7 @@ def test_a_share_that_cannot_be_read_back_costs_nothing_but_time(
     monkeypatch.setattr(guardian, "_adopt", broken)
     path = _lone(fixture_fmu, write_system)
     system = fmionnx.load(path)
-    ahead = _Idle(system.compiled)
+    ahead = _Idle.of(system.compiled)
     result = run_guarded(system.compiled, system.run, RunOptions(), follower=ahead)
     assert result.status is RunStatus.COMPLETED
     assert not ahead._pieces  # nothing adopted; the file is formatted here

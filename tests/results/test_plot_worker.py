@@ -8,6 +8,7 @@ import os
 import shutil
 import signal
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -43,10 +44,10 @@ def workers(monkeypatch: pytest.MonkeyPatch) -> list[plotworker.PlotWorker]:
     """Every plot worker the runs start (real ones), on this machine whatever its cores."""
     started: list[plotworker.PlotWorker] = []
 
-    def counting() -> plotworker.PlotWorker | None:
+    def counting(**how: Any) -> plotworker.PlotWorker | None:
         if not plotworker.wanted():
             return None
-        worker = plotworker.PlotWorker()
+        worker = plotworker.PlotWorker(**how)
         started.append(worker)
         return worker
 
