@@ -15,12 +15,12 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from fmionnx.core.codes import ErrorCode
 from fmionnx.core.errors import FmionnxError
-from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig, Scalar
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.modelfiles import ModelFile
     from fmionnx.core.runner import Runner, Wiring
+    from fmionnx.core.specbase import ComponentSpecBase  # pydantic: only where specs are read
 
 #: The kind steps a physics simulation: its timestep bounds the base step, it drives the ROS 2
 #: clock in free runs, and its ``base_quat`` outputs are (w, x, y, z) quaternions.

@@ -4,9 +4,12 @@ leaves the drawing to the run's process."""
 
 from __future__ import annotations
 
+import ast
 import os
 import shutil
 import signal
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -131,3 +134,23 @@ def test_a_worker_whose_run_never_draws_ends_when_its_stdin_closes() -> None:
     assert process is not None
     worker.close()
     assert process.returncode == 0
+
+
+@pytest.mark.parametrize("study", [False, True], ids=["run", "study"])
+def test_the_worker_imports_no_system_file_models(study: bool) -> None:
+    """The worker unpickles a compiled system and draws: the system file's pydantic models
+    (about 0.05 s of CPU to import) are not needed there, and a worker starts per run."""
+    probe = (
+        "import sys\n"
+        "from fmionnx.results import plotworker\n"
+        "plotworker.main()\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules}), file=sys.stderr)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe, *(["--study"] if study else [])],
+        stdin=subprocess.DEVNULL, capture_output=True, text=True, timeout=120, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    modules = set(ast.literal_eval(done.stderr.strip().splitlines()[-1]))
+    assert "matplotlib" in modules  # the worker's imports did run
+    assert "pydantic" not in modules
