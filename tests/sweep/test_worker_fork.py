@@ -101,6 +101,65 @@ def test_forked_workers_are_the_servers_children_with_dasks_budget_and_ctrl_c_ig
         assert {f["parent"] for f in again.values()} == {server}
 
 
+def _zygote_facts(fmu: str) -> dict[str, Any]:
+    """On a worker: its zygote (forked as the worker started), then the same after a run of
+    an isolated FMU in this worker (its child forked by that zygote)."""
+    from fmionnx.runtime.isolated import launcher
+
+    first = launcher.zygote_pid()
+    facts: dict[str, Any] = {"worker": os.getpid(), "zygote": first}
+    if first is not None:
+        status = Path(f"/proc/{first}/status").read_text()
+        facts["parent"] = int(status.split("PPid:")[1].split()[0])
+        facts["threads"] = int(status.split("Threads:")[1].split()[0])
+        facts["fds"] = len(list(Path(f"/proc/{first}/fd").iterdir()))
+        facts["same_program"] = (
+            Path(f"/proc/{first}/cmdline").read_bytes() == Path("/proc/self/cmdline").read_bytes()
+        )
+    folder = Path(fmu).parent
+    system = folder / f"zygote-{os.getpid()}.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: one\nrun: {stop: 0.05, step: 0.01}\n"
+        f"components:\n  gain: {{kind: fmu, path: {fmu}}}\n",
+        encoding="utf-8",
+    )
+    result = fmionnx.load(system).run(isolate="fmus")
+    facts["ran"] = len(result.time)
+    facts["zygote_after"] = launcher.zygote_pid()
+    return facts
+
+
+def test_each_forked_worker_forks_its_isolated_childrens_zygote_as_it_starts(
+    forked: None, tmp_path: Path
+) -> None:
+    """A zygote started as a new interpreter costs about 0.45 s of CPU per worker; forked
+    from the worker as it starts it is warm at once: the worker's own program, one thread,
+    only its socket and the standard descriptors, and the zygote the worker's isolated
+    children come from."""
+    import shutil
+
+    import cloudpickle
+
+    from fmionnx.backends.sweep.engine import open_client
+    from tests.conftest import build_fixture_fmu
+
+    cloudpickle.register_pickle_by_value(sys.modules[__name__])
+    fmu = tmp_path / "Gain.fmu"
+    shutil.copy(build_fixture_fmu("Gain"), fmu)
+    with open_client(workers=2) as client:
+        client.wait_for_workers(2)
+        facts = client.run(_zygote_facts, str(fmu))
+    for fact in facts.values():
+        assert fact["zygote"] is not None
+        assert fact["parent"] == fact["worker"]
+        assert fact["same_program"]  # a fork, not `python -m ...zygote`
+        assert fact["threads"] == 1
+        # stdin, stdout, stderr, its socket and its signal wake-up pipe: nothing of the nanny's
+        assert fact["fds"] == 6
+        assert fact["ran"] == 6
+        assert fact["zygote_after"] == fact["zygote"]  # the child came from it
+
+
 def test_a_study_on_forked_workers_gives_what_spawned_workers_give(
     write_study: WriteStudy, tmp_path: Path, request: pytest.FixtureRequest
 ) -> None:

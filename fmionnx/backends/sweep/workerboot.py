@@ -15,17 +15,20 @@ In this order, because a worker is a copy of the server:
    The libraries that read them do so when they are loaded, next.
 3. Dask's ``distributed`` and fmionnx's case modules are imported (the caller's case runner
    after them, :func:`.workerfork.start`): what every worker would import before its first
-   case, the runtime and every kind's module included. The models' libraries (MuJoCo,
-   PyOpenGL, onnxruntime, fmpy) are not: MuJoCo and PyOpenGL choose their GL platform from
-   the environment when imported (``MUJOCO_GL``, ``PYOPENGL_PLATFORM``), which a worker sets
-   (:mod:`fmionnx.kinds.mujoco.gl`), and onnxruntime starts a thread when imported, which a
-   fork would not copy.
+   case, the runtime and every kind's module included, and what an isolated child needs
+   (fmpy's runner, the native kernel). MuJoCo, PyOpenGL and onnxruntime are not: MuJoCo and
+   PyOpenGL choose their GL platform from the environment when imported (``MUJOCO_GL``,
+   ``PYOPENGL_PLATFORM``), which a worker sets (:mod:`fmionnx.kinds.mujoco.gl`), and
+   onnxruntime starts a thread when imported, which a fork would not copy.
+4. Each worker, as ``multiprocessing`` starts it and before Dask starts its threads, forks
+   its isolated children's zygote (:func:`_fork_zygote`), warm from the server's imports.
 """
 
 from __future__ import annotations
 
 import atexit
 import contextlib
+import multiprocessing.util
 import os
 import signal
 import sys
@@ -65,9 +68,12 @@ def boot() -> None:
     import fmionnx.runtime.isolated.proxy
     import fmionnx.runtime.master  # noqa: F401
     from fmionnx.kinds.registry import COMPONENT_KINDS
+    from fmionnx.runtime.isolated import zygote
 
     for _ in COMPONENT_KINDS.values():  # each kind's module, not its library
         pass
+    zygote.warm_up()  # what an isolated child needs: fmpy's runner, the native kernel
+    multiprocessing.util.register_after_fork(_WORKER_START, _fork_zygote)
 
 
 #: The fork server's process id (in the server and its workers), once :func:`boot` ran.
@@ -103,6 +109,29 @@ def _worker_dies_with_server() -> None:
     lifetime.die_with_parent()
     if os.getppid() != _server:  # the server died before the request took: end now
         os._exit(1)
+
+
+class _WorkerStart:
+    """The key of :func:`_fork_zygote` in ``multiprocessing``'s after-fork registry (a
+    weakly referenced object, kept alive here)."""
+
+
+_WORKER_START = _WorkerStart()
+
+
+def _fork_zygote(_: object) -> None:
+    """In a worker as ``multiprocessing`` starts it (still single-threaded, before Dask's
+    threads): fork its isolated children's zygote from it, warm at once.
+
+    A zygote started as a new interpreter imports for about 0.45 s of CPU, in every worker
+    of every study whose FMUs are isolated (16 workers: 16 starts); a fork of the worker,
+    which has everything imported from the server, costs a few milliseconds. A worker whose
+    cases isolate nothing keeps an idle zygote, which ends with it."""
+    if _server is None or os.getpid() == _server or os.getppid() != _server:
+        return
+    from fmionnx.runtime.isolated.launcher import fork_zygote
+
+    fork_zygote()
 
 
 def _end_at_once() -> None:

@@ -15,12 +15,15 @@ import atexit
 import contextlib
 import functools
 import json
+import math
 import os
 import signal
 import socket
 import subprocess
 import sys
 import threading
+import time
+import traceback
 from pathlib import Path
 from typing import Protocol
 
@@ -164,18 +167,19 @@ class ZygoteNotReadyError(ZygoteError):
 class Zygote:
     """This process's end of its zygote (see :mod:`.zygote`)."""
 
-    def __init__(self) -> None:
+    def __init__(self, *, forked: bool = False) -> None:
+        """Start the zygote as a new interpreter, or (``forked``) as a fork of this process,
+        which must be single-threaded and have what children need imported: a study's
+        worker as it starts (:func:`fork_zygote`). A fork is ready at once; an interpreter
+        imports for about half a second of CPU first."""
+        if forked and threading.active_count() != 1:
+            raise ZygoteError("a zygote is forked only from a single-threaded process")
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         self._socket = ours
         self._lock = threading.Lock()
-        argv = [sys.executable, "-m", "fmionnx.runtime.isolated.zygote", str(theirs.fileno())]
+        self._process: subprocess.Popen[bytes] | _ForkedZygote
         try:
-            self._process = subprocess.Popen(
-                argv,
-                pass_fds=(theirs.fileno(),),
-                stdin=subprocess.DEVNULL,
-                env=dict(os.environ, **ZYGOTE_ENVIRONMENT),
-            )
+            self._process = _forked(ours, theirs) if forked else _started(theirs)
         except OSError as exc:
             ours.close()
             raise ZygoteError(f"could not start: {exc}") from exc
@@ -236,6 +240,73 @@ class Zygote:
             return b"", []
         message, fds, _, _ = socket.recv_fds(self._socket, zygote.MAX_REQUEST, 2)
         return message, fds
+
+
+def _started(theirs: socket.socket) -> subprocess.Popen[bytes]:
+    argv = [sys.executable, "-m", "fmionnx.runtime.isolated.zygote", str(theirs.fileno())]
+    return subprocess.Popen(
+        argv,
+        pass_fds=(theirs.fileno(),),
+        stdin=subprocess.DEVNULL,
+        env=dict(os.environ, **ZYGOTE_ENVIRONMENT),
+    )
+
+
+def _forked(ours: socket.socket, theirs: socket.socket) -> _ForkedZygote:
+    pid = os.fork()
+    if pid == 0:  # the zygote: never return into the caller
+        code = 1
+        try:
+            ours.close()
+            code = zygote.forked(theirs)
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            os._exit(code)
+    return _ForkedZygote(pid)
+
+
+class _ForkedZygote:
+    """A forked zygote, as much of ``Popen`` as :class:`Zygote` uses (this process reaps it)."""
+
+    def __init__(self, pid: int) -> None:
+        self.pid = pid
+        self._ended = False
+
+    def wait(self, timeout: float | None = None) -> int:
+        """Wait for its exit; ``subprocess.TimeoutExpired`` after ``timeout`` seconds."""
+        if self._ended:
+            return 0
+        deadline = math.inf if timeout is None else time.monotonic() + timeout
+        while True:
+            try:
+                done, status = os.waitpid(self.pid, os.WNOHANG)
+            except ChildProcessError:  # reaped by someone else
+                done, status = self.pid, 0
+            if done == self.pid:
+                self._ended = True
+                return os.waitstatus_to_exitcode(status)
+            if time.monotonic() >= deadline:
+                raise subprocess.TimeoutExpired(f"zygote {self.pid}", timeout or 0.0)
+            time.sleep(0.01)
+
+    def kill(self) -> None:
+        if not self._ended:
+            with contextlib.suppress(ProcessLookupError):
+                os.kill(self.pid, signal.SIGKILL)
+
+
+def fork_zygote() -> bool:
+    """Fork this process's zygote now, if it has none and may have one: only while it is
+    single-threaded (a study's worker as it starts). False when it could not (the first
+    isolated child then starts one as usual)."""
+    if not zygote_wanted() or _no_zygote.get() is not None or _zygote.get() is not None:
+        return False
+    try:
+        _zygote.get_or_make(lambda: Zygote(forked=True))
+    except ZygoteError:
+        return False
+    return True
 
 
 #: This process's zygote; a forked process (the guardian's child) starts its own.

@@ -47,7 +47,7 @@ READY = b"ready"
 STATUS = struct.Struct("<i")
 
 
-def _warm_up() -> None:
+def warm_up() -> None:
     """Import what a child needs before it loads a model (the expensive part of its start)."""
     import fmionnx.runtime.isolated.server  # noqa: F401
     from fmionnx.kinds.registry import warm_up
@@ -185,10 +185,28 @@ def serve(server: socket.socket) -> None:
 
 def main(argv: list[str]) -> int:
     """``zygote SOCKET`` (an inherited descriptor)."""
+    return _run(socket.socket(fileno=int(argv[0])))
+
+
+def forked(server: socket.socket) -> int:
+    """Be the zygote in a process just forked from its supervisor (``launcher``'s
+    ``Zygote(forked=True)``), which was single-threaded and had :func:`warm_up` done (with
+    one BLAS thread: a study's worker forked by the fork server, :mod:`..sweep.workerboot`).
+
+    A forked zygote holds copies of its supervisor's descriptors: it keeps only ``server``
+    and the standard three (a pipe end kept open here would hide the supervisor's death from
+    whoever watches that pipe), and dies with the supervisor as a started one does with its
+    socket's close.
+    """
+    _close_all_but({server.fileno()})
+    lifetime.die_with_parent()
+    return _run(server)
+
+
+def _run(server: socket.socket) -> int:
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # Ctrl-C is the supervisor's to handle
     lifetime.set_subreaper(True)  # adopts what a child's model leaves when the child dies
-    server = socket.socket(fileno=int(argv[0]))
-    _warm_up()
+    warm_up()
     try:
         with contextlib.suppress(BrokenPipeError, ConnectionResetError):
             serve(server)  # either way it ends when the supervisor goes away
