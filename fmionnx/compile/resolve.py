@@ -11,7 +11,7 @@ from fmionnx.compile.typecheck import declared_note
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span, did_you_mean, one_of
 from fmionnx.core.errors import ModelError
-from fmionnx.core.resources import MAX_RANK, PORT_ELEMENTS, RANK_HINT
+from fmionnx.core.porttotal import check_port_total
 from fmionnx.core.specbase import ComponentSpecBase, ParameterLiteral
 from fmionnx.core.steps import (
     MAX_RUN_STEPS,
@@ -91,30 +91,6 @@ def read_interface(
         where = sources.value(("components", name, problem.key))
         bag.emit(problem.code, f"component `{name}`: {problem.message}", where, hint=problem.hint)
     return interface
-
-
-def check_port_total(interface: ComponentInterface) -> None:
-    """E008 when the ports of one model hold more elements together than allowed: each
-    port's buffer is allocated when the run starts, so sixteen ports at the per-port limit
-    would take gigabytes. A symbolic dimension counts 1 here, as in the runner (a
-    connection that fills it is bounded by the port on its other end). E013 for a port of
-    more dimensions than a buffer can have (:data:`~fmionnx.core.resources.MAX_RANK`)."""
-    largest = PORT_ELEMENTS.value()
-    total = 0
-    for port in interface.ports:
-        if len(port.shape) > MAX_RANK:
-            msg = (
-                f"`{interface.path.name}`: port `{port.name}` has {len(port.shape)} dimensions; "
-                f"fmionnx holds at most {MAX_RANK}"
-            )
-            raise ModelError(codes.UNSUPPORTED_MODEL, msg, hint=RANK_HINT)
-        total += math.prod(d for d in port.shape if isinstance(d, int))
-        if total > largest:
-            msg = (
-                f"`{interface.path.name}`: its ports hold more than {largest} elements "
-                f"together (at port `{port.name}`)"
-            )
-            raise PORT_ELEMENTS.exceeded(msg)
 
 
 def _flatten(value: ParameterLiteral) -> list[Scalar] | None:

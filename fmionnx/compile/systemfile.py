@@ -26,15 +26,14 @@ from pathlib import Path
 from typing import Any
 
 from fmionnx.compile.ir import CompiledSystem
-from fmionnx.compile.resolve import check_port_total
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.datacodec import Codec
 from fmionnx.core.errors import FmionnxError, ModelError
-from fmionnx.core.modelfiles import ShippingError, copy_model_files
+from fmionnx.core.modelfiles import NO_MODEL_FILE, ShippingError, copy_model_files
+from fmionnx.core.porttotal import check_port_total
 from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES, LIMIT_CODE
 from fmionnx.core.safewrite import refuse, write_text_atomic
-from fmionnx.core.specbase import NO_MODEL_FILE
 from fmionnx.core.steps import (
     MAX_EXACT_STEPS,
     count_problem,

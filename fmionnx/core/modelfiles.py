@@ -23,6 +23,12 @@ from pathlib import Path, PurePosixPath
 
 from fmionnx.core.errors import FmionnxError
 
+#: The ``path`` of an entry without a model file. A kind whose entry can be its own model (its
+#: definition is written in the system file) gives ``path`` this default in its model; for every
+#: other kind ``path`` stays required and non-empty. (Here, not with the system file's models:
+#: a compiled system read back needs it, and none of pydantic.)
+NO_MODEL_FILE = ""
+
 #: Bytes all the files of one model may take together when shipped.
 MAX_SHIPPED_BYTES = 2 * 1024**3
 #: Files one model may ship.

@@ -5,14 +5,12 @@ from __future__ import annotations
 from pydantic import BaseModel, ConfigDict, Field
 from pydantic import main as _pydantic_main
 
+from fmionnx.core.modelfiles import NO_MODEL_FILE
+
 #: A scalar in a system file. ``bool`` first so that ``true`` stays a bool, not 1.
 ScalarLiteral = bool | int | float | str
 #: A parameter or start value: a scalar, a list, or a list of lists (row-major).
 ParameterLiteral = ScalarLiteral | list[ScalarLiteral] | list[list[ScalarLiteral]]
-#: The ``path`` of an entry without a model file. A kind whose entry can be its own model (its
-#: definition is written in the system file) gives ``path`` this default in its model; for every
-#: other kind ``path`` stays required and non-empty.
-NO_MODEL_FILE = ""
 
 
 #: Whether a model's validator is built on first use instead of at import: a process that only

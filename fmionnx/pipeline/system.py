@@ -22,7 +22,6 @@ from fmionnx.compile.overrides import (
     override_stop,
 )
 from fmionnx.compile.runflags import RunFlags, apply_run_flags, mark_command_line
-from fmionnx.compile.single import check_single_model, compile_single_model
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity
 from fmionnx.core.errors import DiagnosticError
 from fmionnx.core.types import Causality, PortRef, Scalar
@@ -126,6 +125,10 @@ def load(
         return System(read_compiled(target, models=models), source=target)
     bag = DiagnosticBag()
     if target.suffix.lower() in MODEL_SUFFIXES:
+        # A single model's spec is a pydantic model: loaded only for one (a system file read
+        # back from the compile cache needs none of it).
+        from fmionnx.compile.single import compile_single_model
+
         compiled = compile_single_model(target, bag, interface=interface, step=step, start=start)
         if compiled is not None:
             compiled = mark_command_line(compiled, flags)
@@ -232,6 +235,8 @@ def check_model(path: str | Path) -> CompileResult:
     strict shape inference for an ONNX model, MuJoCo's compiler for a scene.
     """
     bag = DiagnosticBag()
+    from fmionnx.compile.single import check_single_model
+
     system = check_single_model(Path(path), bag)
     diagnostics = tuple(bag.sorted())
     if any(d.severity is Severity.ERROR for d in diagnostics):

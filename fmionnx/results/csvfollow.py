@@ -11,7 +11,7 @@ work goes to the process that is idle while the run goes on anyway: the plot wor
   guardian child's recorder), which the worker inherits.
 - The worker's first message is a :class:`FollowRows`; it then formats the rows published
   so far in pieces (:class:`~fmionnx.results.csvahead.CsvAhead`, small pieces: what is left
-  at the end is at most one), on CPU time nothing else wants, until the job arrives.
+  at the end is at most one), in a thread of low priority, until the job arrives.
 - With the job (``PlotJob.results_csv``) the worker writes ``results.csv`` itself, through
   :func:`~fmionnx.results.csvfile.write_csv` with the pieces whose values are the result's
   bit for bit (the rest formatted then), beside its figures. If it cannot, the run's
@@ -30,7 +30,7 @@ from typing import TYPE_CHECKING
 
 from fmionnx.core.cores import usable_cores
 from fmionnx.core.switches import switched_off, switched_on
-from fmionnx.results.csvahead import PIECE_ROWS, SWITCH, CsvAhead
+from fmionnx.results.csvahead import SWITCH, CsvAhead
 
 if TYPE_CHECKING:
     from fmionnx.runtime.published import Published
@@ -39,6 +39,14 @@ LOG = logging.getLogger("fmionnx.results")
 
 #: The smallest piece while following: each piece costs a few calls per column.
 MIN_PIECE_ROWS = 1024
+#: The largest piece while following: the job waits for the piece under way when it comes,
+#: formatted by a thread of low priority (about 30 ms of CPU for 2 048 rows of 30 columns).
+MAX_PIECE_ROWS = 2048
+#: The follower thread's nice value: it yields to the run (and to anything else busy), yet
+#: finishes the piece under way soon when the job comes. At ``SCHED_IDLE`` a loaded machine
+#: could leave it a fraction of a percent of a core for that piece (the job waits for it),
+#: and a thread cannot be given its priority back once lowered.
+FOLLOWER_NICE = 10
 #: Pieces per run at least (fewer rows each, down to :data:`MIN_PIECE_ROWS`), so that the
 #: rows left for the end are a small share of a short run's.
 PIECES_PER_RUN = 32
@@ -63,15 +71,19 @@ class FollowRows:
     @property
     def piece_rows(self) -> int:
         """Rows per piece: a 32nd of the table, between :data:`MIN_PIECE_ROWS` and
-        :data:`~fmionnx.results.csvahead.PIECE_ROWS`."""
+        :data:`MAX_PIECE_ROWS`."""
         rows = self.steps // max(1, self.every) + 1
-        return max(MIN_PIECE_ROWS, min(PIECE_ROWS, rows // PIECES_PER_RUN))
+        return max(MIN_PIECE_ROWS, min(MAX_PIECE_ROWS, rows // PIECES_PER_RUN))
 
 
 def wanted() -> bool:
-    """Whether an in-process run's plot worker follows its rows: ``FMIONNX_CSV_AHEAD=0``
-    never, ``=1`` always, unset with :data:`MIN_CORES` usable cores or more."""
-    if switched_off(SWITCH):
+    """Whether an in-process run's plot worker (where it has one: a second core, plots to
+    draw) follows its rows: ``FMIONNX_CSV_AHEAD=0`` never, ``=1`` whatever the cores, unset
+    with :data:`MIN_CORES` usable cores or more. Never without a shared file to record into
+    (Linux's ``memfd_create``: the guardian's)."""
+    from fmionnx.runtime.guardian import available
+
+    if switched_off(SWITCH) or available() is not None:
         return False
     return switched_on(SWITCH) or usable_cores() >= MIN_CORES
 
@@ -81,11 +93,9 @@ def follow_until_readable(message: FollowRows, fd: int) -> CsvAhead | None:
     readable: the job came, or the run's process closed it. None when the rows cannot be
     followed (the file is not sealed); the caller then waits for the job as usual.
 
-    The formatting runs in a thread of the lowest priority (``SCHED_IDLE``): it takes only
-    CPU time nothing else wants. Where the run keeps every core busy (on two cores the loop
-    and MuJoCo's software renderer do) a worker formatting at normal priority slowed the
-    loop by as much as it saved after it; there, the rows are formatted at the end as
-    before. The thread has ended when this returns: the worker then forks its drawing copies.
+    The formatting runs in a thread of low priority (:data:`FOLLOWER_NICE`): it yields to
+    the run's processes. The thread has ended when this returns: the worker then forks its
+    drawing copies, which a running thread could leave with a lock held.
     """
     from fmionnx.runtime.guardian import follow_rows
 
@@ -108,8 +118,8 @@ def follow_until_readable(message: FollowRows, fd: int) -> CsvAhead | None:
 
 
 def _follow(ahead: CsvAhead, published: Published, stop: threading.Event) -> None:
-    """The follower thread's body: :func:`format_published` at the lowest priority."""
-    idle()
+    """The follower thread's body: :func:`format_published` at low priority."""
+    lower_priority()
     format_published(ahead, published, stop)
 
 
@@ -123,15 +133,11 @@ def format_published(ahead: CsvAhead, published: Published, stop: threading.Even
         LOG.debug("results.csv: following the run's rows failed", exc_info=True)
 
 
-def idle() -> None:
-    """Give the calling thread the lowest priority there is (``SCHED_IDLE``, else nice 19);
-    the rest of its process keeps its own."""
-    tid = threading.get_native_id()
-    try:
-        os.sched_setscheduler(tid, os.SCHED_IDLE, os.sched_param(0))
-    except (OSError, AttributeError):
-        with contextlib.suppress(OSError, AttributeError):
-            os.setpriority(os.PRIO_PROCESS, tid, 19)
+def lower_priority() -> None:
+    """Give the calling thread the nice value :data:`FOLLOWER_NICE` (Linux's nice values are
+    per thread); the rest of its process keeps its own."""
+    with contextlib.suppress(OSError, AttributeError):
+        os.setpriority(os.PRIO_PROCESS, threading.get_native_id(), FOLLOWER_NICE)
 
 
-__all__ = ["FollowRows", "follow_until_readable", "format_published", "idle", "wanted"]
+__all__ = ["FollowRows", "follow_until_readable", "format_published", "lower_priority", "wanted"]

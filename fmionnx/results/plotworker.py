@@ -115,28 +115,25 @@ class PlotWorker:
         #: Rows of results.csv the worker formatted while the run went on (after collect).
         self.rows_ahead = 0
         if follow is not None:
-            from fmionnx.runtime.guardian import RowsShared
-
-            rows = RowsShared()
-            if rows.sealed:
-                self.rows = rows
-            else:  # a follower could not map it safely: the run records privately
-                rows.close()
-        self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
-            [sys.executable, "-m", __name__, *(["--study"] if study else [])],
-            stdin=subprocess.PIPE,
-            stdout=subprocess.PIPE,
-            env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
-            # Out of the terminal's process group: its Ctrl-C is the parent's alone. The worker
-            # ignores SIGINT once its code runs, but a Ctrl-C during its imports (a third of a
-            # second) printed a KeyboardInterrupt traceback. It still ends with its parent
-            # (stdin closes), and ignores the terminal's job control (see main).
-            process_group=0,
-            pass_fds=() if self.rows is None else (self.rows.fd,),
-        )
+            self.rows = _shared_rows()
+        try:
+            self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
+                [sys.executable, "-m", __name__, *(["--study"] if study else [])],
+                stdin=subprocess.PIPE,
+                stdout=subprocess.PIPE,
+                env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
+                # Out of the terminal's process group: its Ctrl-C is the parent's alone. The
+                # worker ignores SIGINT once its code runs, but a Ctrl-C during its imports (a
+                # third of a second) printed a KeyboardInterrupt traceback. It still ends with
+                # its parent (stdin closes), and ignores the terminal's job control (see main).
+                process_group=0,
+                pass_fds=() if self.rows is None else (self.rows.fd,),
+            )
+        except OSError:
+            if self.rows is not None:
+                self.rows.close()
+            raise
         if follow is not None and self.rows is not None:
-            from fmionnx.results.csvfollow import FollowRows
-
             run = follow.run
             message = FollowRows(self.rows.fd, run.steps, run.start, run.step, run.output_every)
             if not self._send(message):
@@ -208,6 +205,22 @@ class PlotWorker:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+def _shared_rows() -> RowsShared | None:
+    """A sealed shared file for the run's rows, or None where there is none to be had (no
+    ``memfd_create`` off Linux, a file that cannot be sealed, no descriptor left): the run
+    then records privately and this process formats results.csv at its end."""
+    from fmionnx.runtime.guardian import RowsShared
+
+    try:
+        rows = RowsShared()
+    except (OSError, AttributeError):
+        return None
+    if not rows.sealed:  # a follower could not map it safely
+        rows.close()
+        return None
+    return rows
 
 
 def start(*, study: bool = False, follow: CompiledSystem | None = None) -> PlotWorker | None:

@@ -225,8 +225,14 @@ class RowsShared:
         return SharedRecorder(self._registry)
 
     def close(self) -> None:
-        """Close this process's descriptor (the recorder's mappings stay valid)."""
+        """Close this process's descriptor (the recorder's mappings stay valid), and let go
+        of the tracks: the registry and its tracks refer to each other, and a long-lived
+        process (a notebook, a program running many systems) would keep the file's pages
+        until a full garbage collection."""
         self._shared.close()
+        with self._registry.lock:
+            self._registry.tracks.clear()
+            self._registry.recorders.clear()
 
 
 def follow_rows(fd: int, steps: int) -> Published | None:

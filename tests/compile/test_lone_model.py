@@ -63,7 +63,7 @@ def assert_same(path: Path, spec: ComponentSpecBase, run: RunSpec) -> CompiledSy
 
 
 def fmu_spec(path: Path, **fields: Any) -> ComponentSpecBase:
-    from fmionnx.kinds.fmu.kind import FmuSpec
+    from fmionnx.kinds.fmu.spec import FmuSpec
 
     return FmuSpec(path=str(path.resolve()), **fields)
 
@@ -109,7 +109,7 @@ def test_settings_and_their_errors_are_the_same(
 
 def test_an_onnx_model_compiles_alone_as_in_a_system_file(tmp_path: Path) -> None:
     onnx = pytest.importorskip("onnx")
-    from fmionnx.kinds.onnx.kind import OnnxSpec
+    from fmionnx.kinds.onnx.spec import OnnxSpec
     from tests.fixtures.onnx.build_models import scale
 
     path = tmp_path / "scale.onnx"

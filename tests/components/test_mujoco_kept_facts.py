@@ -15,7 +15,8 @@ import pytest
 
 from fmionnx.core.cachedir import cache_folder
 from fmionnx.kinds.mujoco import keptfacts
-from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, MujocoSpec
+from fmionnx.kinds.mujoco.kind import MUJOCO_KIND
+from fmionnx.kinds.mujoco.spec import MujocoSpec
 from tests.conftest import REPO
 from tests.keptstores import entries, forge
 
@@ -170,7 +171,8 @@ def test_switched_off_nothing_is_kept(tmp_path: Path, monkeypatch) -> None:
 CHECK = """
 import sys
 from pathlib import Path
-from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, MujocoSpec
+from fmionnx.kinds.mujoco.kind import MUJOCO_KIND
+from fmionnx.kinds.mujoco.spec import MujocoSpec
 scene = Path(sys.argv[1])
 MUJOCO_KIND.read_interface(scene, MujocoSpec(path=scene.name))
 MUJOCO_KIND.sites(scene)

@@ -9,7 +9,8 @@ import pytest
 from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Causality, DType
-from fmionnx.kinds.mujoco.kind import MUJOCO_KIND, CameraSpec, MujocoSpec
+from fmionnx.kinds.mujoco.kind import MUJOCO_KIND
+from fmionnx.kinds.mujoco.spec import CameraSpec, MujocoSpec
 
 
 def _spec(**cameras: CameraSpec) -> MujocoSpec:

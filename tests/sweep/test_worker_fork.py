@@ -113,6 +113,8 @@ def _zygote_facts(fmu: str) -> dict[str, Any]:
         facts["parent"] = int(status.split("PPid:")[1].split()[0])
         facts["threads"] = int(status.split("Threads:")[1].split()[0])
         facts["fds"] = len(list(Path(f"/proc/{first}/fd").iterdir()))
+        facts["cores"] = sorted(os.sched_getaffinity(first))
+        facts["worker_cores"] = sorted(os.sched_getaffinity(0))
         facts["same_program"] = (
             Path(f"/proc/{first}/cmdline").read_bytes() == Path("/proc/self/cmdline").read_bytes()
         )
@@ -149,15 +151,25 @@ def test_each_forked_worker_forks_its_isolated_childrens_zygote_as_it_starts(
     with open_client(workers=2) as client:
         client.wait_for_workers(2)
         facts = client.run(_zygote_facts, str(fmu))
-    for fact in facts.values():
-        assert fact["zygote"] is not None
-        assert fact["parent"] == fact["worker"]
-        assert fact["same_program"]  # a fork, not `python -m ...zygote`
-        assert fact["threads"] == 1
-        # stdin, stdout, stderr, its socket and its signal wake-up pipe: nothing of the nanny's
-        assert fact["fds"] == 6
-        assert fact["ran"] == 6
-        assert fact["zygote_after"] == fact["zygote"]  # the child came from it
+        for fact in facts.values():
+            assert fact["zygote"] is not None
+            assert fact["parent"] == fact["worker"]
+            assert fact["same_program"]  # a fork, not `python -m ...zygote`
+            assert fact["threads"] == 1
+            # stdin, stdout, stderr, its socket (and its signal wake-up pipe once it serves):
+            # nothing of the nanny's, which would hide the worker's death from it
+            assert fact["fds"] in (4, 6)
+            assert fact["cores"] == fact["worker_cores"]  # pinned with its worker
+            assert fact["ran"] == 6
+            assert fact["zygote_after"] == fact["zygote"]  # the child came from it
+        # A worker killed outright: its zygote sees its socket close and ends (its children
+        # and what their models started with it).
+        killed = next(iter(facts.values()))
+        os.kill(killed["worker"], signal.SIGKILL)
+        deadline = time.monotonic() + 30
+        while Path(f"/proc/{killed['zygote']}").exists():
+            assert time.monotonic() < deadline, "the zygote outlived its worker"
+            time.sleep(0.05)
 
 
 def test_a_study_on_forked_workers_gives_what_spawned_workers_give(

@@ -64,4 +64,18 @@ def dask_setup(worker: Any) -> None:
     if not shares or not name.isdigit():
         return
     with contextlib.suppress(OSError, ValueError, TypeError):
-        pin_process([int(core) for core in shares[int(name) % len(shares)]])
+        cores = [int(core) for core in shares[int(name) % len(shares)]]
+        pin_process(cores)
+        _pin_zygote(cores)
+
+
+def _pin_zygote(cores: list[int]) -> None:
+    """The worker's zygote too, when it was forked before this hook (a forked worker forks it
+    as it starts, :mod:`.workerboot`): single-threaded, its children forked later inherit
+    its cores as they would the worker's."""
+    from fmionnx.runtime.isolated.launcher import zygote_pid
+
+    pid = zygote_pid()
+    if pid is not None:
+        with contextlib.suppress(OSError):
+            os.sched_setaffinity(pid, cores)

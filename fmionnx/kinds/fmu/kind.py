@@ -13,11 +13,8 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any, Literal
 
-from pydantic import Field
-
 from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
-from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, Experiment, KindConfig
 from fmionnx.core.xmlsafe import parse_safely
 from fmionnx.kinds.base import FMI, Display, KindProblem, RoleDefault
@@ -40,6 +37,7 @@ from fmionnx.kinds.fmu.ports import ports_from_model_description
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.runner import Runner, Wiring
+    from fmionnx.core.specbase import ComponentSpecBase
 
 #: Facts written by this kind (a key is present only when the FMU states it).
 FACT_KEYS = (
@@ -71,23 +69,6 @@ FACT_KEYS = (
 PLATFORM_FOLDERS = ("linux64", "x86_64-linux")
 
 
-class FmuSpec(ComponentSpecBase):
-    """System-file keys of an ``fmu`` component."""
-
-    kind: Literal["fmu"] = "fmu"
-    interface: Literal["cs", "me"] | None = Field(
-        default=None,
-        description="Interface type to use; default: co-simulation when offered, else model "
-        "exchange.",
-    )
-    solver: Literal["cvode", "euler"] = Field(
-        default="cvode", description="Model exchange only: integrator between communication points."
-    )
-    tolerance: float | None = Field(
-        default=None, gt=0, description="Model exchange only: relative tolerance of CVode."
-    )
-
-
 @dataclass(frozen=True, slots=True)
 class FmuConfig(KindConfig):
     """Resolved settings of an FMU component: the interface type is decided at compile time."""
@@ -102,7 +83,6 @@ class FmuKind:
     """Reads FMU interfaces from ``modelDescription.xml`` (via fmpy)."""
 
     name = "fmu"
-    spec_model = FmuSpec
     config_type = FmuConfig
     suffixes = (".fmu",)
     summary = "Functional Mock-up Unit (FMI 2.0/3.0, CS/ME)"
@@ -117,11 +97,20 @@ class FmuKind:
     )
     ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
 
+    @property
+    def spec_model(self) -> type[ComponentSpecBase]:
+        """The entry's pydantic model (:mod:`.spec`), loaded on first use."""
+        from fmionnx.kinds.fmu.spec import FmuSpec
+
+        return FmuSpec
+
     def check(
         self, spec: ComponentSpecBase, interface: ComponentInterface
     ) -> tuple[KindProblem, ...]:
         """E016 for an interface type the FMU does not offer; E015 without a binary for here;
         E025 for clocks the model needs; E024 for functions its library lacks."""
+        from fmionnx.kinds.fmu.spec import FmuSpec  # pydantic: loaded with the entry
+
         assert isinstance(spec, FmuSpec)
         problems = []
         offered = (interface.fact("interfaceTypes") or "").split(",")
@@ -171,6 +160,8 @@ class FmuKind:
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> FmuConfig:
         """Co-simulation when the FMU offers it and the entry does not ask for ME."""
+        from fmionnx.kinds.fmu.spec import FmuSpec  # pydantic: loaded with the entry
+
         assert isinstance(spec, FmuSpec)
         offered = (interface.fact("interfaceTypes") or "cs").split(",")
         chosen = spec.interface or ("cs" if "cs" in offered else "me")

@@ -8,9 +8,6 @@ from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Literal
 
-from pydantic import Field
-
-from fmionnx.core.specbase import ComponentSpecBase, StrictModel
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
 from fmionnx.kinds.base import (
     CAMERA,
@@ -28,28 +25,7 @@ from fmionnx.kinds.base import (
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.modelfiles import ModelFile
     from fmionnx.core.runner import Runner, Wiring
-
-
-class CameraSpec(StrictModel):
-    """Offscreen rendering of one named camera of the scene."""
-
-    width: int = Field(default=640, ge=1, le=8192)
-    height: int = Field(default=480, ge=1, le=8192)
-
-
-class MujocoSpec(ComponentSpecBase):
-    """System-file keys of a ``mujoco`` component."""
-
-    kind: Literal["mujoco"] = "mujoco"
-    cameras: dict[str, CameraSpec] = Field(
-        default_factory=dict,
-        description="Cameras to render, by name in the scene; each becomes an output port "
-        "`uint8[height,width,3]`. Rendered only when a consumer is due.",
-    )
-    gl: Literal["auto", "egl", "osmesa"] = Field(
-        default="auto",
-        description="Offscreen OpenGL backend; `auto` tries EGL then OSMesa (MUJOCO_GL wins).",
-    )
+    from fmionnx.core.specbase import ComponentSpecBase
 
 
 @dataclass(frozen=True, slots=True)
@@ -83,7 +59,6 @@ class MujocoKind:
     """Reads a MuJoCo scene's sensors, actuators and cameras."""
 
     name = "mujoco"
-    spec_model = MujocoSpec
     config_type = MujocoConfig
     suffixes = (".xml", ".mjcf", ".mjb")
     summary = "MuJoCo physics scene (sensors, actuators, cameras)"
@@ -104,6 +79,13 @@ class MujocoKind:
         ("base_quat", "output"): RoleDefault("odom", _ODOMETRY, _ORIENTATION),
     }
 
+    @property
+    def spec_model(self) -> type[ComponentSpecBase]:
+        """The entry's pydantic model (:mod:`.spec`), loaded on first use."""
+        from fmionnx.kinds.mujoco.spec import MujocoSpec
+
+        return MujocoSpec
+
     def check(
         self, spec: ComponentSpecBase, interface: ComponentInterface
     ) -> tuple[KindProblem, ...]:
@@ -117,6 +99,8 @@ class MujocoKind:
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> MujocoConfig:
         """Cameras in the order the entry lists them."""
+        from fmionnx.kinds.mujoco.spec import MujocoSpec  # pydantic: loaded with the entry
+
         assert isinstance(spec, MujocoSpec)
         cameras = tuple(CameraConfig(n, c.width, c.height) for n, c in spec.cameras.items())
         return MujocoConfig(cameras=cameras, gl=spec.gl)
@@ -180,6 +164,8 @@ class MujocoKind:
         from fmionnx.kinds.mujoco.interface import read_mujoco_interface
 
         cameras = None
+        from fmionnx.kinds.mujoco.spec import MujocoSpec  # pydantic: loaded with the entry
+
         if isinstance(spec, MujocoSpec):
             cameras = {name: (c.width, c.height) for name, c in spec.cameras.items()}
         return read_mujoco_interface(path, cameras)

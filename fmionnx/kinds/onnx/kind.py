@@ -5,36 +5,15 @@ from __future__ import annotations
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal
+from typing import TYPE_CHECKING
 
-from pydantic import Field
-
-from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
 from fmionnx.kinds.base import EVALUATED_AT_START, TIMELESS, Display, KindProblem, RoleDefault
 from fmionnx.kinds.onnx.units import unit_problems, with_units
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.runner import Runner, Wiring
-
-
-class OnnxSpec(ComponentSpecBase):
-    """System-file keys of an ``onnx`` component."""
-
-    kind: Literal["onnx"] = "onnx"
-    providers: list[str] = Field(
-        default_factory=lambda: ["CPUExecutionProvider"],
-        description="onnxruntime execution providers, in order of preference.",
-    )
-    threads: int | None = Field(
-        default=None, ge=1, description="Intra-op threads of the session (default: onnxruntime's)."
-    )
-    units: dict[str, str] = Field(
-        default_factory=dict,
-        description="Units of ports by port name (`{speed: km/h}`): an ONNX graph declares "
-        "none. Built-in names (m, km, s, h, m/s, km/h, rad, deg, K, degC, N ...) are converted "
-        "on connections; other names are compared as written.",
-    )
+    from fmionnx.core.specbase import ComponentSpecBase
 
 
 @dataclass(frozen=True, slots=True)
@@ -50,7 +29,6 @@ class OnnxKind:
     """Reads ONNX graph signatures."""
 
     name = "onnx"
-    spec_model = OnnxSpec
     config_type = OnnxConfig
     suffixes = (".onnx",)
     summary = "ONNX model run by onnxruntime"
@@ -65,10 +43,19 @@ class OnnxKind:
     )
     ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
 
+    @property
+    def spec_model(self) -> type[ComponentSpecBase]:
+        """The entry's pydantic model (:mod:`.spec`), loaded on first use."""
+        from fmionnx.kinds.onnx.spec import OnnxSpec
+
+        return OnnxSpec
+
     def check(
         self, spec: ComponentSpecBase, interface: ComponentInterface
     ) -> tuple[KindProblem, ...]:
         """``units`` names ports of the graph and gives each a unit name (E018)."""
+        from fmionnx.kinds.onnx.spec import OnnxSpec  # pydantic: loaded with the entry
+
         assert isinstance(spec, OnnxSpec)
         return unit_problems(spec.units, interface)
 
@@ -80,6 +67,8 @@ class OnnxKind:
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> OnnxConfig:
         """Providers and threads as given."""
+        from fmionnx.kinds.onnx.spec import OnnxSpec  # pydantic: loaded with the entry
+
         assert isinstance(spec, OnnxSpec)
         return OnnxConfig(providers=tuple(spec.providers), threads=spec.threads)
 
@@ -107,6 +96,8 @@ class OnnxKind:
         from fmionnx.kinds.onnx.interface import read_onnx_interface
 
         interface = read_onnx_interface(path)
+        from fmionnx.kinds.onnx.spec import OnnxSpec  # pydantic: loaded with the entry
+
         if isinstance(spec, OnnxSpec) and spec.units:
             interface = with_units(interface, spec.units)
         return interface

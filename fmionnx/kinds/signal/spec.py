@@ -7,7 +7,8 @@ from typing import Final, Literal
 
 from pydantic import Field, field_validator, model_validator
 
-from fmionnx.core.specbase import NO_MODEL_FILE, ComponentSpecBase, StrictModel
+from fmionnx.core.modelfiles import NO_MODEL_FILE
+from fmionnx.core.specbase import ComponentSpecBase, StrictModel
 
 NAME: Final = "signal"
 #: Port names a signal may define: plain identifiers, safe in endpoints and ROS 2 names.

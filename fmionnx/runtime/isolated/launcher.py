@@ -172,7 +172,7 @@ class Zygote:
         which must be single-threaded and have what children need imported: a study's
         worker as it starts (:func:`fork_zygote`). A fork is ready at once; an interpreter
         imports for about half a second of CPU first."""
-        if forked and threading.active_count() != 1:
+        if forked and _threads() != 1:
             raise ZygoteError("a zygote is forked only from a single-threaded process")
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         self._socket = ours
@@ -303,10 +303,20 @@ def fork_zygote() -> bool:
     if not zygote_wanted() or _no_zygote.get() is not None or _zygote.get() is not None:
         return False
     try:
-        _zygote.get_or_make(lambda: Zygote(forked=True))
+        made = Zygote(forked=True)  # not under the slot's lock: the fork would copy it held
     except ZygoteError:
         return False
+    if _zygote.get_or_make(lambda: made) is not made:  # another thread's meanwhile
+        made.close()
     return True
+
+
+def _threads() -> int:
+    """Threads of this process, every one (Python's and native libraries' alike)."""
+    try:
+        return sum(1 for _ in Path("/proc/self/task").iterdir())
+    except OSError:
+        return threading.active_count()
 
 
 #: This process's zygote; a forked process (the guardian's child) starts its own.

@@ -195,11 +195,11 @@ def forked(server: socket.socket) -> int:
 
     A forked zygote holds copies of its supervisor's descriptors: it keeps only ``server``
     and the standard three (a pipe end kept open here would hide the supervisor's death from
-    whoever watches that pipe), and dies with the supervisor as a started one does with its
-    socket's close.
+    whoever watches that pipe). It ends as a started one does, when the supervisor's end of
+    the socket closes (the supervisor exited or was killed), ending its children and what
+    their models started on the way out; no death signal, which would kill it before that.
     """
     _close_all_but({server.fileno()})
-    lifetime.die_with_parent()
     return _run(server)
 
 
