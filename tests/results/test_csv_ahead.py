@@ -23,17 +23,6 @@ from fmionnx.runtime.result import RunOptions, RunResult, RunStatus
 from tests.backends.test_isolation import SEGFAULT
 from tests.backends.test_native_group import _multi_rate
 
-
-@pytest.fixture
-def write_system(tmp_path: Path):  # as tests/backends' fixture
-    def write(text: str) -> Path:
-        path = tmp_path / "system.yaml"
-        path.write_text(text, encoding="utf-8")
-        return path
-
-    return write
-
-
 #: Base steps: beyond three pieces, and beyond the 65 536 rows a shared track reserves first
 #: (so the tracks moved once while the guardian read them).
 STEPS = 70_000

@@ -31,16 +31,6 @@ from tests.conftest import build_fixture_fmu
 from tests.results.test_plot_worker import SYSTEM
 
 
-@pytest.fixture
-def write_system(tmp_path: Path):  # as tests/backends' fixture
-    def write(text: str) -> Path:
-        path = tmp_path / "system.yaml"
-        path.write_text(text, encoding="utf-8")
-        return path
-
-    return write
-
-
 def _longer(path: Path, steps: int, interval: str = "") -> Path:
     text = path.read_text(encoding="utf-8")
     run = f"run: {{stop: {steps * 0.01:g}, step: 0.01{interval}}}"
