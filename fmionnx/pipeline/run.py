@@ -353,9 +353,12 @@ def _run_options(
 
 def _csv_ahead(system: System, options: BackendOptions, out: Path | None) -> CsvAhead | None:
     """A run that publishes its rows while it goes gets results.csv formatted meanwhile."""
-    if not options.publishes_rows or out is None or not _ahead_wanted():
+    if not options.publishes_rows or out is None:
         return None
-    from fmionnx.results.csvahead import CsvAhead
+    from fmionnx.results.csvahead import CsvAhead, allowed
+
+    if not allowed():
+        return None
 
     return CsvAhead.of(system.compiled)
 
@@ -384,15 +387,6 @@ def _follows(backend: Backend) -> bool:
     from fmionnx.runtime.guardian import BACKEND_NAME
 
     return backend.name == BACKEND_NAME and wanted()
-
-
-def _ahead_wanted() -> bool:
-    """Whether a guarded run's results.csv may be formatted while it goes on
-    (``FMIONNX_CSV_AHEAD=0``: only at its end, as the results are written)."""
-    from fmionnx.core.switches import switched_off
-    from fmionnx.results.csvahead import SWITCH
-
-    return not switched_off(SWITCH)
 
 
 def _finish(

@@ -31,12 +31,21 @@ import numpy as np
 import numpy.typing as npt
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core.switches import switched_off
 from fmionnx.runtime.published import Published, TailPiece
 from fmionnx.runtime.result import RunResult
 
 #: The environment variable that leaves results.csv to be formatted at the run's end (``0``):
 #: neither the guardian nor a plot worker formats rows while the run goes on.
 SWITCH = "FMIONNX_CSV_AHEAD"
+
+
+def allowed() -> bool:
+    """Whether results.csv may be formatted while a run goes on at all (not
+    ``FMIONNX_CSV_AHEAD=0``): by the guardian, or by a plot worker (:mod:`.csvfollow`)."""
+    return not switched_off(SWITCH)
+
+
 #: Rows formatted per piece: small enough that little is left when the run ends, large
 #: enough that the per-call cost of formatting stays negligible.
 PIECE_ROWS = 8192
@@ -153,4 +162,4 @@ class CsvAhead:
         return later if later in self._pieces else None
 
 
-__all__ = ["MAX_AHEAD_BYTES", "PIECE_ROWS", "SWITCH", "CsvAhead"]
+__all__ = ["MAX_AHEAD_BYTES", "PIECE_ROWS", "SWITCH", "CsvAhead", "allowed"]

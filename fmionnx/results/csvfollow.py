@@ -29,8 +29,8 @@ from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from fmionnx.core.cores import usable_cores
-from fmionnx.core.switches import switched_off, switched_on
-from fmionnx.results.csvahead import SWITCH, CsvAhead
+from fmionnx.core.switches import switched_on
+from fmionnx.results.csvahead import SWITCH, CsvAhead, allowed
 
 if TYPE_CHECKING:
     from fmionnx.runtime.published import Published
@@ -83,7 +83,7 @@ def wanted() -> bool:
     (Linux's ``memfd_create``: the guardian's)."""
     from fmionnx.runtime.guardian import available
 
-    if switched_off(SWITCH) or available() is not None:
+    if not allowed() or available() is not None:
         return False
     return switched_on(SWITCH) or usable_cores() >= MIN_CORES
 
