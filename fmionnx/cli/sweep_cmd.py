@@ -1,11 +1,12 @@
 """``fmionnx sweep``: run a study's cases on a local or an existing Dask cluster.
 
-Dask, pandas and pyarrow are imported inside the command (through :mod:`fmionnx.pipeline.sweep`),
+Dask and pyarrow are imported inside the command (through :mod:`fmionnx.pipeline.sweep`),
 never when the CLI starts: ``fmionnx --help`` must not pay for them.
 """
 
 from __future__ import annotations
 
+import collections
 import sys
 from pathlib import Path
 from typing import TYPE_CHECKING, Annotated
@@ -107,7 +108,7 @@ def sweep(
         raise _interrupted(console, out, exc) from None
     if not quiet:
         _summary(console, result)
-    failed = int((result.table["status"] != "ok").sum())
+    failed = sum(status != "ok" for status in result.cases.column("status"))
     if failed:
         raise typer.Exit(ExitCode.PROBLEMS)
 
@@ -193,8 +194,8 @@ def _summary(console: Console, result: SweepResult) -> None:
 
     from fmionnx.results.study import ranked
 
-    table = result.table
-    counts = table["status"].value_counts()
+    table = result.cases
+    counts = collections.Counter(table.column("status"))
     overview = Table(title=f"study {result.plan.name}", show_header=False, title_justify="left")
     overview.add_column(style="bold")
     overview.add_column()
@@ -206,14 +207,14 @@ def _summary(console: Console, result: SweepResult) -> None:
             colour = "green" if status == "ok" else "red"
             overview.add_row(status, f"[{colour}]{counts[status]}[/]")
     for check in result.plan.check_names:
-        column = table["check: " + check]
-        overview.add_row(f"check {check}", f"{int(column.sum())} of {len(column)} passed")
+        column = table.column("check: " + check)
+        overview.add_row(f"check {check}", f"{sum(column)} of {len(column)} passed")
     for file in result.files:
         overview.add_row("wrote", str(file))
     console.print(overview)
     best = ranked(table, result.plan)
     objective = result.plan.objective
-    if objective is None or best.empty:
+    if objective is None or not best:
         return
     ranking = Table(
         title=f"best cases ({objective.sense} {objective.metric})", title_justify="left"
@@ -221,7 +222,7 @@ def _summary(console: Console, result: SweepResult) -> None:
     columns = ["case", *result.plan.targets, *(m.name for m in result.plan.metrics)]
     for name in columns:
         ranking.add_column(name, justify="left" if name == "case" else "right")
-    for _, row in best.head(RANKED_ROWS).iterrows():
+    for row in best[:RANKED_ROWS]:
         ranking.add_row(*(_cell(row[name]) for name in columns))
     console.print(ranking)
 

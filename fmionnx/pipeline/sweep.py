@@ -10,6 +10,7 @@ records.
 from __future__ import annotations
 
 import contextlib
+import functools
 import threading
 from collections.abc import Callable
 from dataclasses import dataclass
@@ -25,6 +26,7 @@ if TYPE_CHECKING:
 
     from fmionnx.backends.sweep.case import CaseOutcome
     from fmionnx.backends.sweep.engine import StudyRun
+    from fmionnx.results.casetable import CaseTable
     from fmionnx.spec.study import LoadedStudy
 
 #: ``progress(done, failed, total)``: after every finished case (and once before the first).
@@ -37,11 +39,16 @@ class SweepResult:
     and how the cases run this time were cut into Dask tasks (None: none ran)."""
 
     plan: StudyPlan
-    table: pd.DataFrame
+    cases: CaseTable
     files: tuple[Path, ...]
     resumed: int
     warnings: tuple[Diagnostic, ...] = ()
     tasks: StudyRun | None = None
+
+    @functools.cached_property
+    def table(self) -> pd.DataFrame:
+        """The table as a DataFrame (pandas is imported for it: the command does without)."""
+        return self.cases.to_pandas()
 
 
 def plan_study(study: str | Path) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
@@ -276,7 +283,7 @@ def _run(
 
 
 class _ResultsWriters:
-    """The table's libraries (pandas, pyarrow) imported on a thread of their own while the
+    """The table's library (pyarrow) imported on a thread of their own while the
     cases run, instead of after the last one; and a plot worker started meanwhile
     (:mod:`fmionnx.results.plotworker`), which imports matplotlib and then draws the study's
     plots side by side while this process writes the table. Without a worker (one core,
@@ -296,7 +303,6 @@ class _ResultsWriters:
         # Whatever goes wrong here (a library missing, an import racing another thread's), the
         # import after the cases, on the study's own thread, says so.
         with contextlib.suppress(Exception):
-            import pandas  # noqa: F401
             import pyarrow.parquet  # noqa: F401
 
             if self._plotter is None:
@@ -308,14 +314,14 @@ class _ResultsWriters:
         """Wait for the imports (an import in two threads at once waits anyway)."""
         self._thread.join()
 
-    def submit(self, table: pd.DataFrame, plan: StudyPlan, out: Path) -> None:
+    def submit(self, table: CaseTable, plan: StudyPlan, out: Path) -> None:
         """Hand the plots to the worker, which draws them while the table is written."""
         from fmionnx.results.plotworker import StudyPlotJob
 
         plotter = self._plotter
         self._submitted = plotter is not None and plotter.submit(StudyPlotJob(table, plan, out))
 
-    def plots(self, table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Path]:
+    def plots(self, table: CaseTable, plan: StudyPlan, out: Path) -> list[Path]:
         """The study's plots: the worker's, once drawn, else drawn here."""
         from fmionnx.core.owned import OwnedFolder
         from fmionnx.results.study_plots import write_study_plots

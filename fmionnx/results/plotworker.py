@@ -43,9 +43,8 @@ from fmionnx.results.forkdraw import draw_side_by_side, processes_for
 from fmionnx.runtime.result import RunResult
 
 if TYPE_CHECKING:
-    import pandas as pd
-
     from fmionnx.compile.studyir import StudyPlan
+    from fmionnx.results.casetable import CaseTable
     from fmionnx.results.csvahead import CsvAhead
     from fmionnx.results.plots import Drawing
     from fmionnx.runtime.guardian import RowsShared
@@ -75,7 +74,7 @@ class PlotJob:
 class StudyPlotJob:
     """What a study's worker draws: the summary plots of ``table`` (:mod:`.study_plots`)."""
 
-    table: pd.DataFrame
+    table: CaseTable
     plan: StudyPlan
     out: Path
 
@@ -104,7 +103,7 @@ class PlotWorker:
     """This process's end of a plot worker (see the module docstring)."""
 
     def __init__(self, *, study: bool = False, follow: CompiledSystem | None = None) -> None:
-        """``study``: the worker of a study (it loads pandas and the study's plots too).
+        """``study``: the worker of a study (it loads the study's plots too).
 
         ``follow``: the system of an in-process run about to start; the worker follows its
         rows and writes ``results.csv`` (:mod:`.csvfollow`): the run records through
@@ -311,8 +310,6 @@ def main() -> int:
     import fmionnx.results.signals_plot
 
     if "--study" in sys.argv[1:]:
-        import pandas  # noqa: F401 - the table comes as a DataFrame
-
         import fmionnx.results.study_plots  # noqa: F401
 
     # The answer goes on the pipe that was stdout; anything a library prints goes to stderr.

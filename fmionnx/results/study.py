@@ -34,10 +34,9 @@ from fmionnx.core.owned import OwnedFolder, safe_folder
 from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import STUDY_FILE_BYTES
 from fmionnx.core.safewrite import atomic_binary, atomic_text, write_bytes_atomic
+from fmionnx.results.casetable import CaseTable
 
 if TYPE_CHECKING:
-    import pandas as pd
-
     from fmionnx.backends.sweep.case import CaseOutcome
 
 #: The ``format`` of ``study.json``.
@@ -193,10 +192,16 @@ class StudyFolder:
         written.append(path)
         self.owned.note(written)
 
-    def table(self) -> pd.DataFrame:
-        """One row per case with a record, in case order."""
-        import pandas as pd
-
+    def table(self) -> CaseTable:
+        """One row per case with a record, in case order (:mod:`.casetable`: no pandas)."""
+        first, *last = TABLE_COLUMNS  # `case`, then the values, then the outcome
+        columns = (
+            first,
+            *self.plan.targets,
+            *(m.name for m in self.plan.metrics),
+            *(CHECK_PREFIX + n for n in self.plan.check_names),
+            *last,
+        )
         rows = []
         for case in self.plan.cases:
             record = _read(self.records / f"{case.id}.json")
@@ -216,44 +221,43 @@ class StudyFolder:
             row["message"] = _message(record)
             row["wall_time"] = _number(record.get("wall_time", 0.0))
             row["worker"] = str(record.get("worker", ""))
-            rows.append(row)
-        first, *last = TABLE_COLUMNS  # `case`, then the values, then the outcome
-        columns = [
-            first,
-            *self.plan.targets,
-            *(m.name for m in self.plan.metrics),
-            *(CHECK_PREFIX + n for n in self.plan.check_names),
-            *last,
-        ]
-        return pd.DataFrame(rows, columns=columns)
+            rows.append(tuple(row.get(name, math.nan) for name in columns))
+        return CaseTable(columns, tuple(rows))
 
-    def write_table(self, table: pd.DataFrame) -> list[Path]:
+    def write_table(self, table: CaseTable) -> list[Path]:
         """``cases.parquet`` and ``cases.csv``, each written atomically."""
-        import pyarrow as pa
         import pyarrow.parquet as pq
 
         parquet = self.out / "cases.parquet"
         csv = self.out / "cases.csv"
-        arrow = pa.Table.from_pandas(table, preserve_index=False)
+        arrow = table.to_arrow()
         with atomic_binary(parquet) as stream:
             pq.write_table(arrow, stream)
         with atomic_text(csv) as stream:
-            table.to_csv(stream, index=False, lineterminator="\n")
+            table.write_csv(stream)
         self.owned.note([parquet, csv])
         return [parquet, csv]
 
 
-def ranked(table: pd.DataFrame, plan: StudyPlan) -> pd.DataFrame:
-    """The cases that completed, best first by the objective (empty without one)."""
+def ranked(table: CaseTable, plan: StudyPlan) -> list[dict[str, Any]]:
+    """The cases that completed, best first by the objective (none without one); cases of
+    the same value in case order."""
     objective = plan.objective
     if objective is None:
-        return table.iloc[0:0]
-    done = table[(table["status"] == "ok") & table[objective.metric].notna()]
-    return done.sort_values(
-        [objective.metric, "case"],
-        ascending=[objective.sense == "minimize", True],
-        kind="stable",
-    )
+        return []
+    metric = objective.metric
+    done = [
+        row
+        for row in table.records()
+        if row["status"] == "ok" and not _missing_number(row.get(metric))
+    ]
+    done.sort(key=lambda row: str(row["case"]))
+    done.sort(key=lambda row: float(row[metric]), reverse=objective.sense != "minimize")
+    return done
+
+
+def _missing_number(value: object) -> bool:
+    return not isinstance(value, int | float) or (isinstance(value, float) and math.isnan(value))
 
 
 def _plain(value: object) -> object:

@@ -15,6 +15,7 @@ and colour bars carry the targets' and metrics' units (:mod:`.study_units`).
 from __future__ import annotations
 
 import functools
+import math
 import re
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -25,7 +26,7 @@ from fmionnx.results.plots import DPI, Drawing, save_figure
 from fmionnx.results.study_units import labelled, plan_units
 
 if TYPE_CHECKING:
-    import pandas as pd
+    from fmionnx.results.casetable import CaseTable
 
 #: Inches per panel.
 PANEL = (6.0, 4.5)
@@ -39,17 +40,17 @@ def new_figure_plain(ncols: int = 1) -> tuple[Any, Any]:
     return figure, figure.subplots(ncols=ncols)
 
 
-def write_study_plots(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Path]:
+def write_study_plots(table: CaseTable, plan: StudyPlan, out: Path) -> list[Path]:
     """Write the study's summary plots into ``out``; returns their paths."""
     written = [draw() for draw in study_drawings(table, plan, out)]
     OwnedFolder(out).note(written)  # a later --force may delete them (fmionnx.core.owned)
     return written
 
 
-def study_drawings(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Drawing]:
+def study_drawings(table: CaseTable, plan: StudyPlan, out: Path) -> list[Drawing]:
     """The study's summary plots, in order, each drawn and written into ``out`` when called
     (a plot worker draws them side by side); the caller notes the files as the study's."""
-    numeric = [t for t in plan.targets if _numeric(table[t])]
+    numeric = [t for t in plan.targets if table.kind(t) in NUMERIC]
     if table.empty or not numeric:
         return []
     units = plan_units(plan)
@@ -65,18 +66,13 @@ def study_drawings(table: pd.DataFrame, plan: StudyPlan, out: Path) -> list[Draw
 
 #: What a case that completed without a value for a metric is labelled.
 NO_VALUE = "no value"
+#: The columns drawn on an axis: numbers (a column of booleans or text is not one).
+NUMERIC = ("int", "uint", "float")
 
 
-def _numeric(column: pd.Series) -> bool:
-    import pandas as pd
-
-    return bool(pd.api.types.is_numeric_dtype(column)) and not bool(
-        pd.api.types.is_bool_dtype(column)
-    )
-
-
-def _is_grid(table: pd.DataFrame, targets: list[str]) -> bool:
-    return not table.duplicated(subset=targets).any()
+def _is_grid(table: CaseTable, targets: list[str]) -> bool:
+    points = list(zip(*(table.column(t) for t in targets), strict=True))
+    return len(set(points)) == len(points)
 
 
 def _file(prefix: str, name: str) -> str:
@@ -84,81 +80,84 @@ def _file(prefix: str, name: str) -> str:
     return f"{prefix}-{slug}.png"
 
 
-def completed(table: pd.DataFrame, metric: str) -> pd.Series:
+def completed(table: CaseTable, metric: str) -> list[float]:
     """``metric`` where the case completed, NaN elsewhere: a fault's or a timeout's value is
     measured on what was recorded up to then, not on the run the study asked for."""
-    return table[metric].where(table["status"] == "ok")
+    statuses = table.column("status")
+    values = table.column(metric)
+    return [_float(v) if s == "ok" else math.nan for v, s in zip(values, statuses, strict=True)]
+
+
+def _float(value: Any) -> float:
+    return math.nan if value is None else float(value)
+
+
+def _numbers(table: CaseTable, name: str) -> list[float]:
+    """A column of numbers as floats (an integer among floats is one, as in the table)."""
+    return [_float(v) for v in table.column(name)]
 
 
 def _heatmap(
-    table: pd.DataFrame, targets: list[str], metric: str, names: dict[str, str], out: Path
+    table: CaseTable, targets: list[str], metric: str, names: dict[str, str], out: Path
 ) -> Path:
+    import numpy as np
     from matplotlib import colormaps
 
-    shown = table.assign(**{metric: completed(table, metric)})
-    grid = shown.pivot_table(
-        index=targets[1], columns=targets[0], values=metric, aggfunc="mean", dropna=False
-    )
+    shown = completed(table, metric)
+    xs, ys = table.column(targets[0]), table.column(targets[1])
+    columns, rows = sorted(set(xs)), sorted(set(ys))
+    grid = np.full((len(rows), len(columns)), np.nan)
+    for x, y, value in zip(xs, ys, shown, strict=True):
+        grid[rows.index(y), columns.index(x)] = value
     figure, axes = new_figure_plain()
     palette = colormaps["viridis"].with_extremes(bad="lightgrey")
-    image = axes.imshow(grid.to_numpy(dtype=float), origin="lower", aspect="auto", cmap=palette)
-    _ticks(axes, grid)
+    image = axes.imshow(grid, origin="lower", aspect="auto", cmap=palette)
+    axes.set_xticks(range(len(columns)), [f"{v:g}" for v in columns])
+    axes.set_yticks(range(len(rows)), [f"{v:g}" for v in rows])
     axes.set_xlabel(names.get(targets[0], targets[0]))
     axes.set_ylabel(names.get(targets[1], targets[1]))
     axes.set_title(metric)
     figure.colorbar(image, ax=axes, label=names.get(metric, metric))
     low, high = image.get_clim()
-    for (row, col), value in _cells(grid):
+    for (row, col), value in np.ndenumerate(grid):
+        if math.isnan(value):
+            continue
         bright = high > low and (value - low) / (high - low) > 0.6  # viridis is light up there
         colour = "black" if bright else "white"
         axes.text(col, row, f"{value:.3g}", ha="center", va="center", color=colour, fontsize=8)
-    columns, rows = list(grid.columns), list(grid.index)
-    for _, case in table[shown[metric].isna()].iterrows():  # the grey cells say why
-        col, row = columns.index(case[targets[0]]), rows.index(case[targets[1]])
-        why = NO_VALUE if case["status"] == "ok" else case["status"]
-        axes.text(col, row, why, ha="center", va="center", color="tab:red", fontsize=8, gid=why)
+    statuses = table.column("status")
+    for x, y, value, status in zip(xs, ys, shown, statuses, strict=True):
+        if math.isnan(value):  # the grey cells say why
+            why = NO_VALUE if status == "ok" else status
+            col, row = columns.index(x), rows.index(y)
+            axes.text(col, row, why, ha="center", va="center", color="tab:red", fontsize=8, gid=why)
     return save_figure(figure, out / _file("heatmap", metric))
 
 
-def _cells(grid: pd.DataFrame) -> list[tuple[tuple[int, int], float]]:
-    import math
-
-    cells = []
-    values = grid.to_numpy(dtype=float)
-    for row in range(values.shape[0]):
-        for col in range(values.shape[1]):
-            if not math.isnan(values[row, col]):
-                cells.append(((row, col), float(values[row, col])))
-    return cells
-
-
-def _ticks(axes: Any, grid: pd.DataFrame) -> None:
-    axes.set_xticks(range(len(grid.columns)), [f"{v:g}" for v in grid.columns])
-    axes.set_yticks(range(len(grid.index)), [f"{v:g}" for v in grid.index])
-
-
 def _against(
-    table: pd.DataFrame, targets: list[str], metric: str, names: dict[str, str], out: Path
+    table: CaseTable, targets: list[str], metric: str, names: dict[str, str], out: Path
 ) -> Path:
     figure, axes = new_figure_plain(ncols=len(targets))
     panels = axes if len(targets) > 1 else [axes]
-    shown = table.assign(**{metric: completed(table, metric)})
-    incomplete = table[table["status"] != "ok"]
-    empty = table[(table["status"] == "ok") & shown[metric].isna()]
+    shown = completed(table, metric)
+    statuses = table.column("status")
+    incomplete = [i for i, s in enumerate(statuses) if s != "ok"]
+    empty = [i for i, s in enumerate(statuses) if s == "ok" and math.isnan(shown[i])]
     for panel, target in zip(panels, targets, strict=True):
-        ordered = shown.sort_values(target, kind="stable")
+        xs = _numbers(table, target)
+        order = sorted(range(len(xs)), key=xs.__getitem__)  # stable: ties in case order
         style = "o-" if len(targets) == 1 else "o"
-        panel.plot(ordered[target], ordered[metric], style)
+        panel.plot([xs[i] for i in order], [shown[i] for i in order], style)
         for cases, colour, label in (
             (incomplete, "tab:red", "did not complete"),
             (empty, "tab:grey", NO_VALUE),
         ):
-            if not cases.empty:  # a cross at the panel's foot, where no value is drawn
+            if cases:  # a cross at the panel's foot, where no value is drawn
                 panel.plot(
-                    cases[target], [0.03] * len(cases), "x", color=colour,
+                    [xs[i] for i in cases], [0.03] * len(cases), "x", color=colour,
                     transform=panel.get_xaxis_transform(), label=label, gid=label,
                 )  # fmt: skip
-        if not incomplete.empty or not empty.empty:
+        if incomplete or empty:
             panel.legend(loc="best")
         panel.set_xlabel(names.get(target, target))
         panel.set_ylabel(names.get(metric, metric))
@@ -168,15 +167,23 @@ def _against(
 
 
 def _passfail(
-    table: pd.DataFrame, targets: list[str], plan: StudyPlan, names: dict[str, str], out: Path
+    table: CaseTable, targets: list[str], plan: StudyPlan, names: dict[str, str], out: Path
 ) -> Path:
-    checks = [CHECK_PREFIX + n for n in plan.check_names]
-    passed = (table["status"] == "ok") & table[checks].all(axis=1)
+    checks = [table.column(CHECK_PREFIX + n) for n in plan.check_names]
+    statuses = table.column("status")
+    passed = [
+        status == "ok" and all(bool(c[i]) for c in checks) for i, status in enumerate(statuses)
+    ]
     figure, axes = new_figure_plain()
-    x = table[targets[0]]
-    y = table[targets[1]] if len(targets) > 1 else passed.astype(int)
-    axes.scatter(x[passed], y[passed], c="tab:green", marker="o", s=80, label="passed")
-    axes.scatter(x[~passed], y[~passed], c="tab:red", marker="x", s=80, label="failed")
+    x = _numbers(table, targets[0])
+    y = _numbers(table, targets[1]) if len(targets) > 1 else [int(p) for p in passed]
+    for wanted, colour, marker, label in ((True, "tab:green", "o", "passed"),
+                                          (False, "tab:red", "x", "failed")):  # fmt: skip
+        chosen = [i for i, p in enumerate(passed) if p is wanted]
+        axes.scatter(
+            [x[i] for i in chosen], [y[i] for i in chosen],
+            c=colour, marker=marker, s=80, label=label,
+        )  # fmt: skip
     axes.set_xlabel(names.get(targets[0], targets[0]))
     if len(targets) > 1:
         axes.set_ylabel(names.get(targets[1], targets[1]))

@@ -14,7 +14,6 @@ from __future__ import annotations
 import shutil
 from pathlib import Path
 
-import pandas as pd
 import pytest
 from hypothesis import given
 from hypothesis import strategies as st
@@ -22,6 +21,7 @@ from hypothesis import strategies as st
 from fmionnx import api
 from fmionnx.compile.studyir import apply_case
 from fmionnx.pipeline.sweep import plan_study
+from fmionnx.results.casetable import CaseTable
 from fmionnx.results.study import StudyFolder
 from fmionnx.results.study_plots import write_study_plots
 from tests.conftest import build_fixture_fmu
@@ -194,7 +194,7 @@ def test_metric_names_end_in_diagnostics_or_a_table_that_can_be_written(
             + ["ok", "", 0.0, ""]
             for case in plan.cases[:2]
         ]
-        table = pd.DataFrame(rows, columns=empty.columns)
+        table = CaseTable(empty.columns, tuple(tuple(row) for row in rows))
         results.write_table(table)
         write_study_plots(table, plan, out)
 

@@ -163,3 +163,49 @@ def test_the_worker_imports_no_system_file_models(tmp_path: Path) -> None:
     assert len(list(tmp_path.glob("*.png"))) == 2  # the job was drawn
     assert "fmionnx" in modules
     assert "pydantic" not in modules
+
+
+def test_a_study_worker_draws_without_pandas(tmp_path: Path) -> None:
+    """A study's worker gets the table as rows (:mod:`fmionnx.results.casetable`) and draws
+    with numpy and matplotlib: pandas (about 0.4 s of CPU) would be imported for nothing, on
+    a machine the study's cases keep busy."""
+    from fmionnx.compile.study import compile_study
+    from fmionnx.core.diagnostics import DiagnosticBag
+    from fmionnx.results.casetable import CaseTable
+    from fmionnx.results.study import StudyFolder
+    from fmionnx.spec.study import load_study
+
+    bag = DiagnosticBag()
+    plan = compile_study(load_study(REPO / "examples" / "sweep-tracker" / "study.yaml", bag), bag)
+    assert plan is not None, [str(d) for d in bag]
+    columns = StudyFolder(tmp_path, plan).table().columns
+    rows = tuple(
+        (case.id, *(s.value for s in case.settings), *(float(i),) * len(plan.metrics),
+         *(i % 2 == 0,) * len(plan.check_names), "ok", "", 0.5, "worker")
+        for i, case in enumerate(plan.cases)
+    )  # fmt: skip
+    job = plotworker.StudyPlotJob(CaseTable(columns, rows), plan, tmp_path)
+    data = pickle.dumps(job)
+    probe = (
+        "import sys\n"
+        "from fmionnx.results import plotworker\n"
+        "sys.argv.append('--study')\n"
+        "plotworker.main()\n"
+        "print(sorted({m.split('.')[0] for m in sys.modules}), file=sys.stderr)\n"
+    )
+    done = subprocess.run(
+        [sys.executable, "-c", probe], input=struct.pack("<Q", len(data)) + data,
+        capture_output=True, timeout=120, check=False,
+    )  # fmt: skip
+    errors = done.stderr.decode(errors="replace")
+    assert done.returncode == 0, errors
+    modules = set(ast.literal_eval(errors.strip().splitlines()[-1]))
+    drawn = {p.name for p in tmp_path.glob("*.png")}
+    assert drawn == {
+        "heatmap-distance_to_B.png",
+        "heatmap-time_to_B.png",
+        "heatmap-max_deviation.png",
+        "passfail.png",
+    }
+    assert "matplotlib" in modules
+    assert "pandas" not in modules

@@ -8,20 +8,30 @@ from pathlib import Path
 from typing import Any
 
 import numpy as np
-import pandas as pd
 import pytest
 
 from fmionnx.results import study_plots
+from fmionnx.results.casetable import CaseTable
+
+
+def _table(columns: dict[str, list[Any]]) -> CaseTable:
+    return CaseTable(tuple(columns), tuple(zip(*columns.values(), strict=True)))
+
+
+def _rows(table: CaseTable, keep: Any) -> CaseTable:
+    """The rows of ``table`` whose record ``keep`` accepts."""
+    chosen = [row for row, record in zip(table.rows, table.records(), strict=True) if keep(record)]
+    return CaseTable(table.columns, tuple(chosen))
+
 
 #: Two targets on a 2 x 2 grid; one case faulted at load (its metric measured at t = 0).
-GRID = pd.DataFrame(
-    {
-        "k": [1.0, 2.0, 1.0, 2.0],
-        "x0": [0.0, 0.0, 0.5, 0.5],
-        "y_end": [1.0, 2.0, 0.0, 3.0],
-        "status": ["ok", "ok", "fault", "ok"],
-    }
-)
+COLUMNS: dict[str, list[Any]] = {
+    "k": [1.0, 2.0, 1.0, 2.0],
+    "x0": [0.0, 0.0, 0.5, 0.5],
+    "y_end": [1.0, 2.0, 0.0, 3.0],
+    "status": ["ok", "ok", "fault", "ok"],
+}
+GRID = _table(COLUMNS)
 
 
 @pytest.fixture
@@ -55,7 +65,7 @@ def test_a_heat_map_leaves_a_case_that_did_not_complete_grey_and_says_why(
 def test_a_metric_against_a_target_marks_a_case_that_did_not_complete_at_the_foot(
     drawn: list[Any], tmp_path: Path
 ) -> None:
-    table = GRID[GRID["x0"] == 0.5].reset_index(drop=True)  # k = 1 faulted, k = 2 completed
+    table = _rows(GRID, lambda r: r["x0"] == 0.5)  # k = 1 faulted, k = 2 completed
     study_plots._against(table, ["k"], "y_end", {}, tmp_path)
     axes = drawn[0].axes[0]
     values, crosses = axes.lines
@@ -67,7 +77,7 @@ def test_a_metric_against_a_target_marks_a_case_that_did_not_complete_at_the_foo
 
 
 def test_completed_cases_only_draw_as_before(drawn: list[Any], tmp_path: Path) -> None:
-    table = GRID.assign(status="ok")
+    table = _table({**COLUMNS, "status": ["ok"] * 4})
     study_plots._against(table, ["k", "x0"], "y_end", {}, tmp_path)
     for axes in drawn[0].axes:
         assert len(axes.lines) == 1  # no crosses, no legend
@@ -76,7 +86,7 @@ def test_completed_cases_only_draw_as_before(drawn: list[Any], tmp_path: Path) -
 
 
 #: A case that completed without a value (a ``first_time`` whose condition never held).
-NO_VALUE = GRID.assign(y_end=[1.0, 2.0, float("nan"), 3.0], status="ok")
+NO_VALUE = _table({**COLUMNS, "y_end": [1.0, 2.0, float("nan"), 3.0], "status": ["ok"] * 4})
 NAMES = {"k": "k [N/m]", "x0": "x0 [m]", "y_end": "y_end [m]"}
 
 
@@ -92,7 +102,7 @@ def test_a_heat_map_labels_a_completed_case_without_a_value(
 def test_a_metric_against_a_target_marks_a_case_without_a_value(
     drawn: list[Any], tmp_path: Path
 ) -> None:
-    study_plots._against(NO_VALUE[NO_VALUE["x0"] == 0.5], ["k"], "y_end", NAMES, tmp_path)
+    study_plots._against(_rows(NO_VALUE, lambda r: r["x0"] == 0.5), ["k"], "y_end", NAMES, tmp_path)
     axes = drawn[0].axes[0]
     (cross,) = [line for line in axes.lines if line.get_gid() == "no value"]
     assert cross.get_xdata().tolist() == [1.0]

@@ -1,0 +1,65 @@
+"""``fmionnx sweep`` writes its table without pandas (issue #32): pandas costs the driver about
+0.4 CPU-s, which on a busy machine the cases do not get. The study's plots still use it, in
+their worker; a Python caller of :func:`fmionnx.sweep` gets a DataFrame."""
+
+from __future__ import annotations
+
+import subprocess
+import sys
+from pathlib import Path
+
+import pytest
+
+from fmionnx.core.cores import usable_cores
+from tests.sweep.conftest import WriteStudy
+
+STUDY = """\
+fmionnx: 1
+system: system.yaml
+isolate: [none]
+parameters:
+  gain.k: [1, 3, 2]
+  integ.x0: [0, 1]
+metrics:
+  y_end: final(gain.y)
+objective: {maximize: y_end}
+"""
+
+SCRIPT = """\
+import sys
+
+from fmionnx.cli import main
+
+if __name__ == "__main__":
+    sys.argv = ["fmionnx", "sweep", "study.yaml", "--workers", "1", "--out", "out"]
+    try:
+        main()
+    except SystemExit as exc:
+        code = exc.code
+    print(f"exit={code} pandas={'pandas' in sys.modules}", file=sys.stderr)
+"""
+
+
+@pytest.mark.skipif(usable_cores() < 2, reason="one core: the plots are drawn in the driver")
+def test_the_command_writes_its_table_and_summary_without_pandas(
+    write_study: WriteStudy,
+) -> None:
+    study = write_study(STUDY)
+    folder = study.parent
+    (folder / "drive.py").write_text(SCRIPT, encoding="utf-8")
+    done = subprocess.run(
+        [sys.executable, "drive.py"],
+        cwd=folder, capture_output=True, text=True, timeout=240, check=False,
+    )  # fmt: skip
+    assert done.stderr.strip().splitlines()[-1] == "exit=0 pandas=False", done.stderr
+    assert "best cases (maximize y_end)" in done.stdout
+    out = folder / "out"
+    assert {p.name for p in out.iterdir()} >= {"cases.csv", "cases.parquet", "passfail.png"}
+    import pandas as pd
+
+    table = pd.read_parquet(out / "cases.parquet")
+    assert list(table["case"]) == [f"case-{i:04d}" for i in range(6)]
+    assert (table["status"] == "ok").all()
+    assert Path(out / "cases.csv").read_text("utf-8").splitlines()[0] == (
+        "case,gain.k,integ.x0,y_end,check: small,status,message,wall_time,worker"
+    )
