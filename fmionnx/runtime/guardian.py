@@ -321,12 +321,15 @@ class SharedTrack(recording.Track):
         if kept:
             new[:kept] = self.rows[:kept]
         count[0] = self.count
+        left = self._block
         self.rows, self._count, self._block, self.offset = new, count, block, offset
         self._count_cell = np.frombuffer(block, np.int64, 1, 0)
         with registry.lock:  # a lane may be registering a work (and publishing) meanwhile
             if not any(track is self for track in registry.tracks):
                 registry.tracks.append(self)
             registry.publish()
+        if left is not None:
+            _release(left)
 
     def sample(self) -> None:
         """Append the current values as the next row; the count is published after it.
@@ -355,6 +358,20 @@ class SharedTrack(recording.Track):
         """Keep at most ``count`` rows, here and in the count the guardian reads."""
         super().truncate(count)
         self._count[0] = self.count
+
+
+def _release(region: mmap.mmap) -> None:
+    """Give the pages of a region a grown track has left back to the system.
+
+    The file only grows (it is sealed against shrinking), so without this a track's rows
+    took twice their size in memory: every region it outgrew stayed in the file. Called
+    after the directory names the new region: the guardian, after a crash, reads only what
+    the directory names. A follower that read the old directory may still read the old
+    region, as zeros: what it formats ahead is compared with the run's result bit for bit
+    before use (:mod:`fmionnx.results.csvahead`), so such a piece is formatted again.
+    """
+    with contextlib.suppress(AttributeError, OSError, ValueError):  # not Linux: kept
+        region.madvise(mmap.MADV_REMOVE)
 
 
 class SharedRecorder(recording.Recorder):

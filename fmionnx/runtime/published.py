@@ -11,8 +11,9 @@ its memory, and may die or be hostile.
 - The directory is parsed defensively; every track's region is checked to lie inside the
   mapping, and its row count is clamped to the region's capacity.
 - Only rows below a track's published count are read: the child writes a row, then the
-  count. A track that grows moves to a new region and is published again; the old region
-  keeps its rows and count, so a stale directory still reads rows that were complete.
+  count. A track that grows moves to a new region and is published again; the old region's
+  pages are then given back (it reads as zeros), so a reader that read the directory before
+  the move may read zeros there: hence the comparison below.
 
 The values read here are never trusted to be *final* either: a reader must compare them with
 the run's result before use (a parallel run's fault takes rows back; a hostile child could

@@ -80,6 +80,31 @@ def test_tracks_that_grow_and_move_are_followed(shared: _Shared) -> None:
     reader.close()
 
 
+def test_a_track_that_grew_holds_the_memory_of_its_last_region_only(shared: _Shared) -> None:
+    """Each region a track outgrows is given back: the file only grows (it is sealed against
+    shrinking), and the rows took twice their size in memory before."""
+    steps = 8 * recorder.CHUNK_ROWS  # moves three times: 1, 2, 4, then 8 chunks of rows
+    values = np.zeros(4)
+    rec = SharedRecorder()
+    track = rec.track(1, steps)
+    track.add(["a", "b", "c", "d"], values)
+    rec.order.extend(["a", "b", "c", "d"])
+    track.allocate()
+    for n in range(steps):
+        values[0] = n
+        track.sample()
+    last_region = 8 + steps * 4 * 8
+    allocated = os.fstat(shared.fd).st_blocks * 512
+    regions = os.fstat(shared.fd).st_size - guardian.CONTROL
+    assert regions > 1.8 * last_region  # the file still spans every region it had
+    assert allocated < 1.2 * last_region + guardian.CONTROL  # its memory: the last one
+    reader = _reader(shared)
+    assert reader.refresh() == steps  # the directory names the last region, whole
+    every = np.arange(steps, dtype=np.int64)
+    np.testing.assert_array_equal(reader.values(every)[:, 0], every)
+    reader.close()
+
+
 def test_the_shared_file_cannot_be_truncated_under_the_reader(shared: _Shared) -> None:
     assert shared.sealed
     with pytest.raises(PermissionError):
