@@ -38,11 +38,14 @@ from fmionnx.backends.sweep.daskconfig import LOCAL_CONFIG, PRE_SPAWN
 from fmionnx.backends.sweep.leftovers import sweep_orphan_semaphores
 from fmionnx.backends.sweep.models import pack_models
 from fmionnx.backends.sweep.pinning import CORES_KEY, cores_for
+from fmionnx.backends.sweep.syncreport import install as _install_sync_report
 from fmionnx.compile.studyir import Case, StudyPlan
 from fmionnx.compile.systemfile import to_json
 from fmionnx.core.environ import put_back
 from fmionnx.core.errors import FmionnxError
 from fmionnx.core.scratch import make_scratch, remove_scratch, sweep_stale
+
+_install_sync_report()  # a Ctrl-C's report of Dask's failed clean-up: see the module
 
 #: Tasks in hand per worker thread once the study's first tasks (one per thread) return: one
 #: running, one queued on its worker to start the moment the first returns. The rest wait on
