@@ -5,12 +5,17 @@ and ``cases.csv`` (the csv module). pandas costs about 0.4 CPU-s to import, whic
 machine is time the cases do not get (``docs/performance.md``, eighth pass); a Python caller
 of :func:`fmionnx.sweep` still gets a :class:`pandas.DataFrame` (:meth:`CaseTable.to_pandas`).
 
-Each column is given the type pandas would infer from the same rows, so that both files are
-what ``pandas.DataFrame(rows).to_csv(index=False)`` and ``pyarrow.Table.from_pandas`` wrote
-before (``tests/results/test_case_table.py`` compares them on tables of every kind): booleans
-only → bool; integers only → int64 (uint64 past it); integers and floats → float64 (``1`` is written ``1.0``);
-text only → pandas' ``str`` (a ``large_string`` in parquet); anything else → objects, written
-as ``str`` gives them; NaN and None → an empty cell (a null in parquet).
+Each column is given the type pandas (3) would infer from the same rows, so that both files
+are what ``pandas.DataFrame(rows).to_csv(index=False)`` and ``pyarrow.Table.from_pandas`` wrote
+before (``tests/results/test_case_table.py`` compares them on tables of every kind):
+
+* booleans only → bool; integers only → int64 (uint64 past it);
+* integers and floats, or numbers with a gap → float64 (``1`` is written ``1.0``);
+* text only → pandas' ``str`` (a ``large_string`` in parquet);
+* anything else → objects, written as ``str`` gives them; in parquet, where pandas hands
+  pyarrow a column it may refuse, float64 when every value is a number a float holds, else
+  their text;
+* NaN and None → an empty cell (a null in parquet).
 """
 
 from __future__ import annotations
@@ -71,7 +76,7 @@ class CaseTable:
         records = [dict(zip(self.columns, row, strict=True)) for row in self.rows]
         for record in records:
             for name in floats:
-                record[name] = float(record[name])
+                record[name] = math.nan if record[name] is None else float(record[name])
         return records
 
     def kind(self, name: str) -> ColumnKind:
@@ -102,21 +107,25 @@ class CaseTable:
 
 
 def column_kind(values: Sequence[Any]) -> ColumnKind:
-    """The type pandas infers for a column of these Python values."""
+    """The type pandas infers for a column of these Python values (None is missing, as NaN)."""
     if not values:
         return "empty"
-    if all(isinstance(v, bool) for v in values):
-        return "bool"
-    if any(isinstance(v, bool) for v in values):
+    present = [v for v in values if not _missing(v)]
+    missing = len(present) < len(values)
+    if present and all(isinstance(v, bool) for v in present):
+        return "object" if missing else "bool"
+    if any(isinstance(v, bool) for v in present):
         return "object"
-    if all(isinstance(v, int) for v in values):
-        if all(INT64[0] <= v <= INT64[1] for v in values):
+    if present and not missing and all(isinstance(v, int) for v in present):
+        if all(INT64[0] <= v <= INT64[1] for v in present):
             return "int"
-        return "uint" if all(UINT64[0] <= v <= UINT64[1] for v in values) else "object"
-    if all(isinstance(v, int | float) for v in values):
-        return "float"
-    if all(isinstance(v, str) or _missing(v) for v in values):
-        return "text" if any(isinstance(v, str) for v in values) else "object"
+        return "uint" if all(UINT64[0] <= v <= UINT64[1] for v in present) else "object"
+    numbers = all(isinstance(v, int | float) for v in present)
+    if numbers and (present or any(isinstance(v, float) for v in values)):
+        wide = any(isinstance(v, int) and not INT64[0] <= v <= UINT64[1] for v in present)
+        return "object" if wide else "float"
+    if present and all(isinstance(v, str) for v in present):
+        return "text"
     return "object"
 
 
@@ -131,6 +140,17 @@ def _text(value: Any, kind: ColumnKind) -> str:
     if kind == "float":
         return repr(float(value))
     return str(value)
+
+
+def _plain_number(value: Any) -> bool:
+    """Whether ``value`` is a number float64 holds (a bool counts, as pyarrow takes it)."""
+    if not isinstance(value, int | float):
+        return False
+    try:
+        float(value)
+    except OverflowError:
+        return False
+    return True
 
 
 def _arrow(values: list[Any]) -> pa.Array:
@@ -148,22 +168,39 @@ def _arrow(values: list[Any]) -> pa.Array:
     nulls = int(missing.sum())
     validity = pa.py_buffer(np.packbits(~missing, bitorder="little")) if nulls else None
     if kind == "text":
-        encoded = [b"" if _missing(v) else str(v).encode("utf-8") for v in values]
-        offsets = np.zeros(len(values) + 1, dtype=np.int64)
-        offsets[1:] = np.cumsum([len(e) for e in encoded])
-        buffers = [validity, pa.py_buffer(offsets), pa.py_buffer(b"".join(encoded))]
-        return pa.Array.from_buffers(pa.large_string(), len(values), buffers, null_count=nulls)
+        return _text_array([None if _missing(v) else str(v) for v in values], validity)
     numbers = {
         "bool": (pa.bool_(), np.bool_),
         "int": (pa.int64(), np.int64),
         "uint": (pa.uint64(), np.uint64),
         "float": (pa.float64(), np.float64),
     }
-    if kind not in numbers:  # objects of mixed types: as pandas hands them over (or refuses)
-        return pa.array([None if _missing(v) else v for v in values], from_pandas=True)
+    if kind == "object":  # mixed types: as one type pyarrow can hold, never refused
+        present = [v for v in values if not _missing(v)]
+        if not present:
+            return pa.nulls(len(values))
+        if all(isinstance(v, bool) for v in present):
+            kind = "bool"  # booleans with a gap: nullable booleans
+        elif all(_plain_number(v) for v in present):
+            kind = "float"  # as pyarrow reads [0.5, 1, True]: 0.5, 1.0, 1.0
+        else:
+            return _text_array([None if _missing(v) else str(v) for v in values], validity)
     arrow_type, dtype = numbers[kind]
     data: npt.NDArray[Any] = np.array([0 if _missing(v) else v for v in values], dtype=dtype)
     if kind == "bool":
         data = np.packbits(data, bitorder="little")
     buffers = [validity, pa.py_buffer(data)]
     return pa.Array.from_buffers(arrow_type, len(values), buffers, null_count=nulls)
+
+
+def _text_array(texts: list[str | None], validity: pa.Buffer | None) -> pa.Array:
+    """A ``large_string`` column from its buffers (None: a null, marked in ``validity``)."""
+    import numpy as np
+    import pyarrow as pa
+
+    encoded = [b"" if t is None else t.encode("utf-8", "backslashreplace") for t in texts]
+    offsets = np.zeros(len(texts) + 1, dtype=np.int64)
+    offsets[1:] = np.cumsum([len(e) for e in encoded])
+    buffers = [validity, pa.py_buffer(offsets), pa.py_buffer(b"".join(encoded))]
+    nulls = sum(t is None for t in texts)
+    return pa.Array.from_buffers(pa.large_string(), len(texts), buffers, null_count=nulls)

@@ -218,9 +218,9 @@ class StudyFolder:
                 row[CHECK_PREFIX + name] = checks.get(name) is True
             status = record.get("status")
             row["status"] = status if status in STATUSES else "failed"
-            row["message"] = _message(record)
+            row["message"] = _clean(_message(record))
             row["wall_time"] = _number(record.get("wall_time", 0.0))
-            row["worker"] = str(record.get("worker", ""))
+            row["worker"] = _clean(str(record.get("worker", "")))
             rows.append(tuple(row.get(name, math.nan) for name in columns))
         return CaseTable(columns, tuple(rows))
 
@@ -266,7 +266,15 @@ def _plain(value: object) -> object:
 
 def _cell(value: object) -> object:
     """A setting as a table cell: a list (an array parameter) as its JSON text."""
+    if isinstance(value, str):
+        return _clean(value)
     return json.dumps(list(value)) if isinstance(value, tuple) else value
+
+
+def _clean(text: str) -> str:
+    """``text`` as UTF-8 can hold it: a record may carry a lone surrogate (``"\\ud800"`` in
+    its JSON), which no file of the table could be written with; it is kept as ``\\ud800``."""
+    return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
 def _message(record: dict[str, Any]) -> str:
@@ -309,7 +317,10 @@ def _read_description(path: Path) -> dict[str, Any]:
 def _number(value: object) -> float:
     """A number of a record as a float (NaN for anything else: a record may be edited)."""
     if isinstance(value, int | float) and not isinstance(value, bool):
-        return float(value)
+        try:
+            return float(value)
+        except OverflowError:  # an integer of hundreds of digits (JSON allows it)
+            return math.nan
     return math.nan
 
 

@@ -138,16 +138,18 @@ class _Shared:
         self.size = offset + pages
         return mmap.mmap(self.fd, pages, offset=offset), offset
 
-    def publish(self, directory: dict[str, Any]) -> None:
-        """Write the directory into the slot not in use, then switch to it (crash-safe)."""
+    def publish(self, directory: dict[str, Any]) -> bool:
+        """Write the directory into the slot not in use, then switch to it (crash-safe);
+        False when it does not fit (the one in use stays)."""
         data = json.dumps(directory).encode()
         if len(data) + 8 > _SLOT:  # half a MiB of column names: beyond any real system
-            return
+            return False
         slot = 1 if int(self.cells[_DIRECTORY]) == 1 else 0  # the other one
         start = _CELLS * 8 + slot * _SLOT
         self.control[start : start + 8] = len(data).to_bytes(8, "little")
         self.control[start + 8 : start + 8 + len(data)] = data
         self.cells[_DIRECTORY] = slot + 1  # 0: none yet; 1 or 2: that slot
+        return True
 
     # -- the guardian's side -------------------------------------------------------------------
 
@@ -268,7 +270,8 @@ class _SharedTracks:
         #: Works are registered by the loop's thread and by lanes: one at a time.
         self.lock = threading.RLock()
 
-    def publish(self) -> None:
+    def publish(self) -> bool:
+        """Publish the tracks' regions; False when the directory did not fit."""
         tracks = [
             {
                 "offset": t.offset,
@@ -285,7 +288,7 @@ class _SharedTracks:
             "tracks": tracks, "order": order, "works": self.works, "places": self.places,
             "functions": self.functions,
         }  # fmt: skip
-        self.shared.publish(directory)
+        return self.shared.publish(directory)
 
 
 #: The child's registry (set once in the forked child; empty in the guardian).
@@ -327,8 +330,8 @@ class SharedTrack(recording.Track):
         with registry.lock:  # a lane may be registering a work (and publishing) meanwhile
             if not any(track is self for track in registry.tracks):
                 registry.tracks.append(self)
-            registry.publish()
-        if left is not None:
+            published = registry.publish()
+        if left is not None and published:  # else the directory in use still names it
             _release(left)
 
     def sample(self) -> None:

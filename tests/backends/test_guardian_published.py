@@ -8,6 +8,7 @@ beyond a region, or a file truncated under it (the file is sealed against shrink
 
 from __future__ import annotations
 
+import mmap
 import os
 from typing import Any
 
@@ -80,6 +81,17 @@ def test_tracks_that_grow_and_move_are_followed(shared: _Shared) -> None:
     reader.close()
 
 
+def _pages_can_be_removed() -> bool:
+    """Whether this kernel frees a shared file's pages on ``MADV_REMOVE`` (not gVisor's)."""
+    try:
+        with mmap.mmap(-1, mmap.PAGESIZE) as probe:
+            probe.madvise(mmap.MADV_REMOVE)
+    except (AttributeError, OSError, ValueError):
+        return False
+    return True
+
+
+@pytest.mark.skipif(not _pages_can_be_removed(), reason="no MADV_REMOVE here: the pages stay")
 def test_a_track_that_grew_holds_the_memory_of_its_last_region_only(shared: _Shared) -> None:
     """Each region a track outgrows is given back: the file only grows (it is sealed against
     shrinking), and the rows took twice their size in memory before."""
@@ -102,6 +114,30 @@ def test_a_track_that_grew_holds_the_memory_of_its_last_region_only(shared: _Sha
     assert reader.refresh() == steps  # the directory names the last region, whole
     every = np.arange(steps, dtype=np.int64)
     np.testing.assert_array_equal(reader.values(every)[:, 0], every)
+    reader.close()
+
+
+def test_a_region_stays_while_the_directory_in_use_names_it(
+    shared: _Shared, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A directory too large for its slot is not published; the one in use, which names the
+    old region, stays, and so do that region's rows (the guardian reads them after a crash)."""
+    value = np.zeros(1)
+    rec = SharedRecorder()
+    track = rec.track(1, 2 * recorder.CHUNK_ROWS)
+    track.add(["x"], value)
+    rec.order.append("x")
+    track.allocate()
+    for n in range(recorder.CHUNK_ROWS):
+        value[0] = n
+        track.sample()
+    monkeypatch.setattr(shared, "publish", lambda directory: False)  # as one too large
+    value[0] = -1
+    track.sample()  # moves to a new region, which no directory names
+    reader = _reader(shared)
+    assert reader.refresh() == recorder.CHUNK_ROWS  # the old region, still whole
+    tail = np.arange(recorder.CHUNK_ROWS - 10, recorder.CHUNK_ROWS, dtype=np.int64)
+    np.testing.assert_array_equal(reader.values(tail)[:, 0], tail)
     reader.close()
 
 

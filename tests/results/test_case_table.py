@@ -25,9 +25,15 @@ ROWS = (
 )
 
 
+def _frame(table: CaseTable) -> pd.DataFrame:
+    """What pandas makes of the table's rows, untouched (not through :meth:`to_pandas`)."""
+    rows = [dict(zip(table.columns, row, strict=True)) for row in table.rows]
+    return pd.DataFrame(rows, columns=list(table.columns))
+
+
 def _pandas_csv(table: CaseTable) -> str:
     stream = io.StringIO()
-    table.to_pandas().to_csv(stream, index=False, lineterminator="\n")
+    _frame(table).to_csv(stream, index=False, lineterminator="\n")
     return stream.getvalue()
 
 
@@ -40,7 +46,7 @@ def _own_csv(table: CaseTable) -> str:
 def _same_arrow(table: CaseTable) -> None:
     ours = table.to_arrow()
     ours.validate(full=True)
-    theirs = pa.Table.from_pandas(table.to_pandas(), preserve_index=False)
+    theirs = pa.Table.from_pandas(_frame(table), preserve_index=False)
     assert ours.schema.remove_metadata() == theirs.schema.remove_metadata()
     assert ours.to_pylist() == theirs.to_pylist() or _equal_with_nan(ours, theirs)
 
@@ -102,6 +108,11 @@ def test_missing_values_are_empty_cells_and_nulls() -> None:
         ([math.nan, 1], "float"),
         (["a", None], "text"),
         ([None, None], "object"),
+        ([1, None], "float"),
+        ([None, math.nan], "float"),
+        ([0.5, 10**20], "object"),
+        ([2**63, 0.5], "float"),
+        ([True, None], "object"),
     ],
 )
 def test_a_column_has_the_type_pandas_gives_it(values: list[Any], kind: str) -> None:
@@ -129,8 +140,31 @@ def test_any_floats_integers_and_text_are_written_as_pandas_wrote_them(
 ) -> None:
     table = CaseTable(("metric", "count", "message"), tuple(rows))
     assert _own_csv(table) == _pandas_csv(table)
-    if table.kind("count") != "object":  # pyarrow takes no column of mixed signs past int64
+    if table.kind("count") != "object":
         _same_arrow(table)
+    else:  # mixed signs past int64: pandas hands pyarrow what it refuses; written as floats
+        assert table.to_arrow().column("count").type == pa.float64()
+
+
+@pytest.mark.parametrize(
+    ("values", "arrow"),
+    [
+        ([1, 10**20], pa.float64()),  # a study of a float parameter may set both
+        ([0.5, 1, True], pa.float64()),  # a study's axis may mix them (as pyarrow reads it)
+        (["a", 1], pa.large_string()),
+        ([10**400, 1.5], pa.large_string()),  # beyond a float: its text, as in cases.csv
+        ([True, None], pa.bool_()),
+        ([None, None], pa.null()),
+    ],
+)
+def test_a_column_of_mixed_values_is_written_without_pandas(
+    values: list[Any], arrow: pa.DataType
+) -> None:
+    table = CaseTable(("case", "x"), tuple((f"c{i}", v) for i, v in enumerate(values)))
+    column = table.to_arrow().column("x")
+    column.validate(full=True)
+    assert column.type == arrow
+    assert _own_csv(table) == _pandas_csv(table)
 
 
 def test_the_best_cases_come_first_and_ties_in_case_order() -> None:

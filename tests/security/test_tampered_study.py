@@ -103,8 +103,17 @@ def test_a_record_that_is_no_regular_file_is_no_record(
         {"id": "case-0001", "status": "ok", "metrics": ["y_end"], "checks": "all"},
         {"id": "case-0001", "status": {"ok": True}, "notes": [1, 2], "wall_time": True},
         {"id": ["case-0001"], "status": "ok"},
+        {"id": "case-0001", "status": "ok", "wall_time": 10**400, "metrics": {"y_end": -(10**400)}},
+        {"id": "case-0001", "status": "ok", "message": "\ud800", "worker": "w\udfff"},
     ],
-    ids=["wall-time-text", "metrics-list", "status-mapping", "id-list"],
+    ids=[
+        "wall-time-text",
+        "metrics-list",
+        "status-mapping",
+        "id-list",
+        "huge-numbers",
+        "surrogates",
+    ],
 )
 def test_a_record_with_fields_of_the_wrong_type_gives_a_table(
     folder: StudyFolder, record: dict[str, object]
@@ -119,9 +128,10 @@ def test_a_record_with_fields_of_the_wrong_type_gives_a_table(
     row = rows.loc["case-0001"]
     assert row["status"] in {"ok", "failed"}
     assert isinstance(row["wall_time"], float)
-    if record.get("wall_time") in ("soon", True):
+    if record.get("wall_time") in ("soon", True, 10**400):
         assert math.isnan(row["wall_time"])
     folder.write_table(table)  # parquet takes it: every column of one type
+    assert (folder.out / "cases.csv").read_text("utf-8")  # and so does UTF-8
 
 
 @pytest.mark.parametrize(

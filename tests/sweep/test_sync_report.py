@@ -26,13 +26,15 @@ runner.start()
 async def never():
     await asyncio.sleep(10)
 
-runner.loop.add_callback(time.sleep, 0.5)  # busy: sync's call has not started at the Ctrl-C
+busy = threading.Event()
+runner.loop.add_callback(busy.wait, 30)  # sync's call cannot start before the Ctrl-C is taken
 threading.Timer(0.1, os.kill, (os.getpid(), signal.SIGINT)).start()
 try:
     sync(runner.loop, never)
 except KeyboardInterrupt:
     print("interrupted", file=sys.stderr)
-time.sleep(0.8)  # the loop runs sync's cancel meanwhile
+busy.set()  # now the loop starts sync's call, then runs its cancel
+time.sleep(0.5)
 runner.stop()
 """
 
@@ -52,6 +54,27 @@ def test_dasks_report_of_a_cancel_before_the_call_started_is_dropped() -> None:
         pytest.skip("this Dask binds the future before cancelling: the filter is not needed")
     assert "sync.<locals>.cancel" in plain
     assert "Traceback" not in _interrupted("ours")
+
+
+def test_the_filter_drops_a_name_error_of_dasks_cancel_only() -> None:
+    """The same report made here: a ``cancel`` of a file named as Dask's ``utils``."""
+    dropping = UnstartedCancel()
+    namespace: dict[str, object] = {}
+    code = "def cancel():\n    return future\n"
+    exec(compile(code, "/site-packages/distributed/utils.py", "exec"), namespace)
+    try:
+        namespace["cancel"]()  # type: ignore[operator]
+    except NameError as error:
+        info = (NameError, error, error.__traceback__)
+    record = logging.LogRecord(LOGGER, logging.ERROR, __file__, 1, "callback", None, info)
+    assert not dropping.filter(record)
+    exec(compile(code, "/site-packages/mine/utils.py", "exec"), namespace)
+    try:
+        namespace["cancel"]()  # type: ignore[operator]
+    except NameError as error:
+        info = (NameError, error, error.__traceback__)
+    record = logging.LogRecord(LOGGER, logging.ERROR, __file__, 1, "callback", None, info)
+    assert dropping.filter(record)
 
 
 def test_other_reports_of_tornado_pass() -> None:
