@@ -138,19 +138,15 @@ def test_a_worker_whose_run_never_draws_ends_when_its_stdin_closes() -> None:
     assert process.returncode == 0
 
 
-def test_the_worker_imports_no_system_file_models(tmp_path: Path) -> None:
-    """The worker unpickles a compiled system and a result, and draws: the system file's
-    pydantic models (about 0.05 s of CPU to import) are not needed there, and a worker starts
-    for every run that draws. The job is the reference system's (an FMU, an ONNX model, a
-    MuJoCo scene: each kind's compiled settings unpickled)."""
-    system = fmionnx.load(REPO / "systems" / "sign_follower.yaml")
-    result = system.run(stop_time=0.05, isolate="none")
-    job = plotworker.PlotJob(result, system.compiled, tmp_path, True, False)
+def _modules_after_drawing(job: plotworker.PlotJob | plotworker.StudyPlotJob) -> set[str]:
+    """The top-level modules a real worker process had imported once it drew ``job``."""
+    study = isinstance(job, plotworker.StudyPlotJob)
     data = pickle.dumps(job)
     probe = (
         "import sys\n"
         "from fmionnx.results import plotworker\n"
-        "plotworker.main()\n"
+        + ("sys.argv.append('--study')\n" if study else "")
+        + "plotworker.main()\n"
         "print(sorted({m.split('.')[0] for m in sys.modules}), file=sys.stderr)\n"
     )
     done = subprocess.run(
@@ -159,7 +155,18 @@ def test_the_worker_imports_no_system_file_models(tmp_path: Path) -> None:
     )  # fmt: skip
     errors = done.stderr.decode(errors="replace")
     assert done.returncode == 0, errors
-    modules = set(ast.literal_eval(errors.strip().splitlines()[-1]))
+    return set(ast.literal_eval(errors.strip().splitlines()[-1]))
+
+
+def test_the_worker_imports_no_system_file_models(tmp_path: Path) -> None:
+    """The worker unpickles a compiled system and a result, and draws: the system file's
+    pydantic models (about 0.05 s of CPU to import) are not needed there, and a worker starts
+    for every run that draws. The job is the reference system's (an FMU, an ONNX model, a
+    MuJoCo scene: each kind's compiled settings unpickled)."""
+    system = fmionnx.load(REPO / "systems" / "sign_follower.yaml")
+    result = system.run(stop_time=0.05, isolate="none")
+    job = plotworker.PlotJob(result, system.compiled, tmp_path, True, False)
+    modules = _modules_after_drawing(job)
     assert len(list(tmp_path.glob("*.png"))) == 2  # the job was drawn
     assert "fmionnx" in modules
     assert "pydantic" not in modules
@@ -184,22 +191,9 @@ def test_a_study_worker_draws_without_pandas(tmp_path: Path) -> None:
          *(i % 2 == 0,) * len(plan.check_names), "ok", "", 0.5, "worker")
         for i, case in enumerate(plan.cases)
     )  # fmt: skip
-    job = plotworker.StudyPlotJob(CaseTable(columns, rows), plan, tmp_path)
-    data = pickle.dumps(job)
-    probe = (
-        "import sys\n"
-        "from fmionnx.results import plotworker\n"
-        "sys.argv.append('--study')\n"
-        "plotworker.main()\n"
-        "print(sorted({m.split('.')[0] for m in sys.modules}), file=sys.stderr)\n"
+    modules = _modules_after_drawing(
+        plotworker.StudyPlotJob(CaseTable(columns, rows), plan, tmp_path)
     )
-    done = subprocess.run(
-        [sys.executable, "-c", probe], input=struct.pack("<Q", len(data)) + data,
-        capture_output=True, timeout=120, check=False,
-    )  # fmt: skip
-    errors = done.stderr.decode(errors="replace")
-    assert done.returncode == 0, errors
-    modules = set(ast.literal_eval(errors.strip().splitlines()[-1]))
     drawn = {p.name for p in tmp_path.glob("*.png")}
     assert drawn == {
         "heatmap-distance_to_B.png",
