@@ -269,3 +269,36 @@ def test_marks_are_resolved_and_recorded(reference: CompiledSystem) -> None:
     assert marks.label(2.0) == "turn left"
     assert marks.label(7.0) == "tracker.state = 7"
     assert "tracker.state" in [str(ref) for ref in reference.plots[1].refs]
+
+
+def test_a_figure_is_laid_out_once_and_drawn_once_when_saved(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """``tight_layout`` leaves a placeholder layout engine behind, and with an engine set
+    ``savefig`` lays the whole figure out again before drawing it (a third of a figure's
+    time): the engine is taken off once the layout is done, and the file is the same."""
+    from fmionnx.results.plots import save_figure
+
+    def figure() -> Figure:
+        drawn = Figure(figsize=(4, 3), dpi=50)
+        axes = drawn.subplots()
+        image = axes.imshow([[0.0, 1.0], [2.0, 3.0]])
+        drawn.colorbar(image, ax=axes, label="value [m]")
+        axes.set_xlabel("a long label on the x axis")
+        return drawn
+
+    draws: list[int] = []
+    original = Figure.draw
+
+    def counting(self: Figure, renderer: object) -> None:
+        draws.append(1)
+        original(self, renderer)
+
+    monkeypatch.setattr(Figure, "draw", counting)
+    save_figure(figure(), tmp_path / "once.png")
+    assert len(draws) == 1
+    laid_out_again = figure()
+    laid_out_again.tight_layout()
+    laid_out_again.savefig(tmp_path / "again.png")  # as before: tight_layout, then savefig
+    assert len(draws) == 3
+    assert (tmp_path / "once.png").read_bytes() == (tmp_path / "again.png").read_bytes()
