@@ -89,22 +89,44 @@ def plot_file_names(plots: tuple[Plot, ...]) -> list[str]:
 
 def new_figure(plot: Plot) -> Any:
     """An empty matplotlib Figure sized for ``plot``."""
+    if plot.xy is not None:
+        return blank_figure(XY_SIZE)
+    panels = len(unit_groups(series_of(plot)))
+    return blank_figure((TIME_WIDTH, 1.4 + PANEL_HEIGHT * max(panels, 1)))
+
+
+#: matplotlib settings that would give a figure a layout engine of their own (a user's
+#: ``matplotlibrc`` may set them): :func:`save_figure` lays each figure out itself.
+NO_LAYOUT_ENGINE: dict[Any, bool] = {
+    "figure.autolayout": False,
+    "figure.constrained_layout.use": False,
+}
+
+
+def blank_figure(size: tuple[float, float]) -> Any:
+    """An empty matplotlib Figure (object API, no pyplot state) of ``size`` inches.
+
+    Without a layout engine whatever the user's matplotlib settings: with constrained layout
+    turned on there, ``tight_layout`` refused a figure holding a colour bar (a heat map), and
+    the plot was not drawn."""
+    import matplotlib
     from matplotlib.figure import Figure
 
-    if plot.xy is not None:
-        return Figure(figsize=XY_SIZE, dpi=DPI)
-    panels = len(unit_groups(series_of(plot)))
-    return Figure(figsize=(TIME_WIDTH, 1.4 + PANEL_HEIGHT * max(panels, 1)), dpi=DPI)
+    with matplotlib.rc_context(NO_LAYOUT_ENGINE):
+        return Figure(figsize=size, dpi=DPI)
 
 
 def save_figure(figure: Any, path: Path) -> Path:
     """Write ``figure`` to ``path`` (format from the suffix), atomically: drawn in memory, then
     renamed into place, so a link planted at the name is replaced, not written through."""
+    import matplotlib
+
     figure.tight_layout()
     # tight_layout leaves a placeholder layout engine, and with any engine set savefig lays
     # the whole figure out once more before it draws (a draw without rendering: a third of
     # a figure's time here). The layout is done: nothing is left for an engine to do.
-    figure.set_layout_engine(None)
+    with matplotlib.rc_context(NO_LAYOUT_ENGINE):
+        figure.set_layout_engine(None)
     image = io.BytesIO()
     figure.savefig(image, format=path.suffix.lstrip(".") or "png")
     write_bytes_atomic(path, image.getvalue())

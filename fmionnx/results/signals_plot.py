@@ -22,10 +22,10 @@ from fmionnx.compile.ir import CompiledSystem, Series
 from fmionnx.compile.plotfiles import SIGNALS_FILE, unique_name
 from fmionnx.core.signals import column_names
 from fmionnx.results.plots import (
-    DPI,
     PANEL_HEIGHT,
     TIME_WIDTH,
     Drawing,
+    blank_figure,
     draw_panel,
     save_figure,
 )
@@ -103,9 +103,7 @@ def _write_page(page: list[Series], result: RunResult, title: str, path: Path) -
 
 def draw_signals(series: list[Series], result: RunResult, *, title: str) -> Any:
     """A Figure with one panel per series over a shared time axis."""
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=(TIME_WIDTH, 1.4 + PANEL_HEIGHT * 0.8 * len(series)), dpi=DPI)
+    figure = blank_figure((TIME_WIDTH, 1.4 + PANEL_HEIGHT * 0.8 * len(series)))
     panels = figure.subplots(len(series), 1, sharex=True, squeeze=False)[:, 0]
     for axes, item in zip(panels, series, strict=True):
         draw_panel(axes, result, [item], item.unit)

@@ -22,7 +22,7 @@ from typing import TYPE_CHECKING, Any
 
 from fmionnx.compile.studyir import CHECK_PREFIX, StudyPlan
 from fmionnx.core.owned import OwnedFolder
-from fmionnx.results.plots import DPI, Drawing, save_figure
+from fmionnx.results.plots import Drawing, blank_figure, save_figure
 from fmionnx.results.study_units import labelled, plan_units
 
 if TYPE_CHECKING:
@@ -34,9 +34,7 @@ PANEL = (6.0, 4.5)
 
 def new_figure_plain(ncols: int = 1) -> tuple[Any, Any]:
     """A matplotlib Figure (object API, no pyplot state) and its axes (one per column)."""
-    from matplotlib.figure import Figure
-
-    figure = Figure(figsize=(PANEL[0] * ncols, PANEL[1]), dpi=DPI)
+    figure = blank_figure((PANEL[0] * ncols, PANEL[1]))
     return figure, figure.subplots(ncols=ncols)
 
 

@@ -302,3 +302,24 @@ def test_a_figure_is_laid_out_once_and_drawn_once_when_saved(
     laid_out_again.savefig(tmp_path / "again.png")  # as before: tight_layout, then savefig
     assert len(draws) == 3
     assert (tmp_path / "once.png").read_bytes() == (tmp_path / "again.png").read_bytes()
+
+
+@pytest.mark.parametrize("setting", ["figure.constrained_layout.use", "figure.autolayout"])
+def test_a_users_matplotlib_layout_setting_changes_no_figure(tmp_path: Path, setting: str) -> None:
+    """A ``matplotlibrc`` that turns constrained layout on made ``tight_layout`` refuse a
+    figure holding a colour bar (a study's heat map): the plot was not drawn. The figures
+    are made without a layout engine whatever the settings, and come out the same."""
+    import matplotlib
+
+    from fmionnx.results.plots import blank_figure, save_figure
+
+    def heat_map(name: str) -> Path:
+        figure = blank_figure((4.0, 3.0))
+        axes = figure.subplots()
+        image = axes.imshow([[0.0, 1.0], [2.0, 3.0]])
+        figure.colorbar(image, ax=axes, label="value [m]")
+        return save_figure(figure, tmp_path / name)
+
+    plain = heat_map("plain.png").read_bytes()
+    with matplotlib.rc_context({setting: True}):
+        assert heat_map("set.png").read_bytes() == plain
