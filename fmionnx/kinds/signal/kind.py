@@ -7,24 +7,23 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fmionnx.core import codes
-from fmionnx.core.specbase import ComponentSpecBase
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
 from fmionnx.core.units import builtin_unit
 from fmionnx.kinds.base import Display, KindProblem, RoleDefault, SettingInput
 from fmionnx.kinds.cache import cached_interface, file_identity
-from fmionnx.kinds.signal.spec import NAME, SignalSpec
+from fmionnx.kinds.signal.names import NAME
 from fmionnx.kinds.signal.table import read_table, table_interface
 from fmionnx.kinds.signal.waveforms import SignalConfig, waveform
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.runner import Runner, Wiring
+    from fmionnx.core.specbase import ComponentSpecBase
 
 
 class SignalKind:
     """Stimuli defined in the system file (``outputs:``) or read from a CSV table."""
 
     name = NAME
-    spec_model = SignalSpec
     config_type = SignalConfig
     suffixes = (".csv",)
     summary = "stimuli: constant, step, ramp, sine, or a CSV table (no model file needed)"
@@ -39,26 +38,21 @@ class SignalKind:
     )
     ros2_defaults: Mapping[tuple[str, str], RoleDefault] = {}
 
+    @property
+    def spec_model(self) -> type[ComponentSpecBase]:
+        """The entry's pydantic model (:mod:`.spec`), loaded on first use."""
+        from fmionnx.kinds.signal.spec import SignalSpec
+
+        return SignalSpec
+
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """The entry's outputs, or the table's columns (cached per file identity).
 
         Without a table ``path`` is the system file (the entry is the model); ``spec`` None
         (``fmionnx inspect``) means ``path`` is a table. Raises ModelError (E010/E011/E012).
         """
-        if isinstance(spec, SignalSpec) and not spec.has_model_file:
-            ports = tuple(
-                Port(
-                    name,
-                    Causality.OUTPUT,
-                    DType.FLOAT64,
-                    unit=output.unit,
-                    unit_definition=builtin_unit(output.unit),
-                    depends_on=(),
-                    description=waveform(output).text(),
-                )
-                for name, output in spec.outputs.items()
-            )
-            return ComponentInterface(NAME, path, ports)
+        if spec is not None and not spec.has_model_file:
+            return _outputs_interface(spec, path)
         if not path.is_file():
             read_table(path)  # raises the missing or not-a-file error
         key = (NAME, *file_identity(path))
@@ -72,6 +66,8 @@ class SignalKind:
         Checked here rather than in the pydantic model so that each problem points at the key
         it is about.
         """
+        from fmionnx.kinds.signal.spec import SignalSpec  # pydantic: loaded with the entry
+
         assert isinstance(spec, SignalSpec)
         if spec.has_model_file and spec.outputs:
             message = "has both `outputs:` and a table at `path:`"
@@ -92,6 +88,8 @@ class SignalKind:
 
     def resolve(self, spec: ComponentSpecBase, interface: ComponentInterface) -> SignalConfig:
         """The outputs' waveforms, or the table's interpolation."""
+        from fmionnx.kinds.signal.spec import SignalSpec  # pydantic: loaded with the entry
+
         assert isinstance(spec, SignalSpec)
         if spec.has_model_file:
             return SignalConfig(interpolation=spec.interpolation)
@@ -126,6 +124,26 @@ class SignalKind:
         from fmionnx.kinds.signal.runner import SignalRunner
 
         return SignalRunner(component)
+
+
+def _outputs_interface(spec: ComponentSpecBase, path: Path) -> ComponentInterface:
+    """The ports of an entry's ``outputs:`` waveforms."""
+    from fmionnx.kinds.signal.spec import SignalSpec  # pydantic: loaded with the entry
+
+    assert isinstance(spec, SignalSpec)
+    ports = tuple(
+        Port(
+            name,
+            Causality.OUTPUT,
+            DType.FLOAT64,
+            unit=output.unit,
+            unit_definition=builtin_unit(output.unit),
+            depends_on=(),
+            description=waveform(output).text(),
+        )
+        for name, output in spec.outputs.items()
+    )
+    return ComponentInterface(NAME, path, ports)
 
 
 SIGNAL_KIND = SignalKind()

@@ -2,17 +2,16 @@
 
 from __future__ import annotations
 
-import re
-from typing import Final, Literal
+from typing import Literal
 
 from pydantic import Field, field_validator, model_validator
 
 from fmionnx.core.modelfiles import NO_MODEL_FILE
 from fmionnx.core.specbase import ComponentSpecBase, StrictModel
+from fmionnx.kinds.signal.names import NAME, PORT_NAME
 
-NAME: Final = "signal"
-#: Port names a signal may define: plain identifiers, safe in endpoints and ROS 2 names.
-PORT_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_]*")
+__all__ = ["NAME", "PORT_NAME", "WAVEFORMS", "OutputSpec", "SignalSpec"]
+
 WAVEFORMS = ("constant", "step", "ramp", "sine")
 
 

@@ -18,7 +18,7 @@ from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import MODEL_FILE_BYTES
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
 from fmionnx.kinds.cache import sha256_file
-from fmionnx.kinds.signal.spec import NAME, PORT_NAME
+from fmionnx.kinds.signal.names import NAME, PORT_NAME
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,10 +10,13 @@ from __future__ import annotations
 
 import math
 from dataclasses import dataclass
-from typing import Literal
+from typing import TYPE_CHECKING, Literal
 
 from fmionnx.core.types import KindConfig
-from fmionnx.kinds.signal.spec import NAME, OutputSpec
+from fmionnx.kinds.signal.names import NAME
+
+if TYPE_CHECKING:  # pydantic: the entry's models load only to compile a system file
+    from fmionnx.kinds.signal.spec import OutputSpec
 
 
 @dataclass(frozen=True, slots=True)
