@@ -13,11 +13,8 @@ from __future__ import annotations
 from dataclasses import dataclass
 from typing import Any
 
-import pytest
-
 from fmionnx.backends.sweep.case import CaseOutcome
 from fmionnx.backends.sweep.engine import _died, _outcomes
-from tests.sweep.conftest import WriteStudy
 
 
 def _killed() -> BaseException:
@@ -51,6 +48,23 @@ def test_a_result_gone_with_its_worker_is_a_death() -> None:
     assert _died(lost) == "the worker running the case died before its result was taken"
 
 
+def test_a_result_dask_is_computing_again_is_a_death_said_at_once() -> None:
+    """Lost with its worker, a result leaves the future ``lost`` while Dask computes it again;
+    asking it for its exception waited for that and gave ``None`` ("NoneType: None")."""
+
+    @dataclass
+    class _Waiting(_Future):
+        def exception(self) -> BaseException | None:
+            raise AssertionError("asked a future that has not ended for its exception")
+
+    lost = _Waiting("lost")
+    assert _outcomes(lost) is None
+    assert _died(lost) == "the worker running the case died before its result was taken"
+    assert _died(_Waiting("cancelled")) == (
+        "the worker running the case is gone (its task is cancelled)"
+    )
+
+
 def test_a_task_that_did_not_finish_is_a_death() -> None:
     died = _Future("error", _killed())
     assert _outcomes(died) is None
@@ -81,61 +95,3 @@ def test_a_task_sent_to_a_worker_that_is_gone_does_not_wait_for_ever() -> None:
         while future.status == "pending" and time.monotonic() < deadline:
             time.sleep(0.1)
         assert future.status in ("error", "finished"), future.status
-
-
-STUDY = """\
-fmionnx: 1
-system: system.yaml
-isolate: [none]
-parameters:
-  gain.k: [1, 2, 3]
-metrics:
-  y_end: final(gain.y)
-"""
-
-
-@pytest.mark.parametrize(("losses", "status"), [(2, "ok"), (3, "failed")])
-def test_a_case_that_finished_alone_but_lost_its_result_runs_once_more(
-    write_study: WriteStudy,
-    cluster: str,
-    monkeypatch: pytest.MonkeyPatch,
-    losses: int,
-    status: str,
-) -> None:
-    """Its result lost, the case runs again alone; lost again alone (it finished: its worker
-    died after), it runs once more; only a third loss records it as failed. The losses are
-    made on the driver (a real cluster runs the cases): which result a dying worker takes
-    with it cannot be chosen."""
-    from distributed import Client
-
-    from fmionnx.backends.sweep import engine
-    from fmionnx.backends.sweep.case import Job
-    from fmionnx.pipeline.study import run_study_case
-    from fmionnx.pipeline.sweep import plan_study
-
-    plan, _ = plan_study(write_study(STUDY))
-    lost: list[str] = []
-
-    def losing(future: Any) -> list[CaseOutcome] | None:
-        outcomes = _outcomes(future)
-        if "case-0001" in str(future.key) and outcomes is not None and len(lost) < losses:
-            lost.append(str(future.key))
-            return None  # as if its worker had died after it finished
-        return outcomes
-
-    monkeypatch.setattr(engine, "_outcomes", losing)
-    outcomes: list[CaseOutcome] = []
-    with Client(cluster, set_as_default=False) as client:
-        run = engine.run_study(
-            client, plan, plan.cases, Job.of(plan), outcomes.append, run_study_case, batch=1
-        )
-    by_case = {o.id: o for o in outcomes}
-    assert sorted(by_case) == ["case-0000", "case-0001", "case-0002"]
-    assert len(outcomes) == 3  # one outcome each
-    assert by_case["case-0001"].status == status
-    assert [key.endswith("-alone") for key in lost] == [False, True, True][:losses]
-    assert run.fallbacks == 1
-    if status == "failed":
-        assert by_case["case-0001"].message == (
-            "the worker running the case died before its result was taken"
-        )

@@ -10,8 +10,8 @@ then up to two tasks in hand per thread; a worker that returns a task is handed 
 one. Each outcome is handed to ``on_done`` on the driver as soon as its task returns, so the
 caller can record it durably before the next one arrives. A worker that dies under a task (a
 model crashing a non-isolated component) has that task's cases run again one at a time, alone
-on the cluster; a case whose worker dies while it runs alone is ``failed`` (one that finished
-alone but whose result went with its worker runs once more first); the study goes on."""
+on the cluster; a case whose worker dies while it runs alone is ``failed``; the study goes
+on."""
 
 from __future__ import annotations
 
@@ -314,8 +314,6 @@ def run_study(
     waiting = deque(cases)
     #: Cases of a task whose worker died: each runs again alone on the cluster, before the rest.
     alone: deque[Case] = deque()
-    #: Cases that finished alone but whose result went with their worker: run once more.
-    lost: set[str] = set()
     in_flight: dict[str, _InFlight] = {}  # by task key
     sizes: list[int] = []
     fallbacks = 0
@@ -418,12 +416,6 @@ def run_study(
             # else on the cluster, and a death then is that case's own.
             alone.extend(group)
             fallbacks += len(group)
-            outcomes = []
-        elif outcomes is None and _lost(future) and group[0].id not in lost:
-            # It finished, alone; its worker died after (the cluster's fork server killed, an
-            # out-of-memory killer): not the case's doing. Once more, then it is recorded.
-            lost.add(group[0].id)
-            alone.append(group[0])
             outcomes = []
         elif outcomes is None:
             outcomes = [CaseOutcome(group[0].id, "failed", _died(future))]
@@ -607,15 +599,17 @@ def _outcomes(future: Any) -> list[CaseOutcome] | None:
     return outcomes
 
 
-def _lost(future: Any) -> bool:
-    """Whether a task that gave no outcomes had finished: its result went with its worker."""
-    return bool(future.status == "finished")
-
-
 def _died(future: Any) -> str:
-    """Why a case's task failed (the case itself never raises: its worker died)."""
-    if _lost(future):  # its result went with its worker (see _outcomes)
+    """Why a case's task failed (the case itself never raises: its worker died).
+
+    The status is read once and the task's exception asked for only when it ended in one:
+    a result lost with its worker leaves the future ``lost`` while Dask runs it again, and
+    asking it for its exception then waited for that run and gave ``None``."""
+    status = future.status
+    if status in ("finished", "lost"):  # its result went with its worker (see _outcomes)
         return "the worker running the case died before its result was taken"
+    if status != "error":
+        return f"the worker running the case is gone (its task is {status})"
     try:
         exception = future.exception()
     except Exception as exc:
