@@ -95,12 +95,12 @@ def new_figure(plot: Plot) -> Any:
     return blank_figure((TIME_WIDTH, 1.4 + PANEL_HEIGHT * max(panels, 1)))
 
 
-#: matplotlib settings that would give a figure a layout engine of their own (a user's
-#: ``matplotlibrc`` may set them): :func:`save_figure` lays each figure out itself.
-NO_LAYOUT_ENGINE: dict[Any, bool] = {
-    "figure.autolayout": False,
-    "figure.constrained_layout.use": False,
-}
+#: matplotlib settings that give a new figure a layout engine (a user's ``matplotlibrc`` may
+#: set them): :func:`save_figure` lays each figure out itself.
+LAYOUT_SETTINGS: tuple[Any, ...] = ("figure.autolayout", "figure.constrained_layout.use")
+#: A figure's layout engine at its creation: none (matplotlib takes ``"none"`` there, though
+#: its type hints leave it out).
+NO_ENGINE: Any = "none"
 
 
 def blank_figure(size: tuple[float, float]) -> Any:
@@ -109,11 +109,9 @@ def blank_figure(size: tuple[float, float]) -> Any:
     Without a layout engine whatever the user's matplotlib settings: with constrained layout
     turned on there, ``tight_layout`` refused a figure holding a colour bar (a heat map), and
     the plot was not drawn."""
-    import matplotlib
     from matplotlib.figure import Figure
 
-    with matplotlib.rc_context(NO_LAYOUT_ENGINE):
-        return Figure(figsize=size, dpi=DPI)
+    return Figure(figsize=size, dpi=DPI, layout=NO_ENGINE)
 
 
 def save_figure(figure: Any, path: Path) -> Path:
@@ -124,8 +122,9 @@ def save_figure(figure: Any, path: Path) -> Path:
     figure.tight_layout()
     # tight_layout leaves a placeholder layout engine, and with any engine set savefig lays
     # the whole figure out once more before it draws (a draw without rendering: a third of
-    # a figure's time here). The layout is done: nothing is left for an engine to do.
-    with matplotlib.rc_context(NO_LAYOUT_ENGINE):
+    # a figure's time here). The layout is done: nothing is left for an engine to do. (With
+    # a layout setting on, "no engine" would mean that engine: the placeholder stays.)
+    if not any(matplotlib.rcParams[name] for name in LAYOUT_SETTINGS):
         figure.set_layout_engine(None)
     image = io.BytesIO()
     figure.savefig(image, format=path.suffix.lstrip(".") or "png")
