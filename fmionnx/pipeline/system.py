@@ -234,9 +234,9 @@ def check_model(path: str | Path) -> CompileResult:
     then its kind's deeper checks run: FMPy's validation for an FMU, the ONNX checker and
     strict shape inference for an ONNX model, MuJoCo's compiler for a scene.
     """
-    bag = DiagnosticBag()
-    from fmionnx.compile.single import check_single_model
+    from fmionnx.compile.single import check_single_model  # pydantic: for a lone model only
 
+    bag = DiagnosticBag()
     system = check_single_model(Path(path), bag)
     diagnostics = tuple(bag.sorted())
     if any(d.severity is Severity.ERROR for d in diagnostics):

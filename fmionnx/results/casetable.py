@@ -79,9 +79,14 @@ class CaseTable:
                 record[name] = math.nan if record[name] is None else float(record[name])
         return records
 
+    @functools.cached_property
+    def _kinds(self) -> dict[str, ColumnKind]:
+        """Each column's type, worked out once (both files and the DataFrame use them)."""
+        return {name: column_kind(self.column(name)) for name in self.columns}
+
     def kind(self, name: str) -> ColumnKind:
         """The type pandas gives column ``name``."""
-        return column_kind(self.column(name))
+        return self._kinds[name]
 
     def to_pandas(self) -> pd.DataFrame:
         """The table as the DataFrame pandas makes of the same rows."""
@@ -94,7 +99,7 @@ class CaseTable:
         pandas metadata (pandas reads the file back to the same frame)."""
         import pyarrow as pa
 
-        arrays = [_arrow(self.column(name)) for name in self.columns]
+        arrays = [_arrow(self.column(name), self.kind(name)) for name in self.columns]
         return pa.Table.from_arrays(arrays, names=list(self.columns))
 
     def write_csv(self, stream: IO[str]) -> None:
@@ -153,7 +158,7 @@ def _plain_number(value: Any) -> bool:
     return True
 
 
-def _arrow(values: list[Any]) -> pa.Array:
+def _arrow(values: list[Any], kind: ColumnKind) -> pa.Array:
     """A column as pyarrow converts pandas' column of the same values (NaN is null).
 
     Built from its buffers: ``pyarrow.array`` imports pandas, to ask whether what it is given
@@ -161,7 +166,6 @@ def _arrow(values: list[Any]) -> pa.Array:
     import numpy as np
     import pyarrow as pa
 
-    kind = column_kind(values)
     if kind == "empty":
         return pa.nulls(0)
     missing = np.array([_missing(v) for v in values], dtype=np.bool_)

@@ -300,7 +300,7 @@ class SharedTrack(recording.Track):
     followed by its plot worker: :class:`RowsShared`)."""
 
     offset: int = -1
-    #: The registry of the file it lives in (None: this process's, the guardian's child).
+    #: The registry of the file it lives in (set by :meth:`SharedRecorder.track`).
     registry: _SharedTracks | None = None
     _count: Any = None
     _count_cell: Any = None
@@ -315,7 +315,8 @@ class SharedTrack(recording.Track):
         self._place(len(self.rows) + max(extra, 1))
 
     def _place(self, rows: int) -> None:
-        registry = self.registry if self.registry is not None else _REGISTRY[0]
+        registry = self.registry
+        assert registry is not None  # given by the recorder that made the track
         columns = len(self.columns)
         block, offset = registry.shared.allocate(8 + rows * columns * 8)
         count = memoryview(block)[:8].cast("q")  # a memoryview store: the cheapest there is
@@ -378,7 +379,8 @@ def _release(region: mmap.mmap) -> None:
 
 
 class SharedRecorder(recording.Recorder):
-    """A recorder whose tracks are :class:`SharedTrack` (child only)."""
+    """A recorder whose tracks are :class:`SharedTrack` (the guardian's child, or a run that
+    records for a follower: :class:`RowsShared`)."""
 
     def __init__(self, registry: _SharedTracks | None = None) -> None:
         """``registry``: the file's (:class:`RowsShared`); None: this process's, in the

@@ -56,25 +56,22 @@ def test_dasks_report_of_a_cancel_before_the_call_started_is_dropped() -> None:
     assert "Traceback" not in _interrupted("ours")
 
 
+def _cancel_report(filename: str) -> logging.LogRecord:
+    """tornado's report of a ``cancel`` of ``filename`` reading an unbound ``future``."""
+    namespace: dict[str, object] = {}
+    exec(compile("def cancel():\n    return future\n", filename, "exec"), namespace)
+    try:
+        namespace["cancel"]()  # type: ignore[operator]
+    except NameError as error:
+        info = (NameError, error, error.__traceback__)
+    return logging.LogRecord(LOGGER, logging.ERROR, __file__, 1, "callback", None, info)
+
+
 def test_the_filter_drops_a_name_error_of_dasks_cancel_only() -> None:
     """The same report made here: a ``cancel`` of a file named as Dask's ``utils``."""
     dropping = UnstartedCancel()
-    namespace: dict[str, object] = {}
-    code = "def cancel():\n    return future\n"
-    exec(compile(code, "/site-packages/distributed/utils.py", "exec"), namespace)
-    try:
-        namespace["cancel"]()  # type: ignore[operator]
-    except NameError as error:
-        info = (NameError, error, error.__traceback__)
-    record = logging.LogRecord(LOGGER, logging.ERROR, __file__, 1, "callback", None, info)
-    assert not dropping.filter(record)
-    exec(compile(code, "/site-packages/mine/utils.py", "exec"), namespace)
-    try:
-        namespace["cancel"]()  # type: ignore[operator]
-    except NameError as error:
-        info = (NameError, error, error.__traceback__)
-    record = logging.LogRecord(LOGGER, logging.ERROR, __file__, 1, "callback", None, info)
-    assert dropping.filter(record)
+    assert not dropping.filter(_cancel_report("/site-packages/distributed/utils.py"))
+    assert dropping.filter(_cancel_report("/site-packages/mine/utils.py"))
 
 
 def test_other_reports_of_tornado_pass() -> None:

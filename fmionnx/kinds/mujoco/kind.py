@@ -162,10 +162,9 @@ class MujocoKind:
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the scene's ports."""
         from fmionnx.kinds.mujoco.interface import read_mujoco_interface
-
-        cameras = None
         from fmionnx.kinds.mujoco.spec import MujocoSpec  # pydantic: loaded with the entry
 
+        cameras = None
         if isinstance(spec, MujocoSpec):
             cameras = {name: (c.width, c.height) for name, c in spec.cameras.items()}
         return read_mujoco_interface(path, cameras)

@@ -94,10 +94,9 @@ class OnnxKind:
     def read_interface(self, path: Path, spec: ComponentSpecBase | None) -> ComponentInterface:
         """Read the model's inputs and outputs; the entry's ``units`` name their units."""
         from fmionnx.kinds.onnx.interface import read_onnx_interface
-
-        interface = read_onnx_interface(path)
         from fmionnx.kinds.onnx.spec import OnnxSpec  # pydantic: loaded with the entry
 
+        interface = read_onnx_interface(path)
         if isinstance(spec, OnnxSpec) and spec.units:
             interface = with_units(interface, spec.units)
         return interface
