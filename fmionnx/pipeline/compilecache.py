@@ -9,13 +9,18 @@ nothing. So a successful compile of a YAML system file is kept in the cache fold
 (:func:`fmionnx.core.cachedir.cache_folder`, ``compiled/``) and read back the next time
 instead of compiling, when nothing it was made from has changed.
 
+A lone model run as a system (``fmionnx run model.fmu``, ``fmionnx.load("model.onnx")``) is
+kept the same way (:func:`lookup_model`, :func:`store_model`): its compile loads the kinds'
+pydantic specs and the run settings' types, a third of a lone FMU's start.
+
 **What an entry depends on** is hashed, never trusted by its date:
 
 - the *key* (the entry's folder name) is a sha256 over this cache's format, the code that
   compiled it (fmionnx's files and the libraries that read models, by size and modification
   time: see :func:`_code_stamp`), the ``FMIONNX_*`` environment (resource limits change
   diagnostics), the working folder, the path as given, ``--start-time``/``--step``, and the
-  system file's bytes;
+  system file's bytes (a lone model: ``--interface`` instead, its bytes being a
+  dependency, below);
 - the entry lists every model it read with the sha256 of its contents (a scene with its
   folder, since a scene includes files beside it) and each model's expected-path file
   (or that there was none). A lookup hashes them all again; one that differs is a miss.
@@ -42,7 +47,7 @@ import hashlib
 import json
 import os
 import sys
-from collections.abc import Iterator, Sequence
+from collections.abc import Callable, Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -72,6 +77,8 @@ VERSION = 1
 SWITCH = "FMIONNX_COMPILE_CACHE"
 #: System files the cache keeps: YAML (an SSP archive has its own unpack cache).
 SUFFIXES = frozenset({".yaml", ".yml"})
+#: Lone models the cache keeps (those ``load`` runs as a one-component system).
+MODEL_SUFFIXES = frozenset({".fmu", ".onnx"})
 #: Largest system file and entry read (a system file larger than this is refused anyway).
 MAX_SYSTEM_BYTES = 16 * 1024 * 1024
 MAX_ENTRY_BYTES = 64 * 1024 * 1024
@@ -100,20 +107,33 @@ def enabled() -> bool:
     return not switched_off(SWITCH)
 
 
-def applies_to(path: Path) -> bool:
-    """Whether compiles of the system file at ``path`` are kept: not while an editor's texts
-    stand in for files on disk (the language server), whose compiles the disk does not key."""
+def applies_to(path: Path, suffixes: frozenset[str] = SUFFIXES) -> bool:
+    """Whether compiles of the system file (or, with :data:`MODEL_SUFFIXES`, the lone model)
+    at ``path`` are kept: not while an editor's texts stand in for files on disk (the
+    language server), whose compiles the disk does not key."""
     from fmionnx.core.sourcetext import editing_any
 
-    return enabled() and path.suffix.lower() in SUFFIXES and not editing_any()
+    return enabled() and path.suffix.lower() in suffixes and not editing_any()
 
 
 def lookup(path: Path, flags: RunFlags | None) -> Cached | None:
     """The cached compile of ``path`` with ``flags``, or None (a miss, or an entry refused)."""
     if not applies_to(path):
         return None
+    return _lookup(lambda: _key(path, flags))
+
+
+def lookup_model(path: Path, flags: RunFlags, interface: str | None) -> Cached | None:
+    """The cached compile of the lone model at ``path`` run with ``flags`` and ``interface``
+    (an FMU's ``--interface``), or None."""
+    if not applies_to(path, MODEL_SUFFIXES):
+        return None
+    return _lookup(lambda: _model_key(path, flags, interface))
+
+
+def _lookup(key_of: Callable[[], str | None]) -> Cached | None:
     try:
-        key = _key(path, flags)
+        key = key_of()
         if key is None:
             return None
         found = _read(_root() / key, key)
@@ -133,10 +153,29 @@ def store(
     Never raises: a cache that cannot be written (a read-only home, a full disk, a folder
     someone else owns) only means the next run compiles again.
     """
-    if not applies_to(path):
-        return
+    if applies_to(path):
+        _store(lambda: _key(path, flags), system, diagnostics)
+
+
+def store_model(
+    path: Path,
+    flags: RunFlags,
+    interface: str | None,
+    system: CompiledSystem,
+    diagnostics: Sequence[Diagnostic],
+) -> None:
+    """Keep the compile of the lone model at ``path`` (see :func:`lookup_model`, :func:`store`)."""
+    if applies_to(path, MODEL_SUFFIXES):
+        _store(lambda: _model_key(path, flags, interface), system, diagnostics)
+
+
+def _store(
+    key_of: Callable[[], str | None],
+    system: CompiledSystem,
+    diagnostics: Sequence[Diagnostic],
+) -> None:
     with contextlib.suppress(OSError, ValueError, _RefusedError):
-        key = _key(path, flags)
+        key = key_of()
         dependencies = _dependencies(system)
         if key is None or dependencies is None:
             return
@@ -152,16 +191,27 @@ def _key(path: Path, flags: RunFlags | None) -> str | None:
         data = stream.read(MAX_SYSTEM_BYTES + 1)
     if len(data) > MAX_SYSTEM_BYTES:
         return None
-    environment = limits_in_force()
-    flags = flags or RunFlags()
+    return _hashed(path, flags or RunFlags(), system=hashlib.sha256(data).hexdigest())
+
+
+def _model_key(path: Path, flags: RunFlags, interface: str | None) -> str:
+    """The entry's name for the lone model at ``path``. Its bytes are not in the key (a model
+    can be large, and the entry's dependencies hash it anyway): a changed model finds its
+    entry, whose dependencies no longer match, and is compiled again into the same key. The
+    path it resolves to is: the compiled system names the model by it, so a link pointed at
+    another model is another entry."""
+    return _hashed(path, flags, model=["lone", interface, str(path.resolve())])
+
+
+def _hashed(path: Path, flags: RunFlags, **what: object) -> str:
     material = {
         "format": [FORMAT, VERSION],
         "code": _code_stamp(),
-        "environment": environment,
+        "environment": limits_in_force(),
         "cwd": str(Path.cwd()),
         "path": str(path),
         "flags": [flags.start, flags.step],
-        "system": hashlib.sha256(data).hexdigest(),
+        **what,
     }
     text = json.dumps(material, sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()

@@ -123,20 +123,11 @@ def load(
             msg = "--step and --start-time need a system file: a compiled system is run as it is"
             raise OverrideError(msg)
         return System(read_compiled(target, models=models), source=target)
-    bag = DiagnosticBag()
     if target.suffix.lower() in MODEL_SUFFIXES:
-        # A single model's spec is a pydantic model: loaded only for one (a system file read
-        # back from the compile cache needs none of it).
-        from fmionnx.compile.single import compile_single_model
-
-        compiled = compile_single_model(target, bag, interface=interface, step=step, start=start)
-        if compiled is not None:
-            compiled = mark_command_line(compiled, flags)
+        result = compile_model(target, flags, interface)
     else:
         result = compile_system(target, flags)
-        bag.extend(result.diagnostics)
-        compiled = result.system
-    diagnostics = tuple(bag.sorted())
+    compiled, diagnostics = result.system, result.diagnostics
     if compiled is None or any(d.severity is Severity.ERROR for d in diagnostics):
         raise DiagnosticError([d for d in diagnostics if d.severity is Severity.ERROR])
     if target.suffix.lower() == ".fmu":
@@ -184,6 +175,31 @@ def compile_system(path: str | Path, flags: RunFlags | None = None) -> CompileRe
     if result.system is not None and result.ok:
         compilecache.store(target, flags, result.system, result.diagnostics)
     return result
+
+
+def compile_model(
+    path: Path, flags: RunFlags, interface: Literal["cs", "me"] | None = None
+) -> CompileResult:
+    """Compile a lone model into a one-component system (:mod:`fmionnx.compile.single`), or
+    read its compile back from the compile cache: the compile loads the kinds' pydantic specs
+    and the run settings' types, which a lone FMU's run needs nothing else of."""
+    from fmionnx.pipeline import compilecache
+
+    cached = compilecache.lookup_model(path, flags, interface)
+    if cached is not None:
+        return CompileResult(cached.system, cached.diagnostics)
+    from fmionnx.compile.single import compile_single_model
+
+    bag = DiagnosticBag()
+    compiled = compile_single_model(
+        path, bag, interface=interface, step=flags.step, start=flags.start
+    )
+    if compiled is not None:
+        compiled = mark_command_line(compiled, flags)
+    result = CompileResult(compiled, tuple(bag.sorted()))
+    if compiled is not None and result.ok:
+        compilecache.store_model(path, flags, interface, compiled, result.diagnostics)
+    return result if result.ok else CompileResult(None, result.diagnostics)
 
 
 def compiled_before(path: str | Path, flags: RunFlags | None = None) -> CompileResult | None:

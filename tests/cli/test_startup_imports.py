@@ -214,3 +214,15 @@ def test_a_signal_read_back_from_the_compile_cache_loads_no_pydantic(
     env = {"FMIONNX_CACHE": str(tmp_path / "cache"), "FMIONNX_COMPILE_CACHE": "1"}
     assert "pydantic" in loaded(folder, "validate", "signals.yaml", env=env)  # compiled
     assert "pydantic" not in loaded(folder, "validate", "signals.yaml", env=env)  # read back
+
+
+def test_a_lone_fmu_read_back_from_the_compile_cache_loads_no_pydantic(
+    folder: Path, tmp_path: Path
+) -> None:
+    """A lone model's compile loads its kind's entry model and the run settings' types
+    (pydantic): a third of a lone FMU's start, which its second run no longer pays."""
+    env = {"FMIONNX_CACHE": str(tmp_path / "cache"), "FMIONNX_COMPILE_CACHE": "1"}
+    for out, compiled in (("out-lone-miss", True), ("out-lone-hit", False)):
+        modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", out, env=env)
+        assert ("pydantic" in modules) is compiled
+        assert (folder / out / "results.csv").is_file()

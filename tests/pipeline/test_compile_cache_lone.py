@@ -1,0 +1,192 @@
+"""The compile cache for a lone model (``fmionnx run model.fmu``, ``fmionnx.load("m.onnx")``):
+read back while the model and the run's settings are unchanged, compiled again otherwise,
+never kept with errors, and the same results either way."""
+
+from __future__ import annotations
+
+import json
+import shutil
+from pathlib import Path
+from typing import Any
+
+import pytest
+
+import fmionnx
+from fmionnx.compile import single
+from fmionnx.compile.ir import Origin
+from fmionnx.core.errors import DiagnosticError
+from fmionnx.core.private import KEY_FILE
+from fmionnx.pipeline import compilecache
+from fmionnx.pipeline.system import load
+from tests.conftest import build_fixture_fmu
+
+
+@pytest.fixture
+def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
+    """The Integrator fixture FMU in a folder of its own, run from there; the cache in
+    ``tmp_path / cache``, switched on."""
+    here = tmp_path / "models"
+    here.mkdir()
+    shutil.copy(build_fixture_fmu("Integrator"), here / "Integrator.fmu")
+    monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "cache"))
+    monkeypatch.setenv(compilecache.SWITCH, "1")
+    monkeypatch.chdir(here)
+    return here
+
+
+@pytest.fixture
+def compiles(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
+    """Every real compile of a lone model in this process."""
+    seen: list[Path] = []
+    real = single.compile_single_model
+
+    def counting(path: Path, *args: Any, **kwargs: Any) -> Any:
+        seen.append(path)
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(single, "compile_single_model", counting)
+    return seen
+
+
+def entries(tmp_path: Path) -> list[Path]:
+    root = tmp_path / "cache" / "compiled"
+    if not root.exists():
+        return []
+    return sorted(p / compilecache.ENTRY for p in root.iterdir() if not p.name.startswith("."))
+
+
+def test_an_unchanged_fmu_is_read_back_equal(folder: Path, compiles: list[Path]) -> None:
+    first = load("Integrator.fmu")
+    second = load("Integrator.fmu")
+    assert len(compiles) == 1
+    assert second.compiled == first.compiled
+    assert second.diagnostics == first.diagnostics
+    assert second.aliases == first.aliases
+    assert second.record == first.record
+    assert second.aliases  # a lone FMU's columns are named by its variables, read back too
+
+
+def test_results_are_the_same_with_and_without_the_cache(
+    folder: Path, compiles: list[Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    outs = []
+    for name, setting in (("off", "0"), ("miss", "1"), ("hit", "1")):
+        monkeypatch.setenv(compilecache.SWITCH, setting)
+        fmionnx.run("Integrator.fmu", out=Path(name), isolate="none", stop_time=0.5)
+        outs.append(Path(name))
+    assert len(compiles) == 2  # off and the miss compiled; the hit did not
+    reference = (outs[0] / "results.csv").read_bytes()
+    assert all((out / "results.csv").read_bytes() == reference for out in outs)
+    runs = [json.loads((out / "run.json").read_text(encoding="utf-8")) for out in outs]
+    for run in runs:  # what differs between any two runs: how long they took
+        del run["wall_time"], run["real_time_factor"]
+    assert runs[1] == runs[0]
+    assert runs[2] == runs[0]
+
+
+def test_a_changed_model_compiles_again(folder: Path, compiles: list[Path]) -> None:
+    first = load("Integrator.fmu")
+    shutil.copy(build_fixture_fmu("Gain"), folder / "Integrator.fmu")
+    second = load("Integrator.fmu")
+    assert len(compiles) == 2
+    assert second.compiled != first.compiled
+    load("Integrator.fmu")
+    assert len(compiles) == 2  # the new model's compile is kept in turn
+
+
+def test_a_link_pointed_at_another_model_compiles_again(folder: Path, compiles: list[Path]) -> None:
+    """The compiled system names the model by the path it resolves to: a link pointed
+    elsewhere must not read back the system of the model it named before."""
+    shutil.copy(build_fixture_fmu("Gain"), folder / "Gain.fmu")
+    link = folder / "model.fmu"
+    link.symlink_to("Integrator.fmu")
+    first = load("model.fmu")
+    link.unlink()
+    link.symlink_to("Gain.fmu")
+    second = load("model.fmu")
+    assert len(compiles) == 2
+    assert second.compiled.components[0].path == folder / "Gain.fmu"
+    assert first.compiled.components[0].path == folder / "Integrator.fmu"
+
+
+def test_each_setting_is_an_entry_of_its_own(
+    folder: Path, compiles: list[Path], tmp_path: Path
+) -> None:
+    load("Integrator.fmu")
+    load("Integrator.fmu", step=0.05)
+    load("Integrator.fmu", start=0.5)
+    load("Integrator.fmu", interface="cs")
+    load(folder / "Integrator.fmu")  # another path as given: its diagnostics name it so
+    assert len(compiles) == 5
+    assert len(entries(tmp_path)) == 5
+    stepped = load("Integrator.fmu", step=0.05)
+    assert len(compiles) == 5
+    assert stepped.compiled.run.step == 0.05
+    assert dict(stepped.compiled.run.origins)["step"] is Origin.COMMAND_LINE
+
+
+def test_a_model_with_errors_is_never_kept(
+    folder: Path, compiles: list[Path], tmp_path: Path
+) -> None:
+    (folder / "Broken.fmu").write_bytes(b"not a zip")
+    for _ in range(2):
+        with pytest.raises(DiagnosticError):
+            load("Broken.fmu")
+    assert len(compiles) == 2
+    assert entries(tmp_path) == []
+
+
+def _doubling_model(path: Path) -> Path:
+    """y = 2 x, one float."""
+    import onnx
+    from onnx import TensorProto, helper
+
+    two = helper.make_tensor("two", TensorProto.FLOAT, [1], [2.0])
+    graph = helper.make_graph(
+        [helper.make_node("Mul", ["x", "two"], ["y"])],
+        "double",
+        [helper.make_tensor_value_info("x", TensorProto.FLOAT, [1])],
+        [helper.make_tensor_value_info("y", TensorProto.FLOAT, [1])],
+        [two],
+    )
+    model = helper.make_model(graph, opset_imports=[helper.make_opsetid("", 17)])
+    model.ir_version = 8
+    onnx.save(model, path)
+    return path
+
+
+def test_an_onnx_model_is_kept_too(folder: Path, compiles: list[Path]) -> None:
+    model = _doubling_model(folder / "double.onnx")
+    first = load(model)
+    second = load(model)
+    assert len(compiles) == 1
+    assert second.compiled == first.compiled
+
+
+def test_switched_off_it_neither_reads_nor_writes(
+    folder: Path, compiles: list[Path], tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    monkeypatch.setenv(compilecache.SWITCH, "0")
+    load("Integrator.fmu")
+    load("Integrator.fmu")
+    assert len(compiles) == 2
+    assert entries(tmp_path) == []
+
+
+def test_an_entry_naming_a_model_no_lookup_hashed_is_refused(
+    folder: Path, compiles: list[Path], tmp_path: Path
+) -> None:
+    """Signed with the user's own key (a bug would do that): still refused, since the model
+    it would run is not one whose contents the lookup just checked."""
+    import hashlib
+    import hmac
+
+    load("Integrator.fmu")
+    (entry,) = entries(tmp_path)
+    data = json.loads(entry.read_bytes().partition(b"\n")[2])
+    data["dependencies"] = [d for d in data["dependencies"] if not d[0].endswith(".fmu")]
+    secret = (entry.parent.parent / KEY_FILE).read_bytes()
+    body = json.dumps(data).encode()
+    entry.write_bytes(hmac.new(secret, body, hashlib.sha256).hexdigest().encode() + b"\n" + body)
+    load("Integrator.fmu")
+    assert len(compiles) == 2
