@@ -226,3 +226,15 @@ def test_a_lone_fmu_read_back_from_the_compile_cache_loads_no_pydantic(
         modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", out, env=env)
         assert ("pydantic" in modules) is compiled
         assert (folder / out / "results.csv").is_file()
+
+
+@pytest.mark.parametrize("isolate", ["guardian", "none"])
+def test_a_run_that_isolates_no_component_loads_no_isolation_proxy(
+    folder: Path, isolate: str
+) -> None:
+    """Which components are isolated is a look at the system; the proxy (pipes, shared
+    memory, the zygote's launcher) is for a run that does isolate one."""
+    out = f"out-proxy-{isolate}"
+    modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", out, "--isolate", isolate, full=True)  # fmt: skip
+    assert "fmionnx.runtime.isolated.factory" in modules  # the probe sees the look taken
+    assert "fmionnx.runtime.isolated.proxy" not in modules

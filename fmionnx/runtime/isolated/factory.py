@@ -3,11 +3,14 @@
 from __future__ import annotations
 
 from collections.abc import Iterable
+from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.runner import Runner, RunnerFactory, Wiring
 from fmionnx.core.types import Component
-from fmionnx.runtime.isolated.proxy import IsolatedRunner, IsolationSettings
+
+if TYPE_CHECKING:  # the proxy (pipes, shared memory, the zygote) only for a run that isolates
+    from fmionnx.runtime.isolated.proxy import IsolationSettings
 
 #: ``--isolate`` words besides component names.
 EVERY_FMU = "fmus"
@@ -18,7 +21,10 @@ NOTHING = "none"
 def isolating_factory(
     base: RunnerFactory, names: Iterable[str], settings: IsolationSettings
 ) -> RunnerFactory:
-    """``base``, except that the components in ``names`` get an :class:`IsolatedRunner`."""
+    """``base``, except that the components in ``names`` get an
+    :class:`~fmionnx.runtime.isolated.proxy.IsolatedRunner`."""
+    from fmionnx.runtime.isolated.proxy import IsolatedRunner
+
     chosen = frozenset(names)
 
     def make(component: Component, wiring: Wiring) -> Runner:
