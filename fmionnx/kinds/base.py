@@ -45,6 +45,10 @@ TIMELESS = "timeless"
 #: :class:`fmionnx.core.runner.StartEvaluating`), so a backend hands it those inputs at
 #: initialization, and a lazy output it reads (a camera) is made at the start time too.
 EVALUATED_AT_START = "evaluated-at-start"
+#: The interface's content hash is the sha256 of the model file's bytes (a model read from
+#: one file, not a folder): the compile cache keeps a compile only when the file it hashes for
+#: the entry is the file the interface was read from (:mod:`fmionnx.pipeline.compilecache`).
+FILE_HASHED = "file-hashed"
 
 
 @dataclass(frozen=True, slots=True)

@@ -10,7 +10,7 @@ nothing. So a successful compile of a YAML system file is kept in the cache fold
 instead of compiling, when nothing it was made from has changed.
 
 A lone model run as a system (``fmionnx run model.fmu``, ``fmionnx.load("model.onnx")``) is
-kept the same way (:func:`lookup_model`, :func:`store_model`): its compile loads the kinds'
+kept the same way (:func:`model_slot`): its compile loads the kinds'
 pydantic specs and the run settings' types, a third of a lone FMU's start.
 
 **What an entry depends on** is hashed, never trusted by its date:
@@ -47,7 +47,7 @@ import hashlib
 import json
 import os
 import sys
-from collections.abc import Callable, Iterator, Sequence
+from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -116,70 +116,88 @@ def applies_to(path: Path, suffixes: frozenset[str] = SUFFIXES) -> bool:
     return enabled() and path.suffix.lower() in suffixes and not editing_any()
 
 
-def lookup(path: Path, flags: RunFlags | None) -> Cached | None:
-    """The cached compile of ``path`` with ``flags``, or None (a miss, or an entry refused)."""
+@dataclass(frozen=True)
+class Slot:
+    """Where one compile is kept: its entry's key, worked out before the compile, so that an
+    entry holds what was compiled from what its key names even when a file changes during
+    the compile; for a lone model, the path its one component must name (the path it
+    resolved to then)."""
+
+    key: str
+    model: Path | None = None
+
+
+def slot(path: Path, flags: RunFlags | None) -> Slot | None:
+    """The slot of the system file at ``path`` compiled with ``flags`` (None: not kept)."""
     if not applies_to(path):
         return None
-    return _lookup(lambda: _key(path, flags))
+    try:
+        key = _key(path, flags)
+    except (OSError, ValueError):
+        return None
+    return None if key is None else Slot(key)
 
 
-def lookup_model(path: Path, flags: RunFlags, interface: str | None) -> Cached | None:
-    """The cached compile of the lone model at ``path`` run with ``flags`` and ``interface``
-    (an FMU's ``--interface``), or None."""
+def model_slot(path: Path, flags: RunFlags, interface: str | None) -> Slot | None:
+    """The slot of the lone model at ``path`` run with ``flags`` and ``interface`` (an FMU's
+    ``--interface``; None: not kept)."""
     if not applies_to(path, MODEL_SUFFIXES):
         return None
-    return _lookup(lambda: _model_key(path, flags, interface))
-
-
-def _lookup(key_of: Callable[[], str | None]) -> Cached | None:
     try:
-        key = key_of()
-        if key is None:
-            return None
-        found = _read(_root() / key, key)
+        resolved = path.resolve()
+        return Slot(_model_key(path, flags, interface, resolved), resolved)
+    except (OSError, ValueError, RuntimeError):  # RuntimeError: a loop of links
+        return None
+
+
+def lookup(place: Slot | None) -> Cached | None:
+    """The compile kept in ``place``, or None (a miss, or an entry refused)."""
+    if place is None:
+        return None
+    try:
+        found = _read(_root() / place.key, place.key)
     except (OSError, ValueError, _RefusedError):
+        return None
+    if found is not None and not _names_its_model(found.system, place):
         return None
     return found
 
 
-def store(
-    path: Path,
-    flags: RunFlags | None,
-    system: CompiledSystem,
-    diagnostics: Sequence[Diagnostic],
-) -> None:
-    """Keep the compile of ``path``: ``system`` and its (error-free) ``diagnostics``.
+def store(place: Slot | None, system: CompiledSystem, diagnostics: Sequence[Diagnostic]) -> None:
+    """Keep a compile in ``place``: ``system`` and its (error-free) ``diagnostics``.
 
-    Never raises: a cache that cannot be written (a read-only home, a full disk, a folder
-    someone else owns) only means the next run compiles again.
+    Kept only when the models hashed now are those the compile read (a model rebuilt during
+    the compile is compiled again next time). Never raises: a cache that cannot be written (a
+    read-only home, a full disk, a folder someone else owns) only means the next run
+    compiles again.
     """
-    if applies_to(path):
-        _store(lambda: _key(path, flags), system, diagnostics)
-
-
-def store_model(
-    path: Path,
-    flags: RunFlags,
-    interface: str | None,
-    system: CompiledSystem,
-    diagnostics: Sequence[Diagnostic],
-) -> None:
-    """Keep the compile of the lone model at ``path`` (see :func:`lookup_model`, :func:`store`)."""
-    if applies_to(path, MODEL_SUFFIXES):
-        _store(lambda: _model_key(path, flags, interface), system, diagnostics)
-
-
-def _store(
-    key_of: Callable[[], str | None],
-    system: CompiledSystem,
-    diagnostics: Sequence[Diagnostic],
-) -> None:
+    if place is None or not _names_its_model(system, place):
+        return
     with contextlib.suppress(OSError, ValueError, _RefusedError):
-        key = key_of()
         dependencies = _dependencies(system)
-        if key is None or dependencies is None:
+        if dependencies is None or not _as_compiled(system, dependencies):
             return
-        _write(key, system, diagnostics, dependencies)
+        _write(place.key, system, diagnostics, dependencies)
+
+
+def _names_its_model(system: CompiledSystem, place: Slot) -> bool:
+    """Whether a lone model's system runs the model its slot's path resolved to."""
+    return place.model is None or all(c.path == place.model for c in system.components)
+
+
+def _as_compiled(system: CompiledSystem, dependencies: list[Dependency]) -> bool:
+    """Whether each model file hashed for the entry has the contents its interface was read
+    from (a kind that says so, :data:`~fmionnx.kinds.base.FILE_HASHED`, carries the sha256
+    of the file's bytes in the interface; an unpacked FMU folder's is not compared)."""
+    from fmionnx.kinds.base import FILE_HASHED
+    from fmionnx.kinds.registry import has_capability
+
+    digests = dict(dependencies)
+    return all(
+        digests.get(str(c.path)) == c.interface.content_hash
+        for c in _models(system)
+        if c.path.is_file() and has_capability(c, FILE_HASHED)
+    )
 
 
 # -- the key ------------------------------------------------------------------------------------
@@ -194,13 +212,13 @@ def _key(path: Path, flags: RunFlags | None) -> str | None:
     return _hashed(path, flags or RunFlags(), system=hashlib.sha256(data).hexdigest())
 
 
-def _model_key(path: Path, flags: RunFlags, interface: str | None) -> str:
+def _model_key(path: Path, flags: RunFlags, interface: str | None, resolved: Path) -> str:
     """The entry's name for the lone model at ``path``. Its bytes are not in the key (a model
     can be large, and the entry's dependencies hash it anyway): a changed model finds its
     entry, whose dependencies no longer match, and is compiled again into the same key. The
     path it resolves to is: the compiled system names the model by it, so a link pointed at
     another model is another entry."""
-    return _hashed(path, flags, model=["lone", interface, str(path.resolve())])
+    return _hashed(path, flags, model=["lone", interface, str(resolved)])
 
 
 def _hashed(path: Path, flags: RunFlags, **what: object) -> str:

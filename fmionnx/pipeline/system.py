@@ -168,12 +168,13 @@ def compile_system(path: str | Path, flags: RunFlags | None = None) -> CompileRe
     from fmionnx.pipeline import compilecache
 
     target = Path(path)
-    cached = compiled_before(target, flags)
+    place = compilecache.slot(target, flags)
+    cached = compilecache.lookup(place)
     if cached is not None:
-        return cached
+        return CompileResult(cached.system, cached.diagnostics)
     result = _compile_system(target, flags)
     if result.system is not None and result.ok:
-        compilecache.store(target, flags, result.system, result.diagnostics)
+        compilecache.store(place, result.system, result.diagnostics)
     return result
 
 
@@ -185,7 +186,8 @@ def compile_model(
     and the run settings' types, which a lone FMU's run needs nothing else of."""
     from fmionnx.pipeline import compilecache
 
-    cached = compilecache.lookup_model(path, flags, interface)
+    place = compilecache.model_slot(path, flags, interface)
+    cached = compilecache.lookup(place)
     if cached is not None:
         return CompileResult(cached.system, cached.diagnostics)
     from fmionnx.compile.single import compile_single_model
@@ -198,7 +200,7 @@ def compile_model(
         compiled = mark_command_line(compiled, flags)
     result = CompileResult(compiled, tuple(bag.sorted()))
     if compiled is not None and result.ok:
-        compilecache.store_model(path, flags, interface, compiled, result.diagnostics)
+        compilecache.store(place, compiled, result.diagnostics)
     return result if result.ok else CompileResult(None, result.diagnostics)
 
 
@@ -207,7 +209,7 @@ def compiled_before(path: str | Path, flags: RunFlags | None = None) -> CompileR
     no system file types (a study file, never compiled this way, has no entry)."""
     from fmionnx.pipeline import compilecache
 
-    cached = compilecache.lookup(Path(path), flags)
+    cached = compilecache.lookup(compilecache.slot(Path(path), flags))
     return None if cached is None else CompileResult(cached.system, cached.diagnostics)
 
 

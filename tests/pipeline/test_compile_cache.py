@@ -317,9 +317,10 @@ def test_the_cache_is_bounded(
     assert len(entries(tmp_path)) == 1  # only the newest: the others were over the bound
 
 
-def test_the_reference_system_reads_back_equal() -> None:
+def test_the_reference_system_reads_back_equal(compiles: list[Path]) -> None:
     """The whole IR of the reference scenario (scene map, expected path, checks, the ROS 2
-    plan) survives the entry's round trip."""
+    plan) survives the entry's round trip; and it is kept (its FMUs' and ONNX model's hashes
+    are those their interfaces were read from)."""
     from tests.conftest import built_model
 
     for name in ("ReadOdometry.fmu", "SignTrackingLogic.fmu", "sign_detector.onnx"):
@@ -328,5 +329,6 @@ def test_the_reference_system_reads_back_equal() -> None:
     first = compile_system(path)
     second = compile_system(path)
     assert first.ok
+    assert len(compiles) == 1
     assert second.system == first.system
     assert second.diagnostics == first.diagnostics

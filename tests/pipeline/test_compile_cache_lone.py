@@ -109,6 +109,83 @@ def test_a_link_pointed_at_another_model_compiles_again(folder: Path, compiles: 
     assert first.compiled.components[0].path == folder / "Integrator.fmu"
 
 
+def test_a_model_rebuilt_during_its_compile_is_not_kept(
+    folder: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The entry would pair the old model's compile with the new model's hash: the next run
+    would read the old ports back and run them against the new library."""
+    real = single.compile_single_model
+    calls: list[Path] = []
+
+    def rebuilt_meanwhile(path: Path, *args: Any, **kwargs: Any) -> Any:
+        compiled = real(path, *args, **kwargs)
+        if not calls:
+            shutil.copy(build_fixture_fmu("Gain"), folder / "Integrator.fmu")
+        calls.append(path)
+        return compiled
+
+    monkeypatch.setattr(single, "compile_single_model", rebuilt_meanwhile)
+    first = load("Integrator.fmu")
+    second = load("Integrator.fmu")
+    assert len(calls) == 2  # not read back: compiled again, from the model now there
+    assert second.compiled != first.compiled
+    assert "k" in {p.name for p in second.compiled.components[0].interface.ports}
+
+
+def test_a_link_pointed_elsewhere_during_the_compile_never_serves_the_wrong_model(
+    folder: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Pointed at Gain after its entry's key was worked out (for Integrator) and before the
+    compile resolved it: Gain's system must never be read back for Integrator."""
+    shutil.copy(build_fixture_fmu("Gain"), folder / "Gain.fmu")
+    link = folder / "model.fmu"
+    link.symlink_to("Integrator.fmu")
+    real = single.compile_single_model
+    calls: list[Path] = []
+
+    def repointed_meanwhile(path: Path, *args: Any, **kwargs: Any) -> Any:
+        if not calls:
+            link.unlink()
+            link.symlink_to("Gain.fmu")
+        calls.append(path)
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(single, "compile_single_model", repointed_meanwhile)
+    assert load("model.fmu").compiled.components[0].path == folder / "Gain.fmu"
+    link.unlink()
+    link.symlink_to("Integrator.fmu")
+    again = load("model.fmu")
+    assert again.compiled.components[0].path == folder / "Integrator.fmu"
+    assert len(calls) == 2
+
+
+def test_an_upper_case_suffix_and_an_unpacked_fmu_are_kept_too(
+    folder: Path, compiles: list[Path], tmp_path: Path
+) -> None:
+    import zipfile
+
+    shutil.copy(folder / "Integrator.fmu", folder / "Shouting.FMU")
+    with zipfile.ZipFile(folder / "Integrator.fmu") as archive:
+        archive.extractall(folder / "Unpacked.fmu")
+    for name in ("Shouting.FMU", "Unpacked.fmu"):
+        first = load(name)
+        assert load(name).compiled == first.compiled
+    assert len(compiles) == 2
+    # A file changed inside the unpacked FMU is a change of the model.
+    (folder / "Unpacked.fmu" / "documentation.txt").write_text("new", encoding="utf-8")
+    load("Unpacked.fmu")
+    assert len(compiles) == 3
+
+
+def test_each_interface_reads_back_its_own_compile(folder: Path, compiles: list[Path]) -> None:
+    me = load("Integrator.fmu", interface="me")
+    cs = load("Integrator.fmu", interface="cs")
+    assert me.compiled != cs.compiled
+    assert load("Integrator.fmu", interface="me").compiled == me.compiled
+    assert load("Integrator.fmu", interface="cs").compiled == cs.compiled
+    assert len(compiles) == 2
+
+
 def test_each_setting_is_an_entry_of_its_own(
     folder: Path, compiles: list[Path], tmp_path: Path
 ) -> None:

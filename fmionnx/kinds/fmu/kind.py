@@ -17,7 +17,7 @@ from fmionnx.core import codes
 from fmionnx.core.errors import ModelError
 from fmionnx.core.types import Component, ComponentInterface, Experiment, KindConfig
 from fmionnx.core.xmlsafe import parse_safely
-from fmionnx.kinds.base import FMI, Display, KindProblem, RoleDefault
+from fmionnx.kinds.base import FILE_HASHED, FMI, Display, KindProblem, RoleDefault
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.fmu.clocks import clock_facts, clock_problems
 from fmionnx.kinds.fmu.description import (
@@ -87,7 +87,7 @@ class FmuKind:
     suffixes = (".fmu",)
     summary = "Functional Mock-up Unit (FMI 2.0/3.0, CS/ME)"
     mime_type = "application/x-fmu-sharedlibrary"
-    capabilities = frozenset({FMI})
+    capabilities = frozenset({FMI, FILE_HASHED})
     libraries = ("fmpy",)
     display = Display(
         "FMU",

@@ -8,7 +8,14 @@ from pathlib import Path
 from typing import TYPE_CHECKING
 
 from fmionnx.core.types import Component, ComponentInterface, KindConfig
-from fmionnx.kinds.base import EVALUATED_AT_START, TIMELESS, Display, KindProblem, RoleDefault
+from fmionnx.kinds.base import (
+    EVALUATED_AT_START,
+    FILE_HASHED,
+    TIMELESS,
+    Display,
+    KindProblem,
+    RoleDefault,
+)
 from fmionnx.kinds.onnx.units import unit_problems, with_units
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
@@ -33,7 +40,7 @@ class OnnxKind:
     suffixes = (".onnx",)
     summary = "ONNX model run by onnxruntime"
     mime_type = "application/x-onnx"
-    capabilities = frozenset({TIMELESS, EVALUATED_AT_START})
+    capabilities = frozenset({TIMELESS, EVALUATED_AT_START, FILE_HASHED})
     libraries = ("onnxruntime",)
     display = Display(
         "ONNX",

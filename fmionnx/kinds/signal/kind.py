@@ -9,7 +9,7 @@ from typing import TYPE_CHECKING
 from fmionnx.core import codes
 from fmionnx.core.types import Causality, Component, ComponentInterface, DType, Port
 from fmionnx.core.units import builtin_unit
-from fmionnx.kinds.base import Display, KindProblem, RoleDefault, SettingInput
+from fmionnx.kinds.base import FILE_HASHED, Display, KindProblem, RoleDefault, SettingInput
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.signal.names import NAME
 from fmionnx.kinds.signal.table import read_table, table_interface
@@ -28,7 +28,7 @@ class SignalKind:
     suffixes = (".csv",)
     summary = "stimuli: constant, step, ramp, sine, or a CSV table (no model file needed)"
     mime_type = "application/x-fmionnx-signal"
-    capabilities: frozenset[str] = frozenset()
+    capabilities: frozenset[str] = frozenset({FILE_HASHED})
     libraries: tuple[str, ...] = ()
     display = Display(
         "Signal",
