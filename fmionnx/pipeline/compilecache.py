@@ -11,7 +11,9 @@ instead of compiling, when nothing it was made from has changed.
 
 A lone model run as a system (``fmionnx run model.fmu``, ``fmionnx.load("model.onnx")``) is
 kept the same way (:func:`model_slot`): its compile loads the kinds'
-pydantic specs and the run settings' types, a third of a lone FMU's start.
+pydantic specs and the run settings' types, a third of a lone FMU's start. So is the check
+of a lone model by ``fmionnx validate MODEL`` (the compile and the kind's deeper checks:
+FMPy's validation, the ONNX checker, MuJoCo's compiler), when it found no error.
 
 **What an entry depends on** is hashed, never trusted by its date:
 
@@ -138,16 +140,27 @@ def slot(path: Path, flags: RunFlags | None) -> Slot | None:
     return None if key is None else Slot(key)
 
 
-def model_slot(path: Path, flags: RunFlags, interface: str | None) -> Slot | None:
+def model_slot(
+    path: Path, flags: RunFlags, interface: str | None, *, checked: bool = False
+) -> Slot | None:
     """The slot of the lone model at ``path`` run with ``flags`` and ``interface`` (an FMU's
-    ``--interface``; None: not kept)."""
-    if not applies_to(path, MODEL_SUFFIXES):
+    ``--interface``), or with ``checked`` of its check by ``fmionnx validate MODEL`` (its
+    compile and its kind's deeper checks, any model a kind reads); None: not kept."""
+    if not applies_to(path, _checked_suffixes() if checked else MODEL_SUFFIXES):
         return None
     try:
         resolved = path.resolve()
-        return Slot(_model_key(path, flags, interface, resolved), resolved)
+        purpose = "checked" if checked else "lone"
+        return Slot(_model_key(path, flags, interface, resolved, purpose), resolved)
     except (OSError, ValueError, RuntimeError):  # RuntimeError: a loop of links
         return None
+
+
+def _checked_suffixes() -> frozenset[str]:
+    """What ``fmionnx validate`` checks as a lone model: the files every kind reads."""
+    from fmionnx.kinds.registry import KIND_SUFFIXES
+
+    return frozenset(s for suffixes in KIND_SUFFIXES.values() for s in suffixes)
 
 
 def lookup(place: Slot | None) -> Cached | None:
@@ -212,13 +225,15 @@ def _key(path: Path, flags: RunFlags | None) -> str | None:
     return _hashed(path, flags or RunFlags(), system=hashlib.sha256(data).hexdigest())
 
 
-def _model_key(path: Path, flags: RunFlags, interface: str | None, resolved: Path) -> str:
+def _model_key(
+    path: Path, flags: RunFlags, interface: str | None, resolved: Path, purpose: str
+) -> str:
     """The entry's name for the lone model at ``path``. Its bytes are not in the key (a model
     can be large, and the entry's dependencies hash it anyway): a changed model finds its
     entry, whose dependencies no longer match, and is compiled again into the same key. The
     path it resolves to is: the compiled system names the model by it, so a link pointed at
     another model is another entry."""
-    return _hashed(path, flags, model=["lone", interface, str(resolved)])
+    return _hashed(path, flags, model=[purpose, interface, str(resolved)])
 
 
 def _hashed(path: Path, flags: RunFlags, **what: object) -> str:

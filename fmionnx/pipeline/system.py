@@ -251,14 +251,26 @@ def check_model(path: str | Path) -> CompileResult:
     The model is compiled as ``run`` would compile it (every check a system applies to it),
     then its kind's deeper checks run: FMPy's validation for an FMU, the ONNX checker and
     strict shape inference for an ONNX model, MuJoCo's compiler for a scene.
+
+    A check that found no error is kept in the compile cache, as a compile is: an unchanged
+    model is not read, nor its libraries imported, the next time (the report is the same).
     """
+    from fmionnx.pipeline import compilecache
+
+    target = Path(path)
+    place = compilecache.model_slot(target, RunFlags(), None, checked=True)
+    cached = compilecache.lookup(place)
+    if cached is not None:
+        return CompileResult(cached.system, cached.diagnostics)
     from fmionnx.compile.single import check_single_model  # pydantic: for a lone model only
 
     bag = DiagnosticBag()
-    system = check_single_model(Path(path), bag)
+    system = check_single_model(target, bag)
     diagnostics = tuple(bag.sorted())
     if any(d.severity is Severity.ERROR for d in diagnostics):
         system = None
+    elif system is not None:
+        compilecache.store(place, system, diagnostics)
     return CompileResult(system, diagnostics)
 
 

@@ -238,3 +238,13 @@ def test_a_run_that_isolates_no_component_loads_no_isolation_proxy(
     modules = loaded(folder, "run", "Integrator.fmu", "-q", "--out", out, "--isolate", isolate, full=True)  # fmt: skip
     assert "fmionnx.runtime.isolated.factory" in modules  # the probe sees the look taken
     assert "fmionnx.runtime.isolated.proxy" not in modules
+
+
+def test_validating_a_model_read_back_loads_neither_fmpy_nor_pydantic(
+    folder: Path, tmp_path: Path
+) -> None:
+    """A lone model's check (its compile, FMPy's validation) is kept when it found no error:
+    the next `validate` of the unchanged FMU reads it back."""
+    env = {"FMIONNX_CACHE": str(tmp_path / "cache"), "FMIONNX_COMPILE_CACHE": "1"}
+    assert {"fmpy", "pydantic"} <= loaded(folder, "validate", "Integrator.fmu", env=env)
+    assert loaded(folder, "validate", "Integrator.fmu", env=env) & {"fmpy", "pydantic"} == set()

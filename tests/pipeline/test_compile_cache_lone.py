@@ -6,6 +6,8 @@ from __future__ import annotations
 
 import json
 import shutil
+import subprocess
+import sys
 from pathlib import Path
 from typing import Any
 
@@ -17,7 +19,7 @@ from fmionnx.compile.ir import Origin
 from fmionnx.core.errors import DiagnosticError
 from fmionnx.core.private import KEY_FILE
 from fmionnx.pipeline import compilecache
-from fmionnx.pipeline.system import load
+from fmionnx.pipeline.system import check_model, load
 from tests.conftest import build_fixture_fmu
 
 
@@ -267,3 +269,67 @@ def test_an_entry_naming_a_model_no_lookup_hashed_is_refused(
     entry.write_bytes(hmac.new(secret, body, hashlib.sha256).hexdigest().encode() + b"\n" + body)
     load("Integrator.fmu")
     assert len(compiles) == 2
+
+
+# -- fmionnx validate MODEL -----------------------------------------------------------------------
+
+
+@pytest.fixture
+def checks(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
+    """Every real check of a lone model (``fmionnx validate MODEL``) in this process."""
+    seen: list[Path] = []
+    real = single.check_single_model
+
+    def counting(path: Path, *args: Any, **kwargs: Any) -> Any:
+        seen.append(path)
+        return real(path, *args, **kwargs)
+
+    monkeypatch.setattr(single, "check_single_model", counting)
+    return seen
+
+
+def test_an_unchanged_model_s_check_is_read_back(
+    folder: Path, checks: list[Path], compiles: list[Path]
+) -> None:
+    first = check_model("Integrator.fmu")
+    second = check_model("Integrator.fmu")
+    assert len(checks) == 1
+    assert first.ok
+    assert second == first
+    load("Integrator.fmu")  # a run's compile is another entry: its settings differ
+    assert len(compiles) == 1
+
+
+def test_a_check_that_found_an_error_is_made_every_time(
+    folder: Path, checks: list[Path], tmp_path: Path
+) -> None:
+    (folder / "Broken.fmu").write_bytes(b"not a zip")
+    assert not check_model("Broken.fmu").ok
+    assert not check_model("Broken.fmu").ok
+    assert len(checks) == 2
+    assert entries(tmp_path) == []
+
+
+def test_a_changed_model_is_checked_again(folder: Path, checks: list[Path]) -> None:
+    first = check_model("Integrator.fmu")
+    shutil.copy(build_fixture_fmu("Gain"), folder / "Integrator.fmu")
+    second = check_model("Integrator.fmu")
+    assert len(checks) == 2
+    assert second.system != first.system
+
+
+def test_validate_prints_the_same_report_read_back(folder: Path, tmp_path: Path) -> None:
+    def validate(*args: str) -> tuple[int, str]:
+        done = subprocess.run(
+            [sys.executable, "-m", "fmionnx", "validate", "Integrator.fmu", "double.onnx", *args],
+            capture_output=True, text=True, check=False, timeout=120,
+        )  # fmt: skip
+        return done.returncode, done.stdout
+
+    _doubling_model(folder / "double.onnx")
+    for args in ((), ("--format", "json")):
+        checked = validate(*args)
+        read_back = validate(*args)
+        assert read_back == checked
+        assert checked[0] == 0
+    assert len(entries(tmp_path)) == 2
