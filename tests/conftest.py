@@ -8,6 +8,7 @@ import signal
 import socket
 import subprocess
 import sys
+import time
 from collections.abc import Iterator
 from pathlib import Path
 from typing import Any
@@ -200,3 +201,13 @@ def built_model(name: str) -> Path:
         msg = f"{path} is missing: run `make models` first (make test does)"
         raise FileNotFoundError(msg)
     return path
+
+
+def let_files_settle() -> None:
+    """Wait out the compile cache's margin: a compile that begins within
+    ``CHANGE_MARGIN_NS`` of a change to a file it reads is not kept (the file may have
+    changed while it was read), so a test that writes a model and expects its compile to be
+    read back lets it settle first."""
+    from fmionnx.pipeline.compilecache import CHANGE_MARGIN_NS
+
+    time.sleep(2 * CHANGE_MARGIN_NS / 1e9)

@@ -50,6 +50,11 @@ EVALUATED_AT_START = "evaluated-at-start"
 #: the entry is the file the interface was read from (:mod:`fmionnx.pipeline.compilecache`).
 FILE_HASHED = "file-hashed"
 
+#: A fact (``"true"``) of a model that reads files its content hash does not cover (an ONNX
+#: model's external tensor data): the compile cache keeps no compile or check of it, and it
+#: is read every time.
+UNLISTED_FILES = "externalData"
+
 
 @dataclass(frozen=True, slots=True)
 class KindProblem:

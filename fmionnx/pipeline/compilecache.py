@@ -23,9 +23,13 @@ FMPy's validation, the ONNX checker, MuJoCo's compiler), when it found no error.
   diagnostics), the working folder, the path as given, ``--start-time``/``--step``, and the
   system file's bytes (a lone model: ``--interface`` instead, its bytes being a
   dependency, below);
-- the entry lists every model it read with the sha256 of its contents (a scene with its
-  folder, since a scene includes files beside it) and each model's expected-path file
-  (or that there was none). A lookup hashes them all again; one that differs is a miss.
+- the entry lists every model it read with the sha256 of its contents (a scene with the
+  files it is shipped with, its folder where they cannot be listed) and each model's
+  expected-path file (or that there was none). A lookup hashes them all again; one that
+  differs is a miss;
+- an entry is written only for a compile that read what it lists (:func:`store`): nothing
+  that changed after the compile began, by its change time; hashes that are those the
+  interfaces were read from; no ONNX model with external data (not hashed with it).
 
 **An entry is verified or refused, never believed** (``docs/security.md``): it is read only
 from a folder owned by this user that nobody else may write, without following links, up to
@@ -44,11 +48,13 @@ errors is compiled every time, so its diagnostics are always fresh.
 from __future__ import annotations
 
 import contextlib
+import dataclasses
 import functools
 import hashlib
 import json
 import os
 import sys
+import time
 from collections.abc import Iterator, Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -123,10 +129,13 @@ class Slot:
     """Where one compile is kept: its entry's key, worked out before the compile, so that an
     entry holds what was compiled from what its key names even when a file changes during
     the compile; for a lone model, the path its one component must name (the path it
-    resolved to then)."""
+    resolved to then); the file the key read (a system file); and when the slot was made,
+    before the compile (:func:`store` keeps nothing made of a file changed since)."""
 
     key: str
     model: Path | None = None
+    source: Path | None = None
+    begun: int = dataclasses.field(default_factory=time.time_ns)
 
 
 def slot(path: Path, flags: RunFlags | None) -> Slot | None:
@@ -137,7 +146,7 @@ def slot(path: Path, flags: RunFlags | None) -> Slot | None:
         key = _key(path, flags)
     except (OSError, ValueError):
         return None
-    return None if key is None else Slot(key)
+    return None if key is None else Slot(key, source=path)
 
 
 def model_slot(
@@ -184,13 +193,30 @@ def store(place: Slot | None, system: CompiledSystem, diagnostics: Sequence[Diag
     read-only home, a full disk, a folder someone else owns) only means the next run
     compiles again.
     """
-    if place is None or not _names_its_model(system, place):
+    if place is None or not _names_its_model(system, place) or _reads_unlisted(system):
         return
-    with contextlib.suppress(OSError, ValueError, _RefusedError):
-        dependencies = _dependencies(system)
-        if dependencies is None or not _as_compiled(system, dependencies):
+    # RuntimeError: a loop of links made meanwhile, met resolving a model's files
+    with contextlib.suppress(OSError, ValueError, RuntimeError, _RefusedError):
+        budget = _Budget()
+        dependencies = _dependencies(system, budget)
+        if place.source is not None:
+            budget.note(place.source.stat())
+        if budget.changed_since(place.begun) or not _as_compiled(system, dependencies):
             return
         _write(place.key, system, diagnostics, dependencies)
+
+
+#: How long before a compile began a file's change still counts as during it: the kernel
+#: stamps a file's change with a clock that is read once per tick (1 to 10 ms behind).
+CHANGE_MARGIN_NS = 20_000_000
+
+
+def _reads_unlisted(system: CompiledSystem) -> bool:
+    """Whether a model reads files its hash does not cover (an ONNX model's external data,
+    :data:`~fmionnx.kinds.base.UNLISTED_FILES`): read every time, never kept."""
+    from fmionnx.kinds.base import UNLISTED_FILES
+
+    return any(c.interface.fact(UNLISTED_FILES) == "true" for c in system.components)
 
 
 def _names_its_model(system: CompiledSystem, place: Slot) -> bool:
@@ -295,13 +321,13 @@ def _stamp_file(digest: hashlib._Hash, file: Path, relative_to: Path | None) -> 
 Dependency = tuple[str, str | None]
 
 
-def _dependencies(system: CompiledSystem) -> list[Dependency] | None:
-    """Every model file ``system`` was compiled from, hashed now (None: too large to hash)."""
+def _dependencies(system: CompiledSystem, budget: _Budget) -> list[Dependency]:
+    """Every model file ``system`` was compiled from, hashed now (:class:`_RefusedError`:
+    too large to hash)."""
     from fmionnx.compile.expected_path import expected_path_file
     from fmionnx.compile.systemfile import has_model_file
 
     found: dict[str, str | None] = {}
-    budget = _Budget()
     for component in system.components:
         if not has_model_file(component):
             continue
@@ -328,18 +354,29 @@ def _model_paths(component: Component) -> tuple[Path, ...]:
 
 
 class _Budget:
-    """How much more a lookup may hash (:data:`MAX_HASHED_BYTES`, :data:`MAX_HASHED_FILES`)."""
+    """How much more a lookup may hash (:data:`MAX_HASHED_BYTES`, :data:`MAX_HASHED_FILES`),
+    and the latest change of a file hashed so far (its inode's change time, which writing,
+    replacing or renaming a file sets and no program can set back)."""
 
     def __init__(self) -> None:
         self.bytes = MAX_HASHED_BYTES
         self.files = MAX_HASHED_FILES
+        self.latest = 0
 
-    def spend(self, size: int) -> None:
-        self.bytes -= size
+    def spend(self, info: os.stat_result) -> None:
+        self.note(info)
+        self.bytes -= info.st_size
         self.files -= 1
         if self.bytes < 0 or self.files < 0:
             msg = "the models are too large to hash on every run"
             raise _RefusedError(msg)
+
+    def note(self, info: os.stat_result) -> None:
+        self.latest = max(self.latest, info.st_ctime_ns, info.st_mtime_ns)
+
+    def changed_since(self, begun: int) -> bool:
+        """Whether a file hashed changed after ``begun`` (ns), or too close before it to tell."""
+        return self.latest >= begun - CHANGE_MARGIN_NS
 
 
 def _digest(path: Path, budget: _Budget) -> str | None:
@@ -352,6 +389,7 @@ def _digest(path: Path, budget: _Budget) -> str | None:
     digest = hashlib.sha256(b"folder\0")
     for folder, subfolders, files in os.walk(path):
         subfolders.sort()
+        budget.note(Path(folder).stat())  # a file added or removed changes its folder
         for name in sorted(files):
             file = Path(folder) / name
             if file.is_file():
@@ -363,7 +401,7 @@ def _digest(path: Path, budget: _Budget) -> str | None:
 def _file_digest(path: Path, budget: _Budget) -> str:
     digest = hashlib.sha256()
     with path.open("rb") as stream:
-        budget.spend(os.fstat(stream.fileno()).st_size)
+        budget.spend(os.fstat(stream.fileno()))
         while chunk := stream.read(1 << 20):
             digest.update(chunk)
     return digest.hexdigest()

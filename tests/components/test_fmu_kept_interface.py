@@ -92,3 +92,21 @@ def test_an_unchanged_fmu_is_read_without_fmpy(fixture_fmu: Callable[[str], Path
         for _ in range(2)
     ]  # fmt: skip
     assert runs == ["True", "False"]
+
+
+def test_an_interface_read_from_other_bytes_than_the_key_hashed_is_not_kept(
+    fixture_fmu: Callable[[str], Path], tmp_path: Path
+) -> None:
+    """The archive rebuilt between the key's hash and the read: the new bytes' interface
+    must not be kept under the old bytes' key."""
+    path = tmp_path / "Gain.fmu"
+    shutil.copy(fixture_fmu("Gain"), path)
+
+    def rebuilt_meanwhile():  # type: ignore[no-untyped-def]
+        shutil.copy(fixture_fmu("Integrator"), path)
+        return load_fmu_interface(path)
+
+    clear_cache()
+    read = keptinterface.kept_interface(path, rebuilt_meanwhile)
+    assert {p.name for p in read.ports} >= {"x"}  # Integrator's, read from the new bytes
+    assert _entries() == []

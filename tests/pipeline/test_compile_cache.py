@@ -17,7 +17,7 @@ import fmionnx
 from fmionnx.core.private import KEY_FILE
 from fmionnx.pipeline import compilecache, system
 from fmionnx.pipeline.system import CompileResult, compile_system
-from tests.conftest import REPO, build_fixture_fmu
+from tests.conftest import REPO, build_fixture_fmu, let_files_settle
 
 SYSTEM = """\
 fmionnx: 1
@@ -42,6 +42,7 @@ def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     for name in ("Gain", "Integrator"):
         shutil.copy(build_fixture_fmu(name), here / f"{name}.fmu")
     (here / "system.yaml").write_text(SYSTEM, encoding="utf-8")
+    let_files_settle()
     monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(here)
     return here
@@ -307,12 +308,14 @@ def test_the_cache_is_bounded(
 
     for k in range(3):
         (folder / "system.yaml").write_text(SYSTEM.replace("k: 3", f"k: {k + 10}"))
+        let_files_settle()
         compile_system("system.yaml")
     old = time.time() - 3600
     for entry in entries(tmp_path):
         os.utime(entry.parent, (old, old))
     monkeypatch.setenv("FMIONNX_COMPILE_CACHE_MAX_BYTES", "1")
     (folder / "system.yaml").write_text(SYSTEM)
+    let_files_settle()
     compile_system("system.yaml")
     assert len(entries(tmp_path)) == 1  # only the newest: the others were over the bound
 

@@ -5,6 +5,7 @@ never kept with errors, and the same results either way."""
 from __future__ import annotations
 
 import json
+import os
 import shutil
 import subprocess
 import sys
@@ -20,7 +21,7 @@ from fmionnx.core.errors import DiagnosticError
 from fmionnx.core.private import KEY_FILE
 from fmionnx.pipeline import compilecache
 from fmionnx.pipeline.system import check_model, load
-from tests.conftest import build_fixture_fmu
+from tests.conftest import build_fixture_fmu, let_files_settle
 
 
 @pytest.fixture
@@ -30,6 +31,7 @@ def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     here = tmp_path / "models"
     here.mkdir()
     shutil.copy(build_fixture_fmu("Integrator"), here / "Integrator.fmu")
+    let_files_settle()
     monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "cache"))
     monkeypatch.setenv(compilecache.SWITCH, "1")
     monkeypatch.chdir(here)
@@ -89,6 +91,7 @@ def test_results_are_the_same_with_and_without_the_cache(
 def test_a_changed_model_compiles_again(folder: Path, compiles: list[Path]) -> None:
     first = load("Integrator.fmu")
     shutil.copy(build_fixture_fmu("Gain"), folder / "Integrator.fmu")
+    let_files_settle()
     second = load("Integrator.fmu")
     assert len(compiles) == 2
     assert second.compiled != first.compiled
@@ -100,6 +103,7 @@ def test_a_link_pointed_at_another_model_compiles_again(folder: Path, compiles: 
     """The compiled system names the model by the path it resolves to: a link pointed
     elsewhere must not read back the system of the model it named before."""
     shutil.copy(build_fixture_fmu("Gain"), folder / "Gain.fmu")
+    let_files_settle()
     link = folder / "model.fmu"
     link.symlink_to("Integrator.fmu")
     first = load("model.fmu")
@@ -140,6 +144,7 @@ def test_a_link_pointed_elsewhere_during_the_compile_never_serves_the_wrong_mode
     """Pointed at Gain after its entry's key was worked out (for Integrator) and before the
     compile resolved it: Gain's system must never be read back for Integrator."""
     shutil.copy(build_fixture_fmu("Gain"), folder / "Gain.fmu")
+    let_files_settle()
     link = folder / "model.fmu"
     link.symlink_to("Integrator.fmu")
     real = single.compile_single_model
@@ -169,12 +174,14 @@ def test_an_upper_case_suffix_and_an_unpacked_fmu_are_kept_too(
     shutil.copy(folder / "Integrator.fmu", folder / "Shouting.FMU")
     with zipfile.ZipFile(folder / "Integrator.fmu") as archive:
         archive.extractall(folder / "Unpacked.fmu")
+    let_files_settle()
     for name in ("Shouting.FMU", "Unpacked.fmu"):
         first = load(name)
         assert load(name).compiled == first.compiled
     assert len(compiles) == 2
     # A file changed inside the unpacked FMU is a change of the model.
     (folder / "Unpacked.fmu" / "documentation.txt").write_text("new", encoding="utf-8")
+    let_files_settle()
     load("Unpacked.fmu")
     assert len(compiles) == 3
 
@@ -236,6 +243,7 @@ def _doubling_model(path: Path) -> Path:
 
 def test_an_onnx_model_is_kept_too(folder: Path, compiles: list[Path]) -> None:
     model = _doubling_model(folder / "double.onnx")
+    let_files_settle()
     first = load(model)
     second = load(model)
     assert len(compiles) == 1
@@ -327,9 +335,77 @@ def test_validate_prints_the_same_report_read_back(folder: Path, tmp_path: Path)
         return done.returncode, done.stdout
 
     _doubling_model(folder / "double.onnx")
+    let_files_settle()
     for args in ((), ("--format", "json")):
         checked = validate(*args)
         read_back = validate(*args)
         assert read_back == checked
         assert checked[0] == 0
     assert len(entries(tmp_path)) == 2
+
+
+# -- what is never kept ---------------------------------------------------------------------------
+
+
+def test_a_scene_changed_while_it_is_checked_is_checked_again(
+    folder: Path, checks: list[Path]
+) -> None:
+    """A scene is not hashed by its interface (its includes and assets count too): what
+    tells is that one of its files changed after the check began."""
+    from tests.conftest import REPO
+
+    scene = folder / "rover.xml"
+    shutil.copy(REPO / "tests" / "fixtures" / "scenes" / "rover.xml", scene)
+    let_files_settle()
+    real = single.check_single_model
+
+    def edited_meanwhile(path: Path, *args: Any, **kwargs: Any) -> Any:
+        result = real(path, *args, **kwargs)
+        if not calls:
+            scene.write_text(scene.read_text(encoding="utf-8") + "\n", encoding="utf-8")
+        calls.append(path)
+        return result
+
+    calls: list[Path] = []
+    with pytest.MonkeyPatch.context() as patch:
+        patch.setattr(single, "check_single_model", edited_meanwhile)
+        assert check_model(scene).ok
+        let_files_settle()
+        assert check_model(scene).ok
+        assert check_model(scene).ok
+    assert len(calls) == 2  # the edited scene was checked again, and kept then
+
+
+def test_an_onnx_model_with_external_data_is_read_every_time(
+    folder: Path, compiles: list[Path], checks: list[Path], tmp_path: Path
+) -> None:
+    """Its tensor files are not hashed with it (a link put in their place must meet E017 at
+    the next validate): neither its compile nor its check is kept."""
+    from tests.security.test_onnx_files import WEIGHTS, _scale
+
+    (folder / "w.bin").write_bytes(WEIGHTS.tobytes())
+    (folder / "scale.onnx").write_bytes(_scale("w.bin").SerializeToString())
+    let_files_settle()
+    for _ in range(2):
+        load("scale.onnx")
+        assert check_model("scale.onnx").ok
+    assert (len(compiles), len(checks)) == (2, 2)
+    assert entries(tmp_path) == []
+    assert load("scale.onnx").compiled.components[0].interface.fact("externalData") == "true"
+
+
+def test_validate_reports_the_same_read_back_as_checked_afresh(folder: Path) -> None:
+    def validate(*args: str, cache: str) -> tuple[int, str]:
+        done = subprocess.run(
+            [sys.executable, "-m", "fmionnx", "validate", "Integrator.fmu", "double.onnx", *args],
+            capture_output=True, text=True, check=False, timeout=120,
+            env={**os.environ, compilecache.SWITCH: cache},
+        )  # fmt: skip
+        return done.returncode, done.stdout
+
+    _doubling_model(folder / "double.onnx")
+    let_files_settle()
+    for args in (("--format", "json"), ("--format", "sarif"), ()):
+        afresh = validate(*args, cache="0")
+        validate(*args, cache="1")  # kept
+        assert validate(*args, cache="1") == afresh

@@ -41,19 +41,22 @@ _CODEC = Codec("kept FMU interface")
 def kept_interface(path: Path, read: Callable[[], ComponentInterface]) -> ComponentInterface:
     """The interface of the FMU at ``path``: a kept one when an entry checks out, else
     ``read()``'s (kept when ``path`` is an archive). Raises as ``read`` does."""
-    entry = _entry(path) if STORE.enabled() and path.is_file() else None
-    if entry is not None:
-        found = STORE.read_value(entry, _CODEC, ComponentInterface)
+    keyed = _entry(path) if STORE.enabled() and path.is_file() else None
+    if keyed is not None:
+        found = STORE.read_value(keyed[0], _CODEC, ComponentInterface)
         if found is not None:
             return dataclasses.replace(found, path=path)
     interface = read()
-    if entry is not None:
-        STORE.write_value(entry, _CODEC, interface)
+    # Kept only when read from the bytes the key hashed: an archive rebuilt between the two
+    # would otherwise keep the new bytes' interface under the old bytes' key.
+    if keyed is not None and interface.content_hash == keyed[1]:
+        STORE.write_value(keyed[0], _CODEC, interface)
     return interface
 
 
-def _entry(path: Path) -> Entry | None:
-    """The archive's entry; None when it or fmpy cannot be stamped."""
+def _entry(path: Path) -> tuple[Entry, str] | None:
+    """The archive's entry and the sha256 of the archive it is for; None when it or fmpy
+    cannot be stamped."""
     code = _code_stamps()
     if code is None:
         return None
@@ -61,7 +64,7 @@ def _entry(path: Path) -> Entry | None:
         digest = sha256_file(path)
     except OSError:
         return None
-    return STORE.entry([path.name, digest, *code])
+    return STORE.entry([path.name, digest, *code]), digest
 
 
 @functools.cache

@@ -7,6 +7,7 @@ allocates a buffer per input from these shapes.
 
 from __future__ import annotations
 
+import dataclasses
 import hashlib
 import math
 from pathlib import Path
@@ -18,6 +19,7 @@ from fmionnx.core.errors import ModelError
 from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import ARRAY_ELEMENTS, MODEL_FILE_BYTES
 from fmionnx.core.types import Causality, ComponentInterface, DType, Port
+from fmionnx.kinds.base import UNLISTED_FILES
 from fmionnx.kinds.cache import cached_interface, file_identity
 from fmionnx.kinds.onnx.external import EXTERNAL, all_tensors, check_external_data
 from fmionnx.kinds.onnx.sizes import check_model_sizes
@@ -89,7 +91,12 @@ def read_signature(path: Path, data: bytes | None = None) -> tuple[ComponentInte
         data = read_model_bytes(path)
     model = parse_checked_model(data, path)
     external = any(t.data_location == EXTERNAL for t in all_tensors(model))
-    return _interface(model, data, path), external
+    interface = _interface(model, data, path)
+    if external:  # its tensors' files are not the model's: compiles of it are not kept
+        interface = dataclasses.replace(
+            interface, facts=(*interface.facts, (UNLISTED_FILES, "true"))
+        )
+    return interface, external
 
 
 def _interface(model: Any, data: bytes, path: Path) -> ComponentInterface:
