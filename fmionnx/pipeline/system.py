@@ -253,7 +253,8 @@ def check_model(path: str | Path) -> CompileResult:
     strict shape inference for an ONNX model, MuJoCo's compiler for a scene.
 
     A check that found no error is kept in the compile cache, as a compile is: an unchanged
-    model is not read, nor its libraries imported, the next time (the report is the same).
+    model is not parsed (its bytes are hashed), nor its libraries imported, the next time
+    (the report is the same).
     """
     from fmionnx.pipeline import compilecache
 
