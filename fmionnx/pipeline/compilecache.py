@@ -372,7 +372,9 @@ class _Budget:
             raise _RefusedError(msg)
 
     def note(self, info: os.stat_result) -> None:
-        self.latest = max(self.latest, info.st_ctime_ns, info.st_mtime_ns)
+        # Not the modification time: any program sets it, to the past (an archive unpacked
+        # with its dates) or to the future (a skewed clock, which would keep nothing).
+        self.latest = max(self.latest, info.st_ctime_ns)
 
     def changed_since(self, begun: int) -> bool:
         """Whether a file hashed changed after ``begun`` (ns), or too close before it to tell."""

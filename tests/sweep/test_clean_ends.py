@@ -82,7 +82,10 @@ def _after_the_first_case(project: Path, process: subprocess.Popen[str]) -> None
 
 @pytest.mark.parametrize("fork", [True, False], ids=["forked", "spawned"])
 def test_ctrl_c_stops_the_study_cleanly_and_keeps_its_records(project: Path, fork: bool) -> None:
-    process = _sweep(project, fork=fork)
+    # One case per task: its record is written as it ends. Batched, the study's first two
+    # tasks held 8 cases each (an even share per worker), and under the suite's load both
+    # ended before the Ctrl-C that followed the first record landed: all 16 were recorded.
+    process = _sweep(project, "--batch", "1", fork=fork)
     _after_the_first_case(project, process)
     os.killpg(process.pid, signal.SIGINT)  # as a terminal does: every process of the group
     out, err = finish(process, 120)
