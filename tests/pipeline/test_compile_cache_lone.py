@@ -38,18 +38,23 @@ def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     return here
 
 
-@pytest.fixture
-def compiles(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
-    """Every real compile of a lone model in this process."""
+def _counted(monkeypatch: pytest.MonkeyPatch, name: str) -> list[Path]:
+    """The models the function ``name`` of :mod:`fmionnx.compile.single` is called for."""
     seen: list[Path] = []
-    real = single.compile_single_model
+    real = getattr(single, name)
 
     def counting(path: Path, *args: Any, **kwargs: Any) -> Any:
         seen.append(path)
         return real(path, *args, **kwargs)
 
-    monkeypatch.setattr(single, "compile_single_model", counting)
+    monkeypatch.setattr(single, name, counting)
     return seen
+
+
+@pytest.fixture
+def compiles(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
+    """Every real compile of a lone model in this process."""
+    return _counted(monkeypatch, "compile_single_model")
 
 
 def entries(tmp_path: Path) -> list[Path]:
@@ -285,15 +290,7 @@ def test_an_entry_naming_a_model_no_lookup_hashed_is_refused(
 @pytest.fixture
 def checks(monkeypatch: pytest.MonkeyPatch) -> list[Path]:
     """Every real check of a lone model (``fmionnx validate MODEL``) in this process."""
-    seen: list[Path] = []
-    real = single.check_single_model
-
-    def counting(path: Path, *args: Any, **kwargs: Any) -> Any:
-        seen.append(path)
-        return real(path, *args, **kwargs)
-
-    monkeypatch.setattr(single, "check_single_model", counting)
-    return seen
+    return _counted(monkeypatch, "check_single_model")
 
 
 def test_an_unchanged_model_s_check_is_read_back(
