@@ -10,6 +10,7 @@ import subprocess
 import sys
 from collections.abc import Callable
 from pathlib import Path
+from typing import Any
 
 import pytest
 
@@ -82,10 +83,18 @@ def test_an_unchanged_system_is_read_back_equal_with_its_warnings(
 def test_results_are_the_same_with_and_without_the_cache(
     folder: Path, compiles: list[Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
+    assert_same_results_off_missed_and_hit("system.yaml", compiles, monkeypatch)
+
+
+def assert_same_results_off_missed_and_hit(
+    target: str, compiles: list[Path], monkeypatch: pytest.MonkeyPatch, **options: Any
+) -> None:
+    """Run ``target`` with the cache off, then on twice (a miss, a hit): one compile fewer,
+    the same ``results.csv`` bytes and the same ``run.json`` but for its timings."""
     outs = []
     for name, setting in (("off", "0"), ("miss", "1"), ("hit", "1")):
         monkeypatch.setenv(compilecache.SWITCH, setting)
-        fmionnx.run("system.yaml", out=Path(name), isolate="none")
+        fmionnx.run(target, out=Path(name), isolate="none", **options)
         outs.append(Path(name))
     assert len(compiles) == 2  # off and the miss compiled; the hit did not
     reference = (outs[0] / "results.csv").read_bytes()
@@ -243,7 +252,7 @@ def _another_owner(entry: Path) -> None:
     os.chown(entry, 65534, 65534)
 
 
-def _resign(entry: Path, change: Callable[[dict[str, object]], None]) -> None:
+def resign(entry: Path, change: Callable[[dict[str, object]], None]) -> None:
     """Change the entry's data and sign it with the user's real key (as a bug would)."""
     import hashlib
     import hmac
@@ -257,7 +266,7 @@ def _resign(entry: Path, change: Callable[[dict[str, object]], None]) -> None:
 
 def _moved_from_another_key(entry: Path) -> None:
     """A sound entry written for another key (another system), found under this one's."""
-    _resign(entry, lambda data: data.update(key="1" * 64))
+    resign(entry, lambda data: data.update(key="1" * 64))
 
 
 TAMPERING = [_tamper_body, _forge_with_a_new_key, _truncate, _group_writable]
@@ -294,7 +303,7 @@ def test_an_entry_naming_a_model_no_lookup_hashed_is_refused(
 
     compile_system("system.yaml")
     (entry,) = entries(tmp_path)
-    _resign(entry, forget_gain)
+    resign(entry, forget_gain)
     compile_system("system.yaml")
     assert len(compiles) == 2
 

@@ -4,7 +4,6 @@ never kept with errors, and the same results either way."""
 
 from __future__ import annotations
 
-import json
 import os
 import shutil
 import subprocess
@@ -14,14 +13,13 @@ from typing import Any
 
 import pytest
 
-import fmionnx
 from fmionnx.compile import single
 from fmionnx.compile.ir import Origin
 from fmionnx.core.errors import DiagnosticError
-from fmionnx.core.private import KEY_FILE
 from fmionnx.pipeline import compilecache
 from fmionnx.pipeline.system import check_model, load
 from tests.conftest import build_fixture_fmu, let_files_settle
+from tests.pipeline.test_compile_cache import assert_same_results_off_missed_and_hit, resign
 
 
 @pytest.fixture
@@ -78,19 +76,7 @@ def test_an_unchanged_fmu_is_read_back_equal(folder: Path, compiles: list[Path])
 def test_results_are_the_same_with_and_without_the_cache(
     folder: Path, compiles: list[Path], monkeypatch: pytest.MonkeyPatch
 ) -> None:
-    outs = []
-    for name, setting in (("off", "0"), ("miss", "1"), ("hit", "1")):
-        monkeypatch.setenv(compilecache.SWITCH, setting)
-        fmionnx.run("Integrator.fmu", out=Path(name), isolate="none", stop_time=0.5)
-        outs.append(Path(name))
-    assert len(compiles) == 2  # off and the miss compiled; the hit did not
-    reference = (outs[0] / "results.csv").read_bytes()
-    assert all((out / "results.csv").read_bytes() == reference for out in outs)
-    runs = [json.loads((out / "run.json").read_text(encoding="utf-8")) for out in outs]
-    for run in runs:  # what differs between any two runs: how long they took
-        del run["wall_time"], run["real_time_factor"]
-    assert runs[1] == runs[0]
-    assert runs[2] == runs[0]
+    assert_same_results_off_missed_and_hit("Integrator.fmu", compiles, monkeypatch, stop_time=0.5)
 
 
 def test_a_changed_model_compiles_again(folder: Path, compiles: list[Path]) -> None:
@@ -270,16 +256,15 @@ def test_an_entry_naming_a_model_no_lookup_hashed_is_refused(
 ) -> None:
     """Signed with the user's own key (a bug would do that): still refused, since the model
     it would run is not one whose contents the lookup just checked."""
-    import hashlib
-    import hmac
+
+    def forget_the_model(data: dict[str, object]) -> None:
+        listed = data["dependencies"]
+        assert isinstance(listed, list)
+        data["dependencies"] = [d for d in listed if not d[0].endswith(".fmu")]
 
     load("Integrator.fmu")
     (entry,) = entries(tmp_path)
-    data = json.loads(entry.read_bytes().partition(b"\n")[2])
-    data["dependencies"] = [d for d in data["dependencies"] if not d[0].endswith(".fmu")]
-    secret = (entry.parent.parent / KEY_FILE).read_bytes()
-    body = json.dumps(data).encode()
-    entry.write_bytes(hmac.new(secret, body, hashlib.sha256).hexdigest().encode() + b"\n" + body)
+    resign(entry, forget_the_model)
     load("Integrator.fmu")
     assert len(compiles) == 2
 
@@ -321,24 +306,6 @@ def test_a_changed_model_is_checked_again(folder: Path, checks: list[Path]) -> N
     second = check_model("Integrator.fmu")
     assert len(checks) == 2
     assert second.system != first.system
-
-
-def test_validate_prints_the_same_report_read_back(folder: Path, tmp_path: Path) -> None:
-    def validate(*args: str) -> tuple[int, str]:
-        done = subprocess.run(
-            [sys.executable, "-m", "fmionnx", "validate", "Integrator.fmu", "double.onnx", *args],
-            capture_output=True, text=True, check=False, timeout=120,
-        )  # fmt: skip
-        return done.returncode, done.stdout
-
-    _doubling_model(folder / "double.onnx")
-    let_files_settle()
-    for args in ((), ("--format", "json")):
-        checked = validate(*args)
-        read_back = validate(*args)
-        assert read_back == checked
-        assert checked[0] == 0
-    assert len(entries(tmp_path)) == 2
 
 
 # -- what is never kept ---------------------------------------------------------------------------
@@ -391,7 +358,9 @@ def test_an_onnx_model_with_external_data_is_read_every_time(
     assert load("scale.onnx").compiled.components[0].interface.fact("externalData") == "true"
 
 
-def test_validate_reports_the_same_read_back_as_checked_afresh(folder: Path) -> None:
+def test_validate_reports_the_same_read_back_as_checked_afresh(
+    folder: Path, tmp_path: Path
+) -> None:
     def validate(*args: str, cache: str) -> tuple[int, str]:
         done = subprocess.run(
             [sys.executable, "-m", "fmionnx", "validate", "Integrator.fmu", "double.onnx", *args],
@@ -404,5 +373,7 @@ def test_validate_reports_the_same_read_back_as_checked_afresh(folder: Path) -> 
     let_files_settle()
     for args in (("--format", "json"), ("--format", "sarif"), ()):
         afresh = validate(*args, cache="0")
-        validate(*args, cache="1")  # kept
-        assert validate(*args, cache="1") == afresh
+        assert afresh[0] == 0
+        assert validate(*args, cache="1") == afresh  # checked, and kept
+        assert validate(*args, cache="1") == afresh  # read back
+    assert len(entries(tmp_path)) == 2
