@@ -80,7 +80,7 @@ examples: models
 
 lint: $(TEST_STAMP)
 	$(VENV)/bin/ruff check fmionnx tests models benchmarks examples tools
-	$(VENV)/bin/ruff format --check fmionnx tests models benchmarks examples tools
+	$(VENV)/bin/ruff format --check fmionnx tests models benchmarks examples tools docs README.md
 	$(VENV)/bin/mypy
 	$(VENV)/bin/mypy examples
 

@@ -107,7 +107,10 @@ def test_ci_runs_make_test_only() -> None:
 def test_test_lints_and_runs_the_examples_before_the_suite(tree: Path) -> None:
     lines = make(tree, "test")
     assert "ruff check fmionnx tests models benchmarks examples tools" in lines
-    assert "ruff format --check fmionnx tests models benchmarks examples tools" in lines
+    format_check = (
+        "ruff format --check fmionnx tests models benchmarks examples tools docs README.md"
+    )
+    assert format_check in lines  # the Python blocks of the docs too
     assert "mypy examples" in lines
     assert lines.index("python examples/run_all.py") < lines.index(SUITE)
 
