@@ -182,11 +182,14 @@ def _component(pid: int) -> str:
 def test_ctrl_c_stops_the_supervisor_and_every_node(tmp_path: Path, supervised) -> None:
     system = loop_system(tmp_path, 10000.0)
     out = tmp_path / "out"
+    # PYTHONFAULTHANDLER: the supervisor ended by SIGSEGV instead of 130 in 2 of 9 full
+    # suites once (not reproduced alone); if it happens again, its stack is in the message.
     process = subprocess.Popen(
         fmionnx("run", system, "-q", "--backend", "ros2", "--out", out),
         stdout=subprocess.PIPE,
         stderr=subprocess.PIPE,
         text=True,
+        env={**os.environ, "PYTHONFAULTHANDLER": "1"},
     )
     supervised.append(process)
     marker = str(tmp_path)
@@ -194,7 +197,7 @@ def test_ctrl_c_stops_the_supervisor_and_every_node(tmp_path: Path, supervised) 
     time.sleep(3.0)
     process.send_signal(signal.SIGINT)
     stdout, stderr = process.communicate(timeout=60)
-    assert process.returncode == 130, stderr
+    assert process.returncode == 130, (stdout[-2000:], stderr)
     assert stdout.strip().splitlines()[-1] == f"Results: {out}"
     assert processes_with(marker) == []
 
