@@ -67,16 +67,19 @@ def validate(
     """
     from fmionnx import api
     from fmionnx.core.diagnostics import Diagnostic, Severity
-    from fmionnx.pipeline.system import compiled_before
+    from fmionnx.pipeline.system import compiled_before, studied_before
     from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
     results = []
     for path in systems:
         model = api.is_model_file(path)
-        # A system compiled before and unchanged since is read back without parsing (and
-        # without telling it from a study first: a study never has an entry).
+        # A system or a study compiled before and unchanged since is read back without
+        # parsing (and without telling one from the other first: their entries differ).
         result = None if model else compiled_before(path)
-        study = result is None and not model and api.is_study_file(path)
+        study = False
+        if result is None and not model:
+            result = studied_before(path)
+            study = result is not None or api.is_study_file(path)
         if model:
             result = api.check_model(path)
         elif result is None:

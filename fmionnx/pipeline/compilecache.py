@@ -13,7 +13,9 @@ A lone model run as a system (``fmionnx run model.fmu``, ``fmionnx.load("model.o
 kept the same way (:func:`model_slot`): its compile loads the kinds'
 pydantic specs and the run settings' types, a third of a lone FMU's start. So is the check
 of a lone model by ``fmionnx validate MODEL`` (the compile and the kind's deeper checks:
-FMPy's validation, the ONNX checker, MuJoCo's compiler), when it found no error.
+FMPy's validation, the ONNX checker, MuJoCo's compiler), when it found no error; and a study's
+plan (:mod:`fmionnx.pipeline.keptstudy`), keyed by the study file's bytes, with its system file
+as one more dependency.
 
 **What an entry depends on** is hashed, never trusted by its date:
 
@@ -53,6 +55,7 @@ import functools
 import hashlib
 import json
 import os
+import stat
 import sys
 import time
 from collections.abc import Iterator, Sequence
@@ -104,10 +107,12 @@ _RefusedError = NotPrivateError
 
 @dataclass(frozen=True)
 class Cached:
-    """A compiled system read back from the cache, and the diagnostics its compile gave."""
+    """A compiled system read back from the cache, the diagnostics its compile gave, and what
+    else its writer kept with it (``payload``: a study's plan, JSON data; None: nothing)."""
 
     system: CompiledSystem
     diagnostics: tuple[Diagnostic, ...]
+    payload: object = None
 
 
 def enabled() -> bool:
@@ -140,13 +145,25 @@ class Slot:
 
 def slot(path: Path, flags: RunFlags | None) -> Slot | None:
     """The slot of the system file at ``path`` compiled with ``flags`` (None: not kept)."""
+    return _file_slot(path, "system", flags)
+
+
+def study_slot(path: Path) -> Slot | None:
+    """The slot of the study file at ``path`` compiled into its plan (None: not kept). Its
+    system file is not in the key: :func:`store` lists it as a dependency."""
+    return _file_slot(path, "study", None)
+
+
+def _file_slot(path: Path, purpose: str, flags: RunFlags | None) -> Slot | None:
+    """The slot of a file compiled whole (its bytes in the key): a system or a study file."""
     if not applies_to(path):
         return None
+    begun = time.time_ns()  # before the bytes are read: a change after it is not in the key
     try:
-        key = _key(path, flags)
+        key = _key(path, flags, purpose)
     except (OSError, ValueError):
         return None
-    return None if key is None else Slot(key, source=path)
+    return None if key is None else Slot(key, source=path, begun=begun)
 
 
 def model_slot(
@@ -185,10 +202,19 @@ def lookup(place: Slot | None) -> Cached | None:
     return found
 
 
-def store(place: Slot | None, system: CompiledSystem, diagnostics: Sequence[Diagnostic]) -> None:
-    """Keep a compile in ``place``: ``system`` and its (error-free) ``diagnostics``.
+def store(
+    place: Slot | None,
+    system: CompiledSystem,
+    diagnostics: Sequence[Diagnostic],
+    *,
+    payload: object = None,
+    files: Sequence[Path] = (),
+) -> None:
+    """Keep a compile in ``place``: ``system``, its (error-free) ``diagnostics``, and
+    ``payload`` (JSON data read back as :attr:`Cached.payload`); ``files`` are more files the
+    compile read (a study's system file), hashed with the models.
 
-    Kept only when the models hashed now are those the compile read (a model rebuilt during
+    Kept only when the files hashed now are those the compile read (a model rebuilt during
     the compile is compiled again next time). Never raises: a cache that cannot be written (a
     read-only home, a full disk, a folder someone else owns) only means the next run
     compiles again.
@@ -198,12 +224,12 @@ def store(place: Slot | None, system: CompiledSystem, diagnostics: Sequence[Diag
     # RuntimeError: a loop of links made meanwhile, met resolving a model's files
     with contextlib.suppress(OSError, ValueError, RuntimeError, _RefusedError):
         budget = _Budget()
-        dependencies = _dependencies(system, budget)
+        dependencies = _dependencies(system, budget, files)
         if place.source is not None:
             budget.note(place.source.stat())
         if budget.changed_since(place.begun) or not _as_compiled(system, dependencies):
             return
-        _write(place.key, system, diagnostics, dependencies)
+        _write(place.key, system, diagnostics, dependencies, payload)
 
 
 #: How long before a compile began a file's change still counts as during it: the kernel
@@ -242,13 +268,19 @@ def _as_compiled(system: CompiledSystem, dependencies: list[Dependency]) -> bool
 # -- the key ------------------------------------------------------------------------------------
 
 
-def _key(path: Path, flags: RunFlags | None) -> str | None:
-    """The entry's name for compiling ``path`` with ``flags`` here, now (None: not cacheable)."""
-    with path.open("rb") as stream:
+def _key(path: Path, flags: RunFlags | None, purpose: str) -> str | None:
+    """The entry's name for compiling ``path`` (a ``purpose`` file: ``system`` or ``study``)
+    with ``flags`` here, now (None: not cacheable)."""
+    # Not blocking: a FIFO (or a device) named like a system file is the compiler's to
+    # refuse, never a read that waits for ever.
+    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
+    with os.fdopen(descriptor, "rb") as stream:
+        if not stat.S_ISREG(os.fstat(descriptor).st_mode):
+            return None
         data = stream.read(MAX_SYSTEM_BYTES + 1)
     if len(data) > MAX_SYSTEM_BYTES:
         return None
-    return _hashed(path, flags or RunFlags(), system=hashlib.sha256(data).hexdigest())
+    return _hashed(path, flags or RunFlags(), **{purpose: hashlib.sha256(data).hexdigest()})
 
 
 def _model_key(
@@ -321,13 +353,15 @@ def _stamp_file(digest: hashlib._Hash, file: Path, relative_to: Path | None) -> 
 Dependency = tuple[str, str | None]
 
 
-def _dependencies(system: CompiledSystem, budget: _Budget) -> list[Dependency]:
-    """Every model file ``system`` was compiled from, hashed now (:class:`_RefusedError`:
-    too large to hash)."""
+def _dependencies(
+    system: CompiledSystem, budget: _Budget, files: Sequence[Path] = ()
+) -> list[Dependency]:
+    """Every model file ``system`` was compiled from and ``files``, hashed now
+    (:class:`_RefusedError`: too large to hash)."""
     from fmionnx.compile.expected_path import expected_path_file
     from fmionnx.compile.systemfile import has_model_file
 
-    found: dict[str, str | None] = {}
+    found: dict[str, str | None] = {str(f): _digest(f, budget) for f in files}
     for component in system.components:
         if not has_model_file(component):
             continue
@@ -457,7 +491,7 @@ def _read(folder: Path, key: str) -> Cached | None:
     if any(str(c.path) not in listed and str(c.path.parent) not in listed for c in _models(system)):
         raise _RefusedError  # a model no lookup hashed: never run a file this entry only names
     touch(folder)
-    return Cached(system, diagnostics)
+    return Cached(system, diagnostics, entry.get("payload"))
 
 
 def _models(system: CompiledSystem) -> Iterator[Component]:
@@ -471,6 +505,7 @@ def _write(
     system: CompiledSystem,
     diagnostics: Sequence[Diagnostic],
     dependencies: list[Dependency],
+    payload: object,
 ) -> None:
     from fmionnx.compile.systemfile import encode_value, to_json
     from fmionnx.core.resources import CACHE_DAYS, COMPILE_CACHE_BYTES
@@ -485,6 +520,7 @@ def _write(
         "dependencies": dependencies,
         "diagnostics": encode_value(list(diagnostics)),
         "system": to_json(system),
+        "payload": payload,
     }
     body = json.dumps(entry, separators=(",", ":")).encode()
     data = signature(user_key(root, make=True), body).encode() + b"\n" + body

@@ -52,29 +52,51 @@ class SweepResult:
 
 
 def plan_study(study: str | Path) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
-    """Compile a study file; raises DiagnosticError with every error."""
-    return _compiled(*_loaded(study))
+    """Compile a study file, or read its compile back from the compile cache; raises
+    DiagnosticError with every error."""
+    return _StudySource(Path(study)).plan()
 
 
-def _loaded(study: str | Path) -> tuple[LoadedStudy, DiagnosticBag]:
-    """The study file read (its own problems in the bag), its system not compiled yet."""
-    from fmionnx.spec.study import load_study
+class _StudySource:
+    """A study file about to be compiled: its plan kept in the compile cache
+    (:mod:`fmionnx.pipeline.keptstudy`), or the file read (its own problems in a bag) and its
+    system not compiled yet."""
 
-    bag = DiagnosticBag()
-    return load_study(Path(study), bag), bag
+    def __init__(self, study: Path) -> None:
+        from fmionnx.pipeline.keptstudy import kept_plan, plan_slot
 
+        self.place = plan_slot(study)
+        self.kept = kept_plan(self.place)
+        self.bag = DiagnosticBag()
+        self.loaded: LoadedStudy | None = None
+        if self.kept is None:
+            from fmionnx.spec.study import load_study
 
-def _compiled(loaded: LoadedStudy, bag: DiagnosticBag) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
-    """The plan of a read study file: its system compiled (through the compile cache)."""
-    from fmionnx.compile.study import compile_study
-    from fmionnx.pipeline.system import study_system
+            self.loaded = load_study(study, self.bag)
 
-    plan = compile_study(loaded, bag, system_compiler=study_system)
-    diagnostics = tuple(bag.sorted())
-    errors = [d for d in diagnostics if d.severity is Severity.ERROR]
-    if plan is None or errors:
-        raise DiagnosticError(errors)
-    return plan, diagnostics
+    @property
+    def readable(self) -> bool:
+        """Whether the study file itself has no error (its system may still have some)."""
+        if self.loaded is None:
+            return True
+        return not self.bag.has_errors and self.loaded.spec is not None
+
+    def plan(self) -> tuple[StudyPlan, tuple[Diagnostic, ...]]:
+        """The plan and its warnings: its system compiled (through the compile cache)."""
+        if self.kept is not None:
+            return self.kept.plan, self.kept.diagnostics
+        from fmionnx.compile.study import compile_study
+        from fmionnx.pipeline.keptstudy import keep_plan
+        from fmionnx.pipeline.system import study_system
+
+        assert self.loaded is not None
+        plan = compile_study(self.loaded, self.bag, system_compiler=study_system)
+        diagnostics = tuple(self.bag.sorted())
+        errors = [d for d in diagnostics if d.severity is Severity.ERROR]
+        if plan is None or errors or self.loaded.spec is None:
+            raise DiagnosticError(errors)
+        keep_plan(self.place, plan, diagnostics, self.loaded.path.parent / self.loaded.spec.system)
+        return plan, diagnostics
 
 
 def sweep_study(
@@ -130,10 +152,10 @@ def sweep_study(
         except ViewUnavailableError as exc:
             raise RequestError(str(exc)) from None
     refuse_in_starting_worker()
-    loaded, bag = _loaded(study)
+    source = _StudySource(Path(study))
     # A local cluster starts now, while the system compiles, unless the study file itself is
     # wrong (its errors are said at once) or a resumed study may have nothing left to run.
-    start_now = not resume and not bag.has_errors and loaded.spec is not None
+    start_now = not resume and source.readable
     cluster = StudyCluster(scheduler, workers, client, start_now=start_now)
     # While a local cluster starts (seconds), the table's and plots' libraries load too: a
     # study of short cases would otherwise wait for them after its last case. On a cluster
@@ -142,7 +164,7 @@ def sweep_study(
     writers = _ResultsWriters() if local else None
     try:
         try:
-            plan, made_out = _checked_plan(loaded, bag, out, scheduler, warnings)
+            plan, made_out = _checked_plan(source, out, scheduler, warnings)
         except BaseException:
             cluster.release(wait=True)  # a system with errors: no cluster left behind
             raise
@@ -162,8 +184,7 @@ def sweep_study(
 
 
 def _checked_plan(
-    loaded: LoadedStudy,
-    bag: DiagnosticBag,
+    source: _StudySource,
     out: Path,
     scheduler: str | None,
     warnings: Callable[[tuple[Diagnostic, ...]], None] | None,
@@ -174,7 +195,7 @@ def _checked_plan(
     from fmionnx.pipeline.errors import RequestError
     from fmionnx.pipeline.outputs import check_output_folder
 
-    plan, diagnostics = _compiled(loaded, bag)
+    plan, diagnostics = source.plan()
     found = tuple(d for d in diagnostics if d.severity is not Severity.ERROR)
     if found and warnings is not None:
         warnings(found)

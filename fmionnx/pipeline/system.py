@@ -213,6 +213,15 @@ def compiled_before(path: str | Path, flags: RunFlags | None = None) -> CompileR
     return None if cached is None else CompileResult(cached.system, cached.diagnostics)
 
 
+def studied_before(path: str | Path) -> CompileResult | None:
+    """The check of a study file kept in the compile cache (:func:`check_study`), unchanged
+    since, or None; reads no study file types (a system file has no such entry)."""
+    from fmionnx.pipeline.keptstudy import kept_plan, plan_slot
+
+    kept = kept_plan(plan_slot(Path(path)))
+    return None if kept is None else CompileResult(kept.plan.system, kept.diagnostics)
+
+
 def _compile_system(path: Path, flags: RunFlags | None) -> CompileResult:
     from fmionnx.compile.compiler import compile_spec
     from fmionnx.spec.frontends import load_system
@@ -289,15 +298,25 @@ def is_study_file(path: str | Path) -> bool:
 
 def check_study(path: str | Path) -> CompileResult:
     """Check a study file and the system it varies (``fmionnx validate study.yaml``), without
-    running a case: every diagnostic ``fmionnx sweep`` would stop on, at its place."""
+    running a case: every diagnostic ``fmionnx sweep`` would stop on, at its place. A study
+    that compiled without errors is kept in the compile cache, as ``sweep`` keeps it."""
+    from fmionnx.pipeline.keptstudy import keep_plan, kept_plan, plan_slot
+
+    place = plan_slot(Path(path))
+    kept = kept_plan(place)
+    if kept is not None:
+        return CompileResult(kept.plan.system, kept.diagnostics)
     from fmionnx.compile.study import compile_study
     from fmionnx.spec.study import load_study
 
     bag = DiagnosticBag()
-    plan = compile_study(load_study(Path(path), bag), bag, system_compiler=study_system)
+    loaded = load_study(Path(path), bag)
+    plan = compile_study(loaded, bag, system_compiler=study_system)
     diagnostics = tuple(bag.sorted())
-    ok = plan is not None and all(d.severity is not Severity.ERROR for d in diagnostics)
-    return CompileResult(plan.system if ok and plan is not None else None, diagnostics)
+    if plan is None or loaded.spec is None or bag.has_errors:
+        return CompileResult(None, diagnostics)
+    keep_plan(place, plan, diagnostics, loaded.path.parent / loaded.spec.system)
+    return CompileResult(plan.system, diagnostics)
 
 
 def study_system(path: Path, bag: DiagnosticBag) -> CompiledSystem | None:

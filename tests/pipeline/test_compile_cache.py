@@ -344,3 +344,32 @@ def test_the_reference_system_reads_back_equal(compiles: list[Path]) -> None:
     assert len(compiles) == 1
     assert second.system == first.system
     assert second.diagnostics == first.diagnostics
+
+
+@pytest.mark.parametrize(
+    ("command", "message"),
+    [
+        (
+            ["validate", "pipe.yaml"],
+            "`pipe.yaml` is a directory or special file, not a system file",
+        ),
+        (["run", "pipe.yaml"], "`pipe.yaml` is a directory or special file, not a system file"),
+        (["sweep", "pipe.yaml", "--out", "o"], "study file `pipe.yaml` is not a file"),
+    ],
+    ids=["validate", "run", "sweep"],
+)
+def test_a_fifo_named_like_a_system_file_is_refused_not_read(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, command: list[str], message: str
+) -> None:
+    """The cache's key reads a file's bytes before the front end looks at it: never a read
+    that waits for a writer that never comes."""
+    monkeypatch.chdir(tmp_path)
+    monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "cache"))
+    os.mkfifo(tmp_path / "pipe.yaml")
+    done = subprocess.run(
+        [sys.executable, "-m", "fmionnx", *command],
+        capture_output=True, text=True, check=False, timeout=60,
+    )  # fmt: skip
+    assert done.returncode == 1
+    assert message in " ".join(done.stdout.split() + done.stderr.split())
+    assert not (tmp_path / "o").exists()

@@ -64,3 +64,39 @@ def test_the_command_writes_its_table_and_summary_without_pandas(
     assert Path(out / "cases.csv").read_text("utf-8").splitlines()[0] == (
         "case,gain.k,integ.x0,y_end,check: small,status,message,wall_time,worker"
     )
+
+
+KEPT = """\
+import sys
+
+from fmionnx.cli import main
+
+if __name__ == "__main__":
+    sys.argv = ["fmionnx", "sweep", "study.yaml", "--scheduler", sys.argv[1], "--out", sys.argv[2]]
+    try:
+        main()
+    except SystemExit as exc:
+        code = exc.code
+    print(f"exit={code} pydantic={'pydantic' in sys.modules}", file=sys.stderr)
+"""
+
+
+def test_a_study_compiled_before_is_read_back_without_its_types_and_runs_the_same(
+    write_study: WriteStudy, cluster: str, tmp_path: Path
+) -> None:
+    """The compile cache keeps the study's plan: the driver of an unchanged study's sweep
+    imports no pydantic (its study types), and the table is the same but for the timings."""
+    folder = write_study(STUDY).parent
+    (folder / "drive.py").write_text(KEPT, encoding="utf-8")
+    env = {**os.environ, "FMIONNX_CACHE": str(tmp_path / "kept")}
+    tables = []
+    for out, types in (("first", "True"), ("again", "False")):
+        done = subprocess.run(
+            [sys.executable, "drive.py", cluster, out],
+            cwd=folder, env=env, capture_output=True, text=True, timeout=240, check=False,
+        )  # fmt: skip
+        assert done.stderr.strip().splitlines()[-1] == f"exit=0 pydantic={types}", done.stderr
+        rows = (folder / out / "cases.csv").read_text("utf-8").splitlines()
+        tables.append([row.rsplit(",", 2)[0] for row in rows])  # less wall_time and worker
+    assert tables[1] == tables[0]
+    assert len(tables[0]) == 7

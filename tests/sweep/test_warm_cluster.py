@@ -70,13 +70,13 @@ def test_a_local_cluster_starts_while_the_system_compiles(
     folder: Path, starts: list[str], monkeypatch: pytest.MonkeyPatch
 ) -> None:
     compiling: list[bool] = []
-    real = pipeline_sweep._compiled
+    real = pipeline_sweep._StudySource.plan
 
     def watched(*args: Any) -> Any:
         compiling.append(any(t.name == "fmionnx-cluster-start" for t in threading.enumerate()))
         return real(*args)
 
-    monkeypatch.setattr(pipeline_sweep, "_compiled", watched)
+    monkeypatch.setattr(pipeline_sweep._StudySource, "plan", watched)
     events = _record_order(monkeypatch)
     table = fmionnx.sweep(folder / "study.yaml", out=folder / "out", workers=1)
     assert list(table["status"]) == ["ok"] * 3
@@ -89,7 +89,7 @@ def test_a_local_cluster_starts_while_the_system_compiles(
 def _record_order(monkeypatch: pytest.MonkeyPatch) -> list[str]:
     """The order in which the study compiled and began loading its table's libraries."""
     events: list[str] = []
-    real_compiled = pipeline_sweep._compiled
+    real_compiled = pipeline_sweep._StudySource.plan
     real_writers = pipeline_sweep._ResultsWriters.__init__
 
     def loading(self: Any) -> None:
@@ -100,7 +100,7 @@ def _record_order(monkeypatch: pytest.MonkeyPatch) -> list[str]:
         events.append("compile")
         return real_compiled(*args)
 
-    monkeypatch.setattr(pipeline_sweep, "_compiled", compiled)
+    monkeypatch.setattr(pipeline_sweep._StudySource, "plan", compiled)
     monkeypatch.setattr(pipeline_sweep._ResultsWriters, "__init__", loading)
     return events
 
