@@ -17,10 +17,8 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
-import os
 import re
 import shutil
-import stat
 import tempfile
 from pathlib import Path
 from typing import Any
@@ -31,7 +29,7 @@ from fmionnx.core.datacodec import Codec
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.modelfiles import NO_MODEL_FILE, ShippingError, copy_model_files
 from fmionnx.core.porttotal import check_port_total
-from fmionnx.core.regularfile import read_regular
+from fmionnx.core.regularfile import read_head, read_regular
 from fmionnx.core.resources import ARRAY_ELEMENTS, COMPILED_FILE_BYTES, LIMIT_CODE
 from fmionnx.core.safewrite import refuse, write_text_atomic
 from fmionnx.core.steps import (
@@ -198,13 +196,9 @@ _HEADER = ('{\n "format": ' + json.dumps(FORMAT) + ",").encode()
 def written_by_fmionnx(path: Path) -> bool:
     """``path`` is a regular file (not a link) that begins as a compiled system does."""
     try:
-        fd = os.open(path, os.O_RDONLY | os.O_NOFOLLOW | os.O_NONBLOCK | os.O_CLOEXEC)
+        return read_head(path, len(_HEADER), follow=False) == _HEADER
     except OSError:
         return False
-    with os.fdopen(fd, "rb") as stream:
-        if not stat.S_ISREG(os.fstat(stream.fileno()).st_mode):
-            return False
-        return stream.read(len(_HEADER)) == _HEADER
 
 
 def check_compile_target(output: Path, *, force: bool) -> None:

@@ -30,6 +30,7 @@ from collections.abc import Iterable, Iterator
 from dataclasses import dataclass
 from pathlib import Path, PurePosixPath
 
+from fmionnx.core.regularfile import read_head
 from fmionnx.core.safewrite import write_text_atomic
 
 #: The ownership record's name in the folder it describes.
@@ -115,14 +116,12 @@ class OwnedFolder:
     def _lines(self) -> list[bytes] | None:
         try:
             with _parent(self.root, PurePosixPath(MARKER)) as folder:
-                fd = os.open(MARKER, os.O_RDONLY | os.O_NOFOLLOW | os.O_CLOEXEC, dir_fd=folder)
+                data = read_head(MARKER, MAX_MARKER_BYTES + 1, follow=False, dir_fd=folder)
         except OSError:
             return None
-        with os.fdopen(fd, "rb") as stream:
-            info = os.fstat(stream.fileno())
-            if not stat.S_ISREG(info.st_mode) or info.st_size > MAX_MARKER_BYTES:
-                return None
-            lines = stream.read(MAX_MARKER_BYTES + 1).split(b"\n")
+        if data is None or len(data) > MAX_MARKER_BYTES:
+            return None  # a folder, a FIFO or a device so named; or too large to be ours
+        lines = data.split(b"\n")
         try:
             header = json.loads(lines[0])
         except ValueError:

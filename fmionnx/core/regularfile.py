@@ -88,3 +88,29 @@ def read_regular(path: Path, limit: ResourceLimit, what: str) -> bytes:
         return b"".join(chunks)
     finally:
         os.close(handle)
+
+
+def read_head(
+    path: Path | str, size: int, *, follow: bool = True, dir_fd: int | None = None
+) -> bytes | None:
+    """Up to ``size`` bytes from the start of ``path`` when it is a regular file; None when
+    it is anything else (a directory, a FIFO, a device; with ``follow=False`` a link too).
+
+    For a caller that only looks (a cache's key, whether a file is one of ours), where
+    anything but a regular file is simply not what it looks for. Opened without waiting and
+    looked at through the descriptor, which is always closed. Raises OSError as ``open``
+    does (missing, unreadable; ``ELOOP`` for a link with ``follow=False``).
+    """
+    flags = os.O_RDONLY | os.O_NONBLOCK | os.O_CLOEXEC | (0 if follow else os.O_NOFOLLOW)
+    handle = os.open(path, flags, dir_fd=dir_fd)
+    try:
+        if not stat.S_ISREG(os.fstat(handle).st_mode):
+            return None
+        chunks: list[bytes] = []
+        left = size
+        while left > 0 and (chunk := os.read(handle, min(1 << 20, left))):
+            chunks.append(chunk)
+            left -= len(chunk)
+        return b"".join(chunks)
+    finally:
+        os.close(handle)

@@ -55,7 +55,6 @@ import functools
 import hashlib
 import json
 import os
-import stat
 import sys
 import time
 from collections.abc import Iterator, Sequence
@@ -271,14 +270,12 @@ def _as_compiled(system: CompiledSystem, dependencies: list[Dependency]) -> bool
 def _key(path: Path, flags: RunFlags | None, purpose: str) -> str | None:
     """The entry's name for compiling ``path`` (a ``purpose`` file: ``system`` or ``study``)
     with ``flags`` here, now (None: not cacheable)."""
-    # Not blocking: a FIFO (or a device) named like a system file is the compiler's to
-    # refuse, never a read that waits for ever.
-    descriptor = os.open(path, os.O_RDONLY | os.O_NONBLOCK)
-    with os.fdopen(descriptor, "rb") as stream:
-        if not stat.S_ISREG(os.fstat(descriptor).st_mode):
-            return None
-        data = stream.read(MAX_SYSTEM_BYTES + 1)
-    if len(data) > MAX_SYSTEM_BYTES:
+    from fmionnx.core.regularfile import read_head
+
+    # A FIFO, a device or a folder named like a system file is the compiler's to refuse,
+    # never a read that waits for ever.
+    data = read_head(path, MAX_SYSTEM_BYTES + 1)
+    if data is None or len(data) > MAX_SYSTEM_BYTES:
         return None
     return _hashed(path, flags or RunFlags(), **{purpose: hashlib.sha256(data).hexdigest()})
 

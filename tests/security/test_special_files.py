@@ -118,3 +118,45 @@ def test_onnx_external_data_in_a_fifo_is_e011(tmp_path: Path) -> None:
     done = _fmionnx("validate", path, cwd=tmp_path)
     assert done.returncode == 1, done.stdout + done.stderr
     assert "error[E011 not-a-file]: `w.bin`, the data of tensor `w`, is a FIFO" in done.stdout
+
+
+LOOKING = """
+import os, sys
+from pathlib import Path
+from fmionnx.compile.systemfile import written_by_fmionnx
+from fmionnx.core.owned import MARKER, OwnedFolder
+from fmionnx.pipeline import compilecache
+
+here = Path(sys.argv[1])
+before = len(os.listdir("/proc/self/fd"))
+for _ in range(5):
+    assert compilecache.slot(here / "system.yaml", None) is None
+    assert not written_by_fmionnx(here / "out.fmionnx.json")
+    assert not OwnedFolder(here / "out").claimed()
+print("descriptors", before, len(os.listdir("/proc/self/fd")))
+"""
+
+
+@pytest.mark.parametrize("kind", ["folder", "fifo", "device"])
+def test_what_only_looks_at_a_file_passes_over_a_special_one_and_keeps_no_descriptor(
+    tmp_path: Path, kind: str
+) -> None:
+    """A cache's key, the test for a compiled system of ours and the ownership record of an
+    output folder look at a file without being told it is one: a folder, a FIFO or a device
+    so named is not what they look for (never a read that waits, never a traceback), and
+    the descriptor they opened is closed again."""
+    from fmionnx.core.owned import MARKER
+
+    for name in ("system.yaml", "out.fmionnx.json", f"out/{MARKER}"):
+        path = tmp_path / name
+        if kind == "folder":
+            path.mkdir(parents=True)
+        else:
+            _special(path, kind)
+    done = subprocess.run(
+        [sys.executable, "-c", LOOKING, str(tmp_path)],
+        capture_output=True, text=True, timeout=DEADLINE, check=False,
+    )  # fmt: skip
+    assert done.returncode == 0, done.stderr
+    _, before, after = done.stdout.split()
+    assert after == before

@@ -53,7 +53,7 @@ def test_a_study_of_a_loose_ssd_sees_a_changed_parameter_file(
     (loose_ssd.parent / "resources" / "gain1.ssv").write_text(FIVE, encoding="utf-8")
     let_files_settle()
     assert _gain1_k(loose_ssd) == 5.0
-    assert _kept_plans(tmp_path) == 0  # the system's own entry aside: an SSD is not kept
+    assert _kept_plans(tmp_path) == 0  # no plan of a study of a loose SSD is kept
 
 
 def _kept_plans(tmp_path: Path) -> int:
