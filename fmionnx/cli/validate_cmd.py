@@ -67,7 +67,7 @@ def validate(
     """
     from fmionnx import api
     from fmionnx.core.diagnostics import Diagnostic, Severity
-    from fmionnx.pipeline.system import compiled_before, studied_before
+    from fmionnx.pipeline.system import check_if_study, compiled_before
     from fmionnx.reporters import REPORTER_BY_NAME, FileResult
 
     results = []
@@ -78,12 +78,12 @@ def validate(
         result = None if model else compiled_before(path)
         study = False
         if result is None and not model:
-            result = studied_before(path)
-            study = result is not None or api.is_study_file(path)
+            result = check_if_study(path)
+            study = result is not None
         if model:
             result = api.check_model(path)
         elif result is None:
-            result = api.check_study(path) if study else api.compile_system(path)
+            result = api.compile_system(path)
         diagnostics = result.diagnostics
         if locked and not model and not study:
             from fmionnx.lock.check import check_lock  # the lock's reader: only when asked

@@ -28,6 +28,7 @@ from fmionnx.core.types import Causality, PortRef, Scalar
 from fmionnx.pipeline.request import COMPILED_SUFFIX, RunSettings
 
 if TYPE_CHECKING:
+    from fmionnx.pipeline.compilecache import Slot
     from fmionnx.pipeline.observers import RunObserver
     from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
@@ -213,13 +214,19 @@ def compiled_before(path: str | Path, flags: RunFlags | None = None) -> CompileR
     return None if cached is None else CompileResult(cached.system, cached.diagnostics)
 
 
-def studied_before(path: str | Path) -> CompileResult | None:
-    """The check of a study file kept in the compile cache (:func:`check_study`), unchanged
-    since, or None; reads no study file types (a system file has no such entry)."""
+def check_if_study(path: str | Path) -> CompileResult | None:
+    """:func:`check_study` of ``path`` when it is a study file, else None (``validate``).
+
+    A check kept in the compile cache is read back before anything tells a study file from a
+    system file (which imports the study file's types: a system file has no such entry),
+    and the lookup is not repeated for a study that must be checked."""
     from fmionnx.pipeline.keptstudy import kept_plan, plan_slot
 
-    kept = kept_plan(plan_slot(Path(path)))
-    return None if kept is None else CompileResult(kept.plan.system, kept.diagnostics)
+    place = plan_slot(Path(path))
+    kept = kept_plan(place)
+    if kept is not None:
+        return CompileResult(kept.plan.system, kept.diagnostics)
+    return _checked_study(Path(path), place) if is_study_file(path) else None
 
 
 def _compile_system(path: Path, flags: RunFlags | None) -> CompileResult:
@@ -300,17 +307,23 @@ def check_study(path: str | Path) -> CompileResult:
     """Check a study file and the system it varies (``fmionnx validate study.yaml``), without
     running a case: every diagnostic ``fmionnx sweep`` would stop on, at its place. A study
     that compiled without errors is kept in the compile cache, as ``sweep`` keeps it."""
-    from fmionnx.pipeline.keptstudy import keep_plan, kept_plan, plan_slot
+    from fmionnx.pipeline.keptstudy import kept_plan, plan_slot
 
     place = plan_slot(Path(path))
     kept = kept_plan(place)
     if kept is not None:
         return CompileResult(kept.plan.system, kept.diagnostics)
+    return _checked_study(Path(path), place)
+
+
+def _checked_study(path: Path, place: Slot | None) -> CompileResult:
+    """A study file checked (compiled), its plan kept in ``place`` when it has no error."""
     from fmionnx.compile.study import compile_study
+    from fmionnx.pipeline.keptstudy import keep_plan
     from fmionnx.spec.study import load_study
 
     bag = DiagnosticBag()
-    loaded = load_study(Path(path), bag)
+    loaded = load_study(path, bag)
     plan = compile_study(loaded, bag, system_compiler=study_system)
     diagnostics = tuple(bag.sorted())
     if plan is None or loaded.spec is None or bag.has_errors:

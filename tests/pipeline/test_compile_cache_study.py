@@ -249,3 +249,23 @@ def test_validate_prints_the_same_report_from_the_cache_and_loads_no_pydantic(
         env={**os.environ, compilecache.SWITCH: "0"},
     )  # fmt: skip
     assert validate("--format", "json")[0] == fresh.stdout
+
+
+def test_validate_looks_a_study_up_once_and_passes_a_system_file_on(
+    folder: Path, compiles: list[Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A study not yet kept is checked after one lookup (a second would hash its models again);
+    a system file is no study: ``validate`` compiles it as one."""
+    from fmionnx.pipeline import keptstudy
+    from fmionnx.pipeline.system import check_if_study
+
+    lookups: list[object] = []
+    real = keptstudy.kept_plan
+    monkeypatch.setattr(keptstudy, "kept_plan", lambda place: lookups.append(place) or real(place))
+    checked = check_if_study("study.yaml")
+    assert checked is not None
+    assert [d.code for d in checked.diagnostics] == ["W030", "W050"]
+    assert (len(lookups), len(compiles)) == (1, 1)
+    assert check_if_study("study.yaml") == checked  # read back
+    assert (len(lookups), len(compiles)) == (2, 1)
+    assert check_if_study("system.yaml") is None
