@@ -38,11 +38,19 @@ record: [integrator.x, gain.y, lonely.y]
 def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A system of two fixture FMUs and a signal (unconnected: warning W050), run from its
     own folder; the cache in ``tmp_path / cache``."""
+    return system_folder(tmp_path, monkeypatch)
+
+
+def system_folder(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch, also: dict[str, str] | None = None
+) -> Path:
+    """:func:`folder`'s making, with more text files ``also`` (name -> text) beside."""
     here = tmp_path / "system"
     here.mkdir()
     for name in ("Gain", "Integrator"):
         shutil.copy(build_fixture_fmu(name), here / f"{name}.fmu")
-    (here / "system.yaml").write_text(SYSTEM, encoding="utf-8")
+    for name, text in {"system.yaml": SYSTEM, **(also or {})}.items():
+        (here / name).write_text(text, encoding="utf-8")
     let_files_settle()
     monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "cache"))
     monkeypatch.chdir(here)

@@ -22,7 +22,7 @@ from fmionnx.pipeline import compilecache
 from fmionnx.pipeline.sweep import plan_study
 from fmionnx.pipeline.system import check_study
 from tests.conftest import build_fixture_fmu, let_files_settle
-from tests.pipeline.test_compile_cache import SYSTEM, resign
+from tests.pipeline.test_compile_cache import SYSTEM, resign, system_folder
 
 STUDY = """\
 fmionnx: 1
@@ -43,16 +43,7 @@ objective: {minimize: peak}
 def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     """A study of the compile cache tests' system (two fixture FMUs, a signal: warnings W030
     and W050), run from its folder; the cache in ``tmp_path / cache``."""
-    here = tmp_path / "study"
-    here.mkdir()
-    for name in ("Gain", "Integrator"):
-        shutil.copy(build_fixture_fmu(name), here / f"{name}.fmu")
-    (here / "system.yaml").write_text(SYSTEM, encoding="utf-8")
-    (here / "study.yaml").write_text(STUDY, encoding="utf-8")
-    let_files_settle()
-    monkeypatch.setenv("FMIONNX_CACHE", str(tmp_path / "cache"))
-    monkeypatch.chdir(here)
-    return here
+    return system_folder(tmp_path, monkeypatch, {"study.yaml": STUDY})
 
 
 @pytest.fixture
