@@ -19,12 +19,15 @@ import typing
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any
+from typing import TYPE_CHECKING, Any
 
 from fmionnx.compile.studyir import StudyPlan
-from fmionnx.core.diagnostics import Diagnostic
+from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
 from fmionnx.pipeline import compilecache
 from fmionnx.pipeline.compilecache import Slot
+
+if TYPE_CHECKING:
+    from fmionnx.spec.study import LoadedStudy
 
 #: The system files a kept plan may name: every file their compile reads is hashed with them.
 KEPT_SYSTEM_SUFFIXES = frozenset({".yaml", ".yml", ".ssp"})
@@ -75,6 +78,22 @@ def keep_plan(
 
     payload = {name: encode_value(getattr(plan, name)) for name in _plan_fields()}
     compilecache.store(place, plan.system, diagnostics, payload=payload, files=(system_file,))
+
+
+def compiled_plan(
+    loaded: LoadedStudy, bag: DiagnosticBag, place: Slot | None
+) -> tuple[StudyPlan | None, tuple[Diagnostic, ...]]:
+    """A read study file compiled (its system through the compile cache), and every
+    diagnostic; a plan without errors is kept in ``place``. None: the study has errors."""
+    from fmionnx.compile.study import compile_study
+    from fmionnx.pipeline.system import study_system
+
+    plan = compile_study(loaded, bag, system_compiler=study_system)
+    diagnostics = tuple(bag.sorted())
+    if plan is None or loaded.spec is None or bag.has_errors:
+        return None, diagnostics
+    keep_plan(place, plan, diagnostics, loaded.path.parent / loaded.spec.system)
+    return plan, diagnostics
 
 
 @functools.cache

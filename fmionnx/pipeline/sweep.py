@@ -85,17 +85,12 @@ class _StudySource:
         """The plan and its warnings: its system compiled (through the compile cache)."""
         if self.kept is not None:
             return self.kept.plan, self.kept.diagnostics
-        from fmionnx.compile.study import compile_study
-        from fmionnx.pipeline.keptstudy import keep_plan
-        from fmionnx.pipeline.system import study_system
+        from fmionnx.pipeline.keptstudy import compiled_plan
 
-        assert self.loaded is not None
-        plan = compile_study(self.loaded, self.bag, system_compiler=study_system)
-        diagnostics = tuple(self.bag.sorted())
-        errors = [d for d in diagnostics if d.severity is Severity.ERROR]
-        if plan is None or errors or self.loaded.spec is None:
-            raise DiagnosticError(errors)
-        keep_plan(self.place, plan, diagnostics, self.loaded.path.parent / self.loaded.spec.system)
+        assert self.loaded is not None  # read when no plan was kept
+        plan, diagnostics = compiled_plan(self.loaded, self.bag, self.place)
+        if plan is None:
+            raise DiagnosticError([d for d in diagnostics if d.severity is Severity.ERROR])
         return plan, diagnostics
 
 

@@ -318,18 +318,12 @@ def check_study(path: str | Path) -> CompileResult:
 
 def _checked_study(path: Path, place: Slot | None) -> CompileResult:
     """A study file checked (compiled), its plan kept in ``place`` when it has no error."""
-    from fmionnx.compile.study import compile_study
-    from fmionnx.pipeline.keptstudy import keep_plan
+    from fmionnx.pipeline.keptstudy import compiled_plan
     from fmionnx.spec.study import load_study
 
     bag = DiagnosticBag()
-    loaded = load_study(path, bag)
-    plan = compile_study(loaded, bag, system_compiler=study_system)
-    diagnostics = tuple(bag.sorted())
-    if plan is None or loaded.spec is None or bag.has_errors:
-        return CompileResult(None, diagnostics)
-    keep_plan(place, plan, diagnostics, loaded.path.parent / loaded.spec.system)
-    return CompileResult(plan.system, diagnostics)
+    plan, diagnostics = compiled_plan(load_study(path, bag), bag, place)
+    return CompileResult(None if plan is None else plan.system, diagnostics)
 
 
 def study_system(path: Path, bag: DiagnosticBag) -> CompiledSystem | None:
