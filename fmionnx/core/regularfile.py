@@ -78,16 +78,22 @@ def read_regular(path: Path, limit: ResourceLimit, what: str) -> bytes:
         info = os.fstat(handle)
         if not stat.S_ISREG(info.st_mode):  # swapped for a special file since the stat
             raise _refused(what, info.st_mode)
-        chunks: list[bytes] = []
-        size = 0
-        while chunk := os.read(handle, min(1 << 20, largest + 1 - size)):
-            chunks.append(chunk)
-            size += len(chunk)
-            if size > largest:
-                raise _too_large(what, size, limit)
-        return b"".join(chunks)
+        data = _read_up_to(handle, largest + 1)
     finally:
         os.close(handle)
+    if len(data) > largest:
+        raise _too_large(what, len(data), limit)
+    return data
+
+
+def _read_up_to(handle: int, size: int) -> bytes:
+    """At most ``size`` bytes from the open file ``handle``: fewer only at its end."""
+    chunks: list[bytes] = []
+    left = size
+    while left > 0 and (chunk := os.read(handle, min(1 << 20, left))):
+        chunks.append(chunk)
+        left -= len(chunk)
+    return b"".join(chunks)
 
 
 def read_head(
@@ -106,11 +112,6 @@ def read_head(
     try:
         if not stat.S_ISREG(os.fstat(handle).st_mode):
             return None
-        chunks: list[bytes] = []
-        left = size
-        while left > 0 and (chunk := os.read(handle, min(1 << 20, left))):
-            chunks.append(chunk)
-            left -= len(chunk)
-        return b"".join(chunks)
+        return _read_up_to(handle, size)
     finally:
         os.close(handle)

@@ -220,13 +220,13 @@ def check_if_study(path: str | Path) -> CompileResult | None:
     A check kept in the compile cache is read back before anything tells a study file from a
     system file (which imports the study file's types: a system file has no such entry),
     and the lookup is not repeated for a study that must be checked."""
-    from fmionnx.pipeline.keptstudy import kept_plan, plan_slot
+    from fmionnx.pipeline.keptstudy import plan_slot
 
     place = plan_slot(Path(path))
-    kept = kept_plan(place)
-    if kept is not None:
-        return CompileResult(kept.plan.system, kept.diagnostics)
-    return _checked_study(Path(path), place) if is_study_file(path) else None
+    kept = _kept_check(place)
+    if kept is not None or not is_study_file(path):
+        return kept
+    return _checked_study(Path(path), place)
 
 
 def _compile_system(path: Path, flags: RunFlags | None) -> CompileResult:
@@ -307,13 +307,19 @@ def check_study(path: str | Path) -> CompileResult:
     """Check a study file and the system it varies (``fmionnx validate study.yaml``), without
     running a case: every diagnostic ``fmionnx sweep`` would stop on, at its place. A study
     that compiled without errors is kept in the compile cache, as ``sweep`` keeps it."""
-    from fmionnx.pipeline.keptstudy import kept_plan, plan_slot
+    from fmionnx.pipeline.keptstudy import plan_slot
 
     place = plan_slot(Path(path))
+    kept = _kept_check(place)
+    return kept if kept is not None else _checked_study(Path(path), place)
+
+
+def _kept_check(place: Slot | None) -> CompileResult | None:
+    """The check of a study kept in ``place``, or None."""
+    from fmionnx.pipeline.keptstudy import kept_plan
+
     kept = kept_plan(place)
-    if kept is not None:
-        return CompileResult(kept.plan.system, kept.diagnostics)
-    return _checked_study(Path(path), place)
+    return None if kept is None else CompileResult(kept.plan.system, kept.diagnostics)
 
 
 def _checked_study(path: Path, place: Slot | None) -> CompileResult:
