@@ -9,7 +9,9 @@ per killed study, in a file system that lives in memory.
 
 So a local cluster, before it starts, removes the semaphores that are the current user's,
 older than a minute and mapped by no process (``sem_open`` maps the file, so a semaphore in use
-shows in its users' ``/proc/<pid>/maps``). Only that exact name form is touched. A process
+shows in its users' ``/proc/<pid>/maps``; its creator maps the temporary file it made it from,
+under another name, so a new semaphore looks unused until the worker it was made for opens it:
+the minute covers that). Only that exact name form is touched. A process
 whose map the user may not read although it runs as the user (a container's init, a process
 that made itself non-dumpable) is not a multiprocessing program and is passed over; if
 ``/proc`` itself cannot be read, nothing is removed.
