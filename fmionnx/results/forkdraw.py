@@ -8,8 +8,9 @@ each copy draws every n-th figure of the job and writes its files (atomically, a
 and tells the worker which files it wrote and what it logged. The figures are the same, byte
 for byte: the same functions draw them from the same data.
 
-Only the plot worker forks, never the run's process (it has threads: a copy of it could wait
-for ever on a lock one of them held). A copy that fails or dies makes the whole job fail:
+Only the plot worker forks here, never the run's process once it runs (it has threads then:
+a copy of it could wait for ever on a lock one of them held; it forks its helpers only before,
+while it has one, :mod:`fmionnx.core.forking`). A copy that fails or dies makes the whole job fail:
 the worker answers so, and the run draws the figures itself.
 """
 

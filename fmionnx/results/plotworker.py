@@ -10,7 +10,9 @@ process writes ``results.csv``, several figures side by side in forked copies of
 byte for byte: the same functions (:mod:`.plots`, :mod:`.signals_plot`) draw them from the
 same data. A study's worker (``--study``) draws a study's summary plots the same way.
 
-``python -m fmionnx.results.plotworker``: reads one job (a pickle from the process that
+The worker is a fork of the run's process when that has one thread (a command's process as
+its run starts: :mod:`fmionnx.core.forking`), else ``python -m fmionnx.results.plotworker``.
+Either way it reads one job (a pickle from the process that
 started it, its own parent: nothing from outside) on stdin, answers on stdout, exits. It ends
 when its stdin closes (the parent finished without plots, or died). It runs in a process group
 of its own, out of reach of the terminal's Ctrl-C (sent to the whole foreground group), and
@@ -30,13 +32,21 @@ import signal
 import struct
 import subprocess
 import sys
+import traceback
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
-from typing import IO, TYPE_CHECKING, cast
+from typing import IO, TYPE_CHECKING, Protocol, cast
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.cores import usable_cores
+from fmionnx.core.forking import (
+    ForkedProcess,
+    close_all_but,
+    flush_all,
+    fork_helper,
+    single_threaded,
+)
 from fmionnx.core.switches import switched_off
 from fmionnx.results.csvfollow import FollowRows
 from fmionnx.results.forkdraw import draw_side_by_side, processes_for
@@ -115,19 +125,9 @@ class PlotWorker:
         self.rows_ahead = 0
         if follow is not None:
             self.rows = _shared_rows()
+        passed = () if self.rows is None else (self.rows.fd,)
         try:
-            self._process: subprocess.Popen[bytes] | None = subprocess.Popen(
-                [sys.executable, "-m", __name__, *(["--study"] if study else [])],
-                stdin=subprocess.PIPE,
-                stdout=subprocess.PIPE,
-                env=dict(os.environ, OPENBLAS_NUM_THREADS="1", OMP_NUM_THREADS="1"),
-                # Out of the terminal's process group: its Ctrl-C is the parent's alone. The
-                # worker ignores SIGINT once its code runs, but a Ctrl-C during its imports (a
-                # third of a second) printed a KeyboardInterrupt traceback. It still ends with
-                # its parent (stdin closes), and ignores the terminal's job control (see main).
-                process_group=0,
-                pass_fds=() if self.rows is None else (self.rows.fd,),
-            )
+            self._process: _Process | None = _forked(study, passed) or _started(study, passed)
         except OSError:
             if self.rows is not None:
                 self.rows.close()
@@ -204,6 +204,82 @@ class PlotWorker:
         except subprocess.TimeoutExpired:
             process.kill()
             process.wait()
+
+
+class _Process(Protocol):
+    """What :class:`PlotWorker` uses of its worker's process (``Popen``'s names)."""
+
+    stdin: IO[bytes] | None
+    stdout: IO[bytes] | None
+
+    def wait(self, timeout: float | None = None) -> int: ...
+
+    def kill(self) -> None: ...
+
+
+#: The worker's environment besides the parent's: one thread for numpy's BLAS and OpenMP.
+_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
+
+
+def _started(study: bool, passed: tuple[int, ...]) -> subprocess.Popen[bytes]:
+    """The worker as a new interpreter."""
+    return subprocess.Popen(
+        [sys.executable, "-m", __name__, *(["--study"] if study else [])],
+        stdin=subprocess.PIPE,
+        stdout=subprocess.PIPE,
+        env=dict(os.environ, **_ENVIRONMENT),
+        # Out of the terminal's process group: its Ctrl-C is the parent's alone. The
+        # worker ignores SIGINT once its code runs, but a Ctrl-C during its imports (a
+        # third of a second) printed a KeyboardInterrupt traceback. It still ends with
+        # its parent (stdin closes), and ignores the terminal's job control (see main).
+        process_group=0,
+        pass_fds=passed,
+    )
+
+
+class _ForkedWorker(ForkedProcess):
+    """The worker as a fork of this process, with ``Popen``'s pipes to it."""
+
+    def __init__(self, pid: int, stdin: IO[bytes], stdout: IO[bytes]) -> None:
+        super().__init__(pid, "plot worker")
+        self.stdin: IO[bytes] | None = stdin
+        self.stdout: IO[bytes] | None = stdout
+
+
+def _forked(study: bool, passed: tuple[int, ...]) -> _ForkedWorker | None:
+    """The worker as a fork of this process, when it is single-threaded (a command's
+    process as its run starts): it has the interpreter, numpy and fmionnx's modules
+    already, a third of a second of CPU that a new interpreter spends on 2 busy cores
+    before it imports matplotlib. None when this process cannot be forked."""
+    if not single_threaded():
+        return None
+    job_read, job_write = os.pipe()
+    answer_read, answer_write = os.pipe()
+    try:
+        pid = fork_helper()
+    except OSError:
+        for fd in (job_read, job_write, answer_read, answer_write):
+            os.close(fd)
+        return None
+    if pid == 0:  # the worker: never return into the caller
+        code = 1
+        try:
+            os.setpgid(0, 0)  # out of the terminal's process group, as a started one
+            os.dup2(job_read, 0)
+            os.dup2(answer_write, 1)
+            close_all_but(set(passed))
+            os.environ.update(_ENVIRONMENT)
+            code = main(study=study)
+        except BaseException:
+            traceback.print_exc()
+        finally:
+            flush_all()
+            os._exit(code)
+    with contextlib.suppress(OSError):  # also here: in its group before this returns
+        os.setpgid(pid, pid)
+    os.close(job_read)
+    os.close(answer_write)
+    return _ForkedWorker(pid, os.fdopen(job_write, "wb"), os.fdopen(answer_read, "rb"))
 
 
 def _shared_rows() -> RowsShared | None:
@@ -296,9 +372,9 @@ class _Collect(logging.Handler):
         self.records.append((record.levelno, record.getMessage()))
 
 
-def main() -> int:
-    """The worker: import the plotting code (``--study``: a study's too), then draw the one
-    job that comes on stdin."""
+def main(*, study: bool | None = None) -> int:
+    """The worker: import the plotting code (``study``, else ``--study`` among the
+    arguments: a study's too), then draw the one job that comes on stdin."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; it ignores it by then
     # Its own process group is a background one: with ``stty tostop`` a library's warning
     # written to the terminal would stop it (SIGTTOU), and the run would wait for it.
@@ -309,7 +385,7 @@ def main() -> int:
     import fmionnx.results.plots
     import fmionnx.results.signals_plot
 
-    if "--study" in sys.argv[1:]:
+    if study if study is not None else "--study" in sys.argv[1:]:
         import fmionnx.results.study_plots  # noqa: F401
 
     # The answer goes on the pipe that was stdout; anything a library prints goes to stderr.

@@ -15,18 +15,17 @@ import atexit
 import contextlib
 import functools
 import json
-import math
 import os
 import signal
 import socket
 import subprocess
 import sys
 import threading
-import time
 import traceback
 from pathlib import Path
 from typing import Protocol
 
+from fmionnx.core.forking import ForkedProcess, fork_helper, single_threaded
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.runtime.isolated import zygote
 from fmionnx.runtime.isolated.channel import readable
@@ -169,15 +168,15 @@ class Zygote:
 
     def __init__(self, *, forked: bool = False) -> None:
         """Start the zygote as a new interpreter, or (``forked``) as a fork of this process,
-        which must be single-threaded and have what children need imported: a study's
-        worker as it starts (:func:`fork_zygote`). A fork is ready at once; an interpreter
-        imports for about half a second of CPU first."""
-        if forked and _threads() != 1:
+        which must be single-threaded (:func:`fork_zygote`). A fork has this process's
+        imports and adds what children need that it lacks; an interpreter imports all of it,
+        about half a second of CPU."""
+        if forked and not single_threaded():
             raise ZygoteError("a zygote is forked only from a single-threaded process")
         ours, theirs = socket.socketpair(socket.AF_UNIX, socket.SOCK_SEQPACKET)
         self._socket = ours
         self._lock = threading.Lock()
-        self._process: subprocess.Popen[bytes] | _ForkedZygote
+        self._process: subprocess.Popen[bytes] | ForkedProcess
         try:
             self._process = _forked(ours, theirs) if forked else _started(theirs)
         except OSError as exc:
@@ -252,54 +251,25 @@ def _started(theirs: socket.socket) -> subprocess.Popen[bytes]:
     )
 
 
-def _forked(ours: socket.socket, theirs: socket.socket) -> _ForkedZygote:
-    pid = os.fork()
+def _forked(ours: socket.socket, theirs: socket.socket) -> ForkedProcess:
+    pid = fork_helper()
     if pid == 0:  # the zygote: never return into the caller
         code = 1
         try:
             ours.close()
+            os.environ.update(ZYGOTE_ENVIRONMENT)  # as a started one has it
             code = zygote.forked(theirs)
         except BaseException:
             traceback.print_exc()
         finally:
             os._exit(code)
-    return _ForkedZygote(pid)
-
-
-class _ForkedZygote:
-    """A forked zygote, as much of ``Popen`` as :class:`Zygote` uses (this process reaps it)."""
-
-    def __init__(self, pid: int) -> None:
-        self.pid = pid
-        self._ended = False
-
-    def wait(self, timeout: float | None = None) -> int:
-        """Wait for its exit; ``subprocess.TimeoutExpired`` after ``timeout`` seconds."""
-        if self._ended:
-            return 0
-        deadline = math.inf if timeout is None else time.monotonic() + timeout
-        while True:
-            try:
-                done, status = os.waitpid(self.pid, os.WNOHANG)
-            except ChildProcessError:  # reaped by someone else
-                done, status = self.pid, 0
-            if done == self.pid:
-                self._ended = True
-                return os.waitstatus_to_exitcode(status)
-            if time.monotonic() >= deadline:
-                raise subprocess.TimeoutExpired(f"zygote {self.pid}", timeout or 0.0)
-            time.sleep(0.01)
-
-    def kill(self) -> None:
-        if not self._ended:
-            with contextlib.suppress(ProcessLookupError):
-                os.kill(self.pid, signal.SIGKILL)
+    return ForkedProcess(pid, "zygote")
 
 
 def fork_zygote() -> bool:
     """Fork this process's zygote now, if it has none and may have one: only while it is
-    single-threaded (a study's worker as it starts). False when it could not (the first
-    isolated child then starts one as usual)."""
+    single-threaded (a study's worker as it starts, a command's process before it loads its
+    models). False when it could not (the zygote is then started as a new interpreter)."""
     if not zygote_wanted() or _no_zygote.get() is not None or _zygote.get() is not None:
         return False
     try:
@@ -309,14 +279,6 @@ def fork_zygote() -> bool:
     if _zygote.get_or_make(lambda: made) is not made:  # another thread's meanwhile
         made.close()
     return True
-
-
-def _threads() -> int:
-    """Threads of this process, every one (Python's and native libraries' alike)."""
-    try:
-        return sum(1 for _ in Path("/proc/self/task").iterdir())
-    except OSError:
-        return threading.active_count()
 
 
 #: This process's zygote; a forked process (the guardian's child) starts its own.
@@ -358,9 +320,15 @@ def prestart() -> None:
     Its imports (numpy, fmpy, the kinds' runners: about half a second) then run on another
     core while this process loads the models that stay in it (a MuJoCo scene and its GL
     context, an ONNX session), instead of after them, when the first isolated child is
-    launched. Does nothing where no zygote can be had, or one is already there.
+    launched. While this process is single-threaded (a command's process: its numpy has one
+    BLAS thread, :func:`fmionnx.cli.console`) the zygote is a fork of it, which has the
+    interpreter, numpy and fmionnx's modules already (0.13 s less outside the reference
+    run's loop on 2 cores); otherwise a new interpreter. Does nothing where no zygote can
+    be had, or one is already there.
     """
     if not zygote_wanted() or _no_zygote.get() is not None:
+        return
+    if fork_zygote():
         return
     try:
         _zygote.get_or_make(Zygote)

@@ -25,7 +25,6 @@ as a directly started child does). It never runs a model itself.
 from __future__ import annotations
 
 import contextlib
-import ctypes
 import json
 import os
 import select
@@ -37,6 +36,7 @@ import tempfile
 import traceback
 from typing import Any
 
+from fmionnx.core.forking import close_all_but, flush_all
 from fmionnx.runtime import lifetime
 
 #: Largest request (JSON with the supervisor's environment) the zygote reads.
@@ -57,20 +57,11 @@ def warm_up() -> None:
     native_kernel()  # loaded and checked once, not in every child
 
 
-def _close_all_but(keep: set[int]) -> None:
-    """Close every descriptor of this process but the standard three and ``keep``."""
-    low = 3
-    for fd in sorted(keep):
-        os.closerange(low, fd)
-        low = fd + 1
-    os.closerange(low, os.sysconf("SC_OPEN_MAX"))
-
-
 def _be_child(request: dict[str, Any], fds: list[int]) -> int:
     """In the forked process: become an isolated child as ``python -m ...child`` would."""
     from fmionnx.runtime.isolated import child
 
-    _close_all_but(set(fds))
+    close_all_but(set(fds))
     signal.set_wakeup_fd(-1)
     signal.signal(signal.SIGCHLD, signal.SIG_DFL)
     os.chdir(request["cwd"])
@@ -78,16 +69,6 @@ def _be_child(request: dict[str, Any], fds: list[int]) -> int:
     os.environ.update(request["env"])
     tempfile.tempdir = None  # TMPDIR is the child's own scratch folder
     return child.main([*(str(fd) for fd in fds), *request["argv"]])
-
-
-def _flush_all() -> None:
-    """What a normal exit would flush before ``os._exit``: Python's streams, and C's (a model
-    that ``printf``s to a pipe or file has its lines in the C library's buffer)."""
-    for stream in (sys.stdout, sys.stderr):
-        with contextlib.suppress(Exception):
-            stream.flush()
-    with contextlib.suppress(OSError, AttributeError):
-        ctypes.CDLL(None).fflush(None)
 
 
 def _spawn(server: socket.socket, request: dict[str, Any], fds: list[int]) -> tuple[int, int]:
@@ -104,7 +85,7 @@ def _spawn(server: socket.socket, request: dict[str, Any], fds: list[int]) -> tu
         except BaseException:
             traceback.print_exc()
         finally:
-            _flush_all()
+            flush_all()
             os._exit(code)
     for fd in fds:
         os.close(fd)
@@ -190,8 +171,10 @@ def main(argv: list[str]) -> int:
 
 def forked(server: socket.socket) -> int:
     """Be the zygote in a process just forked from its supervisor (``launcher``'s
-    ``Zygote(forked=True)``), which was single-threaded and had :func:`warm_up` done (with
-    one BLAS thread: a study's worker forked by the fork server, :mod:`..sweep.workerboot`).
+    ``Zygote(forked=True)``), which was single-threaded (its numpy with one BLAS thread): a
+    study's worker forked by the fork server, :mod:`..sweep.workerboot`, with :func:`warm_up`
+    done; or a command's process before it loads its models, whose imports :func:`warm_up`
+    completes here.
 
     A forked zygote holds copies of its supervisor's descriptors: it keeps only ``server``
     and the standard three (a pipe end kept open here would hide the supervisor's death from
@@ -199,7 +182,7 @@ def forked(server: socket.socket) -> int:
     the socket closes (the supervisor exited or was killed), ending its children and what
     their models started on the way out; no death signal, which would kill it before that.
     """
-    _close_all_but({server.fileno()})
+    close_all_but({server.fileno()})
     return _run(server)
 
 
@@ -220,5 +203,5 @@ if __name__ == "__main__":
     # The supervisor waits for this exit at the end of every run; tearing down the
     # interpreter (numpy, pydantic, the kinds) would add about a tenth of a second to it, and
     # nothing is left to flush or free: the children have ended and been reaped.
-    _flush_all()
+    flush_all()
     os._exit(code)
