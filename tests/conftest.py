@@ -114,18 +114,6 @@ def _no_worker_state_left() -> Iterator[None]:
     drop_worker_state()
 
 
-@pytest.fixture(autouse=True)
-def _helpers_started_not_forked(monkeypatch: pytest.MonkeyPatch) -> None:
-    """A run in this process starts its helpers (the isolated models' zygote, the plot
-    worker) as new interpreters. A single-threaded process forks them instead, and whether
-    pytest's process has threads depends on the machine (numpy's BLAS starts one per core):
-    the path of a test would too. The forked helpers are tested in processes of their own
-    (tests/backends/test_forked_helpers.py) and by every test that runs the command."""
-    from fmionnx.core import forking
-
-    monkeypatch.setattr(forking, "threads", lambda: 2)
-
-
 #: The signals whose handling a test may change in this process (a command run in-process
 #: ignores them once it was stopped: ``stop_on_signals(process_ends=True)``).
 HANDLED_SIGNALS = (signal.SIGINT, signal.SIGTERM, signal.SIGHUP)

@@ -89,7 +89,6 @@ def console() -> None:
     """
     global _whole_process  # noqa: PLW0603 - set once, by the process's entry point
     _whole_process = True
-    _one_blas_thread()
     try:
         main()
     except SystemExit as exc:
@@ -99,23 +98,6 @@ def console() -> None:
 
 
 _whole_process = False
-
-#: The variable that sets how many threads numpy's BLAS (OpenBLAS) starts when it loads.
-BLAS_THREADS = "OPENBLAS_NUM_THREADS"
-
-
-def _one_blas_thread() -> None:
-    """Give the command's process one BLAS thread, unless the environment names a number.
-
-    Nothing fmionnx runs multiplies large matrices in numpy (the models are FMUs, ONNX
-    sessions with their own threads, MuJoCo), but OpenBLAS starts a thread per core when
-    it loads, and a process with threads cannot be forked safely: with one, the isolated
-    models' zygote is forked from the command's process instead of starting as a new
-    interpreter (:func:`fmionnx.runtime.isolated.launcher.prestart`). The command's helpers
-    had one BLAS thread already (the zygote, the plot worker, a study's Dask workers);
-    they inherit the variable, as the processes the command starts do.
-    """
-    os.environ.setdefault(BLAS_THREADS, "1")
 
 
 def whole_process() -> bool:

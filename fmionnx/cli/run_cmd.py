@@ -111,6 +111,7 @@ def run(
     Results go to --out, by default out/<system name>/; the last line names the folder. A fault
     or a failed check exits 1 after writing what was recorded; Ctrl-C exits 130, SIGTERM 143.
     """
+    _forkable()
     from fmionnx.pipeline.request import build_request, pairs, params_from_text
 
     with refused():
@@ -129,6 +130,19 @@ def run(
             _infer(request, quiet=quiet)
             return
         raise typer.Exit(_run(request, quiet=quiet))
+
+
+def _forkable() -> None:
+    """In the command's own process (not a program calling :func:`fmionnx.cli.main`), before
+    numpy loads: its run's helpers may be forks of it, and numpy starts one BLAS thread so
+    that it has one thread to be forked with (:mod:`fmionnx.core.forking`)."""
+    from fmionnx.cli import whole_process
+
+    if whole_process():
+        from fmionnx.core.forking import allow_forked_helpers, load_numpy_with_one_blas_thread
+
+        load_numpy_with_one_blas_thread()
+        allow_forked_helpers()
 
 
 def _run(request: RunRequest, *, quiet: bool) -> int:

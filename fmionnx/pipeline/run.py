@@ -77,6 +77,7 @@ def execute(
     backend = backend_entry(request.backend)()
     recorder = _mcap_recorder(request, backend, system)
     options = _prepared(backend, system, request, recording=recorder is not None, viewing=bool(fed))
+    backend.start_helpers(system.compiled, options)  # before the plot worker and any thread
     ahead = _csv_ahead(system, options, out)
     feeder = _feeder(system, fed)
     if feeder is not None:

@@ -44,8 +44,8 @@ from fmionnx.core.forking import (
     ForkedProcess,
     close_all_but,
     flush_all,
-    fork_helper,
-    single_threaded,
+    forked_helper,
+    may_fork_helpers,
 )
 from fmionnx.core.switches import switched_off
 from fmionnx.results.csvfollow import FollowRows
@@ -128,7 +128,7 @@ class PlotWorker:
         passed = () if self.rows is None else (self.rows.fd,)
         try:
             self._process: _Process | None = _forked(study, passed) or _started(study, passed)
-        except OSError:
+        except BaseException:  # no process could start, or a stop came meanwhile
             if self.rows is not None:
                 self.rows.close()
             raise
@@ -247,39 +247,41 @@ class _ForkedWorker(ForkedProcess):
 
 
 def _forked(study: bool, passed: tuple[int, ...]) -> _ForkedWorker | None:
-    """The worker as a fork of this process, when it is single-threaded (a command's
-    process as its run starts): it has the interpreter, numpy and fmionnx's modules
-    already, a third of a second of CPU that a new interpreter spends on 2 busy cores
-    before it imports matplotlib. None when this process cannot be forked."""
-    if not single_threaded():
+    """The worker as a fork of this process, where it may be one (a ``fmionnx run``
+    command's process with one thread, :mod:`fmionnx.core.forking`): it has the interpreter,
+    numpy and fmionnx's modules already, a third of a second of CPU that a new interpreter
+    spends on 2 busy cores before it imports matplotlib. None where it may not."""
+    if not may_fork_helpers():
         return None
     job_read, job_write = os.pipe()
     answer_read, answer_write = os.pipe()
     try:
-        pid = fork_helper()
-    except OSError:
+        with forked_helper() as pid:
+            if pid == 0:  # the worker: never return into the caller
+                code = 1
+                try:
+                    os.setpgid(0, 0)  # out of the terminal's process group, as a started one
+                    os.dup2(job_read, 0)
+                    os.dup2(2, 1)  # what a library prints goes to stderr, as in a started one
+                    close_all_but({answer_write, *passed})
+                    os.environ.update(_ENVIRONMENT)
+                    code = main(study=study, answer_fd=answer_write)
+                except BaseException:
+                    traceback.print_exc()
+                finally:
+                    flush_all()
+                    os._exit(code)
+            with contextlib.suppress(OSError):  # also here: in its group before this returns
+                os.setpgid(pid, pid)
+            os.close(job_read)
+            os.close(answer_write)
+            stdin, stdout = os.fdopen(job_write, "wb"), os.fdopen(answer_read, "rb")
+            return _ForkedWorker(pid, stdin, stdout)
+    except OSError:  # no process could be forked
         for fd in (job_read, job_write, answer_read, answer_write):
-            os.close(fd)
+            with contextlib.suppress(OSError):
+                os.close(fd)
         return None
-    if pid == 0:  # the worker: never return into the caller
-        code = 1
-        try:
-            os.setpgid(0, 0)  # out of the terminal's process group, as a started one
-            os.dup2(job_read, 0)
-            os.dup2(answer_write, 1)
-            close_all_but(set(passed))
-            os.environ.update(_ENVIRONMENT)
-            code = main(study=study)
-        except BaseException:
-            traceback.print_exc()
-        finally:
-            flush_all()
-            os._exit(code)
-    with contextlib.suppress(OSError):  # also here: in its group before this returns
-        os.setpgid(pid, pid)
-    os.close(job_read)
-    os.close(answer_write)
-    return _ForkedWorker(pid, os.fdopen(job_write, "wb"), os.fdopen(answer_read, "rb"))
 
 
 def _shared_rows() -> RowsShared | None:
@@ -372,9 +374,10 @@ class _Collect(logging.Handler):
         self.records.append((record.levelno, record.getMessage()))
 
 
-def main(*, study: bool | None = None) -> int:
+def main(*, study: bool | None = None, answer_fd: int | None = None) -> int:
     """The worker: import the plotting code (``study``, else ``--study`` among the
-    arguments: a study's too), then draw the one job that comes on stdin."""
+    arguments: a study's too), then draw the one job that comes on stdin; the answer goes
+    to the descriptor ``answer_fd`` (a forked worker's), else to what was stdout."""
     signal.signal(signal.SIGINT, signal.SIG_IGN)  # the parent decides; it ignores it by then
     # Its own process group is a background one: with ``stty tostop`` a library's warning
     # written to the terminal would stop it (SIGTTOU), and the run would wait for it.
@@ -388,9 +391,10 @@ def main(*, study: bool | None = None) -> int:
     if study if study is not None else "--study" in sys.argv[1:]:
         import fmionnx.results.study_plots  # noqa: F401
 
-    # The answer goes on the pipe that was stdout; anything a library prints goes to stderr.
-    stdout = os.fdopen(os.dup(1), "wb")
-    os.dup2(2, 1)
+    if answer_fd is None:  # on the pipe that was stdout; anything a library prints: stderr
+        answer_fd = os.dup(1)
+        os.dup2(2, 1)
+    stdout = os.fdopen(answer_fd, "wb")
     # Unbuffered: while following a run, whether the job has come is asked of the pipe itself.
     stdin = cast(IO[bytes], io.FileIO(0, "rb", closefd=False))
     try:

@@ -144,6 +144,13 @@ class Backend(abc.ABC):
         del system, context
         return options
 
+    def start_helpers(self, system: CompiledSystem, options: BackendOptions) -> None:
+        """Start the helper processes the run will need, now: before the pipeline starts
+        its own (the plot worker) and its observers their threads, while a command's
+        process may still fork them (:mod:`fmionnx.core.forking`). ``options`` come from
+        :meth:`prepare`. Nothing by default."""
+        del system, options
+
     @abc.abstractmethod
     def validate(self, system: CompiledSystem, options: BackendOptions) -> list[Diagnostic]:
         """Problems that would stop this backend from running ``system`` (empty when fine)."""

@@ -212,6 +212,18 @@ class InProcessBackend(Backend):
                 )
         return problems
 
+    def start_helpers(self, system: CompiledSystem, options: BackendOptions) -> None:
+        """The isolated models' zygote (:func:`~fmionnx.runtime.isolated.launcher.prestart`),
+        when the run isolates a model outside the guardian."""
+        from fmionnx.runtime.isolated.factory import isolation_targets
+
+        assert isinstance(options, InProcessOptions)
+        chosen, _ = isolation_targets(system, _component_words(options))
+        if chosen and not options.guarded:
+            from fmionnx.runtime.isolated.launcher import prestart
+
+            prestart(fork=not options.sandbox)
+
     def run(self, system: CompiledSystem, options: BackendOptions, run: RunOptions) -> RunResult:
         """Run ``system`` to its stop time; faults and Ctrl-C end in the result's status."""
         from fmionnx.runtime.isolated.factory import isolation_targets
@@ -230,7 +242,8 @@ class InProcessBackend(Backend):
         if chosen and not options.guarded:
             from fmionnx.runtime.isolated.launcher import prestart
 
-            prestart()  # the children's zygote imports while the master loads the other models
+            # unless the pipeline did: its imports go on while the models load
+            prestart(fork=not options.sandbox)
 
         if options.guarded:
             from fmionnx.runtime.guardian import run_guarded

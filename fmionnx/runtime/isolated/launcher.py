@@ -25,7 +25,7 @@ import traceback
 from pathlib import Path
 from typing import Protocol
 
-from fmionnx.core.forking import ForkedProcess, fork_helper, single_threaded
+from fmionnx.core.forking import ForkedProcess, forked_helper, may_fork_helpers, single_threaded
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.runtime.isolated import zygote
 from fmionnx.runtime.isolated.channel import readable
@@ -252,18 +252,18 @@ def _started(theirs: socket.socket) -> subprocess.Popen[bytes]:
 
 
 def _forked(ours: socket.socket, theirs: socket.socket) -> ForkedProcess:
-    pid = fork_helper()
-    if pid == 0:  # the zygote: never return into the caller
-        code = 1
-        try:
-            ours.close()
-            os.environ.update(ZYGOTE_ENVIRONMENT)  # as a started one has it
-            code = zygote.forked(theirs)
-        except BaseException:
-            traceback.print_exc()
-        finally:
-            os._exit(code)
-    return ForkedProcess(pid, "zygote")
+    with forked_helper() as pid:
+        if pid == 0:  # the zygote: never return into the caller
+            code = 1
+            try:
+                ours.close()
+                os.environ.update(ZYGOTE_ENVIRONMENT)  # as a started one has it
+                code = zygote.forked(theirs)
+            except BaseException:
+                traceback.print_exc()
+            finally:
+                os._exit(code)
+        return ForkedProcess(pid, "zygote")
 
 
 def fork_zygote() -> bool:
@@ -314,21 +314,24 @@ def zygote_wanted() -> bool:
     return True
 
 
-def prestart() -> None:
+def prestart(*, fork: bool = True) -> None:
     """Start this process's zygote now, without waiting for it.
 
     Its imports (numpy, fmpy, the kinds' runners: about half a second) then run on another
     core while this process loads the models that stay in it (a MuJoCo scene and its GL
     context, an ONNX session), instead of after them, when the first isolated child is
-    launched. While this process is single-threaded (a command's process: its numpy has one
-    BLAS thread, :func:`fmionnx.cli.console`) the zygote is a fork of it, which has the
-    interpreter, numpy and fmionnx's modules already (0.13 s less outside the reference
-    run's loop on 2 cores); otherwise a new interpreter. Does nothing where no zygote can
-    be had, or one is already there.
+    launched. In a ``fmionnx run`` command's process that has one thread the zygote is a
+    fork of it (:mod:`fmionnx.core.forking`), which has the interpreter, numpy and fmionnx's
+    modules already, unless ``fork`` is False; otherwise a new interpreter. Sandboxed
+    models are forked from a new interpreter: a fork of the command holds what it compiled
+    (every component's configuration), which a sandboxed model is not to see. The pipeline calls it before the run
+    starts other helpers or threads (:meth:`~fmionnx.runtime.backend.Backend.start_helpers`),
+    and the backend again as its run starts. Does nothing where no zygote can be had, or
+    one is already there.
     """
     if not zygote_wanted() or _no_zygote.get() is not None:
         return
-    if fork_zygote():
+    if fork and may_fork_helpers() and fork_zygote():
         return
     try:
         _zygote.get_or_make(Zygote)

@@ -183,7 +183,17 @@ def forked(server: socket.socket) -> int:
     their models started on the way out; no death signal, which would kill it before that.
     """
     close_all_but({server.fileno()})
+    _no_input()
     return _run(server)
+
+
+def _no_input() -> None:
+    """Standard input from ``/dev/null``, as a started zygote has it: a model must not read
+    the command's (a terminal, or the input of a shell loop that runs fmionnx)."""
+    nothing = os.open(os.devnull, os.O_RDONLY)
+    if nothing != 0:
+        os.dup2(nothing, 0)
+        os.close(nothing)
 
 
 def _run(server: socket.socket) -> int:
