@@ -7,13 +7,13 @@ fork has all of it already.
 
 Only the process of a ``fmionnx run`` command forks its run's helpers
 (:func:`allow_forked_helpers`; a study's worker forks its zygote too, as it starts:
-:mod:`fmionnx.backends.sweep.workerboot`), and only while it has one thread (another thread may hold a lock the copy then waits on for
-ever): a program that calls fmionnx has memory, descriptors, signal handlers and limits of
-its own that its helpers should not inherit, and starts them as new interpreters as before.
-The command loads numpy with one BLAS thread for that (:func:`load_numpy_with_one_blas_thread`).
-A copy keeps none of this process's descriptors but those it is given (:func:`close_all_but`),
-writes nothing this process had buffered, and never returns into the caller's code: it ends
-with ``os._exit``.
+:mod:`fmionnx.backends.sweep.workerboot`), and only while it has one thread (another thread
+may hold a lock the copy then waits on for ever): a program that calls fmionnx has memory,
+descriptors, signal handlers and limits of its own that its helpers should not inherit, and
+starts them as new interpreters as before. The command loads numpy with one BLAS thread for
+that (:func:`load_numpy_with_one_blas_thread`). A copy keeps none of this process's
+descriptors but those it is given (:func:`close_all_but`), writes nothing this process had
+buffered, and never returns into the caller's code: it ends with ``os._exit``.
 """
 
 from __future__ import annotations
@@ -122,6 +122,10 @@ def forked_helper() -> Iterator[int]:
         pid = os.fork()
         if pid == 0:
             _become_helper(mask)
+            try:
+                yield 0
+            finally:
+                os._exit(1)  # a block that did not end the copy: never back into the caller
         yield pid
         signal.pthread_sigmask(signal.SIG_SETMASK, mask)  # a stop held meanwhile raises here
     except BaseException:

@@ -324,10 +324,10 @@ def prestart(*, fork: bool = True) -> None:
     fork of it (:mod:`fmionnx.core.forking`), which has the interpreter, numpy and fmionnx's
     modules already, unless ``fork`` is False; otherwise a new interpreter. Sandboxed
     models are forked from a new interpreter: a fork of the command holds what it compiled
-    (every component's configuration), which a sandboxed model is not to see. The pipeline calls it before the run
-    starts other helpers or threads (:meth:`~fmionnx.runtime.backend.Backend.start_helpers`),
-    and the backend again as its run starts. Does nothing where no zygote can be had, or
-    one is already there.
+    (every component's configuration), which a sandboxed model is not to see. The pipeline
+    calls it before the run starts other helpers or threads
+    (:meth:`~fmionnx.runtime.backend.Backend.start_helpers`), and the backend again as its
+    run starts. Does nothing where no zygote can be had, or one is already there.
     """
     if not zygote_wanted() or _no_zygote.get() is not None:
         return
