@@ -10,14 +10,15 @@ process writes ``results.csv``, several figures side by side in forked copies of
 byte for byte: the same functions (:mod:`.plots`, :mod:`.signals_plot`) draw them from the
 same data. A study's worker (``--study``) draws a study's summary plots the same way.
 
-The worker is a fork of the run's process when that has one thread (a command's process as
-its run starts: :mod:`fmionnx.core.forking`), else ``python -m fmionnx.results.plotworker``.
-Either way it reads one job (a pickle from the process that
-started it, its own parent: nothing from outside) on stdin, answers on stdout, exits. It ends
-when its stdin closes (the parent finished without plots, or died). It runs in a process group
-of its own, out of reach of the terminal's Ctrl-C (sent to the whole foreground group), and
-ignores SIGINT besides: the parent decides when the results are written. Whatever goes wrong in the worker (it cannot start, dies, or drawing raises), the
-parent draws the plots itself, so an error is reported as it always was.
+The worker is a fork of ``fmionnx run``'s process, made before the run starts any thread
+(:mod:`fmionnx.core.forking`), else ``python -m fmionnx.results.plotworker``. Either way it
+reads one job (a pickle from the process that started it, its own parent: nothing from
+outside) on stdin, answers on a pipe to that process, exits. It ends when its stdin closes
+(the parent finished without plots, or died). It runs in a process group of its own, out of
+reach of the terminal's Ctrl-C (sent to the whole foreground group), and ignores SIGINT
+besides: the parent decides when the results are written. Whatever goes wrong in the worker
+(it cannot start, dies, or drawing raises), the parent draws the plots itself, so an error
+is reported as it always was.
 """
 
 from __future__ import annotations
@@ -388,7 +389,9 @@ def main(*, study: bool | None = None, answer_fd: int | None = None) -> int:
     import fmionnx.results.plots
     import fmionnx.results.signals_plot
 
-    if study if study is not None else "--study" in sys.argv[1:]:
+    if study is None:
+        study = "--study" in sys.argv[1:]
+    if study:
         import fmionnx.results.study_plots  # noqa: F401
 
     if answer_fd is None:  # on the pipe that was stdout; anything a library prints: stderr
