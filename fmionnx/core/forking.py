@@ -31,6 +31,11 @@ from pathlib import Path
 
 #: The variable that sets how many threads numpy's BLAS (OpenBLAS) starts when it loads.
 BLAS_THREADS = "OPENBLAS_NUM_THREADS"
+#: A helper's environment besides its parent's, whether started or forked: numpy's BLAS and
+#: OpenMP start no threads, so that a helper stays single-threaded (the zygote forks
+#: children that enter namespaces, which only a single-threaded process may) and does not
+#: compete with the run for cores.
+HELPER_ENVIRONMENT = {BLAS_THREADS: "1", "OMP_NUM_THREADS": "1"}
 
 _allowed = [False]
 

@@ -42,6 +42,7 @@ from typing import IO, TYPE_CHECKING, Protocol, cast
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core.cores import usable_cores
 from fmionnx.core.forking import (
+    HELPER_ENVIRONMENT,
     ForkedProcess,
     close_all_but,
     flush_all,
@@ -218,17 +219,13 @@ class _Process(Protocol):
     def kill(self) -> None: ...
 
 
-#: The worker's environment besides the parent's: one thread for numpy's BLAS and OpenMP.
-_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
-
-
 def _started(study: bool, passed: tuple[int, ...]) -> subprocess.Popen[bytes]:
     """The worker as a new interpreter."""
     return subprocess.Popen(
         [sys.executable, "-m", __name__, *(["--study"] if study else [])],
         stdin=subprocess.PIPE,
         stdout=subprocess.PIPE,
-        env=dict(os.environ, **_ENVIRONMENT),
+        env=dict(os.environ, **HELPER_ENVIRONMENT),
         # Out of the terminal's process group: its Ctrl-C is the parent's alone. The
         # worker ignores SIGINT once its code runs, but a Ctrl-C during its imports (a
         # third of a second) printed a KeyboardInterrupt traceback. It still ends with
@@ -265,7 +262,7 @@ def _forked(study: bool, passed: tuple[int, ...]) -> _ForkedWorker | None:
                     os.dup2(job_read, 0)
                     os.dup2(2, 1)  # what a library prints goes to stderr, as in a started one
                     close_all_but({answer_write, *passed})
-                    os.environ.update(_ENVIRONMENT)
+                    os.environ.update(HELPER_ENVIRONMENT)
                     code = main(study=study, answer_fd=answer_write)
                 except BaseException:
                     traceback.print_exc()

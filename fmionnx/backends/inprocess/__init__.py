@@ -239,12 +239,8 @@ class InProcessBackend(Backend):
         def plain(*, options: RunOptions) -> RunResult:
             return Master(system, options).run()
 
-        if chosen and not options.guarded:
-            from fmionnx.runtime.isolated.launcher import prestart
-
-            # unless the pipeline did: its imports go on while the models load
-            prestart(fork=not options.sandbox)
-
+        # unless the pipeline did: the zygote's imports go on while the models load
+        self.start_helpers(system, options)
         if options.guarded:
             from fmionnx.runtime.guardian import run_guarded
 

@@ -25,7 +25,13 @@ import traceback
 from pathlib import Path
 from typing import Protocol
 
-from fmionnx.core.forking import ForkedProcess, forked_helper, may_fork_helpers, single_threaded
+from fmionnx.core.forking import (
+    HELPER_ENVIRONMENT,
+    ForkedProcess,
+    forked_helper,
+    may_fork_helpers,
+    single_threaded,
+)
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.runtime.isolated import zygote
 from fmionnx.runtime.isolated.channel import readable
@@ -36,9 +42,6 @@ ZYGOTE_START_TIMEOUT = 30.0
 ZYGOTE_ANSWER_TIMEOUT = 10.0
 #: Seconds the zygote has to exit once its socket closed.
 ZYGOTE_EXIT_TIMEOUT = 5.0
-#: Set in the zygote's environment only: its numpy must not start BLAS threads, so that it
-#: forks as a single-threaded process (a child entering namespaces must be one).
-ZYGOTE_ENVIRONMENT = {"OPENBLAS_NUM_THREADS": "1", "OMP_NUM_THREADS": "1"}
 
 
 class ChildProcess(Protocol):
@@ -247,7 +250,7 @@ def _started(theirs: socket.socket) -> subprocess.Popen[bytes]:
         argv,
         pass_fds=(theirs.fileno(),),
         stdin=subprocess.DEVNULL,
-        env=dict(os.environ, **ZYGOTE_ENVIRONMENT),
+        env=dict(os.environ, **HELPER_ENVIRONMENT),
     )
 
 
@@ -257,7 +260,7 @@ def _forked(ours: socket.socket, theirs: socket.socket) -> ForkedProcess:
             code = 1
             try:
                 ours.close()
-                os.environ.update(ZYGOTE_ENVIRONMENT)  # as a started one has it
+                os.environ.update(HELPER_ENVIRONMENT)  # as a started one has it
                 code = zygote.forked(theirs)
             except BaseException:
                 traceback.print_exc()
