@@ -43,7 +43,9 @@ def write_results(
     than the data, and checks judge a whole run, so both are left to the final write.
 
     ``plot_signals=True`` (``run --plot``) also draws every recorded signal into
-    ``signals.png`` (:mod:`fmionnx.results.signals_plot`).
+    ``signals.png`` (:mod:`fmionnx.results.signals_plot`). A run that recorded nothing
+    (:func:`nothing_recorded`) draws no plots: a figure of every signal marked as not
+    recorded says less than the one warning logged instead.
 
     ``ahead``: rows of results.csv formatted while a guarded run went on
     (:mod:`fmionnx.results.csvahead`); the file's bytes are the same without it.
@@ -70,7 +72,16 @@ def write_results(
     # The plotting modules load only for a run that draws (issue #14), and a plot worker
     # draws while results.csv is written here (issue #32).
     job = None
-    if not checkpoint and (system.plots or plot_signals):
+    drawing = not checkpoint and bool(system.plots or plot_signals)
+    if drawing and nothing_recorded(result):
+        import logging
+
+        logging.getLogger("fmionnx.results").warning(
+            "plots: none drawn: the run stopped before its models gave a first value, so "
+            "nothing was recorded"
+        )
+        drawing = False
+    if drawing:
         from fmionnx.results.plotworker import PlotJob
 
         by_worker = plotter is not None and plotter.follows  # it formatted the rows ahead
@@ -101,3 +112,10 @@ def write_results(
     owned.remove(previous - set(names))  # only what the record proves: nothing else
     owned.record(listed)
     return files
+
+
+def nothing_recorded(result: RunResult) -> bool:
+    """Whether ``result`` holds no value of any signal: the run stopped (a Ctrl-C, a model
+    that hung or failed) before its models gave their first values. A run that recorded
+    signals other than those plotted is drawn, with the missing ones named on the figure."""
+    return not result.signals and result.steps_done == 0

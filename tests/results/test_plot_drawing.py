@@ -163,6 +163,28 @@ def test_plot_signals_writes_signals_png_and_lists_it_until_a_run_without(
     assert not (tmp_path / "signals.png").exists()
 
 
+def test_a_run_that_recorded_nothing_draws_no_plots_and_says_so_once(
+    reference: CompiledSystem, tmp_path: Path, caplog: pytest.LogCaptureFixture
+) -> None:
+    write_results(_driven(reference), reference, tmp_path, plot_signals=True)
+    assert (tmp_path / "trajectory-a-b.png").exists()
+    stopped = _result({}, steps=0)  # stopped before its models gave a first value
+    write_results(stopped, reference, tmp_path, plot_signals=True)
+    assert sorted(p.name for p in tmp_path.iterdir() if not p.name.startswith(".")) == [
+        "results.csv",
+        "run.json",
+    ]  # the previous run's figures are gone with it, none drawn empty
+    assert json.loads((tmp_path / "run.json").read_text(encoding="utf-8"))["files"] == [
+        "results.csv",
+        "run.json",
+    ]
+    warned = [r.getMessage() for r in caplog.records if r.name == "fmionnx.results"]
+    assert warned == [
+        "plots: none drawn: the run stopped before its models gave a first value, so "
+        "nothing was recorded"
+    ]
+
+
 def _one_element_model(path: Path) -> Path:
     """``y = 2 x`` on ``[1]``-shaped float tensors, and ``z = x`` as ``[1,3]``."""
     graph = helper.make_graph(
