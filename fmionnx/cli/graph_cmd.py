@@ -11,7 +11,11 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, app, fail
-from fmionnx.cli.outputs import check_output_file
+from fmionnx.cli.outputs import (
+    check_output_file,
+    refuse_an_input,
+    write_derived,
+)
 
 #: Text formats and the writer in fmionnx.export.graph (imported when the command runs).
 TEXT_FORMATS = {"dot": "to_dot", "mermaid": "to_mermaid", "json": "to_json_text"}
@@ -93,12 +97,14 @@ def graph(
             [FileResult(system, result.diagnostics)], sys.stderr, color=sys.stderr.isatty()
         )
         raise typer.Exit(ExitCode.PROBLEMS)
+    if output is not None:
+        refuse_an_input(output, [system, *(c.path for c in result.system.components)])
     if output_format in TEXT_FORMATS:
         text = getattr(writers, TEXT_FORMATS[output_format])(result.system)
         if output is None:
             typer.echo(text, nl=False)
         else:
-            output.write_text(text, encoding="utf-8")
+            write_derived(output, text)
         return
     dot = shutil.which("dot")
     if dot is None:
@@ -112,7 +118,7 @@ def graph(
         typer.echo(f"error: `--format {output_format}` needs `--output FILE`", err=True)
         raise typer.Exit(ExitCode.USAGE)
     rendered = subprocess.run(
-        [dot, f"-T{output_format}", "-o", str(output)],
+        [dot, f"-T{output_format}"],
         input=writers.to_dot(result.system).encode(),
         capture_output=True,
         check=False,
@@ -120,3 +126,4 @@ def graph(
     if rendered.returncode != 0:
         typer.echo(f"error: Graphviz failed: {rendered.stderr.decode(errors='replace')}", err=True)
         raise typer.Exit(ExitCode.PROBLEMS)
+    write_derived(output, rendered.stdout)  # atomically, never through a link

@@ -10,6 +10,7 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, app
+from fmionnx.cli.outputs import check_output_file, refuse_an_input, write_derived
 
 ros2_app = typer.Typer(
     help="ROS 2 helpers: compare the live graph with a system, write a launch file.",
@@ -160,9 +161,7 @@ def launch_file(
     assert isinstance(plan, Ros2Plan)
     assert isinstance(compiled, CompiledSystem)
     text = launch_file_text(plan, compiled.name, system, output, middleware)
-    try:
-        output.parent.mkdir(parents=True, exist_ok=True)
-        output.write_text(text, encoding="utf-8")
-    except OSError as exc:
-        raise _fail(f"cannot write {output}: {exc}", ExitCode.PROBLEMS) from None
+    check_output_file(output, "--output")
+    refuse_an_input(output, [system, *(c.path for c in compiled.components)])
+    write_derived(output, text)  # atomically, never through a link
     print(f"wrote {output} ({len(plan.nodes)} nodes)")

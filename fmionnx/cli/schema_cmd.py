@@ -9,7 +9,7 @@ from typing import Annotated
 import typer
 
 from fmionnx.cli.app import app
-from fmionnx.cli.outputs import check_output_file
+from fmionnx.cli.outputs import check_output_file, write_derived
 
 
 def schema_text(*, study: bool = False) -> str:
@@ -35,4 +35,4 @@ def schema(
     if output is None:
         typer.echo(text, nl=False)
     else:
-        check_output_file(output, "--output").write_text(text, encoding="utf-8")
+        write_derived(check_output_file(output, "--output"), text)

@@ -63,10 +63,14 @@ class DType(enum.StrEnum):
 
         Only numbers are judged (their kind is checked elsewhere): an integer must fit the
         integer type's bits, and a finite number given for a float type must not overflow it
-        (it would silently become infinity). Explicit ``inf``/``nan`` are left alone.
+        (it would silently become infinity). NaN is refused: every value computed from it is
+        NaN, and where that value is passed on by no connection (whose check would catch it)
+        a run completed with NaN results. An explicit infinity is left alone (a limit).
         """
         if isinstance(value, bool) or not isinstance(value, int | float):
             return None
+        if isinstance(value, float) and math.isnan(value):
+            return "is not a number (NaN); a parameter takes a number (an infinity is allowed)"
         if self.is_integer and isinstance(value, int):
             bits = int(self.value.removeprefix("u").removeprefix("int"))
             signed = not self.value.startswith("u")

@@ -64,8 +64,15 @@ def check_results_folder(
     """``out`` is usable for a run's results; a folder of someone else's files is refused
     unless ``force`` (see :mod:`fmionnx.results.outdir`). The default folder (``default``)
     follows the same rules; the message then says where it came from."""
-    from fmionnx.results.outdir import foreign_folder
+    from fmionnx.results.outdir import foreign_folder, holds_study
 
+    if system_run and out.is_dir() and holds_study(out):
+        where = f"the default results folder `{out}`" if default else f"--out `{out}`"
+        msg = (
+            f"{where} holds a study's results (study.json, records/): a run writes into a "
+            "folder of its own, even with --force; choose another folder"
+        )
+        raise RequestError(msg)
     if system_run and not force and foreign_folder(out):
         if default:
             msg = (
@@ -80,3 +87,52 @@ def check_results_folder(
             )
         raise RequestError(msg)
     check_output_folder(out, "--out" if not default else "the default results folder")
+
+
+#: The first bytes of an MCAP file, and of a Rerun recording (``.rrd``).
+MCAP_MAGIC, RRD_MAGIC = b"\x89MCAP0\r\n", b"RRF"
+
+
+def check_recording_file(path: Path, option: str, *, force: bool) -> None:
+    """An existing file at ``path`` is replaced only when it is a recording of the kind the
+    option writes (``--record``: an MCAP file fmionnx wrote; ``--rrd``: a Rerun recording,
+    whose writer cannot be told), or with ``force``: a recording is regenerated at will, a
+    file of anything else (notes, the system file itself) is the user's."""
+    if force or path.is_symlink() or not path.is_file():
+        return  # a link at the name is replaced, never written through
+    ours = _fmionnx_mcap(path) if option == "--record" else _starts_with(path, RRD_MAGIC)
+    if not ours:
+        what = "an MCAP recording fmionnx wrote" if option == "--record" else "a Rerun recording"
+        msg = (
+            f"{option} `{path}` exists and is not {what}; not replacing it (choose another "
+            "name, or use --force to replace it)"
+        )
+        raise RequestError(msg)
+
+
+def _starts_with(path: Path, magic: bytes) -> bool:
+    try:
+        with path.open("rb") as stream:
+            return stream.read(len(magic)) == magic
+    except OSError:
+        return False
+
+
+def _fmionnx_mcap(path: Path) -> bool:
+    """Whether ``path`` is an MCAP file whose header names fmionnx as its library (what
+    :class:`~fmionnx.results.mcap_record.McapRecorder` writes): magic, the header record
+    (opcode 1, its length), its profile and library strings (each a length and UTF-8)."""
+    try:
+        with path.open("rb") as stream:
+            head = stream.read(len(MCAP_MAGIC) + 9 + 512)
+    except OSError:
+        return False
+    if not head.startswith(MCAP_MAGIC) or head[len(MCAP_MAGIC)] != 1:
+        return False
+    at = len(MCAP_MAGIC) + 9
+    strings = []
+    for _ in range(2):
+        size = int.from_bytes(head[at : at + 4], "little")
+        strings.append(head[at + 4 : at + 4 + size])
+        at += 4 + size
+    return strings[1] == b"fmionnx"

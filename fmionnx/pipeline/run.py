@@ -27,7 +27,9 @@ run is the outcome's status, with everything recorded up to it written.
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
+import logging
 import math
 from collections.abc import Sequence
 from pathlib import Path
@@ -41,11 +43,18 @@ from fmionnx.pipeline.backends import backend_entry
 from fmionnx.pipeline.errors import RefusedError, RequestError
 from fmionnx.pipeline.observers import Observers, RunObserver, RunStart
 from fmionnx.pipeline.outcome import RunOutcome, exit_status
-from fmionnx.pipeline.outputs import check_output_file, check_results_folder
+from fmionnx.pipeline.outputs import (
+    check_output_file,
+    check_recording_file,
+    check_results_folder,
+)
 from fmionnx.pipeline.request import RunRequest, RunSettings, build_request
 from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
 from fmionnx.runtime.instruments import Instruments
 from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
+from fmionnx.runtime.stopping import late_stop_text, stops_held
+
+LOG = logging.getLogger("fmionnx.pipeline")
 
 if TYPE_CHECKING:
     from fmionnx.pipeline.feed import Feeder
@@ -97,18 +106,27 @@ def execute(
         run = dataclasses.replace(run, instruments=Instruments(recorder=plotter.rows.recorder))
     try:
         watch.before_run(start)
-        try:
-            result = backend.run(system.compiled, options, run)
-            if feeder is not None:
-                feeder.flush(result.steps_done)  # the rows the loop had not handed on yet
-        except (DiagnosticError, FmionnxError) as exc:
-            if recorder is not None:
-                recorder.finish(None)
-            message = exc.diagnostics[0].message if isinstance(exc, DiagnosticError) else str(exc)
-            raise RefusedError(message) from exc  # e.g. DDS refusing to start, a swapped library
-        finally:
-            watch.after_run()
-        return _finish(request, system, result, out, recorder, ahead, watch, plotter)
+        late: list[str] = []
+        with contextlib.ExitStack() as after_loop:
+            try:
+                result = backend.run(system.compiled, options, run)
+                # From here on a stop signal cuts nothing off: the results are written whole.
+                late = after_loop.enter_context(stops_held())
+                if feeder is not None:
+                    feeder.flush(result.steps_done)  # the rows the loop had not handed on yet
+            except (DiagnosticError, FmionnxError) as exc:
+                if recorder is not None:
+                    recorder.finish(None)
+                message = (
+                    exc.diagnostics[0].message if isinstance(exc, DiagnosticError) else str(exc)
+                )
+                raise RefusedError(message) from exc  # e.g. DDS refusing, a swapped library
+            finally:
+                watch.after_run()
+            outcome = _finish(request, system, result, out, recorder, ahead, watch, plotter)
+        if late:
+            LOG.warning("%s", late_stop_text(late[0]))
+        return outcome
     finally:
         if plotter is not None:
             plotter.close()
@@ -205,8 +223,10 @@ def _check_outputs(request: RunRequest) -> None:
     # The files first: a refused one leaves no results folder made for nothing.
     if output.record is not None:
         check_output_file(output.record, "--record")
+        check_recording_file(output.record, "--record", force=output.force)
     if request.watch.rrd is not None:
         check_output_file(request.watch.rrd, "--rrd")
+        check_recording_file(request.watch.rrd, "--rrd", force=output.force)
     if output.out is not None:
         check_results_folder(output.out, force=output.force, system_run=request.kind != "inference")
 

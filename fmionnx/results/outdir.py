@@ -8,7 +8,9 @@ A results folder must show one run, never a mix of two. The rules (docs/running.
   again (a plot that no longer exists) -- only those the record proves fmionnx wrote, each
   the very file written then (a file the user edited or put there is left alone);
 * any other non-empty folder is refused before the run starts, unless ``--force``; with it,
-  the run writes its files and deletes nothing it cannot prove it wrote.
+  the run writes its files and deletes nothing it cannot prove it wrote;
+* a study's folder (:func:`holds_study`) is refused, ``--force`` or not: its files are
+  fmionnx's too, and a run would replace them as an earlier run's stale files.
 
 ``run.json`` lists the run's files too (for people and tools), but proves nothing: a forged
 ``run.json`` naming ``thesis.txt`` deletes nothing.
@@ -26,6 +28,10 @@ from pathlib import Path
 from fmionnx.core.owned import OwnedFolder
 
 RUN_JSON = "run.json"
+#: What marks a study's folder: its description and its records' folder
+#: (:mod:`fmionnx.results.study`'s ``DESCRIPTION`` and ``RECORDS``, not imported here: a
+#: run's start does not load the study modules).
+STUDY_MARKS = ("study.json", "records")
 #: The folder, relative to the working directory, that holds each system's default results.
 DEFAULT_ROOT = "out"
 
@@ -48,6 +54,13 @@ def foreign_folder(out: Path) -> bool:
     if not any(out.iterdir()):
         return False
     return not OwnedFolder(out).claimed()
+
+
+def holds_study(out: Path) -> bool:
+    """Whether ``out`` holds a study's results (``fmionnx sweep``'s folder), which a run
+    must not write into: the study's files are proven fmionnx's in the folder's ownership
+    record, so a run would take them for an earlier run's and remove them."""
+    return any((out / name).exists() or (out / name).is_symlink() for name in STUDY_MARKS)
 
 
 def relative_name(path: Path, out: Path) -> str | None:

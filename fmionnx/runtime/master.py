@@ -51,7 +51,13 @@ from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.result import EndedBy, ProgressCallback, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.startvalues import evaluate_at_start
 from fmionnx.runtime.stepping import Work
-from fmionnx.runtime.stopping import shield_begin, shield_end, stop_reason
+from fmionnx.runtime.stopping import (
+    late_stop_text,
+    shield_begin,
+    shield_end,
+    stop_reason,
+    stops_held,
+)
 from fmionnx.runtime.transfer import NonFiniteWatch, make_transfer
 from fmionnx.runtime.watchdog import Interrupter, Phase, PhaseWatch, Watchdog, overrun_text
 
@@ -518,14 +524,17 @@ class Master:
             status, reason = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = _time.perf_counter() - started
-            self._terminate(skip=self._close_lanes())
-            if self._watchdog is not None:  # after terminating, which is timed too
-                self._watchdog.stop()
+            with stops_held() as late:  # the models end in order, whatever comes now
+                self._terminate(skip=self._close_lanes())
+                if self._watchdog is not None:  # after terminating, which is timed too
+                    self._watchdog.stop()
         n = self._clock[0]
         result = RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
             self.details(), reason, self.ended_by,
         )  # fmt: skip
+        if late:
+            result.warnings.append(late_stop_text(late[0]))
         self._watched(result, wall)
         return result
 

@@ -97,6 +97,36 @@ def shield_end() -> None:
 
 
 @contextlib.contextmanager
+def stops_held() -> Iterator[list[str]]:
+    """Hold a stop signal for the whole block and never raise it: for the work after a run's
+    last step (its models terminated, its results and checks written), which a stop must not
+    cut off, however long it takes. The list it yields receives, when the block ends, the
+    name of the signal held during it, if any: the caller says so. Nested in a shield (or
+    another hold), it leaves a signal held before it to the outer one. Off the main thread,
+    it holds nothing (signals are the main thread's)."""
+    late: list[str] = []
+    if not _on_main_thread():
+        yield late
+        return
+    held_before = len(_held)
+    _shield_depth[0] += 1
+    try:
+        yield late
+    finally:
+        _shield_depth[0] -= 1
+        if len(_held) > held_before:
+            late.append(signal.Signals(_held.pop()).name)
+
+
+def late_stop_text(signal_name: str) -> str:
+    """What a run says of a stop signal that came after its last step (:func:`stops_held`)."""
+    return (
+        f"{signal_name} came after the run's last step: it was not cut off, and its results "
+        "are written in full"
+    )
+
+
+@contextlib.contextmanager
 def stop_on_signals(*, process_ends: bool = False) -> Iterator[list[int]]:
     """Turn the first stop signal into :class:`StopRequested`; ignore later ones until the
     block ends (it yields the list of signals received). Off the main thread, a no-op.

@@ -225,6 +225,32 @@ def test_a_stop_signal_while_the_command_pipe_is_full_stops_the_run(
     assert process.wait() == -signal.SIGKILL
 
 
+def test_a_child_hung_in_a_step_a_stop_interrupted_is_killed_after_one_grace(
+    fixture_fmu, write_system, monkeypatch
+) -> None:
+    """Ctrl-C or SIGTERM while an isolated model hangs in its step: ending the model waits
+    the grace period once for the step's answer, then kills the child. It waited a second
+    grace for the child to exit (10 s in all: past a container runtime's 10 s before its
+    SIGKILL, which then took the results with it)."""
+    component = lone_component(fixture_fmu, write_system, "Gain", ", parameters: {k: 3.0}")
+    runner = unstarted(component, 30.0)
+    try:
+        runner.instantiate()
+        runner.setup(0.0, 1.0)
+        process = runner._process
+        assert process is not None
+        os.kill(process.pid, signal.SIGSTOP)  # hung in its step, as a model that never returns
+        threading.Timer(0.2, os.kill, (os.getpid(), signal.SIGINT)).start()
+        with pytest.raises(StopRequested), stop_on_signals():
+            runner.step(0.0, 0.01)
+    finally:
+        monkeypatch.setattr(proxy, "TERMINATE_GRACE", 2.0)
+        ending = time.perf_counter()
+        runner.terminate()
+    assert time.perf_counter() - ending < 3.5  # one grace of 2 s, not two
+    assert process.wait() == -signal.SIGKILL
+
+
 def test_without_the_kernel_the_child_steps_in_python(
     fixture_fmu, write_system, monkeypatch
 ) -> None:

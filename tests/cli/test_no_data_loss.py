@@ -210,6 +210,35 @@ def test_run_refuses_an_out_folder_of_foreign_files(project: Path) -> None:
     assert (project / "photos" / "results.csv").read_text() == "my own table\n"
 
 
+@pytest.mark.parametrize("force", [False, True])
+def test_run_refuses_a_studys_folder_and_leaves_the_study_intact(
+    project: Path, force: bool
+) -> None:
+    (project / "study.yaml").write_text(
+        "fmionnx: 1\nsystem: system.yaml\nparameters:\n  b.k: [1, 2]\n"
+        "metrics:\n  y_end: final(b.y)\n",
+        encoding="utf-8",
+    )
+    code, output = cli("sweep", "study.yaml", "--out", "study", "--workers", "1", "-q")
+    assert code == 0, output
+    before = sorted(p.relative_to(project).as_posix() for p in (project / "study").rglob("*"))
+    assert "study/study.json" in before
+    code, output = cli("run", "system.yaml", "--out", "study", "-q", *(["--force"] * force))
+    assert code == 2
+    assert output == (
+        "error: --out `study` holds a study's results (study.json, records/): a run writes "
+        "into a folder of its own, even with --force; choose another folder"
+    )
+    after = sorted(p.relative_to(project).as_posix() for p in (project / "study").rglob("*"))
+    assert after == before
+
+
+def test_the_study_marks_a_run_refuses_are_what_a_study_writes() -> None:
+    from fmionnx.results import outdir, study
+
+    assert outdir.STUDY_MARKS == (study.DESCRIPTION, study.RECORDS)
+
+
 def test_a_rerun_removes_its_stale_plot_and_keeps_the_users_file(project: Path) -> None:
     (project / "system.yaml").write_text(SYSTEM.format(plots=PLOT), encoding="utf-8")
     out = project / "out"
@@ -249,3 +278,72 @@ def test_record_into_out_is_listed_and_not_written_through_a_link(project: Path)
     assert not (project / "out" / "run.mcap").is_symlink()
     assert "run.mcap" in json.loads((project / "out" / "run.json").read_text())["files"]
     assert secret_intact()
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("graph", "system.yaml", "-o", "{name}"),
+        ("schema", "-o", "{name}"),
+        ("ros2", "launch-file", "system.yaml", "-o", "{name}"),
+    ],
+    ids=["graph", "schema", "launch-file"],
+)
+def test_derived_files_are_never_written_through_a_link(
+    project: Path, command: tuple[str, ...]
+) -> None:
+    name = {"graph": "g.dot", "schema": "s.json", "ros2": "r.launch.py"}[command[0]]
+    plant_link(project / name)
+    code, output = cli(*(part.format(name=name) for part in command))
+    assert code == 0, output
+    assert not (project / name).is_symlink()
+    assert (project / name).stat().st_size > 0
+    assert secret_intact()
+
+
+@pytest.mark.parametrize(
+    "command",
+    [
+        ("graph", "system.yaml", "-f", "dot", "-o", "{target}"),
+        ("ros2", "launch-file", "system.yaml", "-o", "{target}"),
+    ],
+    ids=["graph", "launch-file"],
+)
+@pytest.mark.parametrize("target", ["system.yaml", "Gain.fmu"])
+def test_a_derived_file_is_never_written_over_what_the_command_reads(
+    project: Path, command: tuple[str, ...], target: str
+) -> None:
+    before = (project / target).read_bytes()
+    code, output = cli(*(part.format(target=target) for part in command))
+    assert code == 2
+    assert output == (
+        f"error: --output `{target}` is a file this command reads: choose another name"
+    )
+    assert (project / target).read_bytes() == before
+
+
+@pytest.mark.parametrize(("option", "name"), [("--record", "run.mcap"), ("--rrd", "run.rrd")])
+def test_a_recording_never_replaces_a_users_file_without_force(
+    project: Path, option: str, name: str
+) -> None:
+    (project / name).write_text("my notes\n")
+    code, output = cli("run", "system.yaml", "--out", "out", "-q", option, name)
+    kind = "an MCAP recording fmionnx wrote" if option == "--record" else "a Rerun recording"
+    assert code == 2
+    assert output == (
+        f"error: {option} `{name}` exists and is not {kind}; not replacing it (choose another "
+        "name, or use --force to replace it)"
+    )
+    assert (project / name).read_text() == "my notes\n"
+    assert not (project / "out").exists()
+    code, output = cli("run", "system.yaml", "--out", "out", "-q", option, name, "--force")
+    assert code == 0, output
+    assert (project / name).read_bytes()[:3] in (b"\x89MC", b"RRF")
+
+
+def test_a_recording_replaces_its_own_earlier_recording(project: Path) -> None:
+    assert cli("run", "system.yaml", "--out", "out", "-q", "--record", "run.mcap")[0] == 0
+    first = (project / "run.mcap").stat().st_mtime_ns
+    code, output = cli("run", "system.yaml", "--out", "out", "-q", "--record", "run.mcap")
+    assert code == 0, output
+    assert (project / "run.mcap").stat().st_mtime_ns != first

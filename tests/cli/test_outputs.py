@@ -91,10 +91,13 @@ def test_main_turns_a_file_system_refusal_into_one_line(
     def full_disk(self: Path, *args: object, **kwargs: object) -> int:
         raise OSError(errno.ENOSPC, "No space left on device", str(self))
 
-    monkeypatch.setattr(Path, "write_text", full_disk)  # the disk is the peer here
+    monkeypatch.setattr(Path, "replace", full_disk)  # the disk is the peer here
     monkeypatch.setattr(sys, "argv", ["fmionnx", "schema", "-o", str(tmp_path / "s.json")])
     with pytest.raises(SystemExit) as ended:
         main()
     assert ended.value.code == 1
     err = capsys.readouterr().err
-    assert err == f"error: No space left on device: `{tmp_path / 's.json'}`\n"
+    assert err == (
+        f"error: --output `{tmp_path / 's.json'}`: cannot write it (No space left on device)\n"
+    )
+    assert list(tmp_path.iterdir()) == []  # nothing half-written: the temporary file removed

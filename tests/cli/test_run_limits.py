@@ -75,6 +75,8 @@ def test_a_run_within_max_steps_runs(system: Path) -> None:
         (["-p", "gain.k=[1e400]"], "--param value `1e400` is beyond the range"),
         (["-p", "gain.k=1" + "0" * 5000], "has more than 400 digits"),
         (["-p", "gain.k=1" + "0" * 350], "is beyond the range of float64"),
+        (["-p", "gain.k=NaN"], "--param `gain.k`: nan is not a number (NaN); a parameter takes a number"),
+        (["-p", "gain.k=[NaN]"], "--param `gain.k`: nan is not a number (NaN)"),
     ],
 )  # fmt: skip
 def test_out_of_range_overrides_are_one_line_errors(

@@ -8,6 +8,8 @@ import os
 import time
 from pathlib import Path
 
+import pytest
+
 from fmionnx.backends.sweep.leftovers import GRACE_SECONDS, sweep_orphan_semaphores
 
 
@@ -59,3 +61,25 @@ def test_no_proc_no_removal(tmp_path: Path) -> None:
     orphan = _semaphore(shm, "sem.mp-orphan1", GRACE_SECONDS + 5)
     assert sweep_orphan_semaphores(shm, tmp_path / "no-proc") == []
     assert orphan.exists()
+
+
+def test_a_semaphore_unlinked_during_the_scan_is_passed_over_and_the_rest_removed(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """Another study's resource tracker unlinks its semaphores at any moment: one gone
+    between listing the folder and looking at it made the whole clean-up give up (a killed
+    study's leftovers stayed: seen in a full suite, where studies run side by side)."""
+    shm = tmp_path / "shm"
+    shm.mkdir()
+    gone = _semaphore(shm, "sem.mp-gone5555", GRACE_SECONDS + 5)
+    orphan = _semaphore(shm, "sem.mp-orphan1", GRACE_SECONDS + 5)
+    lstat = Path.lstat
+
+    def unlinked_meanwhile(self: Path) -> os.stat_result:
+        if self.name == gone.name:
+            self.unlink()  # the other study's tracker, between the listing and this look
+        return lstat(self)
+
+    monkeypatch.setattr(Path, "lstat", unlinked_meanwhile)
+    assert sweep_orphan_semaphores(shm) == [orphan]
+    assert list(shm.iterdir()) == []

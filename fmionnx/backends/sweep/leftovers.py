@@ -59,14 +59,18 @@ def sweep_orphan_semaphores(shm: Path = SHM, proc: Path = Path("/proc")) -> list
     now = time.time()
     candidates: list[Path] = []
     try:
-        for entry in shm.iterdir():
-            if not _NAME.fullmatch(entry.name):
-                continue
-            info = entry.lstat()
-            if info.st_uid == uid and now - info.st_mtime >= GRACE_SECONDS:
-                candidates.append(entry)
+        entries = list(shm.iterdir())
     except OSError:
         return []
+    for entry in entries:
+        if not _NAME.fullmatch(entry.name):
+            continue
+        try:
+            info = entry.lstat()
+        except OSError:  # unlinked meanwhile (another study's tracker): not a leftover
+            continue
+        if info.st_uid == uid and now - info.st_mtime >= GRACE_SECONDS:
+            candidates.append(entry)
     if not candidates:
         return []
     try:

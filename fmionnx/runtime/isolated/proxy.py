@@ -469,6 +469,8 @@ class IsolatedRunner:
                         self._request("terminate")
                         while self._pending:  # a step interrupted by Ctrl-C answers first
                             self._await(self._time, 0.0, timeout=TERMINATE_GRACE)
+                    if self._dead:  # no answer within the grace: hung, so no second wait
+                        process.kill()
                 else:  # it stopped reading its commands (a hostile model can): nothing to ask
                     process.kill()
             process.wait(TERMINATE_GRACE)
