@@ -3,6 +3,7 @@
 from __future__ import annotations
 
 import atexit
+import contextlib
 import os
 import sys
 import threading
@@ -92,9 +93,23 @@ def console() -> None:
     try:
         main()
     except SystemExit as exc:
+        _say_if_stopped(exc)
         _leave(exc.code)
         raise
     _leave(None)
+
+
+def _say_if_stopped(exc: SystemExit) -> None:
+    """One line for a stop that ended the command before any of its own handlers could say
+    so: typer turns a Ctrl-C while it parses or calls the command into a silent exit 130
+    (raised from the ``KeyboardInterrupt``). A stop the command reported itself ends its
+    chain (``from None``) and is not said twice."""
+    from fmionnx.runtime.stopping import stop_behind, stop_reason
+
+    stop = stop_behind(exc)
+    if stop is not None:
+        with contextlib.suppress(OSError, ValueError):
+            print(f"error: interrupted by {stop_reason(stop)}", file=sys.stderr)
 
 
 _whole_process = False

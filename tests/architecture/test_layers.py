@@ -36,6 +36,7 @@ LAYER_OF = {
     "reporters": "surface",
     "__init__": "surface",
     "__main__": "surface",
+    "entry": "surface",
     "spawned": "surface",
 }
 

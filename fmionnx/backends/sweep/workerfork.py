@@ -22,10 +22,12 @@ starts a worker, and the study runs the cases of the workers it lost again.
 
 from __future__ import annotations
 
+import contextlib
 import logging
 import multiprocessing
 import os
-from collections.abc import Sequence
+import signal
+from collections.abc import Iterator, Sequence
 
 #: The environment variable that turns the fork server off (``0``).
 SWITCH = "FMIONNX_FORK_WORKERS"
@@ -70,13 +72,32 @@ def start(also: Sequence[str] = ()) -> bool:
     try:
         _own_temporary_folder()
         forkserver.set_forkserver_preload([BOOT, *also])
-        with variables_set(pre_spawn_environment()):
+        with variables_set(pre_spawn_environment()), _interrupts_ignored():
             forkserver.ensure_running()
     except (OSError, ValueError) as exc:  # no process could start: the nanny spawns them
         LOG.debug("local workers spawned: the fork server could not start (%s)", exc)
         return False
     _started = True
     return True
+
+
+@contextlib.contextmanager
+def _interrupts_ignored() -> Iterator[None]:
+    """SIGINT ignored while the server is started: an ignored signal stays ignored in the
+    program a process starts, so the server ignores a terminal's Ctrl-C from its first
+    instruction. Its preload ignores it too (:mod:`.workerboot`), but only once its imports
+    got there: a Ctrl-C in the first half second printed the server's traceback. A Ctrl-C in
+    the few milliseconds of the start itself is lost to the command (pressed again, it
+    stops it)."""
+    try:
+        previous = signal.signal(signal.SIGINT, signal.SIG_IGN)
+    except ValueError:  # not the main thread: the preload ignores it, as before
+        yield
+        return
+    try:
+        yield
+    finally:
+        signal.signal(signal.SIGINT, previous)
 
 
 def pre_spawn_environment() -> dict[str, str]:
