@@ -93,13 +93,23 @@ def check_results_folder(
 MCAP_MAGIC, RRD_MAGIC = b"\x89MCAP0\r\n", b"RRF"
 
 
-def check_recording_file(path: Path, option: str, *, force: bool) -> None:
+def check_recording_file(path: Path, option: str, *, force: bool, source: Path) -> None:
     """An existing file at ``path`` is replaced only when it is a recording of the kind the
     option writes (``--record``: an MCAP file fmionnx wrote; ``--rrd``: a Rerun recording,
     whose writer cannot be told), or with ``force``: a recording is regenerated at will, a
-    file of anything else (notes, the system file itself) is the user's."""
-    if force or path.is_symlink() or not path.is_file():
+    file of anything else (notes) is the user's. The run's own ``source`` file never, with
+    ``force`` or not (a user who adds ``--force`` for the results folder means that one)."""
+    if path.is_symlink() or not path.is_file():
         return  # a link at the name is replaced, never written through
+    try:
+        itself = path.samefile(source)
+    except OSError:
+        itself = False
+    if itself:
+        msg = f"{option} `{path}` is the file this run reads: choose another name"
+        raise RequestError(msg)
+    if force:
+        return
     ours = _fmionnx_mcap(path) if option == "--record" else _starts_with(path, RRD_MAGIC)
     if not ours:
         what = "an MCAP recording fmionnx wrote" if option == "--record" else "a Rerun recording"

@@ -104,13 +104,14 @@ def execute(
     )
     if plotter is not None and plotter.rows is not None:  # it formats results.csv meanwhile
         run = dataclasses.replace(run, instruments=Instruments(recorder=plotter.rows.recorder))
-    try:
-        watch.before_run(start)
-        late: list[str] = []
-        with contextlib.ExitStack() as after_loop:
+    late: list[str] = []
+    # Entered once the backend returned, left last: from the run's last step on, a stop
+    # signal cuts nothing off (the results, the checks, the plot worker's end).
+    with contextlib.ExitStack() as after_loop:
+        try:
+            watch.before_run(start)
             try:
                 result = backend.run(system.compiled, options, run)
-                # From here on a stop signal cuts nothing off: the results are written whole.
                 late = after_loop.enter_context(stops_held())
                 if feeder is not None:
                     feeder.flush(result.steps_done)  # the rows the loop had not handed on yet
@@ -124,12 +125,12 @@ def execute(
             finally:
                 watch.after_run()
             outcome = _finish(request, system, result, out, recorder, ahead, watch, plotter)
-        if late:
-            LOG.warning("%s", late_stop_text(late[0]))
-        return outcome
-    finally:
-        if plotter is not None:
-            plotter.close()
+        finally:
+            if plotter is not None:
+                plotter.close()
+    if late:
+        LOG.warning("%s", late_stop_text(late[0]))
+    return outcome
 
 
 def load_request(request: RunRequest) -> System:
@@ -223,10 +224,10 @@ def _check_outputs(request: RunRequest) -> None:
     # The files first: a refused one leaves no results folder made for nothing.
     if output.record is not None:
         check_output_file(output.record, "--record")
-        check_recording_file(output.record, "--record", force=output.force)
+        check_recording_file(output.record, "--record", force=output.force, source=request.target)
     if request.watch.rrd is not None:
         check_output_file(request.watch.rrd, "--rrd")
-        check_recording_file(request.watch.rrd, "--rrd", force=output.force)
+        check_recording_file(request.watch.rrd, "--rrd", force=output.force, source=request.target)
     if output.out is not None:
         check_results_folder(output.out, force=output.force, system_run=request.kind != "inference")
 

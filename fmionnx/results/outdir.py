@@ -57,10 +57,17 @@ def foreign_folder(out: Path) -> bool:
 
 
 def holds_study(out: Path) -> bool:
-    """Whether ``out`` holds a study's results (``fmionnx sweep``'s folder), which a run
-    must not write into: the study's files are proven fmionnx's in the folder's ownership
-    record, so a run would take them for an earlier run's and remove them."""
-    return any((out / name).exists() or (out / name).is_symlink() for name in STUDY_MARKS)
+    """Whether ``out`` holds a study's results that fmionnx can prove it wrote (its
+    ``study.json`` or a case's record, as the folder's ownership record lists them), which a
+    run must not write into: it
+    would take the study's proven files for an earlier run's and remove them. A folder that
+    merely has a ``records`` folder or a file of that name is the user's: ``--force`` writes
+    into it and deletes nothing it cannot prove."""
+    description, records = STUDY_MARKS
+    return any(
+        name == description or name.startswith(f"{records}/")
+        for name in OwnedFolder(out).proven_names()
+    )
 
 
 def relative_name(path: Path, out: Path) -> str | None:

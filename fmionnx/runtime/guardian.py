@@ -679,7 +679,7 @@ def run_guarded(
     idle meanwhile): ``results.csv`` formatted ahead, :mod:`fmionnx.results.csvahead`.
     """
     from fmionnx.core.scratch import make_scratch, remove_scratch
-    from fmionnx.runtime.stopping import stop_reason
+    from fmionnx.runtime.stopping import late_stop_text, stop_reason, stops_held
 
     shared = _Shared()
     published = None
@@ -725,34 +725,42 @@ def run_guarded(
             os._exit(code)
     os.close(write_end)
     adoption.forked(pid)
-    try:
-        following = None if published is None or follower is None else (follower, published)
-        data, reason = _wait(pid, read_end, shared, options, stop_reason, following)
-        status = _reap(pid)
-        adoption.end()  # before the run is reported over: nothing of the model is left
-        if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results and said so
-            # The process ends with status 1 as an abandoned in-process run's does, but
-            # through SystemExit: the caller's progress display is taken down on the way
-            # out (the terminal's cursor restored), and nothing is written twice.
-            raise SystemExit(1)
-        outcome = _unpickle(data, shared)
-        if outcome is None:
-            return _salvage(system, shared, status, reason, time.perf_counter() - started)
-        result, placed = outcome
-        if follower is not None and published is not None:
-            try:
-                _adopt(follower, shared, placed)
-            except Exception:  # an optimisation: the results are formatted without it
-                logger.debug("guardian: the child's pieces were not taken", exc_info=True)
-        return result
-    finally:
-        adoption.close()
-        gc.unfreeze()
-        if published is not None:
-            published.close()
-        os.close(read_end)
-        shared.close()
-        remove_scratch(scratch)
+    late: list[str] = []
+    # Entered once the child is done, left last: a stop signal from then on cuts nothing off
+    # (the child's result taken, its processes ended, the scratch removed).
+    with contextlib.ExitStack() as after_child:
+        try:
+            following = None if published is None or follower is None else (follower, published)
+            data, reason = _wait(pid, read_end, shared, options, stop_reason, following)
+            late = after_child.enter_context(stops_held())
+            status = _reap(pid)
+            adoption.end()  # before the run is reported over: nothing of the model is left
+            if shared.cells[_ABANDONED]:  # the watchdog in the child wrote the results
+                # The process ends with status 1 as an abandoned in-process run's does, but
+                # through SystemExit: the caller's progress display is taken down on the way
+                # out (the terminal's cursor restored), and nothing is written twice.
+                raise SystemExit(1)
+            outcome = _unpickle(data, shared)
+            if outcome is None:
+                result = _salvage(system, shared, status, reason, time.perf_counter() - started)
+            else:
+                result, placed = outcome
+                if follower is not None and published is not None:
+                    try:
+                        _adopt(follower, shared, placed)
+                    except Exception:  # an optimisation: the results are formatted without it
+                        logger.debug("guardian: the child's pieces were not taken", exc_info=True)
+        finally:
+            adoption.close()
+            gc.unfreeze()
+            if published is not None:
+                published.close()
+            os.close(read_end)
+            shared.close()
+            remove_scratch(scratch)
+    if late:
+        result.warnings.append(late_stop_text(late[0]))
+    return result
 
 
 def _wait(

@@ -114,7 +114,8 @@ def stops_held() -> Iterator[list[str]]:
         yield late
     finally:
         _shield_depth[0] -= 1
-        if len(_held) > held_before:
+        # Inside a shield the signal stays held for it: a shield delays a stop, never drops it.
+        if len(_held) > held_before and not _shield_depth[0]:
             late.append(signal.Signals(_held.pop()).name)
 
 

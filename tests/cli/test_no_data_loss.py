@@ -233,6 +233,19 @@ def test_run_refuses_a_studys_folder_and_leaves_the_study_intact(
     assert after == before
 
 
+def test_a_folder_that_merely_has_a_records_folder_is_the_users(project: Path) -> None:
+    (project / "data" / "records").mkdir(parents=True)
+    (project / "data" / "records" / "log.txt").write_text("mine\n")
+    (project / "data" / "study.json").write_text("{}\n")  # not one fmionnx can prove
+    code, output = cli("run", "system.yaml", "--out", "data", "-q")
+    assert code == 2
+    assert "holds files that are not the output of an earlier fmionnx run" in output
+    code, output = cli("run", "system.yaml", "--out", "data", "-q", "--force")
+    assert code == 0, output
+    assert (project / "data" / "records" / "log.txt").read_text() == "mine\n"
+    assert (project / "data" / "study.json").read_text() == "{}\n"
+
+
 def test_the_study_marks_a_run_refuses_are_what_a_study_writes() -> None:
     from fmionnx.results import outdir, study
 
@@ -339,6 +352,19 @@ def test_a_recording_never_replaces_a_users_file_without_force(
     code, output = cli("run", "system.yaml", "--out", "out", "-q", option, name, "--force")
     assert code == 0, output
     assert (project / name).read_bytes()[:3] in (b"\x89MC", b"RRF")
+
+
+@pytest.mark.parametrize("option", ["--record", "--rrd"])
+def test_a_recording_never_replaces_the_system_file_even_with_force(
+    project: Path, option: str
+) -> None:
+    before = (project / "system.yaml").read_bytes()
+    code, output = cli("run", "system.yaml", "--out", "out", "-q", "--force", option, "system.yaml")
+    assert code == 2
+    assert (
+        output == f"error: {option} `system.yaml` is the file this run reads: choose another name"
+    )
+    assert (project / "system.yaml").read_bytes() == before
 
 
 def test_a_recording_replaces_its_own_earlier_recording(project: Path) -> None:

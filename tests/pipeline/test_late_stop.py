@@ -129,3 +129,49 @@ def test_a_stop_while_the_models_terminate_leaves_the_run_completed(
     ]
     run_json = json.loads((tmp_path / "out" / "run.json").read_text(encoding="utf-8"))
     assert run_json["warnings"] == outcome.result.warnings
+
+
+def test_under_the_guardian_a_stop_while_the_childs_result_is_taken_is_held(
+    tmp_path: Path, fixture_fmu: Callable[[str], Path], monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The guardian's child has stepped to the end; the parent then reaps it and unpickles
+    its result (megabytes for a long run): a stop there lost everything (found in review)."""
+    from fmionnx.runtime import guardian
+
+    unpickle = guardian._unpickle
+
+    def signalling_unpickle(*args: object) -> object:
+        os.kill(os.getpid(), signal.SIGTERM)
+        _let_the_handler_run()
+        return unpickle(*args)  # type: ignore[arg-type]
+
+    monkeypatch.setattr(guardian, "_unpickle", signalling_unpickle)
+    shutil.copy(fixture_fmu("Gain"), tmp_path / "Gain.fmu")
+    (tmp_path / "system.yaml").write_text(SYSTEM, encoding="utf-8")
+    request = build_request(tmp_path / "system.yaml", out=tmp_path / "out", isolate="guardian")
+    with stop_on_signals():
+        outcome = execute(request)
+    assert outcome.result.status.value == "completed"
+    assert outcome.result.warnings == [
+        "SIGTERM came after the run's last step: it was not cut off, and its results are "
+        "written in full"
+    ]
+    assert (tmp_path / "out" / "run.json").exists()
+
+
+def test_a_hold_inside_a_shield_leaves_the_stop_to_the_shield() -> None:
+    """A shield delays a stop and never drops it: a hold nested in one hands the signal on."""
+    from fmionnx.runtime.stopping import shield_begin, shield_end
+
+    stopped = None
+    try:
+        with stop_on_signals():
+            shield_begin()
+            with stops_held() as late:
+                os.kill(os.getpid(), signal.SIGTERM)
+                _let_the_handler_run()
+            assert late == []
+            shield_end()
+    except StopRequested as exc:
+        stopped = exc.signal_name
+    assert stopped == "SIGTERM"

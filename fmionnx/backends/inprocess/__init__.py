@@ -17,6 +17,7 @@ how steps are scheduled (``schedule``) and whether they are paced to the wall cl
 
 from __future__ import annotations
 
+import contextlib
 import dataclasses
 import threading
 from collections.abc import Mapping
@@ -247,9 +248,16 @@ class InProcessBackend(Backend):
             result = run_guarded(system, plain, run, run.follower)
         else:
             from fmionnx.runtime.lifetime import models_here
+            from fmionnx.runtime.stopping import late_stop_text, stops_held
 
-            with models_here():  # what a model in this process starts ends with the run
+            late: list[str] = []
+            # What a model in this process starts ends with the run (models_here); the hold,
+            # entered after the loop on the outer stack, is left after that end.
+            with contextlib.ExitStack() as after_loop, models_here():
                 result = plain(options=run)
+                late = after_loop.enter_context(stops_held())
+            if late:
+                result.warnings.append(late_stop_text(late[0]))
         result.details.update(options.details())
         return result
 

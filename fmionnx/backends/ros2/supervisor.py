@@ -74,7 +74,7 @@ from fmionnx.core.errors import FmionnxError, RunError
 from fmionnx.core.safewrite import open_growing
 from fmionnx.core.scratch import scratch
 from fmionnx.runtime.result import Detail, EndedBy, RunOptions, RunResult, RunStatus
-from fmionnx.runtime.stopping import stop_on_signals, stop_reason
+from fmionnx.runtime.stopping import late_stop_text, stop_on_signals, stop_reason, stops_held
 
 if TYPE_CHECKING:
     from fmionnx.backends.ros2.zenoh.router import RouterChoice
@@ -422,17 +422,28 @@ class Supervisor:
             status, self.interrupted_by = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = time.perf_counter() - wall_start
-            self.children.stop()
-            if self.recorder is not None:
-                self.recorder.close()
-            participant.close()
-            if self.router is not None:
-                self.router.close()
-            if self.options.middleware == "zenoh":  # what killed nodes left in /dev/shm
-                from fmionnx.backends.ros2.zenoh.shm import remove_orphaned_segments
+            # From here on a stop signal cuts nothing off: the nodes stopped, the recording
+            # closed (its footer written), their rows merged (runtime.stopping.stops_held).
+            with stops_held() as late:
+                self._end(participant)
+        with stops_held() as also_late:
+            result = self._result(status, error, wall)
+        for name in [*late, *also_late][:1]:
+            result.warnings.append(late_stop_text(name))
+        return result
 
-                remove_orphaned_segments()
-        return self._result(status, error, wall)
+    def _end(self, participant: NodeTransport) -> None:
+        """Stop the nodes, close the recording, the transport and the router."""
+        self.children.stop()
+        if self.recorder is not None:
+            self.recorder.close()
+        participant.close()
+        if self.router is not None:
+            self.router.close()
+        if self.options.middleware == "zenoh":  # what killed nodes left in /dev/shm
+            from fmionnx.backends.ros2.zenoh.shm import remove_orphaned_segments
+
+            remove_orphaned_segments()
 
     def _open_transport(self, env: DdsEnvironment) -> NodeTransport:
         """The supervisor's own endpoints: a Cyclone participant, or a Zenoh session (after
