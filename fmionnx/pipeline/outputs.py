@@ -137,8 +137,8 @@ def _fmionnx_mcap(path: Path) -> bool:
             head = stream.read(len(MCAP_MAGIC) + 9 + 512)
     except OSError:
         return False
-    if not head.startswith(MCAP_MAGIC) or head[len(MCAP_MAGIC)] != 1:
-        return False
+    if not head.startswith(MCAP_MAGIC) or head[len(MCAP_MAGIC) : len(MCAP_MAGIC) + 1] != b"\x01":
+        return False  # no header record (a file cut short after the magic included)
     at = len(MCAP_MAGIC) + 9
     strings = []
     for _ in range(2):

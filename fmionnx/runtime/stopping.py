@@ -101,9 +101,10 @@ def stops_held() -> Iterator[list[str]]:
     """Hold a stop signal for the whole block and never raise it: for the work after a run's
     last step (its models terminated, its results and checks written), which a stop must not
     cut off, however long it takes. The list it yields receives, when the block ends, the
-    name of the signal held during it, if any: the caller says so. Nested in a shield (or
-    another hold), it leaves a signal held before it to the outer one. Off the main thread,
-    it holds nothing (signals are the main thread's)."""
+    name of the signal held during it, if any: the caller says so. Nested in a shield or
+    another hold, it leaves the signal to the outer one (a shield raises it when it ends).
+    Only a signal :func:`stop_on_signals` turns into a stop is held (a program's own Ctrl-C
+    handling is its own), and only on the main thread (signals are the main thread's)."""
     late: list[str] = []
     if not _on_main_thread():
         yield late

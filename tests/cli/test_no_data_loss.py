@@ -367,6 +367,19 @@ def test_a_recording_never_replaces_the_system_file_even_with_force(
     assert (project / "system.yaml").read_bytes() == before
 
 
+@pytest.mark.parametrize(
+    "content",
+    [b"\x89MCAP0\r\n", b"\x89MCAP0\r\n\x01", b"\x89MCAP0\r\n\x01" + bytes(8) + b"\xff\xff\xff\xff"],
+    ids=["magic-only", "opcode-only", "a-string-longer-than-the-file"],
+)
+def test_a_cut_short_mcap_file_is_refused_in_one_line(project: Path, content: bytes) -> None:
+    (project / "run.mcap").write_bytes(content)
+    code, output = cli("run", "system.yaml", "--out", "out", "-q", "--record", "run.mcap")
+    assert code == 2
+    assert "exists and is not an MCAP recording fmionnx wrote" in output
+    assert (project / "run.mcap").read_bytes() == content
+
+
 def test_a_recording_replaces_its_own_earlier_recording(project: Path) -> None:
     assert cli("run", "system.yaml", "--out", "out", "-q", "--record", "run.mcap")[0] == 0
     first = (project / "run.mcap").stat().st_mtime_ns
