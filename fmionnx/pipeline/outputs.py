@@ -17,6 +17,9 @@ from fmionnx.pipeline.errors import RequestError
 
 def _make_folder(folder: Path, option: str, what: str) -> None:
     label = f"{option} `{what}`" + ("" if str(folder) == what else f": the folder `{folder}`")
+    if folder.is_symlink() and not folder.exists():
+        msg = f"{label} is a symbolic link that leads nowhere (its target is missing, or a loop)"
+        raise RequestError(msg)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:

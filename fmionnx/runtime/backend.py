@@ -50,7 +50,7 @@ def checked_rtf(value: object) -> float:
         raise OptionsError(msg)
     rtf = float(value)
     if not 0 <= rtf < float("inf"):  # also NaN
-        msg = "--rtf must be >= 0 (0: as fast as possible)"
+        msg = f"--rtf must be a finite number >= 0 (0: as fast as possible), not {rtf!r}"
         raise OptionsError(msg)
     return rtf
 

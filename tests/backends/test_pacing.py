@@ -84,4 +84,4 @@ def test_rtf_must_be_a_pace(fixture_fmu, write_system) -> None:
     path = _system(fixture_fmu, write_system, stop=0.1, step=0.01)
     result = CliRunner().invoke(app, ["run", str(path), "--no-out", "--rtf", "-1"])
     assert result.exit_code == 2
-    assert "--rtf must be >= 0" in result.output
+    assert "--rtf must be a finite number >= 0" in result.output

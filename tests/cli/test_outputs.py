@@ -101,3 +101,14 @@ def test_main_turns_a_file_system_refusal_into_one_line(
         f"error: --output `{tmp_path / 's.json'}`: cannot write it (No space left on device)\n"
     )
     assert list(tmp_path.iterdir()) == []  # nothing half-written: the temporary file removed
+
+
+@pytest.mark.parametrize("leads", ["nowhere", "loop"])
+def test_an_out_link_that_leads_nowhere_is_said_so(tmp_path: Path, leads: str) -> None:
+    link = tmp_path / "results"
+    link.symlink_to(tmp_path / "missing" if leads == "nowhere" else link)
+    code, output = _invoke("run", SYSTEM, "--out", str(link))
+    assert code == 2
+    assert f"--out `{link}` is a symbolic link that leads nowhere" in output
+    assert link.is_symlink()
+    assert not (tmp_path / "missing").exists()

@@ -247,7 +247,7 @@ connections:
         (["--sync", "loose"], "--sync must be `lockstep` or `free`"),
         (["--ros-distro", "rolling"], "--ros-distro must be one of"),
         (["--step-timeout", "0"], "--step-timeout must be > 0 seconds"),
-        (["--rtf", "nan"], "--rtf must be >= 0"),
+        (["--rtf", "nan"], "--rtf must be a finite number >= 0"),
     ],
 )
 def test_ros2_backend_options_are_checked_before_anything_starts(
