@@ -67,7 +67,7 @@ def _exit_if_stopped(exc: BaseException) -> None:
     if stop is not None:
         reason = stop_reason(stop)
         print(f"error: interrupted by {reason} ({type(exc).__name__}: {exc})", file=sys.stderr)
-        sys.exit(exit_code(reason))
+        raise SystemExit(exit_code(reason)) from None  # said: not again by _say_if_stopped
 
 
 #: Modules whose objects may still have work to do when they are torn down (network sessions

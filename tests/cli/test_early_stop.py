@@ -76,3 +76,29 @@ def test_the_fork_server_ignores_ctrl_c_from_its_start(tmp_path: Path) -> None:
     deadline = time.monotonic() + 10
     while time.monotonic() < deadline and Path(f"/proc/{lines[0]}").exists():
         time.sleep(0.05)  # the server ends with the command that started it
+
+
+def test_a_stop_the_command_line_reported_is_not_said_twice(
+    capsys: pytest.CaptureFixture[str],
+) -> None:
+    """A Ctrl-C that broke a C extension's import ends as that import's error, which the
+    command line reports as the stop; the exit's chain then ends, and the last word is not
+    repeated."""
+    from fmionnx.cli import _exit_if_stopped, _say_if_stopped
+
+    broken = ImportError("initialization failed")
+    broken.__cause__ = KeyboardInterrupt()  # what the extension's import raised it from
+    ended = None
+    try:
+        raise broken  # handled below as main() handles it
+    except ImportError as failed:
+        try:
+            _exit_if_stopped(failed)
+        except SystemExit as exc:
+            ended = exc
+    assert ended is not None
+    assert ended.code == 128 + signal.SIGINT
+    _say_if_stopped(ended)
+    assert capsys.readouterr().err == (
+        "error: interrupted by SIGINT (ImportError: initialization failed)\n"
+    )
