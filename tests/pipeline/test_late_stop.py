@@ -14,12 +14,13 @@ import logging
 import os
 import shutil
 import signal
-from collections.abc import Callable
+from collections.abc import Callable, Sequence
 from pathlib import Path
 
 import pytest
 
 from fmionnx.pipeline.observers import RunObserver
+from fmionnx.pipeline.outcome import RunOutcome
 from fmionnx.pipeline.request import build_request
 from fmionnx.pipeline.run import execute
 from fmionnx.runtime.stopping import StopRequested, stop_on_signals, stops_held
@@ -36,6 +37,28 @@ connections:
 plots:
   - {y: [b.y], file: gain}
 """
+
+
+#: What a run says of a stop signal after its last step.
+LATE = (
+    "SIGTERM came after the run's last step: it was not cut off, and its results are "
+    "written in full"
+)
+
+
+def _run_chain(
+    tmp_path: Path,
+    fixture_fmu: Callable[[str], Path],
+    isolate: str,
+    observers: Sequence[RunObserver] = (),
+) -> RunOutcome:
+    """The two-gain system run through the pipeline into ``tmp_path/out``, under the CLI's
+    stop signals."""
+    shutil.copy(fixture_fmu("Gain"), tmp_path / "Gain.fmu")
+    (tmp_path / "system.yaml").write_text(SYSTEM, encoding="utf-8")
+    request = build_request(tmp_path / "system.yaml", out=tmp_path / "out", isolate=isolate)
+    with stop_on_signals():
+        return execute(request, observers)
 
 
 def _let_the_handler_run() -> None:
@@ -58,22 +81,16 @@ def test_a_stop_after_the_last_step_leaves_the_results_whole(
     caplog: pytest.LogCaptureFixture,
     isolate: str,
 ) -> None:
-    shutil.copy(fixture_fmu("Gain"), tmp_path / "Gain.fmu")
-    (tmp_path / "system.yaml").write_text(SYSTEM, encoding="utf-8")
     out = tmp_path / "out"
-    request = build_request(tmp_path / "system.yaml", out=out, isolate=isolate)
-    with stop_on_signals(), caplog.at_level(logging.WARNING):
-        outcome = execute(request, [_StopAfterTheRun()])
+    with caplog.at_level(logging.WARNING):
+        outcome = _run_chain(tmp_path, fixture_fmu, isolate, [_StopAfterTheRun()])
     assert outcome.result.status.value == "completed"
     assert outcome.exit_status == 0
     assert sorted(p.name for p in out.iterdir()) == [
         ".fmionnx-owned", "gain.png", "results.csv", "run.json",
     ]  # fmt: skip
     assert json.loads((out / "run.json").read_text(encoding="utf-8"))["status"] == "completed"
-    assert (
-        "SIGTERM came after the run's last step: it was not cut off, and its results are "
-        "written in full"
-    ) in caplog.messages
+    assert LATE in caplog.messages
 
 
 def test_a_held_stop_is_not_raised_and_is_named_when_the_hold_ends() -> None:
@@ -116,17 +133,10 @@ def test_a_stop_while_the_models_terminate_leaves_the_run_completed(
         terminate(self)
 
     monkeypatch.setattr(FmuRunner, "terminate", signalling_terminate)
-    shutil.copy(fixture_fmu("Gain"), tmp_path / "Gain.fmu")
-    (tmp_path / "system.yaml").write_text(SYSTEM, encoding="utf-8")
-    request = build_request(tmp_path / "system.yaml", out=tmp_path / "out", isolate="none")
-    with stop_on_signals():
-        outcome = execute(request)
+    outcome = _run_chain(tmp_path, fixture_fmu, "none")
     assert outcome.result.status.value == "completed"
     assert outcome.result.interrupted_by is None
-    assert outcome.result.warnings == [
-        "SIGTERM came after the run's last step: it was not cut off, and its results are "
-        "written in full"
-    ]
+    assert outcome.result.warnings == [LATE]
     run_json = json.loads((tmp_path / "out" / "run.json").read_text(encoding="utf-8"))
     assert run_json["warnings"] == outcome.result.warnings
 
@@ -146,16 +156,9 @@ def test_under_the_guardian_a_stop_while_the_childs_result_is_taken_is_held(
         return unpickle(*args)  # type: ignore[arg-type]
 
     monkeypatch.setattr(guardian, "_unpickle", signalling_unpickle)
-    shutil.copy(fixture_fmu("Gain"), tmp_path / "Gain.fmu")
-    (tmp_path / "system.yaml").write_text(SYSTEM, encoding="utf-8")
-    request = build_request(tmp_path / "system.yaml", out=tmp_path / "out", isolate="guardian")
-    with stop_on_signals():
-        outcome = execute(request)
+    outcome = _run_chain(tmp_path, fixture_fmu, "guardian")
     assert outcome.result.status.value == "completed"
-    assert outcome.result.warnings == [
-        "SIGTERM came after the run's last step: it was not cut off, and its results are "
-        "written in full"
-    ]
+    assert outcome.result.warnings == [LATE]
     assert (tmp_path / "out" / "run.json").exists()
 
 
