@@ -148,6 +148,29 @@ def _zombie(pid: int) -> bool:
         return True
 
 
+def _semaphores_once_mapped(process: subprocess.Popen[str]) -> set[Path]:
+    """The semaphores ``process``'s group maps by name, once it maps one: under a loaded
+    suite's CPU the first record came (once) before any worker had opened one by its name,
+    the kill left none and the premise check below failed."""
+    deadline = time.monotonic() + 60
+    while not (ours := _semaphores_of_group(process.pid)):
+        if process.poll() is not None or time.monotonic() > deadline:
+            out, err = finish(process, 30)
+            pytest.fail(f"the study's processes mapped no semaphore by name: {out}{err}")
+        time.sleep(0.05)
+    return ours
+
+
+def _until_gone(pgid: int) -> None:
+    """Wait for every process of group ``pgid`` to end: a killed process keeps its mappings
+    until the kernel has torn it down, which a loaded machine can take longer to do than
+    the half second this test once slept."""
+    deadline = time.monotonic() + 30
+    while group_members(pgid):
+        assert time.monotonic() < deadline, f"group {pgid} outlived SIGKILL by 30 s"
+        time.sleep(0.05)
+
+
 def _unmapped_semaphores() -> set[Path]:
     from fmionnx.backends.sweep.leftovers import SHM, _mapped
 
@@ -182,18 +205,23 @@ def test_after_a_study_killed_outright_the_next_one_removes_what_it_left(project
     """SIGKILL to the whole group (an out-of-memory killer, a CI timeout) runs no exit code:
     the study's Dask scratch folder and the named semaphores of its workers' resource tracker
     stayed for good. The next study removes them and ``--resume`` finishes the first."""
-    process = _sweep(project)
+    # One case per task, so that cases are left when the first record comes: batched, both
+    # workers' batches of eight ended together under load, nothing was left to resume, the
+    # resumed study started no cluster and so removed nothing (seen once in a full suite).
+    process = _sweep(project, "--batch", "1")
     _after_the_first_case(project, process)
-    ours = _semaphores_of_group(process.pid)
+    ours = _semaphores_once_mapped(process)
     os.killpg(process.pid, signal.SIGKILL)
     finish(process, 30)
-    time.sleep(0.5)  # the group's last processes leave the process table
+    _until_gone(process.pid)
     left = ours & _unmapped_semaphores()
     assert left, "the killed study left no semaphore: this test's premise is gone"
     assert list((project / "tmp").iterdir()) != []  # the killed study's scratch folder
     long_ago = time.time() - 3600
     for path in left:  # as if the next study ran a while later
         os.utime(path, (long_ago, long_ago))
+    done = len(list((project / "out" / "records").glob("*.json")))
+    assert done < CASES, "the killed study finished every case: nothing left to resume"
     resumed = _sweep(project, "--resume")
     _, err = finish(resumed, 180)
     assert resumed.returncode == 0, err
