@@ -3,9 +3,9 @@
 The archive holds ``SystemStructure.ssd`` (validated against the SSP 1.0 XSD before it is
 packed), the models under ``resources/`` and one ``.ssv`` per component with scalar
 parameters. SSP 1.0 is written because FMPy reads only 1.0 and every 2.0 reader reads 1.0.
-What SSP cannot say (component periods, ONNX/MuJoCo options, array parameters, the base
-step, record/plots/checks/ros2 sections) goes into ``org.fmionnx`` annotations as JSON, so
-that ``fmionnx convert`` gives the system file back. The layout is flat: one root system whose
+What SSP cannot say (component periods, ONNX/MuJoCo options, array parameters, integers
+beyond ``ssv:Integer``'s 32 bits, the base step, record/plots/checks/ros2 sections) goes into
+``org.fmionnx`` annotations as JSON, so that ``fmionnx convert`` gives the system file back. The layout is flat: one root system whose
 components keep their (possibly dotted) names; connections are component to component.
 """
 
@@ -66,7 +66,9 @@ def _annotation(parent: Any, payload: dict[str, Any]) -> None:
     annotations = _sub(parent, "ssd", "Annotations")
     annotation = _sub(annotations, "ssc", "Annotation", type=FMIONNX_ANNOTATION)
     options = _sub(annotation, "fmionnx", "Options")
-    options.text = json.dumps(payload, sort_keys=True)
+    # Keys in the order the system file has them (not sorted): the order of a signal's
+    # outputs, for one, is the order of its ports and of the results' columns.
+    options.text = json.dumps(payload)
 
 
 def _type_element(parent: Any, port: Port | None, units: dict[str, Unit]) -> None:
@@ -128,6 +130,8 @@ class _Writer:
             name: {} for name in spec.components
         }
         self.units: dict[str, Unit] = {}
+        #: System input values an ``.ssv`` cannot hold, for the system's annotation.
+        self.input_values: dict[str, Any] = {}
 
     def _port(self, component: str, port: str) -> Port | None:
         if self.system is None:
@@ -224,9 +228,20 @@ class _Writer:
                     )
             kind = "parameter" if kinds == {"parameter"} else "input"
             connector = _sub(connectors, "ssd", "Connector", name=name, kind=kind)
-            if floats:  # no unit: each target keeps its own, through its transformation
+            if not entry.to and entry.value is not None:  # only its value says its type
+                _sub(connector, "ssc", _ssv_type(entry.value, None)[0])
+            elif floats:  # no unit: each target keeps its own, through its transformation
                 _sub(connector, "ssc", "Real")
-        held = {name: e.value for name, e in self.spec.inputs.items() if e.value is not None}
+        if not len(connections):  # inputs that only hold values: the schema wants none empty
+            scratch.remove(connections)
+        held: dict[str, Any] = {}
+        for name, entry in self.spec.inputs.items():
+            if entry.value is None:
+                continue
+            if _ssv_holds(entry.value, None):
+                held[name] = entry.value
+            else:
+                self.input_values[name] = entry.value
         if held:  # values of their own: a binding on the root system, as tools write them
             bindings = etree.Element(_q("ssd", "ParameterBindings"))
             system.insert(1, bindings)  # after Connectors, before Elements
@@ -251,19 +266,20 @@ class _Writer:
             for label, (kind, port) in self.connectors[name].items():
                 connector = _sub(connectors, "ssd", "Connector", name=label, kind=kind)
                 _type_element(connector, port, self.units)
-        scalars = {k: v for k, v in spec.parameters.items() if not isinstance(v, list)}
-        arrays = {k: v for k, v in spec.parameters.items() if isinstance(v, list)}
+        ports = {key: self._port(name, key) for key in spec.parameters}
+        scalars = {k: v for k, v in spec.parameters.items() if _ssv_holds(v, ports[k])}
+        # Arrays, and integers beyond ssv:Integer: in our annotation, exactly as written.
+        others = {k: v for k, v in spec.parameters.items() if k not in scalars}
         if scalars:
             ssv = f"resources/{name}.ssv"
-            ports = {key: self._port(name, key) for key in scalars}
             _write_ssv(staging / ssv, name, scalars, ports)
             bindings = _sub(node, "ssd", "ParameterBindings")
             _sub(bindings, "ssd", "ParameterBinding", source=ssv)
         options = spec.model_dump(mode="json", by_alias=True, exclude_defaults=True)
         for key in ("kind", "path", "parameters", "interface"):
             options.pop(key, None)
-        if arrays:
-            options["parameters"] = arrays
+        if others:
+            options["parameters"] = others
         if options:
             _annotation(node, options)
 
@@ -310,6 +326,23 @@ def _companions(model: Path) -> tuple[ModelFile, ...]:
     if not (path.exists() or path.is_symlink()):
         return ()
     return (regular_file(model.parent, path, model),)
+
+
+#: Values of ``ssv:Integer`` (``xs:int`` in SSP 1.0 and 2.0): 32-bit signed.
+_SSV_INTEGERS = range(-(2**31), 2**31)
+
+
+def _ssv_holds(value: Any, port: Port | None) -> bool:
+    """Whether an ``.ssv`` holds ``value`` without loss: a scalar, an Integer within 32 bits.
+
+    A 64-bit or unsigned 32-bit FMI integer may exceed ``xs:int``; such a value goes into our
+    annotation, as arrays do, rather than into an ``ssv:Real`` that would change its type and,
+    beyond 2**53, its value.
+    """
+    if isinstance(value, list):
+        return False
+    element, text = _ssv_type(value, port)
+    return element != "Integer" or int(text) in _SSV_INTEGERS
 
 
 def _ssv_type(value: Any, port: Port | None) -> tuple[str, str]:
@@ -385,6 +418,8 @@ def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSyste
     run = spec.run.model_dump(mode="json", include={"step", "output_interval"}, exclude_none=True)
     if run:  # SSP's DefaultExperiment has neither (1.0 nor 2.0): our annotation carries them
         settings["run"] = run
+    if writer.input_values:  # beyond ssv:Integer: read back onto the `inputs:` entries
+        settings["inputs"] = writer.input_values
     if settings:
         _annotation(root, settings)
     _check(root, "ssd", SSD_NAME)

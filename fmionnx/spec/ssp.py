@@ -41,8 +41,9 @@ MIME_BY_KIND = {kind: mime for mime, kind in KIND_BY_MIME.items()}
 INTERFACE_BY_IMPLEMENTATION = {"CoSimulation": "cs", "ModelExchange": "me"}
 #: Keys of the component spec that come from SSD elements, never from our annotation.
 _STRUCTURAL_KEYS = ("kind", "path")
-#: Keys our system-level annotation may carry.
-SYSTEM_ANNOTATION_KEYS = ("description", "run", "record", "plots", "checks", "ros2")
+#: Keys our system-level annotation may carry (``inputs``: values of system inputs that an
+#: ``.ssv`` cannot hold, by input name).
+SYSTEM_ANNOTATION_KEYS = ("description", "run", "record", "plots", "checks", "ros2", "inputs")
 
 
 def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
@@ -110,7 +111,7 @@ def _json_object(annotation: Annotation, ssd: Path, bag: DiagnosticBag) -> dict[
 
 def system_name(text: str, span: Span, bag: DiagnosticBag) -> str:
     """The SSD name as a system-file name (``[A-Za-z_][\\w-]*``), warning when changed."""
-    name = re.sub(r"[^\w-]", "_", text) or "system"
+    name = re.sub(r"[^\w-]", "_", text, flags=re.ASCII) or "system"  # names are ASCII
     if not re.match(r"[A-Za-z_]", name):
         name = "_" + name
     if name != text:
@@ -154,6 +155,7 @@ def _system_data(
     if document.root.step is not None:
         run["step"] = document.root.step
     extra_run = annotation.pop("run", {})
+    input_values = annotation.pop("inputs", {})
     sources.record(("run",), annotation_span if extra_run else top, top)
     overridden = isinstance(extra_run, dict) and "step" in extra_run
     if document.root.step is not None and not overridden:
@@ -184,6 +186,8 @@ def _system_data(
     sources.record(("connections",), Span(ssd, document.root.line))
     data["connections"] = _connections(flat, ssd, sources)
     inputs = _inputs(flat, ssd, sources, bag)
+    if not _input_values(input_values, inputs, annotation_span, sources, bag):
+        return None
     if inputs:
         sources.record(("inputs",), Span(ssd, document.root.line))
         data["inputs"] = inputs
@@ -304,6 +308,35 @@ def _inputs(flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag)
             sources.record(("inputs", name, "value"), item.value.span, item.value.span)
             sources.sources[("inputs", name, "value")] = item.value.origin
     return result
+
+
+def _input_values(
+    values: object,
+    inputs: dict[str, Any],
+    span: Span,
+    sources: SourceMap,
+    bag: DiagnosticBag,
+) -> bool:
+    """Put the annotation's system input values on their ``inputs:`` entries (False: E003).
+
+    ``fmionnx export`` writes a value there when ``ssv:Integer`` (32 bits) cannot hold it; an
+    input with no connection gets an entry of its own, as a bound unconnected connector does.
+    """
+    if not isinstance(values, dict):
+        bag.emit(
+            codes.INVALID_VALUE,
+            "`inputs` in the system's `org.fmionnx` annotation must map input names to values",
+            span,
+        )
+        return False
+    for name, value in values.items():
+        entry = inputs.setdefault(name, {"to": []})
+        entry["value"] = value
+        if ("inputs", name) not in sources.spans:
+            sources.record(("inputs", name), span, span)
+        sources.record(("inputs", name, "value"), span, span)
+        sources.sources[("inputs", name, "value")] = ValueSource.SSP_ANNOTATION
+    return True
 
 
 def _connections(flat: FlatSystem, ssd: Path, sources: SourceMap) -> list[Any]:

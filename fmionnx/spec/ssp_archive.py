@@ -17,10 +17,10 @@ from __future__ import annotations
 import hashlib
 import shutil
 import tempfile
-from pathlib import Path
+from pathlib import Path, PurePosixPath
 
 from fmionnx.core import codes
-from fmionnx.core.archive import safe_extract
+from fmionnx.core.archive import open_zip, safe_extract
 from fmionnx.core.cachedir import cache_folder, evict, touch, work_prefix
 from fmionnx.core.errors import ModelError
 from fmionnx.core.pathnames import remember_archive
@@ -45,6 +45,24 @@ def file_digest(path: Path) -> str:
     return digest.hexdigest()
 
 
+def refuse_repeated_members(path: Path) -> None:
+    """Raise a ModelError (E017) when two members of the archive have the same name.
+
+    Which of them a reader gets depends on the unzipper (Python's takes the last, others the
+    first), so such an archive means different systems to different tools, and the first
+    ``SystemStructure.ssd`` would be dropped without a word: it is refused, as ambiguous.
+    """
+    with open_zip(path) as archive:
+        seen: set[PurePosixPath] = set()
+        for info in archive.infolist():
+            name = PurePosixPath(info.filename.replace("\\", "/"))
+            if name in seen:
+                msg = f"the archive holds two members named `{str(name)[:200]}`"
+                hint = "an SSP names each file once; which one is meant is ambiguous"
+                raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=hint)
+            seen.add(name)
+
+
 def unpack_ssp(path: Path) -> Path:
     """The folder holding the unpacked archive (extracted now or earlier).
 
@@ -57,6 +75,7 @@ def unpack_ssp(path: Path) -> Path:
     except OSError as exc:
         msg = f"cannot read `{path}`: {exc.strerror}"
         raise ModelError(codes.FILE_NOT_FOUND, msg) from None
+    refuse_repeated_members(path)
     folder = cache_root() / file_digest(path)[:24]
     if folder.is_dir():
         touch(folder)

@@ -159,6 +159,8 @@ def _target(graph: SystemGraph, reached: Reached) -> FlatTarget | None:
 
 def flatten(document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag) -> FlatSystem:
     """Flatten ``document``; problems go into ``bag``."""
+    if not _unique_names(document, ssd, bag):
+        return FlatSystem()  # the elements cannot be told apart: nothing to flatten
     graph = SystemGraph(document, ssd, bag)
     flat = FlatSystem()
     for path, element in graph.components.items():
@@ -171,6 +173,55 @@ def flatten(document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag
     _open_connectors(graph, driven | bound, flat)
     _check_duplicates(flat, ssd, bag)
     return flat
+
+
+def _unique_names(document: Document, ssd: Path, bag: DiagnosticBag) -> bool:
+    """Each element name once in its system, each flattened component name once (E007).
+
+    SSP requires the names of a system's elements to be unique; a second element of the same
+    name would replace the first in the flattened system, and one component would silently
+    be lost. Flattening can also make two names equal that differ in the file: a root
+    component named ``s.g`` and the component ``g`` of the nested system ``s``.
+    """
+    unique = True
+    components: list[tuple[str, tuple[str, ...], Element]] = []
+    pending: list[tuple[tuple[str, ...], Element]] = [((), document.root)]
+    while pending:  # iterative: a hostile file may nest systems deeply
+        path, system = pending.pop()
+        seen: dict[str, Element] = {}
+        for child in system.children:
+            first = seen.setdefault(child.name, child)
+            if first is not child:
+                unique = False
+                bag.emit(
+                    codes.DUPLICATE_KEY,
+                    f"{system_text(path, document.root.name)} has two elements named "
+                    f"`{child.name}`",
+                    Span(ssd, child.line),
+                    notes=[
+                        Note(f"the first `{child.name}` is declared here", Span(ssd, first.line))
+                    ],
+                    hint="element names must be unique within their system; rename one",
+                )
+            elif child.is_system:
+                pending.append(((*path, child.name), child))
+            else:
+                components.append((".".join((*path, child.name)), path, child))
+    named: dict[str, tuple[tuple[str, ...], Element]] = {}
+    for name, path, element in sorted(components, key=lambda c: c[2].line):
+        other = named.setdefault(name, (path, element))
+        if other[1] is not element:
+            unique = False
+            bag.emit(
+                codes.DUPLICATE_KEY,
+                f"component `{element.name}` of {system_text(path, document.root.name)} is "
+                f"named `{name}` once nested systems are flattened, like component "
+                f"`{other[1].name}` of {system_text(other[0], document.root.name)}",
+                Span(ssd, element.line),
+                notes=[Note(f"the other `{name}` is declared here", Span(ssd, other[1].line))],
+                hint="rename one: fmionnx names a nested component `system.component`",
+            )
+    return unique
 
 
 def _check_duplicates(flat: FlatSystem, ssd: Path, bag: DiagnosticBag) -> None:

@@ -72,9 +72,17 @@ def resolve_uri(
         )
         return None
     try:
-        exists = path.is_file()
+        exists, folder = path.is_file(), path.is_dir()
     except OSError:  # a name longer than the file system allows: no such resource either
-        exists = False
+        exists = folder = False
+    if folder:
+        bag.emit(
+            codes.SSP_REFERENCE,
+            f"`{text[:200]}` is a folder in the SSP, not a file",
+            span,
+            hint="a reference names a file (`resources/model.fmu`), not its folder",
+        )
+        return None
     if not exists:
         bag.emit(codes.SSP_REFERENCE, f"`{text[:200]}` does not exist in the SSP", span)
         return None

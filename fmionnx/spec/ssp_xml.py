@@ -124,8 +124,22 @@ def schema(kind: str, major: str) -> Any:
 
 
 def major_version(root: Any, path: Path, bag: DiagnosticBag) -> str | None:
-    """The major SSP version (``"1"``/``"2"``) of a file's root, or None with E071."""
-    version = str(root.get("version") or "")
+    """The major SSP version (``"1"``/``"2"``) of a file's root, or None with E070/E071.
+
+    The attribute is checked before the schema (which schema applies depends on it), so its
+    absence is reported here, as the schema violation it is (E070), not as an unsupported
+    version.
+    """
+    version = root.get("version")
+    if version is None:
+        bag.emit(
+            codes.SSP_SCHEMA,
+            f"`{path.name}`: the required `version` attribute of `{short(root.tag)}` is missing",
+            Span(path, root.sourceline or 1),
+            hint='add version="1.0" or version="2.0", the SSP version the file follows',
+        )
+        return None
+    version = str(version)
     major = version.split(".", 1)[0]
     if major not in _VERSION_FOLDERS:
         bag.emit(

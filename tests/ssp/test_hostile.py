@@ -101,3 +101,16 @@ def test_hostile_fmu_inside_an_ssp_is_refused(tmp_path: Path) -> None:
     assert e017, result.diagnostics
     assert "outside" in e017[0].message
     assert not any(p.name == "fmu-escaped.txt" for p in tmp_path.parent.rglob("fmu-escaped.txt"))
+
+
+def test_an_archive_naming_one_member_twice_is_refused(tmp_path: Path) -> None:
+    """Unzippers disagree on which of two equal names they read: the SSD would be ambiguous."""
+    archive = tmp_path / "twice.ssp"
+    with pytest.warns(UserWarning, match="Duplicate name"):
+        _zip(archive, lambda zipped: zipped.writestr("SystemStructure.ssd", ssd("")))
+    bag = DiagnosticBag()
+    assert load_system(archive, bag).spec is None
+    assert [(d.code, d.message) for d in bag] == [
+        ("E017", "`twice.ssp`: the archive holds two members named `SystemStructure.ssd`")
+    ]
+    assert not (cache_root() / file_digest(archive)[:24]).exists()

@@ -143,3 +143,80 @@ def test_reference_system_exported_and_reimported_runs_bit_for_bit(tmp_path: Pat
     assert ours.signals.keys() == theirs.signals.keys()
     for name, values in ours.signals.items():
         np.testing.assert_array_equal(theirs.signals[name], values, err_msg=name)
+
+
+def test_integers_beyond_32_bits_round_trip_through_the_annotation(
+    tmp_path: Path, fixture_fmu
+) -> None:
+    """ssv:Integer is xs:int: an int64 or uint32 value travels in our annotation, unchanged."""
+    system = tmp_path / "big.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: big\nrun: {stop: 1, step: 0.1}\ncomponents:\n"
+        f"  t: {{kind: fmu, path: {fixture_fmu('Types3')}, parameters: "
+        "{u_i64: 3000000000, u_u32: 4000000000, u_i32: -7, u_f32: 1.5}}\n"
+        "inputs:\n  spare: {to: [], value: -20}\n",
+        encoding="utf-8",
+    )
+    archive, back = round_trip(system, tmp_path)
+    original = compiled(system)
+    for other in (compiled(archive), compiled(back)):
+        assert fingerprint(other) == fingerprint(original)
+        assert other.content_hash == original.content_hash
+    with zipfile.ZipFile(archive) as members:
+        ssv = members.read("resources/t.ssv").decode()
+        ssd = members.read("SystemStructure.ssd").decode()
+    assert '<ssv:Integer value="-7"/>' in ssv
+    assert "3000000000" not in ssv
+    assert '"u_i64": 3000000000, "u_u32": 4000000000' in ssd
+
+
+def test_system_input_values_beyond_32_bits_round_trip(tmp_path: Path, fixture_fmu) -> None:
+    system = tmp_path / "inputs.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: inputs\nrun: {stop: 1, step: 0.1}\ncomponents:\n"
+        f"  t: {{kind: fmu, path: {fixture_fmu('Types3')}}}\n"
+        "inputs:\n  drive: {to: [t.u_i64], value: 9000000000}\n",
+        encoding="utf-8",
+    )
+    archive, back = round_trip(system, tmp_path)
+    original = compiled(system)
+    for other in (compiled(archive), compiled(back)):
+        assert [(i.name, i.value) for i in other.inputs] == [("drive", 9000000000)]
+        assert other.content_hash == original.content_hash
+
+
+def test_an_unconnected_system_input_is_declared_with_its_value_type(
+    tmp_path: Path, fixture_fmu
+) -> None:
+    system = tmp_path / "spare.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: spare\nrun: {stop: 1, step: 0.1}\ncomponents:\n"
+        f"  g: {{kind: fmu, path: {fixture_fmu('Gain')}}}\n"
+        "inputs:\n  spare: {to: [], value: -20}\n",
+        encoding="utf-8",
+    )
+    archive, _ = round_trip(system, tmp_path)
+    with zipfile.ZipFile(archive) as members:
+        ssd = members.read("SystemStructure.ssd").decode()
+    connector = ssd.split('<ssd:Connector name="spare"', 1)[1].split("</ssd:Connector>", 1)[0]
+    assert "<ssc:Integer/>" in connector
+    assert '<ssv:Integer value="-20"/>' in ssd
+
+
+def test_round_trip_keeps_the_order_of_a_signals_outputs(tmp_path: Path) -> None:
+    """The annotation keeps keys as written: output order is port and column order."""
+    system = tmp_path / "sig.yaml"
+    system.write_text(
+        "fmionnx: 1\nname: sig\nrun: {stop: 0.1, step: 0.01}\ncomponents:\n"
+        "  s: {kind: signal, outputs: {t: {constant: 50, unit: degF}, "
+        "p: {constant: 2, unit: kW}}}\n",
+        encoding="utf-8",
+    )
+    archive, back = round_trip(system, tmp_path)
+    original = compiled(system)
+    assert [p.name for p in original.components[0].interface.ports] == ["t", "p"]
+    for other in (compiled(archive), compiled(back)):
+        assert fingerprint(other) == fingerprint(original)
+    assert back.read_text(encoding="utf-8").index("t:") < back.read_text(encoding="utf-8").index(
+        "p:"
+    )
