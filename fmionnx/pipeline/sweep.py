@@ -219,7 +219,9 @@ def run_sweep(
 ) -> SweepResult:
     """Run ``plan``'s cases not yet recorded in ``out``; write the table and the plots.
 
-    ``force`` replaces the results of a study already in ``out`` (without: refused).
+    ``force`` replaces the results of a study already in ``out`` (without: refused; with it,
+    refused too where a file the study writes again was edited since, which it would write
+    over: :meth:`~fmionnx.results.study.StudyFolder.kept_in_the_way`).
     ``batch`` fixes the cases per Dask task (1: one each; None: sized from the case times).
     ``cluster``: where to run (default: ``scheduler``'s cluster, else a new local one of
     ``workers`` processes, started only if cases are left for a resumed study).
@@ -233,7 +235,10 @@ def run_sweep(
     if cluster is None:
         cluster = StudyCluster(scheduler, workers, None, start_now=False)
     try:
-        problem = StudyFolder(out, plan).problem(resume=resume, force=force)
+        folder = StudyFolder(out, plan)
+        problem = folder.problem(resume=resume, force=force)
+        if problem is None and force:  # a table edited since: kept, so refused
+            problem = folder.kept_in_the_way()
         if problem is not None:  # said at once, not after starting a cluster
             raise StudyFolderError(problem)
         # The cluster is reached (an existing one) or started (a local one) before the folder

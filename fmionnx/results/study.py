@@ -24,16 +24,18 @@ from __future__ import annotations
 
 import json
 import math
+import os
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
-from fmionnx.compile.studyir import CHECK_PREFIX, TABLE_COLUMNS, StudyPlan
+from fmionnx.compile.studyir import CHECK_PREFIX, TABLE_COLUMNS, SettingValue, StudyPlan, owner
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.owned import OwnedFolder, safe_folder
 from fmionnx.core.regularfile import read_regular
 from fmionnx.core.resources import STUDY_FILE_BYTES
 from fmionnx.core.safewrite import atomic_binary, atomic_text, write_bytes_atomic
+from fmionnx.core.types import Scalar
 from fmionnx.results.casetable import CaseTable
 
 if TYPE_CHECKING:
@@ -48,6 +50,10 @@ STATUSES = ("ok", "fault", "timeout", "failed")
 VOLATILE = ("wall_time", "worker")
 #: The study's description, and the folders it writes into.
 DESCRIPTION, RECORDS, CASES = "study.json", "records", "cases"
+#: How a record writes an infinite metric (:meth:`CaseOutcome.as_json`).
+INFINITIES = ("inf", "-inf")
+#: What a case's folder holds: its results (``--keep-results``) and recording (``--rrd``).
+KEPT = ("results.csv", "run.rrd")
 
 
 class StudyFolderError(FmionnxError):
@@ -136,6 +142,46 @@ class StudyFolder:
             return f"`{self.out}` is not empty and holds no study: choose a new or empty folder"
         return None
 
+    def kept_in_the_way(self) -> str | None:
+        """Why a study run with ``--force`` cannot start afresh here (None: it can), touching
+        nothing: a file the study writes again (its table, a plot, a case's record or
+        results) that the ownership record does not prove is the very file written -- edited,
+        replaced or put there since. :meth:`prepare` keeps such a file, as it keeps anything
+        it cannot prove it wrote (:mod:`fmionnx.core.owned`), but the new study would then
+        write over it: the study refuses the folder before anything is deleted, as it does an
+        edited ``study.json``."""
+        proven = self.owned.proven_names()
+        kept = sorted(n for n in self._rewritten() if n not in proven)
+        if not kept:
+            return None
+        more = f" (and {len(kept) - 1} more)" if len(kept) > 1 else ""
+        return (
+            f"`{self.out / kept[0]}`{more} is not the file the study wrote there (edited or "
+            "replaced since): --force deletes only the study's own files, unchanged, and "
+            "the new study would write over it; move it out of the folder first"
+        )
+
+    def _rewritten(self) -> list[str]:
+        """The files of the folder (names inside it) that this study writes when it starts
+        afresh and that exist now, found without following a link."""
+        metrics = [m.name for m in self.plan.plotted_metrics]
+        tops = [
+            "cases.csv", "cases.parquet", "passfail.png",
+            *(f"{prefix}-{name}.png" for prefix in ("heatmap", "metric") for name in metrics),
+        ]  # fmt: skip
+        found = [name for name in tops if os.path.lexists(self.out / name)]
+        ids = {c.id for c in self.plan.cases}
+        found.extend(
+            f"{RECORDS}/{name}"
+            for name in _listing(self.out / RECORDS)
+            if name.endswith(".json") and name.removesuffix(".json") in ids
+        )
+        for case in _listing(self.out / CASES):
+            if case in ids:
+                folder = f"{CASES}/{case}"
+                found.extend(f"{folder}/{n}" for n in _listing(self.out / folder) if n in KEPT)
+        return found
+
     def _folder(self, shown: str, name: str) -> Path:
         """``out/name``, made or found without following a link (StudyFolderError)."""
         try:
@@ -203,13 +249,15 @@ class StudyFolder:
             *last,
         )
         rows = []
+        real = _real_targets(self.plan)
         for case in self.plan.cases:
             record = _read(self.records / f"{case.id}.json")
             if record is None:
                 continue
             row: dict[str, Any] = {"case": case.id}
             for setting in case.settings:
-                row[setting.target] = _cell(setting.value)
+                value = _real(setting.value) if setting.target in real else setting.value
+                row[setting.target] = _cell(value)
             metrics = _mapping(record.get("metrics"))
             for metric in self.plan.metrics:
                 row[metric.name] = _number(metrics.get(metric.name))
@@ -218,7 +266,8 @@ class StudyFolder:
                 row[CHECK_PREFIX + name] = checks.get(name) is True
             status = record.get("status")
             row["status"] = status if status in STATUSES else "failed"
-            row["message"] = _clean(_message(record))
+            empty = [m.name for m in self.plan.metrics if math.isnan(row[m.name])]
+            row["message"] = _clean(_message(record, empty))
             row["wall_time"] = _number(record.get("wall_time", 0.0))
             row["worker"] = _clean(str(record.get("worker", "")))
             rows.append(tuple(row.get(name, math.nan) for name in columns))
@@ -237,6 +286,17 @@ class StudyFolder:
             table.write_csv(stream)
         self.owned.note([parquet, csv])
         return [parquet, csv]
+
+
+def _listing(folder: Path) -> list[str]:
+    """The names in ``folder``; none when it is missing, a link or not a folder (its own
+    check refuses a link at ``records`` or ``cases``)."""
+    if folder.is_symlink() or not folder.is_dir():
+        return []
+    try:
+        return [entry.name for entry in os.scandir(folder)]
+    except OSError:
+        return []
 
 
 def ranked(table: CaseTable, plan: StudyPlan) -> list[dict[str, Any]]:
@@ -260,6 +320,41 @@ def _missing_number(value: object) -> bool:
     return not isinstance(value, int | float) or (isinstance(value, float) and math.isnan(value))
 
 
+def _real_targets(plan: StudyPlan) -> set[str]:
+    """The targets that take real numbers: the run settings (seconds), and parameters, inputs
+    and system inputs whose ports are floats. Their columns are floats whatever the study file
+    wrote (``gain.k: [1, 2]`` sets 1.0 and 2.0), so a column's type is the variable's."""
+    system = plan.system
+    kinds = {s.target: s.kind for s in plan.cases[0].settings} if plan.cases else {}
+    inputs = {i.name: i for i in system.inputs}
+    real = set()
+    for target, kind in kinds.items():
+        if kind in ("stop", "output_interval"):
+            real.add(target)
+        elif kind == "parameter" and target in inputs:
+            reached = [
+                system.component(t.ref.component).port(t.ref.port) for t in inputs[target].targets
+            ]
+            if reached and all(p.dtype.is_float for p in reached):
+                real.add(target)
+        elif kind == "parameter" and (found := owner(system, target)) is not None:
+            port = system.component(found[0]).interface.port(found[1])
+            if port is not None and port.dtype.is_float:
+                real.add(target)
+    return real
+
+
+def _real(value: SettingValue) -> SettingValue:
+    """``value`` with its integers as floats (an array's elements too)."""
+    if isinstance(value, tuple):
+        return tuple(_real_scalar(v) for v in value)
+    return _real_scalar(value)
+
+
+def _real_scalar(value: Scalar) -> Scalar:
+    return float(value) if isinstance(value, int) and not isinstance(value, bool) else value
+
+
 def _plain(value: object) -> object:
     return list(value) if isinstance(value, tuple) else value
 
@@ -277,12 +372,16 @@ def _clean(text: str) -> str:
     return text.encode("utf-8", "backslashreplace").decode("utf-8")
 
 
-def _message(record: dict[str, Any]) -> str:
+def _message(record: dict[str, Any], empty: list[str]) -> str:
+    """The ``message`` cell: the case's own message, else its notes (a metric without a value,
+    a check that failed). A case with a message of its own (a fault) still says why each of
+    its ``empty`` metrics has no value, as docs/sweep.md promises for every empty metric."""
     message = str(record.get("message", ""))
     notes = _mapping(record.get("notes"))
-    if not message and isinstance(notes, dict) and notes:
-        message = "; ".join(f"{k}: {v}" for k, v in sorted(notes.items()))
-    return message
+    if message:
+        notes = {k: v for k, v in notes.items() if k in empty}
+        return "; ".join([message, *(f"{k}: {v}" for k, v in sorted(notes.items()))])
+    return "; ".join(f"{k}: {v}" for k, v in sorted(notes.items()))
 
 
 def _load(path: Path) -> object:
@@ -315,7 +414,10 @@ def _read_description(path: Path) -> dict[str, Any]:
 
 
 def _number(value: object) -> float:
-    """A number of a record as a float (NaN for anything else: a record may be edited)."""
+    """A number of a record as a float (NaN for anything else: a record may be edited); an
+    infinite metric is written ``"inf"`` or ``"-inf"`` (strict JSON has no infinities)."""
+    if value in INFINITIES:
+        return float(str(value))
     if isinstance(value, int | float) and not isinstance(value, bool):
         try:
             return float(value)

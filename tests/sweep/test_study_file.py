@@ -119,6 +119,22 @@ def test_every_mistake_is_reported_at_its_place(write_study: WriteStudy, tmp_pat
             "num: 2000}}\n  integ.x0: {range: {start: 0, stop: 1, num: 1000}}\n",
             "study.yaml:3:1: error[E106 study-size]: the study has 2000000 cases, more than 1000000",
         ),
+        (  # a bug hunt: ignored, two cases instead of the six meant
+            "fmionnx: 1\nsystem: system.yaml\nparameters:\n  gain.k: [1, 2]\n"
+            "sampling: {samples: 3, seed: 1}\n",
+            "study.yaml:5:1: error[E103 study-values]: `sampling` draws the rows of sampled "
+            "targets, and no target is sampled",
+        ),
+        (  # a bug hunt: "does not exist"
+            "fmionnx: 1\nsystem: .\nparameters:\n  gain.k: [1]\n",
+            "study.yaml:2:9: error[E101 study-system]: the study's system file `.` is a folder, "
+            "not a system file",
+        ),
+        (  # a bug hunt: accepted, `none` given with `fmus` (the CLI's --isolate the same)
+            "fmionnx: 1\nsystem: system.yaml\nparameters:\n  gain.k: [1]\nisolate: [none, fmus]\n",
+            "study.yaml:5:10: error[E102 study-target]: `isolate`: `none` stands alone: it cannot "
+            "be given with `fmus`, `all` or a component",
+        ),
         (
             "fmionnx: 1\nsystem: system.yaml\nparameter:\n  gain.k: [1]\n",
             "study.yaml:3:1: error[E002 unknown-key]: unknown key `parameter` in the top level",

@@ -83,14 +83,36 @@ class CaseOutcome:
     rrd: bytes | None = None
 
     def as_json(self) -> dict[str, object]:
-        """The record written when the case finishes (``--resume`` reads it back)."""
+        """The record written when the case finishes (``--resume`` reads it back).
+
+        It is strict JSON, which has no infinities and no NaN: an infinite metric is the text
+        ``"inf"`` or ``"-inf"`` (a value: the table holds it as a float), a NaN is ``null``
+        with a note saying so, as every metric without a value has (docs/sweep.md).
+        """
         data = dataclasses.asdict(self)
         data.pop("signals")
         data.pop("rrd")
-        data["metrics"] = {
-            k: (v if v is not None and math.isfinite(v) else None) for k, v in self.metrics.items()
-        }
+        data["metrics"] = {k: json_metric(v) for k, v in self.metrics.items()}
+        notes = dict(self.notes)
+        for name, value in self.metrics.items():
+            if value is not None and math.isnan(value):
+                notes.setdefault(name, NAN_NOTE)
+        data["notes"] = notes
         return data
+
+
+#: Why a metric that measured NaN has no value in the table.
+NAN_NOTE = "the measure is NaN (not a number: a NaN in what it reads, or 0/0)"
+
+
+def json_metric(value: float | None) -> float | str | None:
+    """A metric as a record holds it: a finite number as it is, an infinity as ``"inf"`` or
+    ``"-inf"``, NaN (and no value) as None."""
+    if value is None or math.isnan(value):
+        return None
+    if math.isinf(value):
+        return "inf" if value > 0 else "-inf"
+    return value
 
 
 #: Base systems this worker has read, by the sha256 of their JSON, with models relocated into its store.
