@@ -103,11 +103,21 @@ class TerminalReport(RunObserver):
             self._bar = None
 
     def abandoned(self, result: RunResult, out: Path | None) -> None:
-        """The fault and the folder: the process ends right after."""
+        """The fault, or the stop and why it could not end the run as usual, and the folder:
+        the process ends right after."""
         console = self.console
         if self._guarded:  # in the guarded child: the parent's console may be locked for good
             console = make_console(stderr=True)
-        console.print(f"[bold red]fault:[/] {result.error}")
+        if result.status is RunStatus.INTERRUPTED:
+            for warning in result.warnings:
+                console.print(f"[yellow]warning:[/] {escape(warning)}", soft_wrap=True)
+            console.print(
+                f"[yellow]interrupted by {result.interrupted_by}[/] at "
+                f"t={result.simulated_time + result.start:g} s; the results recorded so far "
+                "are written"
+            )
+        else:
+            console.print(f"[bold red]fault:[/] {result.error}")
         if out is not None:
             print(f"Results: {out}")
         sys.stdout.flush()

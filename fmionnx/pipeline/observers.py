@@ -89,8 +89,9 @@ class RunObserver:
         """The backend returned or raised (called whenever :meth:`before_run` was)."""
 
     def abandoned(self, result: RunResult, out: Path | None) -> None:
-        """A step overran the step timeout in fmionnx's own process: the results so far are
-        written (into ``out``) and the process ends with exit status 1 right after."""
+        """A step overran the step timeout in fmionnx's own process, or kept a stop signal
+        waiting there: the results so far are written (into ``out``) and the process ends
+        right after, with exit status 1 (a fault) or 128 + the signal's number."""
 
     def finished(self, outcome: RunOutcome) -> None:
         """The run's results are written; ``outcome`` holds them, the checks and the exit

@@ -582,6 +582,7 @@ def _child(
         recorder=SharedRecorder,
         marker=lambda: SharedMarker(shared.control),  # type: ignore[arg-type,return-value]
         runners=_phased_runners(cells, components),
+        notices_stops=False,  # the guardian ends a child that a model keeps from a stop
     )
 
     def progress(done: int, total: int, sim: float) -> None:

@@ -27,6 +27,9 @@ class Instruments:
     marker: Callable[[], Marker] = Marker
     #: Wraps the factory the master ends up with (isolation included); None: as it is.
     runners: Callable[[RunnerFactory], RunnerFactory] | None = None
+    #: Whether the watchdog abandons a run whose main thread a model keeps from a stop
+    #: signal (:mod:`.stopnotice`); a guarded child's guardian stops it instead.
+    notices_stops: bool = True
 
 
 #: The master's own: a private recorder and marker, runners as the factory makes them.

@@ -32,6 +32,7 @@ from __future__ import annotations
 import contextlib
 import math
 import os
+import signal
 import sys
 import time as _time
 from collections.abc import Callable
@@ -51,7 +52,9 @@ from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.result import EndedBy, ProgressCallback, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.startvalues import evaluate_at_start
 from fmionnx.runtime.stepping import Work
+from fmionnx.runtime.stopnotice import STOP_GRACE
 from fmionnx.runtime.stopping import (
+    exit_code,
     late_stop_text,
     shield_begin,
     shield_end,
@@ -499,11 +502,27 @@ class Master:
 
     def run(self) -> RunResult:
         """Prepare, loop to the stop time (or a fault / Ctrl-C), terminate, collect results."""
+        started = _time.perf_counter()
+        with self._stop_notice():
+            return self._run(started)
+
+    def _stop_notice(self) -> contextlib.AbstractContextManager[object]:
+        """Stop signals noticed by the watchdog while a model in this process keeps the main
+        thread (:mod:`.stopnotice`); not in a guarded child, whose guardian stops it."""
+        watchdog = self._watchdog
+        instruments = self.options.instruments or PLAIN
+        if watchdog is None or not instruments.notices_stops:
+            return contextlib.nullcontext()
+        from fmionnx.runtime.stopnotice import StopNotice
+
+        notice = watchdog.notice = StopNotice()
+        return notice
+
+    def _run(self, started: float) -> RunResult:
         system = self.system
         status = RunStatus.COMPLETED
         error: RunError | None = None
         reason: str | None = None
-        started = _time.perf_counter()
         try:
             if self._watchdog is not None:  # loading and initializing are timed too
                 self._watchdog.start()
@@ -847,13 +866,15 @@ class Master:
         self._clock[0] = end
         self.ended_by = EndedBy(name, run.start + end * run.step, request.reason)
 
-    def _partial(self, status: RunStatus, error: RunError | None = None) -> RunResult:
-        """The results of the steps completed so far."""
+    def _partial(
+        self, status: RunStatus, error: RunError | None = None, reason: str | None = None
+    ) -> RunResult:
+        """The results of the steps completed so far (``reason``: the stop signal's name)."""
         n = self._clock[0]
         wall = _time.perf_counter() - self._started
         return RunResult.after(
             self.system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
-            self.details(),
+            self.details(), reason,
         )  # fmt: skip
 
     def _checkpoint(self, n: int) -> float:
@@ -869,8 +890,9 @@ class Master:
         took = _time.perf_counter() - began
         return _time.perf_counter() + max(self.options.checkpoint_every, 10 * took)
 
-    def _abandon(self, work: object, t: float) -> None:
-        """A step in this process overran the step timeout: write what we have, then exit.
+    def _abandon(self, work: object, t: float, stop: int | None = None) -> None:
+        """A step in this process overran the step timeout, or kept a stop signal (``stop``)
+        waiting: write what we have, then exit (status 1, or 128 + the signal's number).
 
         Called on the watchdog's thread while the main thread is stuck in the model; ``work``
         is the scheduled work (a :class:`Work`) the loop marked before the step, or the
@@ -892,11 +914,16 @@ class Master:
         )
         busy = self._abandon_concurrent(work) if self._issues and isinstance(work, Work) else set()
         try:
-            result = self._partial(RunStatus.FAULT, error)
+            if stop is None:
+                result = self._partial(RunStatus.FAULT, error)
+            else:
+                result = self._stuck_at_stop(work, stop)
             if self.options.abandon is not None:
                 self.options.abandon(result)
-            else:
+            elif stop is None:
                 print(f"fault: {error}", file=sys.stderr)
+            else:
+                print(f"interrupted by {result.interrupted_by}: {result.warnings[-1]}")
             for runner in self.runners.values():
                 name = runner.component.name
                 if name not in label.split("+") and name not in busy:
@@ -905,7 +932,21 @@ class Master:
         finally:
             sys.stdout.flush()
             sys.stderr.flush()
-            os._exit(1)
+            os._exit(1 if stop is None else exit_code(signal.Signals(stop).name))
+
+    def _stuck_at_stop(self, work: Work | Phase, stop: int) -> RunResult:
+        """The results so far of a run stopped by signal ``stop`` while ``work`` kept the
+        main thread, and a warning that says so."""
+        name = signal.Signals(stop).name
+        result = self._partial(RunStatus.INTERRUPTED, reason=name)
+        what = work.what if isinstance(work, Phase) else "its step"
+        result.warnings.append(
+            f"component `{work.name}` did not return from {what} within {STOP_GRACE:g} s "
+            f"of {name}: it runs in fmionnx's own process, so the run was abandoned, its "
+            "results so far kept (`--isolate` runs a model in a process of its own, which can "
+            "be stopped)"
+        )
+        return result
 
     def _abandon_concurrent(self, work: object) -> set[str]:
         """Before an abandoned run's results are written: record the concurrent steps that

@@ -65,6 +65,8 @@ def exit_code(reason: str | None) -> int:
 #: Depth of shielded sections on the main thread, and a stop signal that arrived in one.
 _shield_depth = [0]
 _held: list[int] = []
+#: Depth of :func:`stops_held` blocks on the main thread (part of the shield depth too).
+_hold_depth = [0]
 
 
 def _on_main_thread() -> bool:
@@ -72,6 +74,13 @@ def _on_main_thread() -> bool:
     master run on another thread (two runs in one program) neither holds the main thread's
     signal nor receives it in its own :func:`shield_end`."""
     return threading.get_ident() == threading.main_thread().ident
+
+
+def holding_stops() -> bool:
+    """Whether a :func:`stops_held` block runs (the work after a run's last step): a stop
+    signal that comes now is not to end the run, however long that work takes. (A shield
+    holds one for a few statements only: a model call stuck inside one is still stuck.)"""
+    return _hold_depth[0] > 0
 
 
 def shield_begin() -> None:
@@ -111,9 +120,11 @@ def stops_held() -> Iterator[list[str]]:
         return
     held_before = len(_held)
     _shield_depth[0] += 1
+    _hold_depth[0] += 1
     try:
         yield late
     finally:
+        _hold_depth[0] -= 1
         _shield_depth[0] -= 1
         # Inside a shield the signal stays held for it: a shield delays a stop, never drops it.
         if len(_held) > held_before and not _shield_depth[0]:

@@ -40,6 +40,8 @@ from typing import Any
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.runner import Interruptible, Runner, RunnerFactory, Wiring
 from fmionnx.core.types import Component
+from fmionnx.runtime.stopnotice import STOP_GRACE, StopNotice
+from fmionnx.runtime.stopping import holding_stops
 
 #: How often the watchdog looks, at most (seconds).
 POLL = 0.25
@@ -80,7 +82,8 @@ class Marker:
 
 
 class Watchdog:
-    """Calls ``on_expiry(work, t)`` once when the marked work stays the same too long.
+    """Calls ``on_expiry(work, t, stop)`` once when the marked work stays the same too long
+    (``stop`` None), or keeps a stop signal waiting (``stop`` its number; see :attr:`notice`).
 
     Only the work in ``watched`` is timed (isolated components time their own steps).
     ``interrupt(work, timeout)``, when given, is tried first: True when the work was asked to
@@ -93,7 +96,7 @@ class Watchdog:
         timeout: float,
         marker: Marker,
         watched: Collection[object],
-        on_expiry: Callable[[object, float], None],
+        on_expiry: Callable[[object, float, int | None], None],
         interrupt: Callable[[object, float], bool] | None = None,
     ) -> None:
         self.timeout = timeout
@@ -111,6 +114,10 @@ class Watchdog:
         #: Set by :meth:`stop` (a plain flag, not an Event: an Event's lock and condition
         #: cost a short sweep case more than the watching itself).
         self._stopped = False
+        #: Stop signals seen while the main thread may be stuck (set for a run on the main
+        #: thread: :mod:`.stopnotice`); the one that made :meth:`look` fire.
+        self.notice: StopNotice | None = None
+        self._stop: int | None = None
 
     def watch(self, work: object) -> None:
         """Time ``work`` too (a phase made after the watchdog was)."""
@@ -131,14 +138,25 @@ class Watchdog:
         _watcher().discard(self)
 
     def look(self, now: float) -> bool:
-        """One look at the marker at ``now``; True when the work has overrun (fire)."""
+        """One look at the marker at ``now``; True when the work has overrun (fire), or has
+        kept a stop signal waiting for :data:`~.stopnotice.STOP_GRACE` (the main thread is
+        stuck in it: a Python signal handler cannot run until the call returns)."""
         self.due = now + self.interval
+        notice = self.notice
+        signum = notice.poll(now) if notice is not None else None
         work, t = self._marker.work, self._marker.t
         if (id(work), t) != self._seen:
             self._seen, self._since = (id(work), t), now
             return False
-        if id(work) in self._watched and now - self._since > self.timeout:
-            self._overrun = (work, t)
+        if id(work) not in self._watched:
+            return False
+        # The same call since before the stop came, or for the grace since: a stuck one.
+        kept = notice is not None and now - max(notice.seen_at, self._since) >= STOP_GRACE
+        if signum is not None and kept and not holding_stops():
+            self._overrun, self._stop = (work, t), signum
+            return True
+        if now - self._since > self.timeout:
+            self._overrun, self._stop = (work, t), None
             return True
         return False
 
@@ -147,7 +165,10 @@ class Watchdog:
         the process)."""
         assert self._overrun is not None
         work, t = self._overrun
-        interrupted = self._interrupt is not None and self._interrupt(work, self.timeout)
+        # A stop is not interrupted: the fault an interrupted call raises would meet the stop
+        # held for the main thread on its way out; abandoned, the run says it was stopped.
+        interrupt = self._interrupt if self._stop is None else None
+        interrupted = interrupt is not None and interrupt(work, self.timeout)
         if interrupted and self._came_back(work, t):
             # The run goes on (its work raised a fault, which it is handling): watch on,
             # unless the watching was stopped meanwhile (checked after adding, so that a
@@ -156,7 +177,7 @@ class Watchdog:
             if self._stopped:
                 _watcher().discard(self)
             return
-        self._on_expiry(work, t)
+        self._on_expiry(work, t, self._stop)
 
     def _came_back(self, work: object, t: float) -> bool:
         """Whether the interrupted work ended (the marker moved on, or the watching was

@@ -43,7 +43,8 @@ def _stuck(timeout: float) -> tuple[Watchdog, threading.Event, list[tuple[object
     fired = threading.Event()
     seen: list[tuple[object, float]] = []
 
-    def on_expiry(what: object, t: float) -> None:
+    def on_expiry(what: object, t: float, stop: int | None) -> None:
+        assert stop is None  # an overrun: no stop signal came
         seen.append((what, t))
         fired.set()
 

@@ -1,0 +1,139 @@
+"""A stop signal ends a run whose model hangs in fmionnx's own process (``--isolate none``).
+
+Python runs a signal's handler between bytecodes of the main thread, and a model stuck in
+its step keeps the main thread in native code: Ctrl-C and SIGTERM did nothing until the step
+timeout (60 s by default) abandoned the run, which then ended as a fault with exit status 1,
+the stop lost (a bug hunt). The watchdog now reads the signal from the wake-up fd and
+abandons the run as interrupted a second later (:mod:`fmionnx.runtime.stopnotice`).
+"""
+
+from __future__ import annotations
+
+import json
+import os
+import signal
+import time
+from pathlib import Path
+
+import pytest
+
+from fmionnx.results.csvfile import read_csv
+from fmionnx.runtime.stopnotice import STOP_GRACE, StopNotice
+from fmionnx.runtime.stopping import stops_held
+from fmionnx.runtime.watchdog import Marker, Watchdog
+from tests.backends.test_isolation import HANG, SYSTEM, _cli, _finish
+
+
+@pytest.mark.parametrize("stop", [signal.SIGINT, signal.SIGTERM], ids=["SIGINT", "SIGTERM"])
+def test_a_stop_ends_a_run_stuck_in_a_model_of_this_process(
+    fixture_fmu, write_system, tmp_path: Path, stop: signal.Signals
+) -> None:
+    system = write_system(
+        SYSTEM.format(
+            faulty=fixture_fmu("Faulty"), gain=f"{fixture_fmu('Gain')}, interface: me", mode=HANG,
+            stop=1.0, step=0.001, fail_at=0.6,
+        )
+    )  # fmt: skip
+    out, tmp = tmp_path / "out", tmp_path / "tmp"
+    args = ["run", str(system), "--out", str(out), "--isolate", "none", "--checkpoint-every", "0"]
+    args += ["--step-timeout", "120"]  # far beyond the test's wait: only the stop can end it
+    process = _cli(args, tmp)
+    deadline = time.monotonic() + 60
+    while not (out / "run.json").exists() and process.poll() is None:
+        assert time.monotonic() < deadline, "no checkpoint came"
+        time.sleep(0.05)  # the checkpoint at step 500 of 600: the hang is a moment away
+    time.sleep(0.5)
+    process.send_signal(stop)
+    signalled = time.monotonic()
+    code, output = _finish(process, timeout=60)
+    assert code == 128 + stop, output
+    assert time.monotonic() - signalled < 30  # not the step timeout's 120 s
+    info = json.loads((out / "run.json").read_text(encoding="utf-8"))
+    assert (info["status"], info["interrupted_by"]) == ("interrupted", stop.name)
+    warning = (
+        f"component `bad` did not return from its step within {STOP_GRACE:g} s of {stop.name}: "
+        "it runs in fmionnx's own process, so the run was abandoned"
+    )
+    assert [w for w in info["warnings"] if w.startswith(warning)], info["warnings"]
+    assert f"interrupted by {stop.name} at t=0.6 s" in output
+    assert "Traceback" not in output
+    assert read_csv(out / "results.csv")["time"][-1] == pytest.approx(0.6)  # every step kept
+
+
+class _Notice(StopNotice):
+    """A stop signal seen at ``at`` (no wake-up fd: the watchdog is driven by hand)."""
+
+    def __init__(self, at: float | None) -> None:
+        super().__init__()
+        self.at = at
+
+    def poll(self, now: float) -> int | None:
+        if self.at is not None and now >= self.at and self.signum is None:
+            self.signum, self.seen_at = int(signal.SIGINT), now
+        return self.signum
+
+
+def _watchdog(work: object, notice: StopNotice) -> tuple[Watchdog, Marker]:
+    marker = Marker()
+    marker.work, marker.t = work, 0.5
+    watchdog = Watchdog(60.0, marker, [work], lambda *_: None)
+    watchdog.notice = notice
+    return watchdog, marker
+
+
+def test_the_watchdog_fires_once_the_same_call_kept_a_stop_waiting() -> None:
+    work = object()
+    watchdog, _ = _watchdog(work, _Notice(at=10.0))
+    assert not watchdog.look(9.0)  # the call is seen
+    assert not watchdog.look(10.0)  # the stop is seen
+    assert not watchdog.look(10.0 + STOP_GRACE * 0.9)
+    assert watchdog.look(10.0 + STOP_GRACE)
+
+
+def test_a_call_that_moves_on_after_the_stop_is_given_its_own_grace() -> None:
+    work, after = object(), object()
+    watchdog, marker = _watchdog(work, _Notice(at=10.0))
+    watchdog.watch(after)
+    assert not watchdog.look(10.0)
+    marker.work = after  # the main thread ran Python meanwhile: the handler had its chance
+    assert not watchdog.look(10.5)
+    assert not watchdog.look(10.5 + STOP_GRACE * 0.9)
+    assert watchdog.look(10.5 + STOP_GRACE)
+
+
+def test_no_stop_fires_while_the_run_ends_however_long_its_models_take() -> None:
+    """After the last step (models terminating, results written) a stop is a late one that
+    the run only reports: the watchdog must not abandon it as interrupted."""
+    work = object()
+    watchdog, _ = _watchdog(work, _Notice(at=10.0))
+    with stops_held():
+        assert not watchdog.look(10.0)
+        assert not watchdog.look(10.0 + 5 * STOP_GRACE)
+    assert watchdog.look(10.0 + 6 * STOP_GRACE)
+
+
+def test_an_unwatched_call_is_left_to_its_own_process() -> None:
+    watchdog, marker = _watchdog(object(), _Notice(at=10.0))
+    marker.work = object()  # an isolated component's step: its proxy stops it
+    assert not watchdog.look(10.0)
+    assert not watchdog.look(10.0 + 5 * STOP_GRACE)
+
+
+def test_the_notice_passes_every_byte_on_to_the_earlier_wakeup_fd_and_restores_it() -> None:
+    read, write = os.pipe()
+    os.set_blocking(read, False)
+    os.set_blocking(write, False)
+    previous = signal.set_wakeup_fd(write)
+    try:
+        with StopNotice() as notice:
+            assert signal.set_wakeup_fd(-1) != write  # its own pipe is in place
+            signal.set_wakeup_fd(notice._write)
+            os.write(notice._write, b"\x11\x02")  # what the C handler writes: SIGCHLD, SIGINT
+            assert notice.poll(1.0) == signal.SIGINT  # SIGCHLD (17) first: not a stop
+            assert notice.seen_at == 1.0
+        assert signal.set_wakeup_fd(write) == write  # restored
+        assert os.read(read, 16) == b"\x11\x02"
+    finally:
+        signal.set_wakeup_fd(previous)
+        os.close(read)
+        os.close(write)
