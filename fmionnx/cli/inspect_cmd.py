@@ -23,7 +23,7 @@ if TYPE_CHECKING:
     from fmionnx.core.types import ComponentInterface, Port
 
 #: Columns of the port table, in order.
-COLUMNS = ("name", "causality", "type", "shape", "unit", "start", "description")
+COLUMNS = ("name", "causality", "type", "shape", "unit", "start", "range", "description")
 
 #: Start values longer than this are shortened in the table (the JSON has them all).
 _MAX_START_VALUES = 6
@@ -47,8 +47,27 @@ def _start_text(port: Port) -> str:
     return "[" + ", ".join(shown) + more + "]"
 
 
+def _range_text(port: Port) -> str:
+    """The declared bounds: ``0..14``, ``>= 0``, ``<= 13`` or nothing."""
+    low, high = (None if b is None else f"{b:g}" for b in port.bounds)
+    if low is not None and high is not None:
+        return f"{low}..{high}"
+    if low is not None:
+        return f">= {low}"
+    return "" if high is None else f"<= {high}"
+
+
+def shown_columns(interface: ComponentInterface) -> tuple[str, ...]:
+    """:data:`COLUMNS`, without ``range`` when no port declares bounds (most models: a column
+    empty on every row says nothing)."""
+    if any(port.bounds != (None, None) for port in interface.ports):
+        return COLUMNS
+    return tuple(c for c in COLUMNS if c != "range")
+
+
 def port_rows(interface: ComponentInterface) -> list[tuple[str, ...]]:
-    """One row of :data:`COLUMNS` per port."""
+    """One row of :func:`shown_columns` per port."""
+    ranged = "range" in shown_columns(interface)
     return [
         (
             port.name,
@@ -57,6 +76,7 @@ def port_rows(interface: ComponentInterface) -> list[tuple[str, ...]]:
             port.shape_text(),
             port.unit or "",
             _start_text(port),
+            *((_range_text(port),) if ranged else ()),
             port.description,
         )
         for port in interface.ports
@@ -70,8 +90,9 @@ def render_plain(interface: ComponentInterface) -> str:
     lines += [f"  {key.ljust(width)}  {value}" for key, value in interface.facts]
     if interface.content_hash:
         lines.append(f"  {'sha256'.ljust(width)}  {interface.content_hash}")
-    rows = [tuple(c.upper() for c in COLUMNS), *port_rows(interface)]
-    widths = [max(len(row[i]) for row in rows) for i in range(len(COLUMNS))]
+    columns = shown_columns(interface)
+    rows = [tuple(c.upper() for c in columns), *port_rows(interface)]
+    widths = [max(len(row[i]) for row in rows) for i in range(len(columns))]
     lines.append("")
     lines += [
         "  ".join(c.ljust(w) for c, w in zip(row, widths, strict=True)).rstrip() for row in rows
@@ -89,7 +110,7 @@ def render_rich(interface: ComponentInterface, console: Console) -> None:
         facts.add_row(Text("  sha256", style="dim"), Text(interface.content_hash))
     console.print(facts)
     table = Table(box=box.SIMPLE_HEAD, header_style="bold")
-    for column in COLUMNS:
+    for column in shown_columns(interface):
         table.add_column(column, overflow="fold")
     for row in port_rows(interface):
         table.add_row(*(Text(cell) for cell in row))

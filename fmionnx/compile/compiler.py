@@ -21,6 +21,7 @@ from fmionnx.compile.endpoints import (
 from fmionnx.compile.graph import execution_order, execution_order_with_loops
 from fmionnx.compile.ir import CompiledSystem, Connection, Origin
 from fmionnx.compile.loops import compile_loops
+from fmionnx.compile.overrides import OverrideError, override_parameter
 from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.resolve import read_interface, resolve_run
 from fmionnx.compile.sysinputs import compile_inputs
@@ -36,6 +37,7 @@ from fmionnx.core.types import (
     ComponentInterface,
     Port,
     PortRef,
+    ValueSource,
     flat_index,
 )
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
@@ -115,6 +117,10 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         inputs=inputs,
         loops=loops,
     )
+    with_inputs = _inputs_set(system, sources, bag)
+    if with_inputs is None:
+        return None
+    system = with_inputs
     if ros2 is not None:
         # The ROS 2 section is checked like the rest of the file and its plan kept in the
         # system; the planner is only imported when a system has one (message definitions).
@@ -126,6 +132,30 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
             return None
         system = dataclasses.replace(system, ros2_plan=plan)
     return system
+
+
+def _inputs_set(
+    system: CompiledSystem, sources: SourceMap, bag: DiagnosticBag
+) -> CompiledSystem | None:
+    """The system with each system input's own ``value`` set on the ports it reaches, as
+    ``--param NAME=value`` sets them (a bug hunt: a YAML input's value reached nothing). An
+    SSP connector's bound value has reached them already along its connections: the same
+    values again."""
+    for system_input in system.inputs:
+        if system_input.value is None or not system_input.targets:
+            continue
+        source = system_input.source or ValueSource.SYSTEM_FILE
+        try:
+            system = override_parameter(system, system_input.name, system_input.value, source)
+        except OverrideError as exc:
+            said = f"--param `{system_input.name}`"  # the command line's wording, reworded
+            detail = str(exc).removeprefix(said).replace(" (a system input, reaching", " (at", 1)
+            bag.emit(
+                codes.PARAMETER_VALUE,
+                f"system input `{system_input.name}`{detail}",
+                sources.value(("inputs", system_input.name, "value")),
+            )
+    return None if bag.has_errors else system
 
 
 @dataclass(frozen=True, slots=True)

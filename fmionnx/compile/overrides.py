@@ -219,7 +219,7 @@ def _override_port(
     flat = value if isinstance(value, list) else [value]
     size = 1 if port.size is None else port.size  # None: known at run time, one value
     for item in flat:  # before coercing: float() of a huge integer raises OverflowError
-        problem = port.dtype.out_of_range(item)
+        problem = port.dtype.out_of_range(item) or port.bounds_problem(item)
         if problem is not None:
             msg = f"--param `{key}`: {number_text(item)} {problem}"
             raise OverrideError(msg)

@@ -232,7 +232,7 @@ def _check_value(
         )
         return False
     for value in flat:
-        problem = port.dtype.out_of_range(value)
+        problem = port.dtype.out_of_range(value) or port.bounds_problem(value)
         if problem is not None:
             bag.emit(
                 codes.PARAMETER_VALUE,

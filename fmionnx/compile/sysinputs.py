@@ -9,6 +9,7 @@ element (an FMU variable), since one value is set on each.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping
 
 from fmionnx.compile.endpoints import resolve_endpoint
@@ -61,6 +62,14 @@ def compile_inputs(
                 continue
             targets.append(InputTarget(ref, target.factor, target.offset))
         value = entry.value
+        if isinstance(value, float) and math.isnan(value):  # reaching no port, it was kept
+            bag.emit(
+                codes.PARAMETER_VALUE,
+                f"system input `{name}`: nan is not a number (NaN); a value is a number (an "
+                "infinity is allowed), a boolean or a string",
+                sources.value(("inputs", name, "value")),
+            )
+            continue
         source = sources.value_source(("inputs", name, "value")) if value is not None else None
         result.append(
             SystemInput(name, tuple(targets), sources.key(("inputs", name)), value, source)

@@ -70,7 +70,11 @@ FORMAT_VERSION = ErrorCode(
 )
 ENCODING = ErrorCode("E006", "encoding", _E, "syntax", "The file is not UTF-8 text.")
 DUPLICATE_KEY = ErrorCode(
-    "E007", "duplicate-key", _E, "syntax", "A key appears twice in one mapping."
+    "E007",
+    "duplicate-key",
+    _E,
+    "syntax",
+    "A key appears twice in one mapping, or a name twice in one SSP system.",
 )
 RESOURCE_LIMIT = ErrorCode(
     "E008",
@@ -259,7 +263,11 @@ UNKNOWN_PARAMETER = ErrorCode(
     "A parameter or start value the model does not have.",
 )
 PARAMETER_VALUE = ErrorCode(
-    "E043", "parameter-value", _E, "parameter", "A parameter value of the wrong type or shape."
+    "E043",
+    "parameter-value",
+    _E,
+    "parameter",
+    "A parameter value of the wrong type or shape, NaN, or outside the variable's bounds.",
 )
 PARAMETER_CAUSALITY = ErrorCode(
     "E044",

@@ -40,6 +40,7 @@ class ComponentSpecBase(StrictModel):
         default=None,
         gt=0,
         allow_inf_nan=False,
+        strict=True,  # a number, not "0.02" (lax mode took the string)
         description="Seconds between two steps of this component; a whole multiple of "
         "`run.step`. Default: the base step.",
     )

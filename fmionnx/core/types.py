@@ -31,6 +31,12 @@ def number_text(value: object) -> str:
     return repr(value)
 
 
+def _bound_text(bound: float) -> str:
+    """``13`` for a whole bound (kept interfaces read integers back as floats), else repr."""
+    whole = isinstance(bound, float) and bound.is_integer() and abs(bound) < 2**53
+    return repr(int(bound)) if whole else repr(bound)
+
+
 class DType(enum.StrEnum):
     """Element types, named like numpy dtypes. FMI and ONNX types map onto these."""
 
@@ -132,6 +138,25 @@ class Port:
     origin: Span | None = None
     unit_definition: Unit | None = None
     relative_quantity: bool = False
+    #: The declared smallest and largest value (FMI ``min``/``max``, the variable's or its
+    #: declared type's); None where not declared.
+    bounds: tuple[float | None, float | None] = (None, None)
+
+    def bounds_problem(self, value: object) -> str | None:
+        """Why ``value`` lies outside the declared ``min``/``max`` (a phrase), or None.
+
+        FMI makes a value outside them an error of whoever sets it; models that check
+        (most do not) fail at initialization with a message of their own, the others run
+        with a value their author ruled out (a bug hunt: ``mode=99`` of a ``max="13"``).
+        """
+        if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
+            return None
+        low, high = self.bounds
+        if low is not None and value < low:
+            return f"is below the declared min {_bound_text(low)} of `{self.name}`"
+        if high is not None and value > high:
+            return f"is above the declared max {_bound_text(high)} of `{self.name}`"
+        return None
 
     @property
     def is_scalar(self) -> bool:

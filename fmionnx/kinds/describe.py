@@ -21,6 +21,13 @@ def _scalar(value: Scalar) -> Json:
     return value
 
 
+def _bound(port: Port, bound: float | None) -> Json:
+    """An integer port's bound as an integer (a kept interface reads it back as a float)."""
+    if bound is not None and port.dtype.is_integer:
+        return int(bound)
+    return bound
+
+
 def port_to_dict(port: Port) -> dict[str, Json]:
     """One port: name, causality, dtype, shape (list), unit, start, ... (see the docs)."""
     return {
@@ -30,6 +37,8 @@ def port_to_dict(port: Port) -> dict[str, Json]:
         "shape": list(port.shape),
         "unit": port.unit,
         "start": None if port.start is None else [_scalar(v) for v in port.start],
+        "min": _bound(port, port.bounds[0]),
+        "max": _bound(port, port.bounds[1]),
         "variability": port.variability,
         "description": port.description,
         "depends_on": None if port.depends_on is None else list(port.depends_on),

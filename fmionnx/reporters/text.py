@@ -46,12 +46,23 @@ def format_plain(diagnostic: Diagnostic, *, excerpt: bool = True) -> list[str]:
 
 
 def summary(results: list[FileResult]) -> str:
-    """``2 errors, 1 warning in 3 files`` (``no problems in 1 file``)."""
+    """``2 errors, 1 warning in 2 files (3 checked)`` (``no problems in 1 file``).
+
+    The files counted with problems are those the problems point at: a study's errors in its
+    system file were "in 1 file" (the one checked)."""
     errors = count(results, Severity.ERROR)
     warnings = count(results, Severity.WARNING)
-    files = f"{len(results)} file" + ("s" if len(results) != 1 else "")
     if not errors and not warnings:
-        return f"no problems in {files}"
+        return f"no problems in {_files(len(results))}"
+    where = {
+        d.span.file if d.span is not None else r.path
+        for r in results
+        for d in r.diagnostics
+        if d.severity in (Severity.ERROR, Severity.WARNING)
+    }
+    files = _files(len(where))
+    if len(results) > len(where):
+        files += f" ({len(results)} checked)"
     parts = []
     if errors:
         parts.append(f"{errors} error" + ("s" if errors != 1 else ""))
@@ -87,3 +98,7 @@ class TextReporter(Reporter):
         errors = count(results, Severity.ERROR)
         style = "bold red" if errors else "bold green"
         console.print(summary(results), style=style)
+
+
+def _files(number: int) -> str:
+    return f"{number} file" + ("s" if number != 1 else "")

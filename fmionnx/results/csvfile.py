@@ -47,7 +47,14 @@ def write_csv(
 
 
 def result_table(result: RunResult) -> npt.NDArray[np.float64]:
-    """The numbers of ``results.csv``: ``time``, then each signal in the result's order."""
+    """The numbers of ``results.csv``: ``time``, then each signal in the result's order.
+
+    A run that recorded nothing has no row: its start time alone, with no value beside it,
+    was a row that said nothing (a bug hunt)."""
+    from fmionnx.results import nothing_recorded
+
+    if nothing_recorded(result):
+        return np.empty((0, 1))
     return np.column_stack([result.time, *result.signals.values()])
 
 
@@ -130,9 +137,13 @@ def _quote(name: str) -> str:
 def read_csv(path: Path) -> dict[str, np.ndarray]:
     """Read a results.csv back into columns (for tests and plots of earlier runs)."""
     import csv
+    import io
 
     with path.open(encoding="utf-8", newline="") as stream:
         # names of tensor elements hold commas (`detector.blobX[0,2]`) and come quoted
         header = next(csv.reader([stream.readline()]))
-        data = np.loadtxt(stream, delimiter=",", ndmin=2)
+        rest = stream.read()
+    if not rest.strip():  # a run that recorded nothing: no row
+        return {name: np.empty(0) for name in header}
+    data = np.loadtxt(io.StringIO(rest), delimiter=",", ndmin=2)
     return {name: data[:, i] for i, name in enumerate(header)}

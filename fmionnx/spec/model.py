@@ -40,14 +40,18 @@ else:
     ]
 
 ARROW = "->"
-#: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``).
-DOTTED_NAME = re.compile(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*")
+#: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``),
+#: ASCII only: they become ROS 2 node and topic names (ASCII by its rules), and the schema's
+#: ``\w`` is ASCII in JSON Schema's regular expressions while Python's took ``gäin`` and
+#: refused ``ärger`` (a bug hunt).
+DOTTED_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*(\.[A-Za-z_][A-Za-z0-9_-]*)*")
 #: The name of a system (the JSON Schema carries it as a pattern).
-SYSTEM_NAME_PATTERN = r"^[A-Za-z_][\w-]*$"
+SYSTEM_NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_-]*$"
 #: What each pattern of the schema means, for an error message (pydantic would show the
 #: regular expression).
 PATTERN_MEANINGS = {
-    SYSTEM_NAME_PATTERN: "a name: a letter or `_`, then letters, digits, `_` or `-` (no spaces)"
+    SYSTEM_NAME_PATTERN: "a name: an ASCII letter or `_`, then ASCII letters, digits, `_` or `-` "
+    "(no spaces)"
 }
 
 
@@ -270,8 +274,9 @@ class SystemSpec(StrictModel):
         for name in value:
             if not DOTTED_NAME.fullmatch(name):
                 msg = (
-                    f"system input name `{name}` must start with a letter or `_` and contain "
-                    "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
+                    f"system input name `{name}` must start with an ASCII letter or `_` and "
+                    "contain only ASCII letters, digits, `_`, `-` (and `.` between parts of a "
+                    "nested name)"
                 )
                 raise InvalidKeyError(msg, name)
         return value
@@ -282,8 +287,9 @@ class SystemSpec(StrictModel):
         for name in value:
             if not DOTTED_NAME.fullmatch(name):
                 msg = (
-                    f"component name `{name}` must start with a letter or `_` and contain "
-                    "only letters, digits, `_`, `-` (and `.` between parts of a nested name)"
+                    f"component name `{name}` must start with an ASCII letter or `_` and "
+                    "contain only ASCII letters, digits, `_`, `-` (and `.` between parts of a "
+                    "nested name)"
                 )
                 raise InvalidKeyError(msg, name)
         return value

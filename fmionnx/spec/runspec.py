@@ -32,7 +32,7 @@ class AlgebraicLoopsSpec(StrictModel):
     communication point where its members are due (``docs/execution.md``).
     """
 
-    model_config = StrictModel.model_config | {"allow_inf_nan": False}
+    model_config = StrictModel.model_config | {"allow_inf_nan": False, "strict": True}
 
     solver: Literal["fixed-point", "newton"] = Field(
         default="fixed-point",
@@ -66,14 +66,20 @@ class RunSpec(StrictModel):
 
     model_config = StrictModel.model_config | {"allow_inf_nan": False}
 
-    start: float = Field(default=0.0, description="Start time in seconds.")
-    stop: float | None = Field(default=None, description="Stop time in seconds.")
+    # strict: `stop: true` and `step: "0.01"` were taken as 1 and 0.01 (pydantic's lax mode),
+    # while a parameter's `true` is refused; the schema says numbers.
+    start: float = Field(default=0.0, strict=True, description="Start time in seconds.")
+    stop: float | None = Field(default=None, strict=True, description="Stop time in seconds.")
     step: float | None = Field(
-        default=None, gt=0, description="Base step in seconds: the fastest component's period."
+        default=None,
+        gt=0,
+        strict=True,
+        description="Base step in seconds: the fastest component's period.",
     )
     output_interval: float | None = Field(
         default=None,
         gt=0,
+        strict=True,
         description="Seconds between two rows of results.csv: a whole multiple of the base "
         "step (default: every base step). The last point of the run is always written.",
     )

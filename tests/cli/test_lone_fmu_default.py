@@ -19,7 +19,7 @@ import pytest
 import fmionnx
 from fmionnx.backends.inprocess import InProcessBackend, InProcessOptions
 from fmionnx.results.csvfile import read_csv
-from fmionnx.runtime.backend import RunContext
+from fmionnx.runtime.backend import OptionsError, RunContext
 from tests.backends.test_isolation import HANG, SEGFAULT, _cli, _finish
 from tests.conftest import build_fixture_fmu
 
@@ -90,6 +90,22 @@ def test_an_explicit_word_or_record_keeps_its_isolation(
     execution = _execution(out)["execution"]
     assert execution["isolate"] == expected
     assert execution["isolate_default"] is (words[0] == "--record")
+
+
+@pytest.mark.parametrize(
+    ("isolate", "expected"),
+    [
+        ("none,fmus", "--isolate `none` stands alone: it cannot be given with `fmus`"),
+        (["guardian", "all"], "--isolate `guardian` stands alone: it cannot be given with `all`"),
+        ("integ,none,integ", "--isolate `none` stands alone: it cannot be given with `integ`"),
+    ],
+)
+def test_none_and_guardian_stand_alone(isolate: str | list[str], expected: str) -> None:
+    """A bug hunt: ``--isolate none,fmus`` ran (which won?) and run.json recorded the words."""
+    with pytest.raises(OptionsError) as refused:
+        InProcessOptions.checked({"isolate": isolate})
+    assert str(refused.value) == expected
+    assert InProcessOptions.checked({"isolate": "none,none"}).words == ("none", "none")
 
 
 def _resolved(options: InProcessOptions, system: Any, *, record: bool) -> InProcessOptions:

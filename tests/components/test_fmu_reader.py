@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import hashlib
 import os
+import re
 import shutil
 import zipfile
 from collections.abc import Callable
@@ -420,3 +421,101 @@ def test_corrupt_member_is_e012(tmp_path: Path) -> None:
     with pytest.raises(ModelError, match="is corrupt") as info:
         FMU_KIND.read_interface(path, None)
     assert info.value.code is codes.BAD_MODEL
+
+
+@pytest.mark.parametrize(
+    ("structure", "expected"),
+    [
+        (
+            '<Outputs><Unknown index="9"/></Outputs>',
+            '<Outputs> <Unknown index="9"> names no variable: an index is a whole number from 1 '
+            "to the number of ScalarVariables (2)",
+        ),
+        (
+            '<Outputs><Unknown index="2" dependencies="1 3"/></Outputs>',
+            '<Outputs> <Unknown dependencies="1 3"> names no variable',
+        ),
+    ],
+)
+def test_an_fmi2_structure_index_of_no_variable_is_e012_with_its_line(
+    tmp_path: Path, structure: str, expected: str
+) -> None:
+    """A bug hunt: ``cannot be read: list index out of range`` (fmpy's IndexError)."""
+    variables = [scalar("u", 0, "input"), scalar("y", 1, "output")]
+    folder = fmu_folder(tmp_path, "T", fmi2(variables, structure))
+    with pytest.raises(ModelError) as info:
+        FMU_KIND.read_interface(folder, None)
+    assert info.value.code is codes.BAD_MODEL
+    assert re.search(r"cannot be read: line \d+: ", str(info.value)), str(info.value)
+    assert expected in str(info.value)
+
+
+@pytest.mark.parametrize(
+    ("structure", "expected"),
+    [
+        ('<Output valueReference="9"/>', "no variable has the value reference 9"),
+        (
+            '<Output valueReference="2" dependencies="1 7"/>',
+            "no variable has the value reference 7",
+        ),
+    ],
+)
+def test_an_fmi3_structure_reference_to_no_variable_is_e012_with_its_line(
+    tmp_path: Path, structure: str, expected: str
+) -> None:
+    variables = [
+        '<Float64 name="u" valueReference="1" causality="input" start="0"/>',
+        '<Float64 name="y" valueReference="2" causality="output"/>',
+    ]
+    folder = fmu_folder(tmp_path, "T", fmi3(variables, structure))
+    with pytest.raises(ModelError) as info:
+        FMU_KIND.read_interface(folder, None)
+    assert info.value.code is codes.BAD_MODEL
+    assert re.search(r"cannot be read: line \d+: <Output ", str(info.value)), str(info.value)
+    assert expected in str(info.value)
+
+
+# --- declared min and max
+
+
+def test_fmi2_bounds_come_from_the_variable_or_its_declared_type(tmp_path: Path) -> None:
+    variables = [
+        scalar("a", 0, "parameter", "Real", 'min="-1.5" max="2"'),
+        scalar("n", 1, "parameter", "Integer", 'max="13"'),
+        scalar("t", 2, "parameter", "Real", 'declaredType="Pos"'),
+        scalar("o", 3, "parameter", "Real", 'declaredType="Pos" min="-3"'),  # its own wins
+        scalar("free", 4, "input"),
+        scalar("v[1]", 5, "input", "Real", 'min="0"'),
+        scalar("v[2]", 6, "input", "Real", 'min="0"'),
+        scalar("w[1]", 7, "input", "Real", 'min="0"'),
+        scalar("w[2]", 8, "input", "Real", 'min="1"'),
+    ]
+    types = '<TypeDefinitions><SimpleType name="Pos"><Real min="0"/></SimpleType></TypeDefinitions>'
+    folder = fmu_folder(tmp_path, "T", fmi2(variables, extra=types))
+    ports = FMU_KIND.read_interface(folder, None).ports
+    assert [(p.name, p.bounds) for p in ports] == [
+        ("a", (-1.5, 2.0)),
+        ("n", (None, 13)),
+        ("t", (0.0, None)),
+        ("o", (-3.0, None)),
+        ("free", (None, None)),
+        ("v", (0.0, None)),  # every element declares the same
+        ("w", (None, None)),  # they differ: none for the port
+    ]
+
+
+def test_fmi3_bounds_are_read(tmp_path: Path) -> None:
+    variables = [
+        '<Float64 name="x" valueReference="1" causality="parameter" variability="fixed" '
+        'start="1" min="0" max="10"/>',
+        '<Int8 name="m" valueReference="2" causality="input" start="1" max="4"/>',
+        # fmpy reads no bounds of unsigned types (its check is `startswith("Int")`): none
+        '<UInt8 name="u" valueReference="3" causality="input" start="1" max="4"/>',
+    ]
+    folder = fmu_folder(tmp_path, "T", fmi3(variables))
+    ports = FMU_KIND.read_interface(folder, None).ports
+    assert [(p.name, p.bounds) for p in ports] == [
+        ("x", (0.0, 10.0)),
+        ("m", (None, 4)),
+        ("u", (None, None)),
+    ]

@@ -81,6 +81,17 @@ def test_text_output_has_facts_and_a_plain_port_table() -> None:
     assert "\x1b[" not in result.stdout
 
 
+def test_the_range_column_shows_the_declared_bounds(fixture_fmu) -> None:
+    result = runner.invoke(app, ["inspect", str(fixture_fmu("Faulty"))], catch_exceptions=False)
+    assert result.exit_code == 0
+    (mode,) = [line for line in result.stdout.splitlines() if line.startswith("mode ")]
+    assert re.split(r"\s{2,}", mode)[:6] == ["mode", "parameter", "int32", "scalar", "0", "0..14"]
+    as_json = runner.invoke(app, ["inspect", str(fixture_fmu("Faulty")), "--format", "json"])
+    ports = {p["name"]: p for p in json.loads(as_json.stdout)["ports"]}
+    assert (ports["mode"]["min"], ports["mode"]["max"]) == (0, 14)
+    assert (ports["u"]["min"], ports["u"]["max"]) == (None, None)
+
+
 def test_unknown_file_kind_is_one_error_paragraph() -> None:
     result = runner.invoke(app, ["inspect", "README.md"])
     assert result.exit_code == 1

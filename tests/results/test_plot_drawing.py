@@ -20,6 +20,7 @@ import fmionnx
 from fmionnx import api
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.results import write_results
+from fmionnx.results.csvfile import read_csv
 from fmionnx.results.plots import draw_plot, write_plots
 from fmionnx.results.signals_plot import draw_signals, signal_series
 from fmionnx.runtime.result import RunResult, RunStatus
@@ -178,6 +179,10 @@ def test_a_run_that_recorded_nothing_draws_no_plots_and_says_so_once(
         "results.csv",
         "run.json",
     ]
+    # no row: the start time alone was one that said nothing
+    assert (tmp_path / "results.csv").read_text(encoding="utf-8") == "time\n"
+    assert list(read_csv(tmp_path / "results.csv")) == ["time"]
+    assert len(read_csv(tmp_path / "results.csv")["time"]) == 0
     warned = [r.getMessage() for r in caplog.records if r.name == "fmionnx.results"]
     assert warned == [
         "plots: none drawn: the run stopped before its models gave a first value, so "

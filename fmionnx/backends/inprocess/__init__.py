@@ -74,6 +74,11 @@ class InProcessOptions(BackendOptions):
             raise OptionsError(msg)
         isolate = given.get("isolate")
         words = None if isolate is None else isolate_words(isolate)
+        for alone in ("none", GUARDIAN):
+            if words is not None and alone in words and set(words) != {alone}:
+                others = ", ".join(f"`{w}`" for w in dict.fromkeys(words) if w != alone)
+                msg = f"--isolate `{alone}` stands alone: it cannot be given with {others}"
+                raise OptionsError(msg)
         schedule = given.get("schedule", "parallel")
         if schedule is None:
             schedule = "parallel"

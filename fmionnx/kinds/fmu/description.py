@@ -97,5 +97,8 @@ def parse_model_description(data: bytes, xml_file: Path) -> Any:
             codes.BAD_MODEL, msg, hint="`fmpy validate <fmu>` lists every problem"
         ) from None
     except Exception as exc:  # fmpy raises bare Exception for semantic errors
-        msg = f"`{xml_file}` cannot be read: {exc}"
+        from fmionnx.kinds.fmu.structure import structure_problem
+
+        problem = structure_problem(parse_safely(data, str(xml_file))) or exc
+        msg = f"`{xml_file}` cannot be read: {problem}"
         raise ModelError(codes.BAD_MODEL, msg) from None

@@ -93,6 +93,7 @@ class _Scalarish:
     relative_quantity: bool = False
     #: An alias's own description (None: the variable's).
     description: str | None = None
+    bounds: tuple[float | None, float | None] = (None, None)
 
 
 def unit_definitions(model_description: Any) -> dict[str, Unit]:
@@ -208,7 +209,22 @@ def _record(
         line=line,
         unit_definition=unit_facts[0].get(unit) if unit is not None else None,
         relative_quantity=_relative(variable, unit_facts[1]),
+        bounds=(_bound(variable, "min", dtype), _bound(variable, "max", dtype)),
     )
+
+
+def _bound(variable: Any, which: str, dtype: DType) -> float | None:
+    """The variable's declared ``min`` or ``max``, else its declared type's (FMI: the
+    variable's attribute overrides the type's); None where neither declares one."""
+    text = getattr(variable, which, None)
+    if text is None and variable.declaredType is not None:
+        text = getattr(variable.declaredType, which, None)
+    if text is None:
+        return None
+    try:
+        return int(text) if dtype.is_integer else float(text)
+    except ValueError:  # the schema check let it through: no bound rather than a wrong one
+        return None
 
 
 def _aliases(record: _Scalarish, major: int) -> list[_Scalarish]:
@@ -367,4 +383,6 @@ def _port(
         origin=Span(xml_file, first.line),
         unit_definition=first.unit_definition,
         relative_quantity=first.relative_quantity,
+        # A group's elements each declare their own; one pair only when all agree.
+        bounds=first.bounds if all(m.bounds == first.bounds for m in members) else (None, None),
     )
