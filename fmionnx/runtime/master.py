@@ -34,6 +34,7 @@ import math
 import os
 import signal
 import sys
+import threading
 import time as _time
 from collections.abc import Callable
 from functools import partial
@@ -156,6 +157,10 @@ class Master:
         self._in_bulk = False
         #: Set when a model ended the run before its stop time (see :meth:`_end_by`).
         self.ended_by: EndedBy | None = None
+        #: Who ends the run: the loop's thread (``loop``) or the watchdog abandoning it
+        #: (``abandon``), decided once under the lock (:meth:`_end_here`, :meth:`_abandon`).
+        self._ending = threading.Lock()
+        self._ends: str | None = None
         self._started = _time.perf_counter()
         #: The iterated algebraic loops (set by ``prepare``; see :mod:`.loops`).
         self.loops: list[IteratedLoop] = []
@@ -543,10 +548,13 @@ class Master:
             status, reason = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = _time.perf_counter() - started
+            self._end_here()
             with stops_held() as late:  # the models end in order, whatever comes now
-                self._terminate(skip=self._close_lanes())
-                if self._watchdog is not None:  # after terminating, which is timed too
-                    self._watchdog.stop()
+                try:
+                    self._terminate(skip=self._close_lanes())
+                finally:
+                    if self._watchdog is not None:  # after terminating, which is timed too
+                        self._watchdog.stop()
         n = self._clock[0]
         result = RunResult.after(
             system, BACKEND_NAME, status, n, wall, self.recorder.table(n), error,
@@ -890,15 +898,32 @@ class Master:
         took = _time.perf_counter() - began
         return _time.perf_counter() + max(self.options.checkpoint_every, 10 * took)
 
-    def _abandon(self, work: object, t: float, stop: int | None = None) -> None:
+    def _end_here(self) -> None:
+        """The loop's thread ends the run from here, unless the watchdog abandons it already:
+        then it waits for the process to end (the abandoning thread writes the results and
+        exits; terminating the models here too would end them twice)."""
+        with self._ending:
+            abandoning = self._ends == "abandon"
+            if not abandoning:
+                self._ends = "loop"
+        if abandoning:
+            threading.Event().wait()
+
+    def _abandon(self, work: object, t: float, stop: int | None = None) -> bool:
         """A step in this process overran the step timeout, or kept a stop signal (``stop``)
         waiting: write what we have, then exit (status 1, or 128 + the signal's number).
 
         Called on the watchdog's thread while the main thread is stuck in the model; ``work``
         is the scheduled work (a :class:`Work`) the loop marked before the step, or the
         :class:`~.watchdog.Phase` (loading, initializing, terminating) of one component.
+        Returns False, abandoning nothing, for a stop the loop's thread came back for in the
+        meantime (it ends the run itself: see :meth:`_end_here`).
         """
         assert isinstance(work, Work | Phase)
+        with self._ending:
+            if stop is not None and self._ends == "loop":
+                return False
+            self._ends = "abandon"
         label = work.name
         timeout = self.options.step_timeout
         assert timeout is not None
@@ -924,7 +949,7 @@ class Master:
                 print(f"fault: {error}", file=sys.stderr)
             else:
                 print(f"interrupted by {result.interrupted_by}: {result.warnings[-1]}")
-            for runner in self.runners.values():
+            for runner in list(self.runners.values()):
                 name = runner.component.name
                 if name not in label.split("+") and name not in busy:
                     with contextlib.suppress(Exception):

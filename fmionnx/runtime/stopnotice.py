@@ -1,16 +1,21 @@
-"""Stop signals noticed while the main thread is stuck in a model's native call.
+"""Stop signals the main thread cannot act on, stuck in a model's native call.
 
 Python runs a signal's handler on the main thread, between two bytecodes: a model that never
 returns from a call in fmionnx's own process (``--isolate none``, a hung ``fmi2DoStep``)
 keeps Ctrl-C and SIGTERM from doing anything until the step timeout (60 s by default)
-abandons the run, which then ends as a fault and the stop is lost (a bug hunt). The C-level
+abandons the run, which then ended as a fault and the stop was lost (a bug hunt). The C-level
 handler does run at once, and writes the signal's number to the *wake-up fd*
 (:func:`signal.set_wakeup_fd`) when one is set: the run's watchdog thread reads it from
-there (:mod:`fmionnx.runtime.watchdog`) and abandons the run as interrupted when the main
-thread has not acted on the stop within :data:`STOP_GRACE`.
+there (:mod:`fmionnx.runtime.watchdog`). A signal is *pending* from its byte on until
+fmionnx's handler is seen to have run (:func:`.stopping.stop_handler_runs`): the handler runs
+as soon as the main thread executes Python, even inside a shield that holds the stop, so a
+pending signal means the main thread is in native code. Pending for
+:data:`STOP_GRACE`, the run is abandoned as interrupted.
 
-Only on the main thread (the wake-up fd is the main thread's to set); a wake-up fd set before
-(an asyncio loop's) gets every byte passed on and is set again afterwards.
+Only while fmionnx turns stop signals into stops (:func:`.stopping.stops_converted`: the
+command line, not a program's own handling of them) and only on the main thread (the wake-up
+fd is the main thread's to set); a wake-up fd set before (an asyncio loop's) gets every byte
+passed on and is set again afterwards.
 """
 
 from __future__ import annotations
@@ -21,30 +26,36 @@ import signal
 import threading
 from types import TracebackType
 
-from fmionnx.runtime.stopping import STOP_SIGNALS
+from fmionnx.runtime.stopping import STOP_SIGNALS, stop_handler_runs, stops_converted
 
-#: Seconds a stop signal leaves the main thread to act on it, stuck in the same model call,
-#: before the run is abandoned as interrupted. A call that returns within it sees the stop as
-#: any other, and the run ends as usual.
+#: Seconds a stop signal may stay pending (the main thread stuck in native code) before the
+#: run is abandoned as interrupted. A call that returns within it lets the handler run, and
+#: the run ends as any stopped run does.
 STOP_GRACE = 1.0
 
 _STOP_NUMBERS = frozenset(int(s) for s in STOP_SIGNALS)
 
 
 class StopNotice:
-    """While in its ``with`` block on the main thread, the first stop signal that arrived:
-    :meth:`poll` from any thread (the watchdog's) says which, and when it was first seen."""
+    """While in its ``with`` block: :meth:`poll` (from any thread: the watchdog's) says which
+    stop signal is pending, and since when."""
 
     def __init__(self) -> None:
         self._read = -1
         self._write = -1
         self._before = -1
-        #: The first stop signal seen (its number) and when (the ``now`` of that poll).
+        #: Serialises reading the pipe with closing it (a closed fd's number is reused).
+        self._lock = threading.Lock()
+        #: Stop signals seen since the handler last ran, and its run count then.
+        self._unacted = 0
+        self._runs_seen = 0
+        #: The first stop signal that came (its number), and since when one is pending (the
+        #: ``now`` of the poll that saw it so; None: none is).
         self.signum: int | None = None
-        self.seen_at = 0.0
+        self.pending_since: float | None = None
 
     def __enter__(self) -> StopNotice:
-        if threading.current_thread() is not threading.main_thread():
+        if threading.current_thread() is not threading.main_thread() or not stops_converted():
             return self
         read, write = os.pipe()
         os.set_blocking(read, False)
@@ -55,6 +66,7 @@ class StopNotice:
             os.close(read)
             os.close(write)
             return self
+        self._runs_seen = stop_handler_runs()
         self._read, self._write = read, write
         return self
 
@@ -64,21 +76,36 @@ class StopNotice:
         value: BaseException | None,
         traceback: TracebackType | None,
     ) -> None:
-        if self._read < 0:
-            return
-        signal.set_wakeup_fd(self._before)
-        self._pass_on()  # bytes that came since the last poll are the earlier fd's too
-        fds, self._read, self._write = (self._read, self._write), -1, -1  # no poll reads them
-        for fd in fds:
-            with contextlib.suppress(OSError):
-                os.close(fd)
+        with self._lock:
+            if self._read < 0:
+                return
+            signal.set_wakeup_fd(self._before)
+            self._pass_on()  # bytes that came since the last poll are the earlier fd's too
+            for fd in (self._read, self._write):
+                with contextlib.suppress(OSError):
+                    os.close(fd)
+            self._read = self._write = -1
 
     def poll(self, now: float) -> int | None:
-        """The first stop signal that arrived so far (None: none), reading what came since
-        the last poll."""
-        for number in self._pass_on():
-            if self.signum is None and number in _STOP_NUMBERS:
-                self.signum, self.seen_at = number, now
+        """The stop signal pending now (None: none), reading what came since the last poll.
+
+        A signal is pending from its byte on until the handler is seen to have run: a run of
+        it means the main thread executes Python, and acted on every stop before (two quick
+        Ctrl-C give two bytes and, coalesced, one run of the handler)."""
+        with self._lock:
+            came = [n for n in self._pass_on() if n in _STOP_NUMBERS]
+        runs = stop_handler_runs()
+        if runs != self._runs_seen:
+            self._runs_seen, self._unacted = runs, 0
+        else:
+            self._unacted += len(came)
+        if came and self.signum is None:
+            self.signum = came[0]
+        if not self._unacted:
+            self.pending_since = None
+            return None
+        if self.pending_since is None:
+            self.pending_since = now
         return self.signum
 
     def _pass_on(self) -> bytes:
@@ -87,7 +114,7 @@ class StopNotice:
             return b""
         try:
             data = os.read(self._read, 512)
-        except (BlockingIOError, OSError):
+        except OSError:  # nothing there (non-blocking), or closed
             return b""
         if data and self._before >= 0:
             with contextlib.suppress(OSError):

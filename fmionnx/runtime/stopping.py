@@ -67,6 +67,24 @@ _shield_depth = [0]
 _held: list[int] = []
 #: Depth of :func:`stops_held` blocks on the main thread (part of the shield depth too).
 _hold_depth = [0]
+#: Depth of :func:`stop_on_signals` blocks whose handler is installed, and how often that
+#: handler ran (a signal the main thread acted on, raised, held or ignored).
+_converting = [0]
+_handler_runs = [0]
+
+
+def stops_converted() -> bool:
+    """Whether stop signals are fmionnx's now (:func:`stop_on_signals` runs on the main
+    thread): a program's own handling of them (a notebook's Ctrl-C, a service's SIGTERM) is
+    never second-guessed."""
+    return _converting[0] > 0
+
+
+def stop_handler_runs() -> int:
+    """How often :func:`stop_on_signals`' handler ran so far: a stop signal that arrived
+    (:mod:`.stopnotice` counts them) without the handler running since is one the main thread
+    could not act on."""
+    return _handler_runs[0]
 
 
 def _on_main_thread() -> bool:
@@ -151,6 +169,7 @@ def stop_on_signals(*, process_ends: bool = False) -> Iterator[list[int]]:
     received: list[int] = []
 
     def handler(signum: int, frame: FrameType | None) -> None:
+        _handler_runs[0] += 1  # first: the main thread is not stuck (see stop_handler_runs)
         received.append(signum)
         if len(received) == 1:
             if _shield_depth[0]:  # raised by shield_end, when the hand-over is whole
@@ -167,8 +186,10 @@ def stop_on_signals(*, process_ends: bool = False) -> Iterator[list[int]]:
             signal.signal(signum, old)
         yield received
         return
+    _converting[0] += 1
     try:
         yield received
     finally:
+        _converting[0] -= 1
         for signum, old in previous.items():
             signal.signal(signum, signal.SIG_IGN if received and process_ends else old)

@@ -83,7 +83,8 @@ class Marker:
 
 class Watchdog:
     """Calls ``on_expiry(work, t, stop)`` once when the marked work stays the same too long
-    (``stop`` None), or keeps a stop signal waiting (``stop`` its number; see :attr:`notice`).
+    (``stop`` None), or keeps a stop signal waiting (``stop`` its number; see :attr:`notice`);
+    it returns False to have the watching go on (the loop's thread ends the run itself).
 
     Only the work in ``watched`` is timed (isolated components time their own steps).
     ``interrupt(work, timeout)``, when given, is tried first: True when the work was asked to
@@ -96,7 +97,7 @@ class Watchdog:
         timeout: float,
         marker: Marker,
         watched: Collection[object],
-        on_expiry: Callable[[object, float, int | None], None],
+        on_expiry: Callable[[object, float, int | None], bool | None],
         interrupt: Callable[[object, float], bool] | None = None,
     ) -> None:
         self.timeout = timeout
@@ -150,8 +151,9 @@ class Watchdog:
             return False
         if id(work) not in self._watched:
             return False
-        # The same call since before the stop came, or for the grace since: a stuck one.
-        kept = notice is not None and now - max(notice.seen_at, self._since) >= STOP_GRACE
+        # Pending (the main thread ran no Python since) and the same call for the grace: stuck.
+        since = None if notice is None else notice.pending_since
+        kept = since is not None and now - max(since, self._since) >= STOP_GRACE
         if signum is not None and kept and not holding_stops():
             self._overrun, self._stop = (work, t), signum
             return True
@@ -169,15 +171,16 @@ class Watchdog:
         # held for the main thread on its way out; abandoned, the run says it was stopped.
         interrupt = self._interrupt if self._stop is None else None
         interrupted = interrupt is not None and interrupt(work, self.timeout)
-        if interrupted and self._came_back(work, t):
-            # The run goes on (its work raised a fault, which it is handling): watch on,
-            # unless the watching was stopped meanwhile (checked after adding, so that a
-            # stop between the two cannot leave this watchdog watching).
+        # The run goes on when the interrupted work raised a fault that the run handles, or
+        # when the handler of a stop declines (the loop's thread came back and ends the run).
+        if (interrupted and self._came_back(work, t)) or self._on_expiry(
+            work, t, self._stop
+        ) is False:
+            # Watch on, unless the watching was stopped meanwhile (checked after adding, so
+            # that a stop between the two cannot leave this watchdog watching).
             _watcher().add(self)
             if self._stopped:
                 _watcher().discard(self)
-            return
-        self._on_expiry(work, t, self._stop)
 
     def _came_back(self, work: object, t: float) -> bool:
         """Whether the interrupted work ended (the marker moved on, or the watching was

@@ -17,9 +17,11 @@ from pathlib import Path
 
 import pytest
 
+import fmionnx
 from fmionnx.results.csvfile import read_csv
+from fmionnx.runtime.master import Master
 from fmionnx.runtime.stopnotice import STOP_GRACE, StopNotice
-from fmionnx.runtime.stopping import stops_held
+from fmionnx.runtime.stopping import StopRequested, stop_on_signals, stops_held
 from fmionnx.runtime.watchdog import Marker, Watchdog
 from tests.backends.test_isolation import HANG, SYSTEM, _cli, _finish
 
@@ -61,7 +63,7 @@ def test_a_stop_ends_a_run_stuck_in_a_model_of_this_process(
 
 
 class _Notice(StopNotice):
-    """A stop signal seen at ``at`` (no wake-up fd: the watchdog is driven by hand)."""
+    """A stop signal pending from ``at`` on (no wake-up fd: the watchdog is driven by hand)."""
 
     def __init__(self, at: float | None) -> None:
         super().__init__()
@@ -69,7 +71,7 @@ class _Notice(StopNotice):
 
     def poll(self, now: float) -> int | None:
         if self.at is not None and now >= self.at and self.signum is None:
-            self.signum, self.seen_at = int(signal.SIGINT), now
+            self.signum, self.pending_since = int(signal.SIGINT), now
         return self.signum
 
 
@@ -81,24 +83,13 @@ def _watchdog(work: object, notice: StopNotice) -> tuple[Watchdog, Marker]:
     return watchdog, marker
 
 
-def test_the_watchdog_fires_once_the_same_call_kept_a_stop_waiting() -> None:
+def test_the_watchdog_fires_once_the_same_call_kept_a_stop_pending() -> None:
     work = object()
     watchdog, _ = _watchdog(work, _Notice(at=10.0))
     assert not watchdog.look(9.0)  # the call is seen
     assert not watchdog.look(10.0)  # the stop is seen
     assert not watchdog.look(10.0 + STOP_GRACE * 0.9)
     assert watchdog.look(10.0 + STOP_GRACE)
-
-
-def test_a_call_that_moves_on_after_the_stop_is_given_its_own_grace() -> None:
-    work, after = object(), object()
-    watchdog, marker = _watchdog(work, _Notice(at=10.0))
-    watchdog.watch(after)
-    assert not watchdog.look(10.0)
-    marker.work = after  # the main thread ran Python meanwhile: the handler had its chance
-    assert not watchdog.look(10.5)
-    assert not watchdog.look(10.5 + STOP_GRACE * 0.9)
-    assert watchdog.look(10.5 + STOP_GRACE)
 
 
 def test_no_stop_fires_while_the_run_ends_however_long_its_models_take() -> None:
@@ -119,21 +110,65 @@ def test_an_unwatched_call_is_left_to_its_own_process() -> None:
     assert not watchdog.look(10.0 + 5 * STOP_GRACE)
 
 
+def test_a_stop_is_pending_only_until_the_main_thread_runs_its_handler() -> None:
+    """The review of this change: once the handler ran (the stop raised, or held by a shield)
+    the main thread is not stuck, whatever it waits for next (a lane's step after Ctrl-C)."""
+    with stop_on_signals(), StopNotice() as notice:
+        os.write(notice._write, b"\x11\x02")  # as the C handler writes: SIGCHLD, SIGINT
+        assert notice.poll(1.0) == signal.SIGINT  # SIGCHLD (17): not a stop
+        assert notice.pending_since == 1.0
+        assert notice.poll(1.5) == signal.SIGINT
+        assert notice.pending_since == 1.0  # pending since it came
+        with pytest.raises(StopRequested):
+            signal.raise_signal(signal.SIGINT)  # the handler runs: the main thread acted
+        assert notice.poll(2.0) is None
+        assert notice.pending_since is None
+
+
+def test_a_program_handling_its_own_signals_gets_no_notice() -> None:
+    """The review of this change: ``fmionnx.run`` in a notebook or a service (no
+    ``stop_on_signals``: the program's own Ctrl-C and SIGTERM handling) was killed by a stop
+    during a call of more than a second; it keeps its own handling, and a program's earlier
+    wake-up fd stays in place."""
+    read, write = os.pipe()
+    os.set_blocking(write, False)
+    previous = signal.set_wakeup_fd(write)
+    try:
+        with StopNotice() as notice:
+            assert signal.set_wakeup_fd(write) == write  # not replaced
+            assert notice.poll(1.0) is None
+    finally:
+        signal.set_wakeup_fd(previous)
+        os.close(read)
+        os.close(write)
+
+
 def test_the_notice_passes_every_byte_on_to_the_earlier_wakeup_fd_and_restores_it() -> None:
     read, write = os.pipe()
     os.set_blocking(read, False)
     os.set_blocking(write, False)
     previous = signal.set_wakeup_fd(write)
     try:
-        with StopNotice() as notice:
-            assert signal.set_wakeup_fd(-1) != write  # its own pipe is in place
-            signal.set_wakeup_fd(notice._write)
-            os.write(notice._write, b"\x11\x02")  # what the C handler writes: SIGCHLD, SIGINT
-            assert notice.poll(1.0) == signal.SIGINT  # SIGCHLD (17) first: not a stop
-            assert notice.seen_at == 1.0
+        with stop_on_signals(), StopNotice() as notice:
+            assert signal.set_wakeup_fd(notice._write) == notice._write  # its own pipe
+            os.write(notice._write, b"\x11\x02")
+            assert notice.poll(1.0) == signal.SIGINT
         assert signal.set_wakeup_fd(write) == write  # restored
         assert os.read(read, 16) == b"\x11\x02"
     finally:
         signal.set_wakeup_fd(previous)
         os.close(read)
         os.close(write)
+
+
+def test_an_abandon_for_a_stop_declines_once_the_loop_ends_the_run(fixture_fmu) -> None:
+    """The review of this change: a call that returns just after the grace raised the stop
+    on the loop's thread, which then terminated the models while the watchdog abandoned the
+    run and terminated them too. Whoever comes first ends it; a stop's abandon declines."""
+    from fmionnx.runtime.result import RunOptions
+    from fmionnx.runtime.watchdog import Phase
+
+    system = fmionnx.load(fixture_fmu("Gain")).compiled
+    master = Master(system, RunOptions(step_timeout=60.0))
+    master._ends = "loop"  # the loop's thread is in its `finally`
+    assert master._abandon(Phase("Gain", "its step"), 0.0, stop=int(signal.SIGINT)) is False
