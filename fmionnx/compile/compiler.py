@@ -7,6 +7,7 @@ cannot continue for one component or connection skips just that item.
 from __future__ import annotations
 
 import dataclasses
+import math
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
@@ -19,7 +20,7 @@ from fmionnx.compile.endpoints import (
     split_endpoint,
 )
 from fmionnx.compile.graph import execution_order, execution_order_with_loops
-from fmionnx.compile.ir import CompiledSystem, Connection, Origin
+from fmionnx.compile.ir import CompiledSystem, Connection, Origin, SystemInput
 from fmionnx.compile.loops import compile_loops
 from fmionnx.compile.overrides import OverrideError, override_parameter
 from fmionnx.compile.plots import compile_plots
@@ -145,17 +146,64 @@ def _inputs_set(
         if system_input.value is None or not system_input.targets:
             continue
         source = system_input.source or ValueSource.SYSTEM_FILE
+        span = sources.value(("inputs", system_input.name, "value"))
+        if not _set_once(system, system_input, span, bag):
+            continue
         try:
-            system = override_parameter(system, system_input.name, system_input.value, source)
+            system = override_parameter(system, system_input.name, system_input.value, source, span)
         except OverrideError as exc:
             said = f"--param `{system_input.name}`"  # the command line's wording, reworded
             detail = str(exc).removeprefix(said).replace(" (a system input, reaching", " (at", 1)
-            bag.emit(
-                codes.PARAMETER_VALUE,
-                f"system input `{system_input.name}`{detail}",
-                sources.value(("inputs", system_input.name, "value")),
-            )
+            bag.emit(codes.PARAMETER_VALUE, f"system input `{system_input.name}`{detail}", span)
     return None if bag.has_errors else system
+
+
+def _set_once(
+    system: CompiledSystem, system_input: SystemInput, span: Span | None, bag: DiagnosticBag
+) -> bool:
+    """Whether no port the input's value reaches is set to another value in the file (E043
+    at the value, a note at the other): which of two values written in one file wins is not
+    for the user to guess (the review of this change). An SSP connector's bound value has
+    set its ports already, to the same values."""
+    by_name = {c.name: c for c in system.components}
+    value = system_input.value
+    once = True
+    for target in system_input.targets:
+        component = by_name.get(target.ref.component)
+        parameters = () if component is None else component.parameters
+        given = next((p for p in parameters if p.port == target.ref.port), None)
+        if given is None or len(given.value) != 1 or value is None:
+            continue
+        item = value
+        if (target.factor, target.offset) != (1.0, 0.0) and _is_number(value):
+            item = target.factor * float(value) + target.offset
+        other = given.value[0]
+        if other == item or _close(other, item):
+            continue
+        once = False
+        notes = [Note("set here", given.span)] if given.span is not None else []
+        bag.emit(
+            codes.PARAMETER_VALUE,
+            f"system input `{system_input.name}` sets `{target.ref}` to {item!r}, which "
+            f"`components.{target.ref.component}.parameters` sets to {other!r}",
+            span,
+            hint="set it in one place: the input's `value`, or the component's parameter",
+            notes=notes,
+        )
+    return once
+
+
+def _is_number(value: object) -> bool:
+    return isinstance(value, int | float) and not isinstance(value, bool)
+
+
+def _close(a: object, b: object) -> bool:
+    """Equal numbers but for rounding (a unit conversion computed on another path)."""
+    if isinstance(a, bool) or isinstance(b, bool):
+        return False
+    if not isinstance(a, int | float) or not isinstance(b, int | float):
+        return False
+    return math.isclose(a, b, rel_tol=1e-12)
 
 
 @dataclass(frozen=True, slots=True)

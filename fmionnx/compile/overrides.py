@@ -12,7 +12,7 @@ import json
 import math
 
 from fmionnx.compile.ir import CompiledSystem, Origin, SystemInput
-from fmionnx.core.diagnostics import did_you_mean, one_of
+from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.steps import count_problem, output_interval_problem, suggest_interval
 from fmionnx.core.types import (
@@ -128,6 +128,7 @@ def override_parameter(
     key: str,
     value: Scalar | list[Scalar],
     source: ValueSource = ValueSource.COMMAND_LINE,
+    span: Span | None = None,
 ) -> CompiledSystem:
     """The system with ``component.name = value`` set before initialization.
 
@@ -137,8 +138,8 @@ def override_parameter(
     """
     for system_input in system.inputs:
         if system_input.name == key:
-            return _override_input(system, system_input, value, source)
-    return _override_port(system, key, value, source)
+            return _override_input(system, system_input, value, source, span)
+    return _override_port(system, key, value, source, span)
 
 
 def _override_input(
@@ -146,6 +147,7 @@ def _override_input(
     system_input: SystemInput,
     value: Scalar | list[Scalar],
     source: ValueSource,
+    span: Span | None = None,
 ) -> CompiledSystem:
     key = system_input.name
     if isinstance(value, list):
@@ -169,7 +171,7 @@ def _override_input(
                 msg = f"--param `{key}`: {number_text(value)} becomes infinite at `{target.ref}`"
                 raise OverrideError(msg)
         try:
-            system = _override_port(system, str(target.ref), item, source)
+            system = _override_port(system, str(target.ref), item, source, span)
         except OverrideError as exc:
             detail = str(exc).split(": ", 1)[-1]  # without the target's own `--param` prefix
             msg = f"--param `{key}` (a system input, reaching `{target.ref}`): {detail}"
@@ -178,7 +180,11 @@ def _override_input(
 
 
 def _override_port(
-    system: CompiledSystem, key: str, value: Scalar | list[Scalar], source: ValueSource
+    system: CompiledSystem,
+    key: str,
+    value: Scalar | list[Scalar],
+    source: ValueSource,
+    span: Span | None = None,
 ) -> CompiledSystem:
     names = [c.name for c in system.components]
     owners = [n for n in names if key.startswith(n + ".")]
@@ -233,7 +239,7 @@ def _override_port(
     values = tuple(c for c in coerced if c is not None)
     kept = tuple(p for p in component.parameters if p.port != port_name)
     updated = dataclasses.replace(
-        component, parameters=(*kept, ParameterValue(port_name, values, None, source))
+        component, parameters=(*kept, ParameterValue(port_name, values, span, source))
     )
     components = tuple(updated if c.name == component_name else c for c in system.components)
     return dataclasses.replace(system, components=components)

@@ -128,6 +128,16 @@ def resolve_study(
     columns_ok = _columns(spec, loaded, bag)
     if len(kinds) != len(spec.parameters) or not columns_ok:
         return None
+    steps = system.run.steps
+    if "stop" not in kinds.values() and steps > MAX_RUN_STEPS:  # each stop is checked below
+        bag.emit(
+            codes.STUDY_VALUES,
+            f"the system's run is {steps:.3g} base steps of {system.run.step} s, more than the "
+            f"{MAX_RUN_STEPS:.0e} a case may run",
+            sources.value(("system",)),
+            hint="vary `run.stop` in the study, or shorten the system's run",
+        )
+        return None
     axes = spec.parameters
     grid = {t: a.grid_values() for t, a in axes.items() if a.sampled is None}
     sampled = {t: a for t, a in axes.items() if a.sampled is not None}

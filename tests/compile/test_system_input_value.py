@@ -75,3 +75,29 @@ def test_a_value_no_port_can_take_is_e043_at_the_value(
     assert error.span.line == 7
     line = path.read_text(encoding="utf-8").splitlines()[6]
     assert line[error.span.col - 1 :] == f"{value}}}", line  # at the value
+
+
+def test_a_port_the_value_reaches_set_otherwise_in_the_file_is_e043_with_both_places(
+    tmp_path: Path, fixture_fmu: Callable[[str], Path]
+) -> None:
+    """The review of this change: the input's value silently replaced the component's own
+    `parameters:` entry (5 became 3), and run.json lost where the value was written."""
+    path = tmp_path / "system.yaml"
+    text = SYSTEM.format(gain=fixture_fmu("Gain"), value="3").replace(
+        "path: " + str(fixture_fmu("Gain")) + "}",
+        "path: " + str(fixture_fmu("Gain")) + ", parameters: {k: 5}}",
+    )
+    path.write_text(text, encoding="utf-8")
+    with pytest.raises(DiagnosticError) as refused:
+        fmionnx.load(path)
+    (error,) = refused.value.diagnostics
+    assert error.message == (
+        "system input `level` sets `gain.k` to 3, which `components.gain.parameters` sets to 5"
+    )
+    assert [note.span.line for note in error.notes if note.span is not None] == [5]
+    path.write_text(text.replace("k: 5", "k: 3"), encoding="utf-8")  # the same value: fine
+    (gain,) = fmionnx.load(path).compiled.components
+    (k,) = [p for p in gain.parameters if p.port == "k"]
+    assert k.value == (3.0,)
+    assert k.span is not None
+    assert k.span.line == 7  # where the input's value is written
