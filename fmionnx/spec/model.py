@@ -40,17 +40,17 @@ else:
     ]
 
 ARROW = "->"
-#: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``),
-#: ASCII only: they become ROS 2 node and topic names (ASCII by its rules), and the schema's
-#: ``\w`` is ASCII in JSON Schema's regular expressions while Python's took ``gäin`` and
-#: refused ``ärger`` (a bug hunt).
-DOTTED_NAME = re.compile(r"[A-Za-z_][A-Za-z0-9_-]*(\.[A-Za-z_][A-Za-z0-9_-]*)*")
+#: Names of components and of system inputs: dotted identifiers (``sub.gain``, ``sub.k_in``).
+#: The first character of each part is an ASCII letter or ``_``; the others may be any
+#: letter (``gäin``), as Python's ``\w`` has always let them be: a bug hunt read the old
+#: message ("must start with a letter") as refusing the letter ``ä`` for no reason.
+DOTTED_NAME = re.compile(r"[A-Za-z_][\w-]*(\.[A-Za-z_][\w-]*)*")
 #: The name of a system (the JSON Schema carries it as a pattern).
-SYSTEM_NAME_PATTERN = r"^[A-Za-z_][A-Za-z0-9_-]*$"
+SYSTEM_NAME_PATTERN = r"^[A-Za-z_][\w-]*$"
 #: What each pattern of the schema means, for an error message (pydantic would show the
 #: regular expression).
 PATTERN_MEANINGS = {
-    SYSTEM_NAME_PATTERN: "a name: an ASCII letter or `_`, then ASCII letters, digits, `_` or `-` "
+    SYSTEM_NAME_PATTERN: "a name: an ASCII letter or `_`, then letters, digits, `_` or `-` "
     "(no spaces)"
 }
 
@@ -275,8 +275,8 @@ class SystemSpec(StrictModel):
             if not DOTTED_NAME.fullmatch(name):
                 msg = (
                     f"system input name `{name}` must start with an ASCII letter or `_` and "
-                    "contain only ASCII letters, digits, `_`, `-` (and `.` between parts of a "
-                    "nested name)"
+                    "contain only letters, digits, `_`, `-` (and `.` between parts of a "
+                    "nested name, each starting so)"
                 )
                 raise InvalidKeyError(msg, name)
         return value
@@ -288,8 +288,8 @@ class SystemSpec(StrictModel):
             if not DOTTED_NAME.fullmatch(name):
                 msg = (
                     f"component name `{name}` must start with an ASCII letter or `_` and "
-                    "contain only ASCII letters, digits, `_`, `-` (and `.` between parts of a "
-                    "nested name)"
+                    "contain only letters, digits, `_`, `-` (and `.` between parts of a "
+                    "nested name, each starting so)"
                 )
                 raise InvalidKeyError(msg, name)
         return value

@@ -156,7 +156,7 @@ def _as_name(text: str, *, dots: bool = True) -> str:
 
     ``dots``: whether the name may be dotted (components, system inputs) or not (a system).
     """
-    name = re.sub(r"[^\w.-]+" if dots else r"[^\w-]+", "_", text.strip(), flags=re.ASCII) or "_"
+    name = re.sub(r"[^\w.-]+" if dots else r"[^\w-]+", "_", text.strip()) or "_"
     return name if re.match(r"[A-Za-z_]", name) else f"_{name}"
 
 

@@ -111,7 +111,7 @@ def _json_object(annotation: Annotation, ssd: Path, bag: DiagnosticBag) -> dict[
 
 def system_name(text: str, span: Span, bag: DiagnosticBag) -> str:
     """The SSD name as a system-file name (``[A-Za-z_][\\w-]*``), warning when changed."""
-    name = re.sub(r"[^\w-]", "_", text, flags=re.ASCII) or "system"  # names are ASCII
+    name = re.sub(r"[^\w-]", "_", text) or "system"
     if not re.match(r"[A-Za-z_]", name):
         name = "_" + name
     if name != text:
