@@ -22,9 +22,11 @@ Every file written is noted in the folder's ownership record (:mod:`fmionnx.core
 
 from __future__ import annotations
 
+import contextlib
 import json
 import math
 import os
+from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -37,6 +39,7 @@ from fmionnx.core.resources import STUDY_FILE_BYTES
 from fmionnx.core.safewrite import atomic_binary, atomic_text, write_bytes_atomic
 from fmionnx.core.types import Scalar
 from fmionnx.results.casetable import CaseTable
+from fmionnx.runtime.stopping import shield_begin, shield_end
 
 if TYPE_CHECKING:
     from fmionnx.backends.sweep.case import CaseOutcome
@@ -224,19 +227,19 @@ class StudyFolder:
         """Write the case's record (and its results.csv when kept); atomic, so a record is
         either whole or absent. Never through a link planted in the folder meanwhile: the
         folders are checked on the way (StudyFolderError)."""
-        written = []
-        if outcome.signals is not None:
-            folder = self._folder(CASES, f"{CASES}/{outcome.id}")
-            written.append(_write_results(folder / "results.csv", outcome.signals))
-        if outcome.rrd is not None:  # sweep --rrd: the case's recording, made on its worker
-            folder = self._folder(CASES, f"{CASES}/{outcome.id}")
-            written.append(write_bytes_atomic(folder / "run.rrd", outcome.rrd))
-        path = self._folder(RECORDS, RECORDS) / f"{outcome.id}.json"
-        with atomic_text(path) as stream:
-            json.dump(outcome.as_json(), stream, indent=1, sort_keys=True)
-            stream.write("\n")
-        written.append(path)
-        self.owned.note(written)
+        written: list[Path] = []
+        with _noted_whole(self.owned, written):
+            if outcome.signals is not None:
+                folder = self._folder(CASES, f"{CASES}/{outcome.id}")
+                written.append(_write_results(folder / "results.csv", outcome.signals))
+            if outcome.rrd is not None:  # sweep --rrd: the case's recording, made on its worker
+                folder = self._folder(CASES, f"{CASES}/{outcome.id}")
+                written.append(write_bytes_atomic(folder / "run.rrd", outcome.rrd))
+            path = self._folder(RECORDS, RECORDS) / f"{outcome.id}.json"
+            with atomic_text(path) as stream:
+                json.dump(outcome.as_json(), stream, indent=1, sort_keys=True)
+                stream.write("\n")
+            written.append(path)
 
     def table(self) -> CaseTable:
         """One row per case with a record, in case order (:mod:`.casetable`: no pandas)."""
@@ -280,11 +283,14 @@ class StudyFolder:
         parquet = self.out / "cases.parquet"
         csv = self.out / "cases.csv"
         arrow = table.to_arrow()
-        with atomic_binary(parquet) as stream:
-            pq.write_table(arrow, stream)
-        with atomic_text(csv) as stream:
-            table.write_csv(stream)
-        self.owned.note([parquet, csv])
+        written: list[Path] = []
+        with _noted_whole(self.owned, written):
+            with atomic_binary(parquet) as stream:
+                pq.write_table(arrow, stream)
+            written.append(parquet)
+            with atomic_text(csv) as stream:
+                table.write_csv(stream)
+            written.append(csv)
         return [parquet, csv]
 
 
@@ -456,3 +462,20 @@ def _write_results(path: Path, signals: dict[str, Any]) -> Path:
     )
     write_csv(result, path)
     return path
+
+
+@contextlib.contextmanager
+def _noted_whole(owned: OwnedFolder, written: list[Path]) -> Iterator[None]:
+    """Write files and note them in the ownership record as one: a stop signal in between
+    (Ctrl-C during a study) left a record written but not noted, which ``--force`` then
+    refused as edited (the review of this change). The stop is held until the files written
+    are noted, and raised then (:func:`~fmionnx.runtime.stopping.shield_begin`); what was
+    written before an error is noted too."""
+    shield_begin()
+    try:
+        yield
+    finally:
+        try:
+            owned.note(written)
+        finally:
+            shield_end()

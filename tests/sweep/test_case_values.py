@@ -100,3 +100,23 @@ def test_a_stop_time_longer_than_a_case_may_run_is_refused_at_its_place(
         "1e+11 base steps of 0.01 s, more than the 1e+10 a case may run"
     ]
     assert "--max-steps" not in result.output
+
+
+def test_a_system_run_longer_than_a_case_may_run_is_refused_at_the_system(
+    write_study: WriteStudy,
+) -> None:
+    """The system's own stop (no `run.stop` in the study) failed every case the same way."""
+    study = write_study(STUDY.replace("  run.stop: [1]\n", ""))
+    system = study.parent / "system.yaml"
+    system.write_text(
+        system.read_text(encoding="utf-8").replace("{stop: 1,", "{stop: 1e9,"), encoding="utf-8"
+    )
+    result = CliRunner().invoke(
+        app, ["validate", str(study)], env={"COLUMNS": "200", "NO_COLOR": "1"}
+    )
+    assert result.exit_code == 1, result.output
+    errors = [line.split("/")[-1] for line in result.output.splitlines() if ": error[" in line]
+    assert errors == [
+        "study.yaml:2:9: error[E103 study-values]: the system's run is 1e+11 base steps of "
+        "0.01 s, more than the 1e+10 a case may run"
+    ]  # the system file's own long-run warning may name `fmionnx run`'s --max-steps

@@ -88,3 +88,33 @@ def test_sweep_force_keeps_an_edited_table(write_study: WriteStudy, tmp_path: Pa
     assert result.exit_code == 2, result.output
     assert "cases.csv` is not the file the study wrote there" in " ".join(result.output.split())
     assert table.read_text() == edited
+
+
+def test_a_stop_while_a_record_is_written_lands_after_it_is_noted(
+    write_study: WriteStudy, tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """The review of this change: a Ctrl-C between a record's write and its note in the
+    ownership record left it unproven, and the `--force` that follows an interrupted study
+    refused the folder as edited. The stop now waits for the note."""
+    import json as json_module
+    import signal
+
+    from fmionnx.results import study as study_module
+    from fmionnx.runtime.stopping import StopRequested, stop_on_signals
+
+    plan, _ = plan_study(write_study(STUDY))
+    folder = StudyFolder(tmp_path / "out", plan)
+    folder.prepare(resume=False)
+    first = plan.cases[0]
+
+    dump = json_module.dump
+
+    def dump_then_ctrl_c(*args: object, **kwargs: object) -> None:
+        dump(*args, **kwargs)  # type: ignore[arg-type]
+        signal.raise_signal(signal.SIGINT)  # as if it came right after the write
+
+    monkeypatch.setattr(study_module.json, "dump", dump_then_ctrl_c)
+    with stop_on_signals(), pytest.raises(StopRequested):
+        folder.record(CaseOutcome(first.id, "ok", metrics={"end": 1.0}))
+    assert f"records/{first.id}.json" in folder.owned.proven_names()
+    assert folder.kept_in_the_way() is None  # `--force` may start afresh
