@@ -53,7 +53,6 @@ from fmionnx.runtime.recorder import Track
 from fmionnx.runtime.result import EndedBy, ProgressCallback, RunOptions, RunResult, RunStatus
 from fmionnx.runtime.startvalues import evaluate_at_start
 from fmionnx.runtime.stepping import Work
-from fmionnx.runtime.stopnotice import STOP_GRACE
 from fmionnx.runtime.stopping import (
     exit_code,
     late_stop_text,
@@ -548,8 +547,8 @@ class Master:
             status, reason = RunStatus.INTERRUPTED, stop_reason(exc)
         finally:
             wall = _time.perf_counter() - started
-            self._end_here()
             with stops_held() as late:  # the models end in order, whatever comes now
+                self._end_here()
                 try:
                     self._terminate(skip=self._close_lanes())
                 finally:
@@ -921,9 +920,19 @@ class Master:
         """
         assert isinstance(work, Work | Phase)
         with self._ending:
-            if stop is not None and self._ends == "loop":
-                return False
+            came_back = self._marker.work is not work or self._marker.t != t
+            if self._ends == "loop" and (stop is not None or came_back):
+                return False  # the loop's thread ends the run (a hung termination excepted)
             self._ends = "abandon"
+        try:  # from here on the process ends, whatever fails on the way
+            self._write_abandoned(work, t, stop)
+        finally:
+            sys.stdout.flush()
+            sys.stderr.flush()
+            os._exit(1 if stop is None else exit_code(signal.Signals(stop).name))
+
+    def _write_abandoned(self, work: Work | Phase, t: float, stop: int | None) -> None:
+        """The abandoned run's results, handed over or said, and the other models ended."""
         label = work.name
         timeout = self.options.step_timeout
         assert timeout is not None
@@ -938,26 +947,21 @@ class Master:
             time=t,
         )
         busy = self._abandon_concurrent(work) if self._issues and isinstance(work, Work) else set()
-        try:
-            if stop is None:
-                result = self._partial(RunStatus.FAULT, error)
-            else:
-                result = self._stuck_at_stop(work, stop)
-            if self.options.abandon is not None:
-                self.options.abandon(result)
-            elif stop is None:
-                print(f"fault: {error}", file=sys.stderr)
-            else:
-                print(f"interrupted by {result.interrupted_by}: {result.warnings[-1]}")
-            for runner in list(self.runners.values()):
-                name = runner.component.name
-                if name not in label.split("+") and name not in busy:
-                    with contextlib.suppress(Exception):
-                        runner.terminate()
-        finally:
-            sys.stdout.flush()
-            sys.stderr.flush()
-            os._exit(1 if stop is None else exit_code(signal.Signals(stop).name))
+        if stop is None:
+            result = self._partial(RunStatus.FAULT, error)
+        else:
+            result = self._stuck_at_stop(work, stop)
+        if self.options.abandon is not None:
+            self.options.abandon(result)
+        elif stop is None:
+            print(f"fault: {error}", file=sys.stderr)
+        else:
+            print(f"interrupted by {result.interrupted_by}: {result.warnings[-1]}")
+        for runner in list(self.runners.values()):
+            name = runner.component.name
+            if name not in label.split("+") and name not in busy:
+                with contextlib.suppress(Exception):
+                    runner.terminate()
 
     def _stuck_at_stop(self, work: Work | Phase, stop: int) -> RunResult:
         """The results so far of a run stopped by signal ``stop`` while ``work`` kept the
@@ -966,10 +970,9 @@ class Master:
         result = self._partial(RunStatus.INTERRUPTED, reason=name)
         what = work.what if isinstance(work, Phase) else "its step"
         result.warnings.append(
-            f"component `{work.name}` did not return from {what} within {STOP_GRACE:g} s "
-            f"of {name}: it runs in fmionnx's own process, so the run was abandoned, its "
-            "results so far kept (`--isolate` runs a model in a process of its own, which can "
-            "be stopped)"
+            f"component `{work.name}` did not return from {what} after {name}: it runs in "
+            "fmionnx's own process, so the run was abandoned, its results so far kept "
+            "(`--isolate` runs a model in a process of its own, which can be stopped)"
         )
         return result
 

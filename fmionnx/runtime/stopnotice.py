@@ -32,6 +32,11 @@ from fmionnx.runtime.stopping import STOP_SIGNALS, stop_handler_runs, stops_conv
 #: run is abandoned as interrupted. A call that returns within it lets the handler run, and
 #: the run ends as any stopped run does.
 STOP_GRACE = 1.0
+#: Seconds a stop the main thread acted on may wait for one in-process call (a step on a
+#: worker lane, which the loop waits for before it ends the run) before the run is abandoned
+#: as interrupted all the same: the loop's thread runs Python, but the stop would otherwise
+#: wait for the step timeout and end as a fault (the second review of this change).
+ACTED_GRACE = 5.0
 
 _STOP_NUMBERS = frozenset(int(s) for s in STOP_SIGNALS)
 
@@ -46,12 +51,15 @@ class StopNotice:
         self._before = -1
         #: Serialises reading the pipe with closing it (a closed fd's number is reused).
         self._lock = threading.Lock()
-        #: Stop signals seen since the handler last ran, and its run count then.
+        #: Stop signals seen since the handler last ran, its run count then, and whether
+        #: that count changed at the last poll.
         self._unacted = 0
         self._runs_seen = 0
-        #: The first stop signal that came (its number), and since when one is pending (the
-        #: ``now`` of the poll that saw it so; None: none is).
+        self._just_acted = False
+        #: The first stop signal that came (its number) and when it was seen; since when one
+        #: is pending (the ``now`` of the poll that saw it so; None: none is).
         self.signum: int | None = None
+        self.first_at = 0.0
         self.pending_since: float | None = None
 
     def __enter__(self) -> StopNotice:
@@ -87,24 +95,29 @@ class StopNotice:
             self._read = self._write = -1
 
     def poll(self, now: float) -> int | None:
-        """The stop signal pending now (None: none), reading what came since the last poll.
+        """The first stop signal that came so far (None: none), reading what came since the
+        last poll; :attr:`pending_since` says whether the main thread has yet to act on it.
 
         A signal is pending from its byte on until the handler is seen to have run: a run of
         it means the main thread executes Python, and acted on every stop before (two quick
-        Ctrl-C give two bytes and, coalesced, one run of the handler)."""
+        Ctrl-C give two bytes and, coalesced, one run of the handler). The C handler may
+        write its byte just after the main thread ran the Python one (a signal delivered to
+        another thread): bytes read in the poll after the count changed are taken as those
+        of the signals it acted on."""
+        runs = stop_handler_runs()  # before the pipe: a byte read after it is no older
         with self._lock:
             came = [n for n in self._pass_on() if n in _STOP_NUMBERS]
-        runs = stop_handler_runs()
         if runs != self._runs_seen:
-            self._runs_seen, self._unacted = runs, 0
+            self._runs_seen, self._unacted, self._just_acted = runs, 0, True
+        elif self._just_acted:
+            self._just_acted = False
         else:
             self._unacted += len(came)
         if came and self.signum is None:
-            self.signum = came[0]
+            self.signum, self.first_at = came[0], now
         if not self._unacted:
             self.pending_since = None
-            return None
-        if self.pending_since is None:
+        elif self.pending_since is None:
             self.pending_since = now
         return self.signum
 

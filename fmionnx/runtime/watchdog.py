@@ -40,7 +40,7 @@ from typing import Any
 from fmionnx.core.processlocal import ProcessLocal
 from fmionnx.core.runner import Interruptible, Runner, RunnerFactory, Wiring
 from fmionnx.core.types import Component
-from fmionnx.runtime.stopnotice import STOP_GRACE, StopNotice
+from fmionnx.runtime.stopnotice import ACTED_GRACE, STOP_GRACE, StopNotice
 from fmionnx.runtime.stopping import holding_stops
 
 #: How often the watchdog looks, at most (seconds).
@@ -151,16 +151,23 @@ class Watchdog:
             return False
         if id(work) not in self._watched:
             return False
-        # Pending (the main thread ran no Python since) and the same call for the grace: stuck.
-        since = None if notice is None else notice.pending_since
-        kept = since is not None and now - max(since, self._since) >= STOP_GRACE
-        if signum is not None and kept and not holding_stops():
-            self._overrun, self._stop = (work, t), signum
+        stop = signum if notice is not None and not holding_stops() else None
+        if stop is not None and notice is not None and self._kept(notice, now):
+            self._overrun, self._stop = (work, t), stop
             return True
-        if now - self._since > self.timeout:
-            self._overrun, self._stop = (work, t), None
+        if now - self._since > self.timeout:  # a stop that came first is still the reason
+            self._overrun, self._stop = (work, t), stop
             return True
         return False
+
+    def _kept(self, notice: StopNotice, now: float) -> bool:
+        """Whether the marked call kept a stop from ending the run: pending (the main thread
+        ran no Python since it came) for :data:`STOP_GRACE`, or acted on and still the same
+        call after :data:`ACTED_GRACE` (the loop waits for it: a hung step on a lane)."""
+        since = notice.pending_since
+        if since is not None and now - max(since, self._since) >= STOP_GRACE:
+            return True
+        return now - max(notice.first_at, self._since) >= ACTED_GRACE
 
     def fire(self) -> None:
         """Stop the overrun :meth:`look` saw, or report it (the master's handler then ends

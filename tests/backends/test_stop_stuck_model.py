@@ -20,7 +20,7 @@ import pytest
 import fmionnx
 from fmionnx.results.csvfile import read_csv
 from fmionnx.runtime.master import Master
-from fmionnx.runtime.stopnotice import STOP_GRACE, StopNotice
+from fmionnx.runtime.stopnotice import ACTED_GRACE, STOP_GRACE, StopNotice
 from fmionnx.runtime.stopping import StopRequested, stop_on_signals, stops_held
 from fmionnx.runtime.watchdog import Marker, Watchdog
 from tests.backends.test_isolation import HANG, SYSTEM, _cli, _finish
@@ -53,8 +53,8 @@ def test_a_stop_ends_a_run_stuck_in_a_model_of_this_process(
     info = json.loads((out / "run.json").read_text(encoding="utf-8"))
     assert (info["status"], info["interrupted_by"]) == ("interrupted", stop.name)
     warning = (
-        f"component `bad` did not return from its step within {STOP_GRACE:g} s of {stop.name}: "
-        "it runs in fmionnx's own process, so the run was abandoned"
+        f"component `bad` did not return from its step after {stop.name}: it runs in "
+        "fmionnx's own process, so the run was abandoned"
     )
     assert [w for w in info["warnings"] if w.startswith(warning)], info["warnings"]
     assert f"interrupted by {stop.name} at t=0.6 s" in output
@@ -71,7 +71,7 @@ class _Notice(StopNotice):
 
     def poll(self, now: float) -> int | None:
         if self.at is not None and now >= self.at and self.signum is None:
-            self.signum, self.pending_since = int(signal.SIGINT), now
+            self.signum, self.pending_since, self.first_at = int(signal.SIGINT), now, now
         return self.signum
 
 
@@ -90,6 +90,40 @@ def test_the_watchdog_fires_once_the_same_call_kept_a_stop_pending() -> None:
     assert not watchdog.look(10.0)  # the stop is seen
     assert not watchdog.look(10.0 + STOP_GRACE * 0.9)
     assert watchdog.look(10.0 + STOP_GRACE)
+
+
+def test_a_stop_acted_on_fires_when_the_loop_still_waits_for_the_call_later() -> None:
+    """The second review: with the parallel schedule the loop waits for a hung lane's step
+    in Python, so the handler runs and the stop is not pending; it waited for the step
+    timeout and ended as a fault. It is abandoned as interrupted after the longer grace."""
+    work = object()
+    notice = _Notice(at=10.0)
+    watchdog, _ = _watchdog(work, notice)
+    assert not watchdog.look(10.0)
+    notice.pending_since = None  # the handler ran: the loop waits for the lane
+    assert not watchdog.look(10.0 + STOP_GRACE)
+    assert not watchdog.look(10.0 + ACTED_GRACE * 0.9)
+    assert watchdog.look(10.0 + ACTED_GRACE)
+
+
+def test_a_declined_stop_leaves_the_watchdog_watching() -> None:
+    """When the loop's thread ends the run itself (the handler declines), the watchdog must
+    go on timing: its termination is still timed."""
+    from fmionnx.runtime.watchdog import _watcher
+
+    work = object()
+    marker = Marker()
+    marker.work, marker.t = work, 0.5
+    watchdog = Watchdog(60.0, marker, [work], lambda *_: False)
+    watchdog.notice = _Notice(at=10.0)
+    assert not watchdog.look(10.0)
+    assert watchdog.look(10.0 + STOP_GRACE)
+    try:
+        watchdog.fire()
+        assert watchdog in _watcher()._active
+    finally:
+        watchdog.stop()
+    assert watchdog not in _watcher()._active
 
 
 def test_no_stop_fires_while_the_run_ends_however_long_its_models_take() -> None:
@@ -121,8 +155,10 @@ def test_a_stop_is_pending_only_until_the_main_thread_runs_its_handler() -> None
         assert notice.pending_since == 1.0  # pending since it came
         with pytest.raises(StopRequested):
             signal.raise_signal(signal.SIGINT)  # the handler runs: the main thread acted
-        assert notice.poll(2.0) is None
-        assert notice.pending_since is None
+        assert notice.poll(2.0) == signal.SIGINT  # the first stop that came
+        assert notice.pending_since is None  # but no longer pending
+        assert notice.poll(2.5) == signal.SIGINT
+        assert notice.pending_since is None  # its byte, read late, is the one acted on
 
 
 def test_a_program_handling_its_own_signals_gets_no_notice() -> None:
@@ -161,7 +197,9 @@ def test_the_notice_passes_every_byte_on_to_the_earlier_wakeup_fd_and_restores_i
         os.close(write)
 
 
-def test_an_abandon_for_a_stop_declines_once_the_loop_ends_the_run(fixture_fmu) -> None:
+def test_an_abandon_for_a_stop_declines_once_the_loop_ends_the_run(
+    fixture_fmu, monkeypatch: pytest.MonkeyPatch
+) -> None:
     """The review of this change: a call that returns just after the grace raised the stop
     on the loop's thread, which then terminated the models while the watchdog abandoned the
     run and terminated them too. Whoever comes first ends it; a stop's abandon declines."""
@@ -170,5 +208,16 @@ def test_an_abandon_for_a_stop_declines_once_the_loop_ends_the_run(fixture_fmu) 
 
     system = fmionnx.load(fixture_fmu("Gain")).compiled
     master = Master(system, RunOptions(step_timeout=60.0))
-    master._ends = "loop"  # the loop's thread is in its `finally`
-    assert master._abandon(Phase("Gain", "its step"), 0.0, stop=int(signal.SIGINT)) is False
+    master.run()
+    assert master._ends == "loop"  # the loop's thread ended it
+    exits: list[int] = []
+
+    def no_exit(code: int) -> None:  # a failing decline must fail this test, not end pytest
+        exits.append(code)
+        raise SystemExit(code)
+
+    monkeypatch.setattr(os, "_exit", no_exit)
+    stuck = Phase("Gain", "its termination")
+    master._marker.work, master._marker.t = stuck, 0.0
+    assert master._abandon(stuck, 0.0, stop=int(signal.SIGINT)) is False
+    assert exits == []
