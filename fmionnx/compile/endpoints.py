@@ -79,6 +79,11 @@ def resolve_endpoint(
     interface = interfaces[component]
     if interface is None:
         return None
+    if index_text is not None and interface.port(f"{port_name}[{index_text}]") is not None:
+        # An FMI 2 variable named like an element that was not grouped into an array (`v[1]`
+        # and `v[3]` with no `v[2]`, `v[0]`, or beside a scalar `v`): listed, settable, said
+        # unconnected by W030, and it could not be named in a connection (a bug hunt).
+        port_name, index_text = f"{port_name}[{index_text}]", None
     port = interface.port(port_name)
     unsupported = interface.fact(f"unsupported.{port_name}") if port is None else None
     if unsupported is not None:
