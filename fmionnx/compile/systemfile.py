@@ -17,6 +17,7 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import os
 import re
 import shutil
 import tempfile
@@ -185,8 +186,36 @@ def _check_port_sizes(component: Component, origin: str) -> None:
 
 def write_compiled(system: CompiledSystem, path: Path) -> None:
     """Write ``system`` to ``path`` atomically (a fresh temporary file renamed over it: never
-    half-written, never through a link planted at ``path`` or beside it)."""
-    write_text_atomic(path, to_json(system))
+    half-written, never through a link planted at ``path`` or beside it), its model paths
+    made absolute: a relative one was read against the working folder of whoever ran the
+    file, so the file moved, or run from its own folder, named no model (a bug hunt). (A file
+    for another host finds its models in a store, by hash: ``--models``.)"""
+    write_text_atomic(path, to_json(_absolute_models(system)))
+
+
+def _absolute_models(system: CompiledSystem) -> CompiledSystem:
+    components = []
+    for component in system.components:
+        if not has_model_file(component) or component.path.is_absolute():
+            components.append(component)
+            continue
+        path = component.path.absolute()  # not resolved: a link stays a link
+        interface = dataclasses.replace(component.interface, path=path)
+        components.append(dataclasses.replace(component, path=path, interface=interface))
+    return dataclasses.replace(system, components=tuple(components))
+
+
+def _models_found(system: CompiledSystem, path: Path) -> None:
+    """Every model the system names exists (CompiledFileError): a missing one was a fault of
+    the run, after a results folder was made for it."""
+    for component in system.components:
+        if has_model_file(component) and not os.path.lexists(component.path):
+            msg = (
+                f"{path}: component `{component.name}`: its model `{component.path}` does not "
+                "exist (moved since the system was compiled? `fmionnx compile --models STORE` "
+                "keeps the models with the file, found by hash)"
+            )
+            raise CompiledFileError(msg)
 
 
 #: How every compiled-system file this release writes begins (:func:`to_json`).
@@ -231,7 +260,10 @@ def read_compiled(path: Path, *, models: Path | None = None) -> CompiledSystem:
         msg = f"{path}: cannot read the compiled system: {exc}"
         raise CompiledFileError(msg) from None
     system = from_json(text, origin=str(path))
-    return relocate(system, models) if models is not None else system
+    if models is not None:
+        return relocate(system, models)
+    _models_found(system, path)
+    return system
 
 
 # -- models by hash -----------------------------------------------------------------------------

@@ -69,24 +69,38 @@ def to_dot(system: CompiledSystem) -> str:
     return "\n".join(lines) + "\n"
 
 
-def _mermaid_id(name: str) -> str:
-    return "n_" + "".join(ch if ch.isalnum() else "_" for ch in name)
+def _mermaid_ids(names: list[str]) -> dict[str, str]:
+    """A Mermaid node id per component name: letters and digits kept, anything else ``_``,
+    and ``_2``, ``_3``... where that makes two names one (``a.b``, ``a_b``, ``a-b`` were one
+    node fed three times: a bug hunt)."""
+    ids: dict[str, str] = {}
+    taken: set[str] = set()
+    for name in names:
+        base = "n_" + "".join(ch if ch.isalnum() else "_" for ch in name)
+        chosen, number = base, 1
+        while chosen in taken:
+            number += 1
+            chosen = f"{base}_{number}"
+        taken.add(chosen)
+        ids[name] = chosen
+    return ids
 
 
 def to_mermaid(system: CompiledSystem) -> str:
     """Mermaid flowchart text (renders on GitHub and in mkdocs-material)."""
     lines = ["flowchart LR"]
+    ids = _mermaid_ids([c.name for c in system.components])
     for component in system.components:
         left, right = _display(component.kind).mermaid
         rate = _rate(component)
         label = f"{component.name}<br/><small>{_display(component.kind).label}"
         label += f" · {rate}</small>" if rate else "</small>"
-        lines.append(f'  {_mermaid_id(component.name)}{left}"{label}"{right}')
+        lines.append(f'  {ids[component.name]}{left}"{label}"{right}')
     for (src, dst), labels in sorted(_grouped(system).items()):
         text = "<br/>".join(labels).replace('"', "'")
-        lines.append(f'  {_mermaid_id(src)} -- "{text}" --> {_mermaid_id(dst)}')
+        lines.append(f'  {ids[src]} -- "{text}" --> {ids[dst]}')
     for kind, colour in ((k, d.display.colour) for k, d in COMPONENT_KINDS.items()):
-        members = [_mermaid_id(c.name) for c in system.components if c.kind == kind]
+        members = [ids[c.name] for c in system.components if c.kind == kind]
         if members:
             lines.append(f"  classDef {kind} fill:{colour}")
             lines.append(f"  class {','.join(members)} {kind}")

@@ -92,6 +92,41 @@ def check_results_folder(
     check_output_folder(out, "--out" if not default else "the default results folder")
 
 
+#: Files a run writes into its results folder besides its plots (any image there).
+RUN_FILES = frozenset({"run.json", "results.csv", ".fmionnx-owned"})
+
+
+def check_distinct_outputs(recordings: dict[str, Path | None], out: Path | None) -> None:
+    """No two of a run's outputs at one path: ``--record`` and ``--rrd`` (``recordings``, by
+    option) apart, and neither one of the files the run writes into ``out`` (``run.json``,
+    ``results.csv``, an image: its plots). One overwrote the other, a run.json became a
+    Rerun recording, and the run still said it wrote both (a bug hunt)."""
+    from fmionnx.compile.plotfiles import IMAGE_SUFFIXES
+
+    seen: dict[Path, str] = {}
+    for option, path in recordings.items():
+        if path is None:
+            continue
+        where = _normal(path)
+        if where in seen:
+            msg = f"{seen[where]} and {option} name the same file `{path}`: choose two names"
+            raise RequestError(msg)
+        seen[where] = option
+        inside = out is not None and where.parent == _normal(out)
+        if inside and (path.name in RUN_FILES or path.suffix.lower() in IMAGE_SUFFIXES):
+            msg = (
+                f"{option} `{path}` is a file the run writes into its results folder `{out}`: "
+                "choose another name"
+            )
+            raise RequestError(msg)
+
+
+def _normal(path: Path) -> Path:
+    """``path`` absolute, ``..`` and ``.`` taken out by name (links are not followed: the
+    files need not exist yet)."""
+    return Path(os.path.normpath(path.absolute()))
+
+
 #: The first bytes of an MCAP file, and of a Rerun recording (``.rrd``).
 MCAP_MAGIC, RRD_MAGIC = b"\x89MCAP0\r\n", b"RRF"
 

@@ -44,6 +44,7 @@ from fmionnx.pipeline.errors import RefusedError, RequestError
 from fmionnx.pipeline.observers import Observers, RunObserver, RunStart
 from fmionnx.pipeline.outcome import RunOutcome, exit_status
 from fmionnx.pipeline.outputs import (
+    check_distinct_outputs,
     check_output_file,
     check_recording_file,
     check_results_folder,
@@ -222,6 +223,7 @@ def run_with_options(
 def _check_outputs(request: RunRequest) -> None:
     output = request.output
     # The files first: a refused one leaves no results folder made for nothing.
+    check_distinct_outputs({"--record": output.record, "--rrd": request.watch.rrd}, output.out)
     if output.record is not None:
         check_output_file(output.record, "--record")
         check_recording_file(output.record, "--record", force=output.force, source=request.target)
@@ -303,6 +305,7 @@ def _results_folder(system: System, request: RunRequest) -> Path | None:
     from fmionnx.results.outdir import default_folder
 
     out = default_folder(system.name)  # the system's name is known now; still before the run
+    check_distinct_outputs({"--record": output.record, "--rrd": request.watch.rrd}, out)
     check_results_folder(out, force=output.force, system_run=True, default=True)
     return out
 

@@ -23,6 +23,7 @@ from pydantic import Field, ValidationError, field_validator, model_validator
 
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
+from fmionnx.core.sourcetext import edited_text
 from fmionnx.core.specbase import ScalarLiteral, StrictModel
 from fmionnx.spec.model import known_format
 from fmionnx.spec.pydantic_errors import report_validation_error
@@ -227,7 +228,9 @@ class LoadedStudy:
 def load_study(path: Path, bag: DiagnosticBag) -> LoadedStudy:
     """Load and validate a study file; every problem goes into ``bag`` at its place."""
     sources = SourceMap(path)
-    if not path.is_file():
+    # An editor's unsaved text stands in for the file (the language server; a bug hunt: a new
+    # study not yet saved was said not to exist, its real problems unseen).
+    if edited_text(path) is None and not path.is_file():
         what = "does not exist" if not path.exists() else "is not a file"
         bag.emit(codes.STUDY_FILE, f"study file `{path}` {what}", Span(path))
         return LoadedStudy(None, sources, path)

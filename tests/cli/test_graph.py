@@ -130,3 +130,24 @@ def test_an_explicit_format_wins_over_the_suffix(tmp_path: Path) -> None:
     )
     assert result.exit_code == 0, result.output
     assert out.read_text(encoding="utf-8") == (GOLDEN / "sign_follower.mmd").read_text("utf-8")
+
+
+def test_mermaid_gives_names_that_differ_only_in_punctuation_their_own_nodes(
+    tmp_path: Path,
+) -> None:
+    """A bug hunt: `a.b`, `a_b` and `a-b` became one node `n_a_b`, drawn feeding three
+    gains (SSP's nested names hold dots, so this comes up)."""
+    system = tmp_path / "col.yaml"
+    sources = "".join(
+        f"  {n}: {{kind: signal, outputs: {{s: {{constant: 1}}}}}}\n" for n in ("a.b", "a_b", "a-b")
+    )
+    system.write_text(
+        "fmionnx: 1\nname: col\nrun: {stop: 1, step: 0.1}\ncomponents:\n" + sources
+        + "connections: []\n",
+        encoding="utf-8",
+    )  # fmt: skip
+    result = CliRunner().invoke(app, ["graph", str(system), "-f", "mermaid"])
+    assert result.exit_code == 0, result.output
+    nodes = [line.split("(")[0].split("[")[0].strip() for line in result.output.splitlines()[1:4]]
+    assert nodes == ["n_a_b", "n_a_b_2", "n_a_b_3"]
+    assert "class n_a_b,n_a_b_2,n_a_b_3 signal" in result.output

@@ -112,3 +112,38 @@ def test_an_out_link_that_leads_nowhere_is_said_so(tmp_path: Path, leads: str) -
     assert f"--out `{link}` is a symbolic link that leads nowhere" in output
     assert link.is_symlink()
     assert not (tmp_path / "missing").exists()
+
+
+@pytest.mark.parametrize(
+    ("options", "expected"),
+    [
+        (
+            ["--out", "{out}", "--rrd", "{out}/run.json"],
+            "--rrd `{out}/run.json` is a file the run writes into its results folder `{out}`",
+        ),
+        (
+            ["--out", "{out}", "--record", "{out}/results.csv"],
+            "--record `{out}/results.csv` is a file the run writes into its results folder",
+        ),
+        (
+            ["--out", "{out}", "--record", "{out}/trajectory.png"],
+            "--record `{out}/trajectory.png` is a file the run writes into its results folder",
+        ),
+        (
+            ["--no-out", "--record", "{tmp}/both.mcap", "--rrd", "{tmp}/both.mcap"],
+            "--record and --rrd name the same file `{tmp}/both.mcap`: choose two names",
+        ),
+    ],
+)
+def test_recordings_never_share_a_path_with_each_other_or_the_results(
+    tmp_path: Path, options: list[str], expected: str
+) -> None:
+    """A bug hunt: `--rrd out/run.json` exited 0 with run.json a Rerun recording (the run's
+    metadata lost) and `wrote out/run.json` said twice; `--record x --rrd x` kept one."""
+    out = tmp_path / "out"
+    filled = [o.format(out=out, tmp=tmp_path) for o in options]
+    code, output = _invoke("run", GAIN, "--stop-time", "0.1", *filled)
+    assert code == 2, output
+    assert expected.format(out=out, tmp=tmp_path) in output
+    assert not out.exists()  # refused before the results folder was made
+    assert list(tmp_path.iterdir()) == []

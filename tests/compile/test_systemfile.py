@@ -187,3 +187,33 @@ def test_a_consistent_file_with_a_period_beyond_2_53_steps_is_refused(
     bad = dataclasses.replace(reference, components=(first, *reference.components[1:]))
     with pytest.raises(CompiledFileError, match="period_steps out of range"):
         from_json(to_json(bad))
+
+
+def test_a_compiled_file_finds_its_models_from_any_folder_and_says_when_one_is_gone(
+    tmp_path: Path, fixture_fmu, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """A bug hunt: model paths were kept relative to the folder `compile` ran in, so the file
+    run from its own folder (or moved) ended in a fault "models/G.fmu does not exist" after
+    a results folder was made. They are absolute now, and a missing one is refused on
+    reading, with its name."""
+    project = tmp_path / "proj"
+    (project / "models").mkdir(parents=True)
+    shutil.copy(fixture_fmu("Gain"), project / "models" / "G.fmu")
+    (project / "sys.yaml").write_text(
+        "fmionnx: 1\nname: p\nrun: {stop: 0.1, step: 0.01}\ncomponents:\n"
+        "  gain: {kind: fmu, path: models/G.fmu, parameters: {k: 3, u: 1}}\n",
+        encoding="utf-8",
+    )
+    monkeypatch.chdir(project)
+    compiled = tmp_path / "dist" / "p.fmionnx.json"
+    compiled.parent.mkdir()
+    write_compiled(fmionnx.load("sys.yaml").compiled, compiled)
+    monkeypatch.chdir(compiled.parent)
+    system = read_compiled(Path(compiled.name))
+    (gain,) = system.components
+    assert gain.path == project / "models" / "G.fmu"
+    assert gain.interface.path == gain.path
+    assert Master(system, RunOptions()).run().signals["gain.y"][-1] == 3.0
+    (project / "models" / "G.fmu").rename(project / "models" / "moved.fmu")
+    with pytest.raises(CompiledFileError, match=r"component `gain`: its model `.*G\.fmu` does not"):
+        read_compiled(Path(compiled.name))

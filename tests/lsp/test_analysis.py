@@ -82,3 +82,24 @@ def test_the_outline_survives_a_mistake_in_one_entry(tmp_path: Path, fixture_fmu
     gain = result.outline.components["gain"]
     assert gain.interface is not None  # completion still knows the entry's ports
     assert gain.interface.port("u") is not None
+
+
+def test_an_unsaved_study_is_checked_from_its_text(
+    tmp_path: Path, fixture_fmu: Callable[[str], Path]
+) -> None:
+    """A bug hunt: a new study file, not yet on disk, got one diagnostic "study file ...
+    does not exist" and none of its real problems."""
+    shutil.copy(fixture_fmu("Gain"), tmp_path / "Gain.fmu")
+    (tmp_path / "system.yaml").write_text(
+        "fmionnx: 1\nname: g\nrun: {stop: 1, step: 0.1}\n"
+        "components:\n  gain: {kind: fmu, path: Gain.fmu}\n",
+        encoding="utf-8",
+    )
+    study = tmp_path / "newstudy.yaml"  # never saved
+    text = "fmionnx: 1\nsystem: system.yaml\nparameters:\n  gain.kk: [1, 2]\n"
+    analysis = analyse(study, {study: text})
+    assert analysis.kind is DocumentKind.STUDY
+    messages = [d.message for d in analysis.diagnostics if d.severity.name == "ERROR"]
+    assert not [m for m in messages if "does not exist" in m], messages
+    assert [m for m in messages if "kk" in m], messages
+    assert not study.exists()
