@@ -40,7 +40,8 @@ from fmionnx.core.steps import (
     step_problem,
 )
 from fmionnx.core.types import Component, KindConfig
-from fmionnx.kinds.registry import COMPONENT_KINDS, config_type, model_files
+from fmionnx.kinds.base import FMI
+from fmionnx.kinds.registry import COMPONENT_KINDS, config_type, has_capability, model_files
 
 #: The ``format`` of a compiled-system file, and the versions this release reads.
 FORMAT = "fmionnx-compiled-system"
@@ -158,7 +159,47 @@ def from_json(text: str, *, origin: str = "compiled system") -> CompiledSystem:
             msg = f"{origin}: component `{component.name}`: period_steps out of range"
             raise CompiledFileError(msg)
         _check_port_sizes(component, origin)
+        if has_capability(component, FMI):  # value references are FMI's
+            _check_value_references(component, origin)
+    _check_references(system, origin)
     return system
+
+
+#: FMI value references are 32-bit unsigned.
+_LARGEST_VR = 2**32 - 1
+
+
+def _check_value_references(component: Component, origin: str) -> None:
+    """An FMU port's value references: whole numbers of 32 bits, one per element (FMI 2) or
+    one for the whole array (FMI 3). The interface is not in the content hash (a model is
+    named by its file's), so an edited file ran reading another variable, or none (a bug
+    hunt: `vrs: []` gave zeros, 2**70 read value reference 0)."""
+    for port in component.interface.ports:
+        size = port.size
+        counts = {1} if size is None else {1, size}
+        bad = [vr for vr in port.vrs if not 0 <= vr <= _LARGEST_VR]
+        if bad or len(port.vrs) not in counts or not all(isinstance(d, int) for d in port.shape):
+            msg = (
+                f"{origin}: component `{component.name}`: port `{port.name}` has value "
+                f"references {list(port.vrs)[:4]} for shape {list(port.shape)}: damaged"
+            )
+            raise CompiledFileError(msg)
+
+
+def _check_references(system: CompiledSystem, origin: str) -> None:
+    """Every port the system records, connects or sets by a system input is a port of one of
+    its components: an edited file named one that is not, and the run ended in a traceback
+    (a bug hunt)."""
+    ports = {(c.name, port.name) for c in system.components for port in c.interface.ports}
+    named = [("`record`", ref) for ref in system.record]
+    for connection in system.connections:
+        named += [("a connection", connection.src), ("a connection", connection.dst)]
+    for system_input in system.inputs:
+        named += [(f"system input `{system_input.name}`", t.ref) for t in system_input.targets]
+    for what, ref in named:
+        if (ref.component, ref.port) not in ports:
+            msg = f"{origin}: {what} names `{ref}`, which no component of the system has: damaged"
+            raise CompiledFileError(msg)
 
 
 def _check_port_sizes(component: Component, origin: str) -> None:

@@ -217,3 +217,56 @@ def test_a_compiled_file_finds_its_models_from_any_folder_and_says_when_one_is_g
     (project / "models" / "G.fmu").rename(project / "models" / "moved.fmu")
     with pytest.raises(CompiledFileError, match=r"component `gain`: its model `.*G\.fmu` does not"):
         read_compiled(Path(compiled.name))
+
+
+def _edited(system: CompiledSystem, edit) -> str:  # type: ignore[no-untyped-def]
+    document = json.loads(to_json(system))
+    edit(document["system"])
+    return json.dumps(document)
+
+
+def _gain_port(system: dict, name: str) -> dict:  # type: ignore[type-arg]
+    (component,) = [c for c in system["components"] if c["name"] == "gain"]
+    (port,) = [p for p in component["interface"]["ports"] if p["name"] == name]
+    return port  # type: ignore[no-any-return]
+
+
+@pytest.mark.parametrize(
+    ("edit", "expected"),
+    [
+        (
+            lambda s: s.update(record=[{"component": "nope", "port": "zz", "index": None}]),
+            "`record` names `nope.zz`, which no component of the system has: damaged",
+        ),
+        (
+            lambda s: _gain_port(s, "y").update(vrs=[]),
+            "component `gain`: port `y` has value references [] for shape []: damaged",
+        ),
+        (
+            lambda s: _gain_port(s, "y").update(vrs=[2**70]),
+            "component `gain`: port `y` has value references",
+        ),
+        (
+            lambda s: _gain_port(s, "w").update(shape=[2]),
+            "component `gain`: port `w` has value references [6, 7, 8] for shape [2]",
+        ),
+    ],
+)
+def test_an_edit_the_content_hash_does_not_cover_is_refused(
+    tmp_path: Path, fixture_fmu, edit, expected: str
+) -> None:  # type: ignore[no-untyped-def]
+    """A bug hunt: the interfaces and `record` are outside the content hash (a model is
+    named by its file's hash); an edited record ended in a KeyError traceback, edited value
+    references ran silently reading another variable (or none), an edited shape dropped
+    columns. Each is refused on reading, one line."""
+    system_file = tmp_path / "g.yaml"
+    system_file.write_text(
+        f"fmionnx: 1\nname: g\nrun: {{stop: 0.1, step: 0.01}}\ncomponents:\n"
+        f"  gain: {{kind: fmu, path: {fixture_fmu('Gain')}}}\n",
+        encoding="utf-8",
+    )
+    text = _edited(fmionnx.load(system_file).compiled, edit)
+    with pytest.raises(CompiledFileError) as refused:
+        from_json(text, origin="g.fmionnx.json")
+    assert expected in str(refused.value)
+    assert str(refused.value).startswith("g.fmionnx.json: ")
