@@ -11,6 +11,7 @@ import math
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeGuard
 
 from fmionnx.compile.checks import compile_checks
 from fmionnx.compile.components import compile_component
@@ -193,17 +194,13 @@ def _set_once(
     return once
 
 
-def _is_number(value: object) -> bool:
+def _is_number(value: object) -> TypeGuard[int | float]:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 def _close(a: object, b: object) -> bool:
     """Equal numbers but for rounding (a unit conversion computed on another path)."""
-    if isinstance(a, bool) or isinstance(b, bool):
-        return False
-    if not isinstance(a, int | float) or not isinstance(b, int | float):
-        return False
-    return math.isclose(a, b, rel_tol=1e-12)
+    return _is_number(a) and _is_number(b) and math.isclose(a, b, rel_tol=1e-12)
 
 
 @dataclass(frozen=True, slots=True)

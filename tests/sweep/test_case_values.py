@@ -85,21 +85,27 @@ def test_a_target_column_has_its_variable_type(write_study: WriteStudy, tmp_path
     assert table.column("gain.k") == [1.0, 2.0, 3.0]
 
 
+def _refused(study: Path) -> tuple[list[str], str]:
+    """`validate` of a study that must fail: its error lines (the folder left out), and all."""
+    result = CliRunner().invoke(
+        app, ["validate", str(study)], env={"COLUMNS": "200", "NO_COLOR": "1"}
+    )
+    assert result.exit_code == 1, result.output
+    lines = result.output.splitlines()
+    return [line.split("/")[-1] for line in lines if ": error[" in line], result.output
+
+
 def test_a_stop_time_longer_than_a_case_may_run_is_refused_at_its_place(
     write_study: WriteStudy,
 ) -> None:
     """Every case failed with advice to pass ``--max-steps``, an option ``sweep`` lacks."""
     study = write_study(STUDY.replace("run.stop: [1]", "run.stop: [1, 1e9]"))
-    result = CliRunner().invoke(
-        app, ["validate", str(study)], env={"COLUMNS": "200", "NO_COLOR": "1"}
-    )
-    assert result.exit_code == 1, result.output
-    errors = [line.split("/")[-1] for line in result.output.splitlines() if ": error[" in line]
+    errors, output = _refused(study)
     assert errors == [
         "study.yaml:5:13: error[E103 study-values]: `run.stop`: run.stop 1e+09 makes the run "
         "1e+11 base steps of 0.01 s, more than the 1e+10 a case may run"
     ]
-    assert "--max-steps" not in result.output
+    assert "--max-steps" not in output
 
 
 def test_a_system_run_longer_than_a_case_may_run_is_refused_at_the_system(
@@ -111,11 +117,7 @@ def test_a_system_run_longer_than_a_case_may_run_is_refused_at_the_system(
     system.write_text(
         system.read_text(encoding="utf-8").replace("{stop: 1,", "{stop: 1e9,"), encoding="utf-8"
     )
-    result = CliRunner().invoke(
-        app, ["validate", str(study)], env={"COLUMNS": "200", "NO_COLOR": "1"}
-    )
-    assert result.exit_code == 1, result.output
-    errors = [line.split("/")[-1] for line in result.output.splitlines() if ": error[" in line]
+    errors, _ = _refused(study)
     assert errors == [
         "study.yaml:2:9: error[E103 study-values]: the system's run is 1e+11 base steps of "
         "0.01 s, more than the 1e+10 a case may run"
