@@ -11,7 +11,6 @@ import math
 from collections import defaultdict
 from dataclasses import dataclass
 from pathlib import Path
-from typing import TypeGuard
 
 from fmionnx.compile.checks import compile_checks
 from fmionnx.compile.components import compile_component
@@ -41,6 +40,7 @@ from fmionnx.core.types import (
     PortRef,
     ValueSource,
     flat_index,
+    is_number,
 )
 from fmionnx.spec.model import ConnectionSpec, SystemSpec, split_connection
 from fmionnx.spec.sourcemap import SourceMap
@@ -176,7 +176,7 @@ def _set_once(
         if given is None or len(given.value) != 1 or value is None:
             continue
         item = value
-        if (target.factor, target.offset) != (1.0, 0.0) and _is_number(value):
+        if (target.factor, target.offset) != (1.0, 0.0) and is_number(value):
             item = target.factor * float(value) + target.offset
         other = given.value[0]
         if other == item or _close(other, item):
@@ -194,13 +194,9 @@ def _set_once(
     return once
 
 
-def _is_number(value: object) -> TypeGuard[int | float]:
-    return isinstance(value, int | float) and not isinstance(value, bool)
-
-
 def _close(a: object, b: object) -> bool:
     """Equal numbers but for rounding (a unit conversion computed on another path)."""
-    return _is_number(a) and _is_number(b) and math.isclose(a, b, rel_tol=1e-12)
+    return is_number(a) and is_number(b) and math.isclose(a, b, rel_tol=1e-12)
 
 
 @dataclass(frozen=True, slots=True)

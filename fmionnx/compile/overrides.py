@@ -22,6 +22,7 @@ from fmionnx.core.types import (
     ParameterValue,
     Scalar,
     ValueSource,
+    is_number,
     is_whole_multiple,
     number_text,
 )
@@ -160,7 +161,7 @@ def _override_input(
     for target in system_input.targets:
         item: Scalar = value
         if target.factor != 1.0 or target.offset != 0.0:
-            if isinstance(value, bool) or not isinstance(value, int | float):
+            if not is_number(value):
                 msg = (
                     f"--param `{key}`: `{value}` reaches `{target.ref}` through a linear "
                     "transformation and must be a number"

@@ -42,6 +42,7 @@ def compile_single_model(
     interface: Literal["cs", "me"] | None = None,
     step: float | None = None,
     start: float | None = None,
+    stop: float | None = None,
 ) -> CompiledSystem | None:
     """Compile a one-component system around ``path`` (an FMU or ONNX model) to run it.
 
@@ -71,7 +72,7 @@ def compile_single_model(
     if TIMELESS in kind.capabilities:  # one step of 1 s: a model without time of its own
         run = RunSpec(start=0.0, stop=1.0, step=1.0)
     else:
-        run = RunSpec(step=step, start=start or 0.0)
+        run = RunSpec(step=step, start=start or 0.0, stop=stop)
     if _read_alone(path, spec, bag) is None:
         return None
     return _compile_alone(path, spec, run, bag)

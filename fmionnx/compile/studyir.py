@@ -27,7 +27,7 @@ from fmionnx.compile.overrides import (
     override_parameter,
     override_stop,
 )
-from fmionnx.core.types import PortRef, Scalar, ValueSource
+from fmionnx.core.types import PortRef, Scalar, ValueSource, is_number
 
 #: The study table's own columns (besides one per target, metric and check): a target or a
 #: metric of the same name would make two columns of one name, which the table refuses.
@@ -155,7 +155,7 @@ def apply_setting(system: CompiledSystem, setting: Setting) -> CompiledSystem:
 
 def _seconds(value: SettingValue, flag: str) -> float:
     """A run setting's value, which the study file may give as anything YAML holds."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_number(value):
         shown = json.dumps(_plain(value))
         msg = f"{flag} {shown} must be a finite number of seconds"
         raise OverrideError(msg)

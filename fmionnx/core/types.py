@@ -12,12 +12,19 @@ import sys
 from collections.abc import Iterator
 from dataclasses import dataclass
 from pathlib import Path
+from typing import TypeGuard
 
 from fmionnx.core.diagnostics import Span
 from fmionnx.core.units import Unit
 
 #: A scalar value as found in start values and parameters.
 Scalar = float | int | bool | str
+
+
+def is_number(value: object) -> TypeGuard[int | float]:
+    """An int or a float, not a bool: Python's ``True`` is the int 1, and a setting that
+    takes a number never means a truth value."""
+    return isinstance(value, int | float) and not isinstance(value, bool)
 
 
 #: Largest finite float32, above which a value silently becomes infinity.
@@ -73,7 +80,7 @@ class DType(enum.StrEnum):
         NaN, and where that value is passed on by no connection (whose check would catch it)
         a run completed with NaN results. An explicit infinity is left alone (a limit).
         """
-        if isinstance(value, bool) or not isinstance(value, int | float):
+        if not is_number(value):
             return None
         if isinstance(value, float) and math.isnan(value):
             return "is not a number (NaN); a parameter takes a number (an infinity is allowed)"
@@ -149,7 +156,7 @@ class Port:
         (most do not) fail at initialization with a message of their own, the others run
         with a value their author ruled out (a bug hunt: ``mode=99`` of a ``max="13"``).
         """
-        if isinstance(value, bool) or not isinstance(value, int | float) or math.isnan(value):
+        if not is_number(value) or math.isnan(value):
             return None
         low, high = self.bounds
         if low is not None and value < low:

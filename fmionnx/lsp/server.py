@@ -302,7 +302,18 @@ def make_server() -> FmionnxServer:
     server = FmionnxServer()
 
     def document(uri: str) -> TextDocument:
-        return server.workspace.get_text_document(uri)
+        """The open document at ``uri``, else the file read from disk; a request about a
+        file that is neither (never opened, then deleted) is refused in one line (it was an
+        "internal error" with a traceback)."""
+        doc = server.workspace.get_text_document(uri)
+        if uri not in server.workspace.text_documents:
+            try:
+                doc.source  # noqa: B018 - read from disk: whether it can be
+            except (OSError, UnicodeDecodeError, ValueError) as exc:
+                reason = exc.strerror if isinstance(exc, OSError) and exc.strerror else "unreadable"
+                msg = f"`{uri}` is not open in the editor and cannot be read ({reason})"
+                raise RequestFailedError(msg) from None
+        return doc
 
     def at(doc: TextDocument, position: types.Position) -> tuple[int, int]:
         here = doc.position_codec.position_from_client_units(doc.lines, position)
@@ -512,12 +523,21 @@ def _contains(span: types.Range, line: int, column: int) -> bool:
     return start <= (line, column) <= end
 
 
+def _not_an_answer(record: logging.LogRecord) -> bool:
+    """Whether pygls' log ``record`` is worth stderr: not when it is the traceback pygls logs
+    for every error a handler raises, where the error is an answer meant for the user (a
+    refused rename, a file that cannot be read), not a bug."""
+    error = record.exc_info[1] if record.exc_info else None
+    return not isinstance(error, RequestFailedError)
+
+
 def serve() -> None:
     """Run the server on stdin/stdout until the client says exit (or stdin closes)."""
     protocol_out = os.fdopen(os.dup(sys.stdout.fileno()), "wb")
     os.dup2(sys.stderr.fileno(), sys.stdout.fileno())  # stray prints go to stderr
     sys.stdout = sys.stderr
     logging.getLogger("pygls").setLevel(logging.WARNING)
+    logging.getLogger("pygls.protocol.json_rpc").addFilter(_not_an_answer)
     server = make_server()
     try:
         server.start_io(sys.stdin.buffer, protocol_out)

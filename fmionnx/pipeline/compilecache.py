@@ -298,7 +298,7 @@ def _hashed(path: Path, flags: RunFlags, **what: object) -> str:
         "environment": limits_in_force(),
         "cwd": str(Path.cwd()),
         "path": str(path),
-        "flags": [flags.start, flags.step],
+        "flags": [flags.start, flags.step, flags.stop],
         **what,
     }
     text = json.dumps(material, sort_keys=True, default=repr)

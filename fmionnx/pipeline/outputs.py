@@ -8,8 +8,11 @@ name (a :class:`~fmionnx.pipeline.errors.RequestError`: exit 2).
 
 from __future__ import annotations
 
+import contextlib
 import os
 import tempfile
+from collections.abc import Iterator
+from contextvars import ContextVar
 from pathlib import Path
 
 from fmionnx.pipeline.errors import RequestError
@@ -20,6 +23,7 @@ def _make_folder(folder: Path, option: str, what: str) -> None:
     if folder.is_symlink() and not folder.exists():
         msg = f"{label} is a symbolic link that leads nowhere (its target is missing, or a loop)"
         raise RequestError(msg)
+    first_new = _first_missing(folder)
     try:
         folder.mkdir(parents=True, exist_ok=True)
     except FileExistsError:
@@ -28,9 +32,58 @@ def _make_folder(folder: Path, option: str, what: str) -> None:
     except OSError as exc:
         msg = f"{label} cannot be created ({exc.strerror})"
         raise RequestError(msg) from None
+    made = _MADE.get()
+    if first_new is not None and made is not None:
+        made.append((first_new, folder))
     if not os.access(folder, os.W_OK | os.X_OK):
         msg = f"{label} is not writable"
         raise RequestError(msg)
+
+
+def _first_missing(folder: Path) -> Path | None:
+    """The highest of ``folder`` and its parents that does not exist yet (what ``mkdir``
+    with parents creates first); None when ``folder`` exists."""
+    missing = None
+    for at in (folder, *folder.parents):
+        if at.exists() or at.is_symlink():
+            break
+        missing = at
+    return missing
+
+
+#: The folders the output checks created while :func:`undone_on_failure` watches them: each
+#: the highest one created and the one asked for.
+_MADE: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("fmionnx_made", default=None)
+
+
+@contextlib.contextmanager
+def undone_on_failure() -> Iterator[None]:
+    """Folders the output checks make inside the block are removed again, when still empty,
+    if the block raises: a command that checked ``--out`` and then failed to load its system
+    left an empty results folder behind (a bug hunt). Never a folder that existed before,
+    never one holding anything."""
+    made: list[tuple[Path, Path]] = []
+    token = _MADE.set(made)
+    try:
+        yield
+    except BaseException:
+        for top, asked in reversed(made):
+            _remove_empty_chain(top, asked)
+        raise
+    finally:
+        _MADE.reset(token)
+
+
+def _remove_empty_chain(top: Path, asked: Path) -> None:
+    """``asked`` and its parents up to ``top``, each removed while empty (rmdir refuses a
+    folder holding anything: what a concurrent writer put there stays)."""
+    for at in (asked, *asked.parents):
+        try:
+            at.rmdir()
+        except OSError:
+            return
+        if at == top:
+            return
 
 
 def check_output_file(path: Path, option: str) -> Path:

@@ -10,14 +10,15 @@ it). The backend's own options are checked by the backend's options type
 
 from __future__ import annotations
 
+import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
 from typing import Literal, TypedDict
 
 from fmionnx.compile.overrides import OverrideError, parse_value
-from fmionnx.core.steps import MAX_RUN_STEPS
-from fmionnx.core.types import Scalar
+from fmionnx.core.steps import MAX_RUN_STEPS, step_problem
+from fmionnx.core.types import Scalar, is_number
 from fmionnx.pipeline.defaults import CHECKPOINT_EVERY, STEP_TIMEOUT
 from fmionnx.pipeline.errors import RequestError
 from fmionnx.pipeline.viewspec import ViewSpecError, ViewTarget, parse_view
@@ -223,6 +224,7 @@ def _overrides(given: dict[str, object], kind: TargetKind) -> Overrides:
         name: _number(given.pop(name, None), name)
         for name in ("start_time", "step", "stop_time", "output_interval")
     }
+    _check_times(times)
     if kind == "inference" and any(
         times[n] is not None for n in ("start_time", "step", "output_interval")
     ):
@@ -243,6 +245,22 @@ def _overrides(given: dict[str, object], kind: TargetKind) -> Overrides:
         interface="me" if interface == "me" else "cs" if interface == "cs" else None,
         models=None if models is None else _path(models, "--models"),
     )  # fmt: skip
+
+
+def _check_times(times: dict[str, float | None]) -> None:
+    """A base step and a start time that cannot be one, refused as options (exit 2, as
+    ``--stop-time nan`` is): they came as errors at the system file, exit 1."""
+    step, start = times["step"], times["start_time"]
+    problem = None if step is None else step_problem(step)
+    if problem is not None:
+        raise RequestError(f"--step {problem}")
+    if start is not None and not math.isfinite(start):
+        msg = f"--start-time {start} is not a finite number of seconds"
+        raise RequestError(msg)
+    stop = times["stop_time"]
+    if start is not None and stop is not None and math.isfinite(stop) and stop <= start:
+        msg = f"--stop-time {stop} must be greater than --start-time {start}"
+        raise RequestError(msg)
 
 
 def _output(given: dict[str, object], kind: TargetKind) -> Output:
@@ -331,7 +349,7 @@ def _inputs(value: object, kind: TargetKind) -> tuple[tuple[str, Path], ...]:
 def _number(value: object, name: str) -> float | None:
     if value is None:
         return None
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_number(value):
         msg = f"--{name.replace('_', '-')} takes a number, not `{value}`"
         raise RequestError(msg)
     return float(value)

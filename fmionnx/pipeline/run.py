@@ -48,6 +48,7 @@ from fmionnx.pipeline.outputs import (
     check_output_file,
     check_recording_file,
     check_results_folder,
+    undone_on_failure,
 )
 from fmionnx.pipeline.request import RunRequest, RunSettings, build_request
 from fmionnx.runtime.backend import Backend, BackendOptions, OptionsError, RunContext
@@ -76,6 +77,20 @@ def execute(
     """Run ``request`` through every stage (module docstring); ``system`` skips loading (a
     system already loaded, ``System.run``); ``signals`` narrows what is recorded."""
     views = _views(request)  # a missing library or viewer: refused before any folder is made
+    with undone_on_failure():  # an empty results folder made for a run that failed to start
+        outcome, late = _checked_and_run(request, views, observers, system, signals)
+    if late:
+        LOG.warning("%s", late_stop_text(late[0]))
+    return outcome
+
+
+def _checked_and_run(
+    request: RunRequest,
+    views: list[RunObserver],
+    observers: Sequence[RunObserver],
+    system: System | None,
+    signals: tuple[PortRef, ...] | None,
+) -> tuple[RunOutcome, list[str]]:
     _check_outputs(request)
     watch = Observers([*views, *observers])  # a view's files are closed before they are named
     fed = [o for o in (*views, *observers) if o.wants_feed]  # a caller's own view too
@@ -129,9 +144,7 @@ def execute(
         finally:
             if plotter is not None:
                 plotter.close()
-    if late:
-        LOG.warning("%s", late_stop_text(late[0]))
-    return outcome
+    return outcome, late
 
 
 def load_request(request: RunRequest) -> System:
@@ -144,6 +157,7 @@ def load_request(request: RunRequest) -> System:
         return load(
             request.target, interface=overrides.interface if request.kind == "model" else None,
             step=overrides.step, start=overrides.start_time, models=overrides.models,
+            stop=overrides.stop_time,
         )  # fmt: skip
     except OverrideError as exc:
         raise RequestError(str(exc)) from None

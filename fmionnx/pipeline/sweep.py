@@ -237,8 +237,8 @@ def run_sweep(
     try:
         folder = StudyFolder(out, plan)
         problem = folder.problem(resume=resume, force=force)
-        if problem is None and force:  # a table edited since: kept, so refused
-            problem = folder.kept_in_the_way()
+        if problem is None and (force or resume):  # a table edited since: kept, so refused
+            problem = folder.kept_in_the_way(resume=resume and not force)
         if problem is not None:  # said at once, not after starting a cluster
             raise StudyFolderError(problem)
         # The cluster is reached (an existing one) or started (a local one) before the folder

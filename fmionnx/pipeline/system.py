@@ -105,22 +105,26 @@ def load(
     step: float | None = None,
     models: Path | None = None,
     start: float | None = None,
+    stop: float | None = None,
 ) -> System:
     """Compile a system file or a single model, or read a compiled system; raises
     DiagnosticError on errors (CompiledFileError for an unusable compiled-system file).
 
     ``interface`` applies to a single ``.fmu`` only; ``step`` and ``start`` replace the run's
-    base step and start time of any system before it is compiled (:mod:`.compile.runflags`).
+    base step and start time of any system before it is compiled (:mod:`.compile.runflags`),
+    ``stop`` too when ``start`` is given (alone: pass it to ``System.with_overrides``).
     A compiled-system file (``*.fmionnx.json``, written by ``fmionnx compile``) is read as it
     is, nothing compiled (``step``/``start`` are refused: OverrideError); ``models`` names the
     store its models are found in by hash (default: where they were).
     """
     target = Path(path)
-    flags = RunFlags(start=start, step=step)
+    # A stop is compiled in only with a new start (one past the file's stop compiles); alone
+    # it stays an override of the compiled system (``with_overrides``), compiled files too.
+    flags = RunFlags(start=start, step=step, stop=stop if start is not None else None)
     if target.name.lower().endswith(COMPILED_SUFFIX):
         from fmionnx.compile.systemfile import read_compiled
 
-        if flags.keys:
+        if flags.start is not None or flags.step is not None:
             msg = "--step and --start-time need a system file: a compiled system is run as it is"
             raise OverrideError(msg)
         return System(read_compiled(target, models=models), source=target)
@@ -195,7 +199,7 @@ def compile_model(
 
     bag = DiagnosticBag()
     compiled = compile_single_model(
-        path, bag, interface=interface, step=flags.step, start=flags.start
+        path, bag, interface=interface, step=flags.step, start=flags.start, stop=flags.stop
     )
     if compiled is not None:
         compiled = mark_command_line(compiled, flags)

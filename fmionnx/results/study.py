@@ -57,6 +57,8 @@ DESCRIPTION, RECORDS, CASES = "study.json", "records", "cases"
 INFINITIES = ("inf", "-inf")
 #: What a case's folder holds: its results (``--keep-results``) and recording (``--rrd``).
 KEPT = ("results.csv", "run.rrd")
+#: The study's table, written again whenever the study runs (resumed too).
+TABLES = ("cases.csv", "cases.parquet")
 
 
 class StudyFolderError(FmionnxError):
@@ -145,31 +147,47 @@ class StudyFolder:
             return f"`{self.out}` is not empty and holds no study: choose a new or empty folder"
         return None
 
-    def kept_in_the_way(self) -> str | None:
+    def kept_in_the_way(self, *, resume: bool = False) -> str | None:
         """Why a study run with ``--force`` cannot start afresh here (None: it can), touching
         nothing: a file the study writes again (its table, a plot, a case's record or
         results) that the ownership record does not prove is the very file written -- edited,
         replaced or put there since. :meth:`prepare` keeps such a file, as it keeps anything
         it cannot prove it wrote (:mod:`fmionnx.core.owned`), but the new study would then
         write over it: the study refuses the folder before anything is deleted, as it does an
-        edited ``study.json``."""
+        edited ``study.json``.
+
+        ``resume``: the files a resumed study writes again that a user may have edited, its
+        table (``--resume`` wrote an edited ``cases.csv`` over). Not its plots: the plot
+        worker's can be left unnoted by the very Ctrl-C a study is resumed after; they are
+        drawn, not written by hand."""
         proven = self.owned.proven_names()
-        kept = sorted(n for n in self._rewritten() if n not in proven)
+        names = self._rewritten() if not resume else self._tables()
+        kept = sorted(n for n in names if n not in proven)
         if not kept:
             return None
         more = f" (and {len(kept) - 1} more)" if len(kept) > 1 else ""
+        option = (
+            "--resume writes the table again"
+            if resume
+            else (
+                "--force deletes only the study's own files, unchanged, and the new study would "
+                "write over it"
+            )
+        )
         return (
             f"`{self.out / kept[0]}`{more} is not the file the study wrote there (edited or "
-            "replaced since): --force deletes only the study's own files, unchanged, and "
-            "the new study would write over it; move it out of the folder first"
+            f"replaced since): {option}; move it out of the folder first"
         )
+
+    def _tables(self) -> list[str]:
+        return [n for n in TABLES if os.path.lexists(self.out / n)]
 
     def _rewritten(self) -> list[str]:
         """The files of the folder (names inside it) that this study writes when it starts
         afresh and that exist now, found without following a link."""
         metrics = [m.name for m in self.plan.plotted_metrics]
         tops = [
-            "cases.csv", "cases.parquet", "passfail.png",
+            *TABLES, "passfail.png",
             *(f"{prefix}-{name}.png" for prefix in ("heatmap", "metric") for name in metrics),
         ]  # fmt: skip
         found = [name for name in tops if os.path.lexists(self.out / name)]

@@ -22,6 +22,7 @@ from collections.abc import Mapping
 from typing import TYPE_CHECKING, ClassVar, Self
 
 from fmionnx.core.errors import FmionnxError
+from fmionnx.core.types import is_number
 
 if TYPE_CHECKING:  # options are checked without numpy: the CLI checks them before a run loads
     from fmionnx.compile.ir import CompiledSystem
@@ -45,7 +46,7 @@ def flag(name: str) -> str:
 def checked_rtf(value: object) -> float:
     """``--rtf``: a pace >= 0 times real time, finite (0: as fast as possible); every backend
     that paces takes it with this rule."""
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_number(value):
         msg = f"--rtf takes a number, not `{value}`"
         raise OptionsError(msg)
     rtf = float(value)

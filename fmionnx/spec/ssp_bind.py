@@ -36,6 +36,7 @@ from pathlib import Path
 
 from fmionnx.core import codes
 from fmionnx.core.specbase import ScalarLiteral
+from fmionnx.core.types import is_number
 from fmionnx.spec.ssp_graph import Pin, Reached, SystemGraph, system_text
 from fmionnx.spec.ssp_params import BoundValue, binding_values
 from fmionnx.spec.ssp_tree import Element
@@ -178,7 +179,7 @@ def _transformed(graph: SystemGraph, value: BoundValue, end: Reached) -> ScalarL
     if end.identity:
         return value.value
     number = value.value
-    if isinstance(number, bool) or not isinstance(number, int | float):
+    if not is_number(number):
         graph.bag.emit(
             codes.SSP_UNSUPPORTED,
             f"`{value.name}` reaches `{'.'.join(end.pin[0])}.{end.pin[1]}` through a linear "

@@ -16,7 +16,7 @@ from urllib.parse import unquote, urlparse
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.specbase import ScalarLiteral
-from fmionnx.core.types import ValueSource
+from fmionnx.core.types import ValueSource, is_number
 from fmionnx.core.units import BASE_UNITS, Unit, builtin_unit
 from fmionnx.spec.ssp_tree import Binding, Transformation
 from fmionnx.spec.ssp_xml import parse_xml, tag, validate, validate_inline
@@ -200,7 +200,7 @@ def _apply(value: BoundValue, entry: _Entry | None, bag: DiagnosticBag) -> Bound
         return value
     result = value.value
     if entry.transformation is not None:
-        if isinstance(result, bool) or not isinstance(result, int | float):
+        if not is_number(result):
             bag.emit(
                 codes.SSP_UNSUPPORTED,
                 f"a linear transformation applies to Real values, not to `{value.name}`",

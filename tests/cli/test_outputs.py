@@ -147,3 +147,37 @@ def test_recordings_never_share_a_path_with_each_other_or_the_results(
     assert expected.format(out=out, tmp=tmp_path) in output
     assert not out.exists()  # refused before the results folder was made
     assert list(tmp_path.iterdir()) == []
+
+
+def test_a_run_whose_system_fails_to_load_leaves_no_folder_it_made(tmp_path: Path) -> None:
+    broken = tmp_path / "broken.yaml"
+    broken.write_text("components: {g: {fmu: missing.fmu}}\n", encoding="utf-8")
+    out = tmp_path / "new" / "deeper" / "results"
+    record = tmp_path / "rec" / "run.mcap"
+    code, _ = _invoke("run", str(broken), "--out", str(out), "--record", str(record))
+    assert code == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["broken.yaml"]
+
+
+def test_a_failed_start_keeps_folders_that_existed_or_hold_anything(tmp_path: Path) -> None:
+    from fmionnx.pipeline.outputs import check_output_folder, undone_on_failure
+
+    (tmp_path / "kept").mkdir()
+    made_then_filled = tmp_path / "filled" / "out"
+
+    def fail_after_making() -> None:
+        with undone_on_failure():
+            check_output_folder(tmp_path / "kept", "--out")
+            check_output_folder(tmp_path / "kept" / "empty", "--out")
+            check_output_folder(made_then_filled, "--out")
+            (made_then_filled / "note.txt").write_text("mine\n", encoding="utf-8")
+            raise RuntimeError
+
+    with pytest.raises(RuntimeError):
+        fail_after_making()
+    assert (tmp_path / "kept").is_dir()
+    assert not (tmp_path / "kept" / "empty").exists()
+    assert (made_then_filled / "note.txt").is_file()
+    with undone_on_failure():  # no failure: what was made stays
+        check_output_folder(tmp_path / "kept" / "stays", "--out")
+    assert (tmp_path / "kept" / "stays").is_dir()

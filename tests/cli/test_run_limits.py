@@ -100,9 +100,42 @@ def test_overrides_through_the_api(system: Path) -> None:
     assert loaded.with_overrides(params={"gain.k": 1e308}).compiled.run.steps == 100
 
 
-@pytest.mark.parametrize("step", ["5e-324", "-1", "inf"])
-def test_single_fmu_step_is_checked_like_run_step(system: Path, step: str) -> None:
-    code, output = run("Gain.fmu", "--step", step, "--out", "out")
-    assert code == 1
+@pytest.mark.parametrize("target", ["Gain.fmu", "system.yaml"])
+@pytest.mark.parametrize(
+    ("flags", "said"),
+    [
+        (["--step", "5e-324"], "--step 5e-324 is subnormal"),
+        (["--step", "-1"], "--step -1.0 is not a positive finite number of seconds"),
+        (["--step", "inf"], "--step inf is not a positive finite number of seconds"),
+        (["--step", "nan"], "--step nan is not a positive finite number of seconds"),
+        (["--start-time", "nan"], "--start-time nan is not a finite number of seconds"),
+        (["--start-time", "2", "--stop-time", "1"], "--stop-time 1.0 must be greater than"),
+    ],
+)
+def test_times_that_cannot_be_are_usage_errors_like_stop_time(
+    system: Path, target: str, flags: list[str], said: str
+) -> None:
+    """``--step nan`` was E040 at the system file (exit 1), ``--stop-time nan`` exit 2."""
+    code, output = run(target, *flags, "--out", "out")
+    assert code == 2, output
     assert "Traceback" not in output
-    assert "error[E040 run-settings]: --step" in output
+    assert said in output
+    assert not Path("out").exists()
+
+
+@pytest.mark.parametrize("target", ["Gain.fmu", "system.yaml"])
+def test_a_start_past_the_files_stop_runs_with_a_stop_time(system: Path, target: str) -> None:
+    """``--start-time 5 --stop-time 5.5`` was refused (E040 at `run.stop`): the start was
+    compiled in, the stop applied only after compiling."""
+    code, output = run(target, "--start-time", "5", "--stop-time", "5.5", "--out", "out")
+    assert code == 0, output
+    times = [row.split(",")[0] for row in Path("out/results.csv").read_text().splitlines()[1:]]
+    assert (times[0], times[-1]) == ("5", "5.5")
+
+
+def test_a_start_past_the_files_stop_alone_names_the_option(system: Path) -> None:
+    code, output = run("system.yaml", "--start-time", "5", "--out", "out")
+    assert code == 1
+    text = " ".join(output.split())
+    assert "--start-time 5.0 is not before the system's stop time 1.0 (`run.stop`)" in text
+    assert "give --stop-time too" in text

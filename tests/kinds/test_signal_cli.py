@@ -157,6 +157,10 @@ TABLE_ENTRY = "  s: {kind: signal, path: t.csv}"
         ("time,a\n0,1\n1,x\n", "`t.csv:3`: column `a`: `x` is not a number"),
         ("time,a\n0,1\n1,\n", "`t.csv:3`: column `a` is empty"),
         ("time,a\n0,nan\n", "`t.csv:2`: column `a`: `nan` is not a finite number"),
+        ("time,a\n0,-Infinity\n", "`t.csv:2`: column `a`: `-Infinity` is not a finite number"),
+        ("time,a\n0,1_000\n", "`t.csv:2`: column `a`: `1_000` is not a number"),
+        ("time,a\n0_1,1\n", "`t.csv:2`: column `time`: `0_1` is not a number"),
+        ("time,a\n0,0x10\n", "`t.csv:2`: column `a`: `0x10` is not a number"),
         ("time,a\n0,1\n1,2,3\n", "`t.csv:3`: 3 fields, but the header names 2"),
         (
             "time,a\n0,1\n2,2\n\n2,3\n",

@@ -6,6 +6,7 @@ import json
 import shutil
 from pathlib import Path
 
+import pytest
 from lsprotocol import types
 from typer.testing import CliRunner
 
@@ -506,3 +507,17 @@ def test_an_ssd_completes_hovers_and_goes_to_its_models(
     assert action.edit is not None
     assert action.edit.changes is not None
     assert apply(typo, action.edit.changes[uri]) == SSD
+
+
+def test_a_request_on_a_file_neither_open_nor_readable_is_refused_in_one_line(
+    server: Session, workspace: Path
+) -> None:
+    """A hover on a never-opened file that is gone was an "internal error" and a traceback
+    (a bug hunt): the client gets an error answer naming the file, the server logs no bug."""
+    uri = (workspace / "systems" / "never-there.yaml").as_uri()
+    for ask in (server.hover, server.definition):
+        with pytest.raises(Exception, match="is not open in the editor and cannot be read") as got:
+            ask(uri, 0, 0)
+        assert "never-there.yaml" in str(got.value)
+    assert not [m for m in server.log if "internal error" in m]
+    assert "Traceback" not in server.stderr_text()

@@ -118,3 +118,31 @@ def test_a_stop_while_a_record_is_written_lands_after_it_is_noted(
         folder.record(CaseOutcome(first.id, "ok", metrics={"end": 1.0}))
     assert f"records/{first.id}.json" in folder.owned.proven_names()
     assert folder.kept_in_the_way() is None  # `--force` may start afresh
+
+
+@pytest.mark.parametrize("edited", ["cases.csv", "cases.parquet"])
+def test_resume_refuses_an_edited_table_and_keeps_it(
+    write_study: WriteStudy, tmp_path: Path, edited: str
+) -> None:
+    """`--resume` wrote the table again over an edited one (a bug hunt)."""
+    folder = _finished(write_study, tmp_path)
+    (folder.out / "records" / "case-0001.json").unlink()  # a case left to resume
+    with (folder.out / edited).open("a", encoding="utf-8") as stream:
+        stream.write("MY EDIT\n")
+    before = {p: p.read_bytes() for p in folder.out.rglob("*") if p.is_file()}
+    problem = folder.kept_in_the_way(resume=True)
+    assert problem is not None
+    assert f"`{folder.out / edited}` is not the file the study wrote there" in problem
+    assert "--resume writes the table again; move it out of the folder first" in problem
+    with pytest.raises(StudyFolderError, match="--resume writes the table again"):
+        run_sweep(folder.plan, folder.out, resume=True)
+    assert {p: p.read_bytes() for p in folder.out.rglob("*") if p.is_file()} == before
+
+
+def test_resume_is_not_refused_by_plots_or_records_it_does_not_write(
+    write_study: WriteStudy, tmp_path: Path
+) -> None:
+    folder = _finished(write_study, tmp_path)
+    (folder.out / "passfail.png").write_bytes(b"drawn, then interrupted before its note")
+    assert folder.kept_in_the_way(resume=True) is None
+    assert folder.kept_in_the_way() is not None  # `--force` would write over it

@@ -16,6 +16,7 @@ from typing import Self
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.messages import RosDistro
 from fmionnx.core.diagnostics import Diagnostic
+from fmionnx.core.types import is_number
 from fmionnx.runtime.backend import (
     Backend,
     BackendOptions,
@@ -57,7 +58,7 @@ def checked_router(value: object, *, endpoint_only: bool = False) -> str:
 
 
 def _number(value: object, option: str) -> float:
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_number(value):
         msg = f"{option} takes a number, not `{value}`"
         raise OptionsError(msg)
     return float(value)

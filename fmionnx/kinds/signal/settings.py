@@ -14,7 +14,7 @@ import dataclasses
 from pydantic import ValidationError
 
 from fmionnx.core.diagnostics import did_you_mean, one_of
-from fmionnx.core.types import Component
+from fmionnx.core.types import Component, is_number
 from fmionnx.kinds.base import SettingError, SettingInput
 from fmionnx.kinds.signal.spec import OutputSpec
 from fmionnx.kinds.signal.waveforms import (
@@ -79,7 +79,7 @@ def with_signal_setting(component: Component, name: str, value: SettingInput) ->
     port, _, field = name.rpartition(".")
     if not port:
         port = config.outputs[0][0]
-    if isinstance(value, bool) or not isinstance(value, int | float):
+    if not is_number(value):
         raise SettingError(f"`{name}` takes a number, got `{value}`")
     outputs = dict(config.outputs)
     try:

@@ -9,6 +9,7 @@ from __future__ import annotations
 
 import csv
 import math
+import re
 from dataclasses import dataclass
 from pathlib import Path
 
@@ -34,12 +35,23 @@ def _bad(where: str, message: str, hint: str | None = None) -> ModelError:
     return ModelError(codes.BAD_MODEL, f"`{where}`: {message}", hint=hint)
 
 
+#: A decimal number as a CSV holds one: Python's ``float`` also takes ``1_000``, surrounding
+#: blanks and ``infinity``, which no other reader of the table (a spreadsheet, numpy's
+#: ``loadtxt`` of another tool) reads the same way.
+_DECIMAL = re.compile(r"[-+]?(?:[0-9]+(?:\.[0-9]*)?|\.[0-9]+)(?:[eE][-+]?[0-9]+)?")
+
+
 def _number(where: str, column: str, cell: str) -> float:
     if not cell:
         raise _bad(where, f"column `{column}` is empty")
+    if _DECIMAL.fullmatch(cell) is None:
+        lowered = cell.strip().lower().lstrip("+-")
+        if lowered in ("nan", "inf", "infinity"):
+            raise _bad(where, f"column `{column}`: `{cell}` is not a finite number")
+        raise _bad(where, f"column `{column}`: `{cell}` is not a number")
     try:
         value = float(cell)
-    except ValueError:
+    except ValueError:  # pragma: no cover - the pattern admits only what float reads
         raise _bad(where, f"column `{column}`: `{cell}` is not a number") from None
     if not math.isfinite(value):
         raise _bad(where, f"column `{column}`: `{cell}` is not a finite number")
