@@ -46,6 +46,7 @@ if TYPE_CHECKING:  # numpy and the runtime load when a system runs, not for `val
     import pandas as pd
 
     from fmionnx.pipeline.outcome import RunOutcome
+    from fmionnx.pipeline.run import SignalNames
     from fmionnx.pipeline.sweep import SweepProgress
 
 __all__ = [
@@ -71,13 +72,21 @@ __all__ = [
 ]
 
 
-def run(target: str | Path | System, /, **settings: Unpack[RunSettings]) -> RunOutcome:
+def run(
+    target: str | Path | System,
+    /,
+    *,
+    signals: SignalNames | None = None,
+    **settings: Unpack[RunSettings],
+) -> RunOutcome:
     """Run ``target`` (a path or a loaded System) as ``fmionnx run`` would: every option by
     its flag's name in snake_case, the same defaults, results in ``out/<system name>/``
-    unless ``out=`` or ``no_out=True`` (:func:`fmionnx.pipeline.run.run`)."""
+    unless ``out=`` or ``no_out=True`` (:func:`fmionnx.pipeline.run.run`); ``signals``
+    (``("gain.y",)``) narrows what is recorded. A single ``.onnx`` model is inferred once,
+    as ``fmionnx run model.onnx --input name=file.npy`` does: its outcome's ``outputs``."""
     from fmionnx.pipeline.run import run as run_target
 
-    return run_target(target, **settings)
+    return run_target(target, signals=signals, **settings)
 
 
 def run_onnx_once(

@@ -69,6 +69,14 @@ NodeRouter = Annotated[
         "otherwise).",
     ),
 ]
+ClockSource = Annotated[
+    bool,
+    typer.Option(
+        "--clock-source",
+        help="Free run of a system without a simulator, with no supervisor: this node publishes "
+        "/clock at --rtf times real time (`fmionnx ros2 launch-file` sets it on one node).",
+    ),
+]
 Models = Annotated[
     Path | None,
     typer.Option(
@@ -127,13 +135,15 @@ def node(
     max_steps: MaxSteps = MAX_RUN_STEPS,
     profile: Profile = False,
     on_nonfinite: OnNonfinite = None,
+    clock_source: ClockSource = False,
 ) -> None:
     """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time,
-    1 on a fault, 3 when its model ended the simulation (docs/ros2.md)."""
+    1 on a fault, 2 on a usage error, 3 when its model ended the simulation (docs/ros2.md)."""
     from fmionnx.backends.ros2.backend import (
         MIDDLEWARES,
         SYNC_MODES,
         checked_choice,
+        checked_distro,
         checked_input_wait,
         checked_router,
         checked_rtf,
@@ -145,11 +155,18 @@ def node(
     try:  # the same rules as `fmionnx run --backend ros2`
         checked_choice(sync, "--sync", SYNC_MODES)
         checked_choice(middleware, "--middleware", MIDDLEWARES)
+        checked_distro(ros_distro)
         rtf, input_wait = checked_rtf(rtf), checked_input_wait(input_wait)
         if zenoh_router and middleware != "zenoh":
             raise OptionsError("--zenoh-router applies to --middleware zenoh")  # noqa: TRY301
         if zenoh_router:
             checked_router(zenoh_router, endpoint_only=True)
+        if clock_source and (sync != "free" or supervised):
+            msg = (
+                "--clock-source applies to --sync free without --supervised (a supervisor "
+                "sends /clock itself)"
+            )
+            raise OptionsError(msg)  # noqa: TRY301
         values = params_from_text(param or [])
     except (OptionsError, RequestError) as exc:
         raise _fail(str(exc), ExitCode.USAGE) from None
@@ -161,16 +178,22 @@ def node(
         )
     request = _NodeRequest(
         sync, ros_distro, middleware, record_dir, supervised, rtf, input_wait, zenoh_router,
-        _remaps(remap or []), profile, on_nonfinite or "fault",
+        _remaps(remap or []), profile, on_nonfinite or "fault", clock_source,
     )  # fmt: skip
     logging.basicConfig(
         level=logging.INFO,
         stream=sys.stderr,
         format=f"%(asctime)s {component} %(levelname)s %(message)s",
     )
-    raise typer.Exit(
-        _run_node(system, component, request, values, stop_time, models, max_steps=max_steps)
-    )
+    from fmionnx.cli.outputs import check_output_folder
+    from fmionnx.pipeline.outputs import undone_on_failure
+
+    with undone_on_failure():  # a --record-dir made here goes again if the node cannot start
+        if record_dir is not None:  # before the run: its rows are written only at its end
+            check_output_folder(record_dir, "--record-dir")
+        code = _run_node(system, component, request, values, stop_time, models,
+                         max_steps=max_steps)  # fmt: skip
+    raise typer.Exit(code)
 
 
 @dataclass(frozen=True)
@@ -188,6 +211,7 @@ class _NodeRequest:
     remaps: tuple[tuple[str, str], ...]
     profile: bool = False
     on_nonfinite: str = "fault"
+    clock_source: bool = False
 
 
 def _run_node(
@@ -229,10 +253,9 @@ def _run_node(
     except DiagnosticError as exc:
         lines = "; ".join(str(d.message) for d in exc.diagnostics[:3])
         raise _fail(f"{path}: {lines}", ExitCode.PROBLEMS) from None
-    except (
-        NodeError, api.OverrideError, CompiledFileError, Ros2EnvError, TransportError,
-        RclpyUnavailableError,
-    ) as exc:  # fmt: skip
+    except (NodeError, api.OverrideError) as exc:  # COMPONENT, --param, --stop-time: as `run`
+        raise _fail(str(exc), ExitCode.USAGE) from None
+    except (CompiledFileError, Ros2EnvError, TransportError, RclpyUnavailableError) as exc:
         raise _fail(str(exc), ExitCode.PROBLEMS) from None
     except KeyboardInterrupt:
         raise _fail("interrupted", 130) from None
@@ -246,11 +269,9 @@ def _made_node(compiled: CompiledSystem, component: str, request: _NodeRequest) 
     from fmionnx.backends.ros2.rclpy_env import distro_problem
     from fmionnx.compile.ros2.messages import RosDistro as Distro
 
-    try:
-        mode, transport = SyncMode(request.sync), Middleware(request.middleware)
-        wanted = Distro(request.ros_distro) if request.ros_distro is not None else None
-    except ValueError as exc:
-        raise _fail(str(exc), ExitCode.USAGE) from None
+    # Checked in `node` already (checked_choice, checked_distro): these cannot fail.
+    mode, transport = SyncMode(request.sync), Middleware(request.middleware)
+    wanted = Distro(request.ros_distro) if request.ros_distro is not None else None
     distro = resolve_distro(compiled, wanted)  # --ros-distro, else the system's own
     problem = distro_problem(distro) if transport is Middleware.RCLPY else None
     if problem is not None:
@@ -259,5 +280,6 @@ def _made_node(compiled: CompiledSystem, component: str, request: _NodeRequest) 
         mode, distro, request.record_dir, request.supervised, request.rtf, transport,
         input_wait=request.input_wait, remap=request.remaps, zenoh_router=request.zenoh_router,
         profile=request.profile, on_nonfinite=request.on_nonfinite,
+        clock_source=request.clock_source,
     )  # fmt: skip
     return Node(compiled, plan_for(compiled, distro), component, options)

@@ -2,6 +2,7 @@
 
 from __future__ import annotations
 
+import math
 import os
 import sys
 from pathlib import Path
@@ -98,6 +99,7 @@ def graph(
 
     if output_format not in ("text", "json"):
         raise _fail(f"--format must be `text` or `json`, not `{output_format}`", ExitCode.USAGE)
+    _check_listening(timeout, domain)
     if middleware not in ("dds", "zenoh"):
         raise _fail(f"--middleware must be `dds` or `zenoh`, not `{middleware}`", ExitCode.USAGE)
     if zenoh_router and middleware != "zenoh":
@@ -132,6 +134,20 @@ def graph(
     raise typer.Exit(ExitCode.PROBLEMS if result.missing else ExitCode.OK)
 
 
+def _check_listening(timeout: float, domain: int | None) -> None:
+    """``--timeout`` finite and > 0 (``inf`` listened for ever, a negative one was taken as
+    0.1 s) and ``--domain`` a ROS domain id, refused by the option's name (exit 2): the
+    environment check would name ``ROS_DOMAIN_ID``, which the user did not set."""
+    from fmionnx.backends.ros2.env import MAX_DOMAIN_ID
+
+    if not 0 < timeout < math.inf:  # also NaN
+        raise _fail(f"--timeout must be a finite number of seconds > 0, not {timeout}",
+                    ExitCode.USAGE)  # fmt: skip
+    if domain is not None and not 0 <= domain <= MAX_DOMAIN_ID:
+        raise _fail(f"--domain {domain} is out of range (expected 0 to {MAX_DOMAIN_ID})",
+                    ExitCode.USAGE)  # fmt: skip
+
+
 @ros2_app.command(
     "launch-file",
     epilog="Examples:\n\n  fmionnx ros2 launch-file systems/sign_follower.yaml -o robot.launch.py\n\n"
@@ -160,7 +176,7 @@ def launch_file(
     compiled, plan = _plan(system, ros_distro)
     assert isinstance(plan, Ros2Plan)
     assert isinstance(compiled, CompiledSystem)
-    text = launch_file_text(plan, compiled.name, system, output, middleware)
+    text = launch_file_text(plan, compiled, system, output, middleware)
     check_output_file(output, "--output")
     refuse_an_input(output, [system, *(c.path for c in compiled.components)])
     write_derived(output, text)  # atomically, never through a link

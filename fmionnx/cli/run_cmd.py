@@ -168,20 +168,23 @@ def _run(request: RunRequest, *, quiet: bool) -> int:
 
 
 def _infer(request: RunRequest, *, quiet: bool) -> None:
-    """A single ONNX model inferred once: a table of its outputs, then the folder."""
+    """A single ONNX model inferred once (the pipeline's path, :func:`fmionnx.run`'s too): a
+    table of its outputs, then the folder."""
     import numpy as np
     from rich.table import Table
 
     from fmionnx.cli.console import make_console
     from fmionnx.cli.run_report import show_diagnostics
     from fmionnx.core.errors import DiagnosticError
-    from fmionnx.pipeline.infer import infer
+    from fmionnx.pipeline.infer import InferenceOutcome
+    from fmionnx.pipeline.run import execute
 
     try:
-        done = infer(request)
+        done = execute(request)
     except DiagnosticError as exc:
         show_diagnostics(request.target, exc.diagnostics)
         raise typer.Exit(ExitCode.PROBLEMS) from None
+    assert isinstance(done, InferenceOutcome)  # an .onnx target is inferred (execute)
     table = Table(title=f"outputs of {request.target.name}")
     for column in ("output", "dtype", "shape", "values"):
         table.add_column(column)

@@ -22,8 +22,15 @@ from fmionnx.compile.endpoints import (
 from fmionnx.compile.graph import execution_order, execution_order_with_loops
 from fmionnx.compile.ir import CompiledSystem, Connection, Origin, SystemInput
 from fmionnx.compile.loops import compile_loops
-from fmionnx.compile.overrides import OverrideError, override_parameter
+from fmionnx.compile.overrides import (
+    OverrideError,
+    override_parameter,
+    target_dtype,
+    transformation_text,
+    transformed,
+)
 from fmionnx.compile.plots import compile_plots
+from fmionnx.compile.recordcheck import recorded_refs
 from fmionnx.compile.resolve import read_interface, resolve_run
 from fmionnx.compile.sysinputs import compile_inputs
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
@@ -37,7 +44,6 @@ from fmionnx.core.types import (
     Component,
     ComponentInterface,
     Port,
-    PortRef,
     ValueSource,
     flat_index,
     is_number,
@@ -85,7 +91,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     # them below is skipped without a word, never called an unknown component.
     unreadable = frozenset(name for name, interface in interfaces.items() if interface is None)
     if spec.record is not None:
-        record = tuple(_refs(spec.record, "record", by_name, unreadable, sources, bag))
+        record = tuple(recorded_refs(spec.record, by_name, unreadable, sources, bag))
     else:  # other tools' default: every output (images excepted), resolved here for all
         record = every_output(components)
         if run is not None:
@@ -119,6 +125,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
         inputs=inputs,
         loops=loops,
     )
+    _whole_targets_warned(system, bag)
     with_inputs = _inputs_set(system, sources, bag)
     if with_inputs is None:
         return None
@@ -152,11 +159,31 @@ def _inputs_set(
             continue
         try:
             system = override_parameter(system, system_input.name, system_input.value, source, span)
-        except OverrideError as exc:
-            said = f"--param `{system_input.name}`"  # the command line's wording, reworded
-            detail = str(exc).removeprefix(said).replace(" (a system input, reaching", " (at", 1)
-            bag.emit(codes.PARAMETER_VALUE, f"system input `{system_input.name}`{detail}", span)
+        except OverrideError as exc:  # the command line's message, said of the file's input
+            message = exc.worded(f"system input `{system_input.name}`", reaching="at")
+            bag.emit(codes.PARAMETER_VALUE, message, span)
     return None if bag.has_errors else system
+
+
+def _whole_targets_warned(system: CompiledSystem, bag: DiagnosticBag) -> None:
+    """W031 at a system input whose transformation to an integer port has a factor or an
+    offset that is not whole: only values it turns into whole numbers can be set (another
+    is refused when set, naming the transformation; never rounded: docs/decisions.md)."""
+    for system_input in system.inputs:
+        for target in system_input.targets:
+            dtype = target_dtype(system, target.ref)
+            if dtype is None or not dtype.is_integer:
+                continue
+            if all(math.isfinite(n) and n.is_integer() for n in (target.factor, target.offset)):
+                continue
+            bag.emit(
+                codes.LOSSY_CONVERSION,
+                f"system input `{system_input.name}` reaches `{target.ref}` ({dtype}) "
+                f"through {transformation_text(target)}: a value that does not become a whole "
+                "number there is refused when it is set",
+                system_input.span,
+                hint="give the transformation a whole factor and offset, or set a float port",
+            )
 
 
 def _set_once(
@@ -175,9 +202,10 @@ def _set_once(
         given = next((p for p in parameters if p.port == target.ref.port), None)
         if given is None or len(given.value) != 1 or value is None:
             continue
-        item = value
-        if (target.factor, target.offset) != (1.0, 0.0) and is_number(value):
-            item = target.factor * float(value) + target.offset
+        try:
+            item = transformed(value, target, target_dtype(system, target.ref))
+        except OverrideError:
+            continue  # refused when it is set, with the reason (E043 at the value)
         other = given.value[0]
         if other == item or _close(other, item):
             continue
@@ -442,23 +470,3 @@ def _warn_unconnected(
         where,
         hint=f"connect them, or set them under {parameters} to make the values explicit",
     )
-
-
-def _refs(
-    texts: list[str],
-    section: str,
-    components: dict[str, Component],
-    unreadable: frozenset[str],
-    sources: SourceMap,
-    bag: DiagnosticBag,
-) -> list[PortRef]:
-    interfaces: dict[str, ComponentInterface | None] = {
-        **dict.fromkeys(unreadable),
-        **{n: c.interface for n, c in components.items()},
-    }
-    refs = []
-    for index, text in enumerate(texts):
-        resolved = resolve_endpoint(text, sources.value((section, index)), interfaces, bag)
-        if resolved is not None:
-            refs.append(resolved.ref)
-    return refs

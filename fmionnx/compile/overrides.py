@@ -10,8 +10,10 @@ from __future__ import annotations
 import dataclasses
 import json
 import math
+import numbers
+from typing import cast
 
-from fmionnx.compile.ir import CompiledSystem, Origin, SystemInput
+from fmionnx.compile.ir import CompiledSystem, InputTarget, Origin, SystemInput
 from fmionnx.core.diagnostics import Span, did_you_mean, one_of
 from fmionnx.core.errors import FmionnxError, ModelError
 from fmionnx.core.steps import count_problem, output_interval_problem, suggest_interval
@@ -20,6 +22,7 @@ from fmionnx.core.types import (
     Component,
     DType,
     ParameterValue,
+    PortRef,
     Scalar,
     ValueSource,
     is_number,
@@ -33,7 +36,32 @@ MAX_INT_DIGITS = 400
 
 
 class OverrideError(FmionnxError):
-    """A command-line override (``--param``, ``--stop-time``) that does not fit the system."""
+    """A command-line override (``--param``, ``--stop-time``) that does not fit the system.
+
+    Its message is built from parts, so that another wording can be built from the same
+    parts rather than by taking the text apart (a system input's own ``value`` is said as
+    ``system input `NAME```, not ``--param `NAME```): ``detail`` says what is wrong,
+    ``subject`` names what was given (``--param `k```; None: ``detail`` is the whole
+    message), ``reached`` the port a system input's value was refused at.
+    """
+
+    def __init__(
+        self, detail: str, *, subject: str | None = None, reached: PortRef | None = None
+    ) -> None:
+        self.detail = detail
+        self.subject = subject
+        self.reached = reached
+        super().__init__(detail if subject is None else self.worded(subject))
+
+    def worded(self, subject: str, reaching: str = "a system input, reaching") -> str:
+        """The message about ``subject``: ``SUBJECT (REACHING `port`): DETAIL``."""
+        where = "" if self.reached is None else f" ({reaching} `{self.reached}`)"
+        return f"{subject}{where}: {self.detail}"
+
+
+def _param(key: str) -> str:
+    """How the command line names a ``--param`` (an error's subject)."""
+    return f"--param `{key}`"
 
 
 def override_stop(system: CompiledSystem, stop: float) -> CompiledSystem:
@@ -113,6 +141,28 @@ def parse_value(text: str) -> Scalar | list[Scalar]:
     return text
 
 
+def plain_value(value: object) -> object:
+    """``value`` as the plain Python values an override is checked against: a numpy number
+    (``np.int64(2)``, an element of ``np.arange``) or another ``numbers.Real`` as the int or
+    float it is, a numpy bool as a bool (never a number), a tuple or a numpy array as a list.
+
+    A Python caller's values come from numpy more often than not; without this they were
+    refused as if of the wrong type (a bug hunt: ``expected 1 value(s) of type float64, got
+    `2```). Anything else is returned as it is, for the type checks to name.
+    """
+    if isinstance(value, bool | int | float | str):
+        return value
+    if isinstance(value, list | tuple):
+        return [plain_value(item) for item in value]
+    if type(value).__module__ == "numpy" and hasattr(value, "tolist"):
+        return plain_value(value.tolist())  # np.generic: a Python scalar; an array: a list
+    if isinstance(value, numbers.Integral):
+        return int(value)
+    if isinstance(value, numbers.Real):
+        return float(value)
+    return value
+
+
 def _coerce(dtype: DType, value: Scalar) -> Scalar | None:
     if dtype is DType.BOOL:
         return value if isinstance(value, bool) else None
@@ -135,8 +185,11 @@ def override_parameter(
 
     ``key`` may also name a system input (``inputs:``, an SSP system's open connector):
     then every port it reaches gets the value through its own transformation. A one-model
-    system also accepts the bare variable name (``--param k=2``).
+    system also accepts the bare variable name (``--param k=2``). A numpy value or a tuple
+    is taken as the plain value it holds (:func:`plain_value`).
     """
+    # A caller's numpy values too; what is none of Scalar's types is refused further on.
+    value = cast("Scalar | list[Scalar]", plain_value(value))
     for system_input in system.inputs:
         if system_input.name == key:
             return _override_input(system, system_input, value, source, span)
@@ -152,32 +205,77 @@ def _override_input(
 ) -> CompiledSystem:
     key = system_input.name
     if isinstance(value, list):
-        msg = f"--param `{key}`: a system input takes one value, got `{value}`"
-        raise OverrideError(msg)
+        detail = f"a system input takes one value, got `{value}`"
+        raise OverrideError(detail, subject=_param(key))
     given = dataclasses.replace(system_input, value=value, source=source)
     system = dataclasses.replace(
         system, inputs=tuple(given if i is system_input else i for i in system.inputs)
     )
     for target in system_input.targets:
-        item: Scalar = value
-        if target.factor != 1.0 or target.offset != 0.0:
-            if not is_number(value):
-                msg = (
-                    f"--param `{key}`: `{value}` reaches `{target.ref}` through a linear "
-                    "transformation and must be a number"
-                )
-                raise OverrideError(msg)
-            item = target.factor * value + target.offset
-            if math.isinf(item):
-                msg = f"--param `{key}`: {number_text(value)} becomes infinite at `{target.ref}`"
-                raise OverrideError(msg)
+        try:
+            item = transformed(value, target, target_dtype(system, target.ref))
+        except OverrideError as exc:
+            raise OverrideError(exc.detail, subject=_param(key)) from exc
         try:
             system = _override_port(system, str(target.ref), item, source, span)
-        except OverrideError as exc:
-            detail = str(exc).split(": ", 1)[-1]  # without the target's own `--param` prefix
-            msg = f"--param `{key}` (a system input, reaching `{target.ref}`): {detail}"
-            raise OverrideError(msg) from exc
+        except OverrideError as exc:  # said of the input, at the port it reached
+            raise OverrideError(exc.detail, subject=_param(key), reached=target.ref) from exc
     return system
+
+
+def target_dtype(system: CompiledSystem, ref: PortRef) -> DType | None:
+    """The type of the port at ``ref`` (None: no such port; the compiler said so)."""
+    component = next((c for c in system.components if c.name == ref.component), None)
+    port = None if component is None else component.interface.port(ref.port)
+    return None if port is None else port.dtype
+
+
+def transformed(value: Scalar, target: InputTarget, dtype: DType | None) -> Scalar:
+    """What a system input's ``value`` sets on ``target``: ``factor*value + offset`` (the
+    value itself without a transformation); OverrideError says why it cannot be.
+
+    The arithmetic is a float's, but an integer port takes a whole result as the integer
+    (``2*3 + 1`` sets 7, where 7.0 was refused as not an integer: a bug hunt found such an
+    input could never be set); a result that is not whole is refused naming the
+    transformation, never rounded (docs/decisions.md).
+    """
+    factor, offset = target.factor, target.offset
+    if factor == 1.0 and offset == 0.0:
+        return value
+    if not is_number(value):
+        detail = (
+            f"`{value}` reaches `{target.ref}` through a linear transformation and must be a number"
+        )
+        raise OverrideError(detail)
+    integer = dtype is not None and dtype.is_integer
+    if integer and isinstance(value, int) and _whole(factor) and _whole(offset):
+        return int(factor) * value + int(offset)  # exact: no 64-bit integer rounded to 53 bits
+    item = factor * value + offset
+    if math.isinf(item):
+        raise OverrideError(f"{number_text(value)} becomes infinite at `{target.ref}`")
+    if not integer:
+        return item
+    if not item.is_integer():
+        detail = (
+            f"{number_text(value)} becomes {number_text(item)} at `{target.ref}` "
+            f"({transformation_text(target)}), which takes whole numbers ({dtype})"
+        )
+        raise OverrideError(detail)
+    return int(item)
+
+
+def transformation_text(target: InputTarget) -> str:
+    """``factor 2, offset 1``: a target's transformation as the system file writes it."""
+    return f"factor {_short_number(target.factor)}, offset {_short_number(target.offset)}"
+
+
+def _whole(number: float) -> bool:
+    return math.isfinite(number) and number.is_integer()
+
+
+def _short_number(number: float) -> str:
+    """``2`` for a whole float (as the file wrote it), else its repr."""
+    return repr(int(number)) if _whole(number) and abs(number) < 2**53 else repr(number)
 
 
 def _override_port(
@@ -197,16 +295,12 @@ def _override_port(
     elif "." not in key:
         inputs = [i.name for i in system.inputs]
         also = f"; system inputs: {', '.join(inputs)}" if inputs else ""
-        msg = (
-            f"--param `{key}`: expected `component.name=value` (components: {', '.join(names)}"
-            f"{also})"
-        )
-        raise OverrideError(msg)
+        detail = f"expected `component.name=value` (components: {', '.join(names)}{also})"
+        raise OverrideError(detail, subject=_param(key))
     else:
         guess = key.split(".", 1)[0]
         hint = did_you_mean(guess, names) or one_of(names)
-        msg = f"--param `{key}`: no component `{guess}`; {hint}"
-        raise OverrideError(msg)
+        raise OverrideError(f"no component `{guess}`; {hint}", subject=_param(key))
     component = system.component(component_name)
     settable = [
         p.name
@@ -221,22 +315,21 @@ def _override_port(
         known = [*settable, *settings]
         hint = did_you_mean(port_name, known) or one_of(known)
         what = "parameter or setting" if settings else "parameter"
-        msg = f"--param `{key}`: `{component_name}` has no {what} `{port_name}`; {hint}"
-        raise OverrideError(msg)
+        detail = f"`{component_name}` has no {what} `{port_name}`; {hint}"
+        raise OverrideError(detail, subject=_param(key))
     flat = value if isinstance(value, list) else [value]
     size = 1 if port.size is None else port.size  # None: known at run time, one value
     for item in flat:  # before coercing: float() of a huge integer raises OverflowError
         problem = port.dtype.out_of_range(item) or port.bounds_problem(item)
         if problem is not None:
-            msg = f"--param `{key}`: {number_text(item)} {problem}"
-            raise OverrideError(msg)
+            raise OverrideError(f"{number_text(item)} {problem}", subject=_param(key))
     coerced = [_coerce(port.dtype, v) for v in flat]
     if len(flat) != size or any(c is None for c in coerced):
-        msg = (
-            f"--param `{key}`: expected {size} value(s) of type {port.dtype} "
-            f"(shape {port.shape_text()}), got `{value}`"
+        detail = (
+            f"expected {size} value(s) of type {port.dtype} (shape {port.shape_text()}), "
+            f"got `{value}`"
         )
-        raise OverrideError(msg)
+        raise OverrideError(detail, subject=_param(key))
     values = tuple(c for c in coerced if c is not None)
     kept = tuple(p for p in component.parameters if p.port != port_name)
     updated = dataclasses.replace(
@@ -293,4 +386,4 @@ def _override_setting(
             system, component, name, tuple(value) if isinstance(value, list) else value
         )
     except SettingError as exc:
-        raise OverrideError(f"--param `{key}`: {exc}") from exc
+        raise OverrideError(str(exc), subject=_param(key)) from exc

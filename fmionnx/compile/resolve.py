@@ -4,6 +4,7 @@ from __future__ import annotations
 
 import contextlib
 import math
+import os
 from pathlib import Path
 
 from fmionnx.compile.ir import Origin, RunSettings
@@ -60,6 +61,19 @@ def entry_path(system: Path, spec: ComponentSpecBase) -> Path:
     return model_path(system.parent, spec.path) if spec.has_model_file else system
 
 
+def _unreadable(path: Path, exc: OSError) -> str:
+    """The file an OSError of reading the model at ``path`` is about: the model, or a file
+    it names (an include of a scene), which is then said so -- never the model itself when
+    the model exists and another file is missing."""
+    named = exc.filename
+    if not isinstance(named, str | bytes):
+        return f"`{path}`"
+    other = os.fsdecode(named)
+    if Path(other).absolute() == path.absolute():
+        return f"`{path}`"
+    return f"`{other}` (a file `{path}` needs)"
+
+
 def read_interface(
     name: str,
     spec: ComponentSpecBase,
@@ -83,7 +97,8 @@ def read_interface(
     except OSError as exc:  # a name too long, a loop of links: the file cannot be looked at
         bag.emit(
             codes.FILE_NOT_FOUND,
-            f"component `{name}`: `{path}` cannot be read: {exc.strerror}",
+            f"component `{name}`: {_unreadable(path, exc)} cannot be read: "
+            + (exc.strerror or str(exc)),
             span,
         )
         return None
@@ -114,7 +129,17 @@ def _fits(dtype: DType, value: Scalar) -> bool:
         return isinstance(value, int | float) and not isinstance(value, bool)
     if dtype is DType.STRING:
         return isinstance(value, str)
+    if dtype is DType.BINARY:  # hexadecimal text, as FMI 3 writes binary start values
+        return isinstance(value, str) and _is_hex(value)
     return False
+
+
+def _is_hex(text: str) -> bool:
+    try:
+        bytes.fromhex(text)
+    except ValueError:
+        return False
+    return True
 
 
 def resolve_parameters(
@@ -227,6 +252,8 @@ def _check_value(
             span,
             hint="write true/false for booleans and whole numbers for integers"
             if port.dtype is DType.BOOL or port.dtype.is_integer
+            else "write a binary value as hexadecimal text, e.g. `0c0d`"
+            if port.dtype is DType.BINARY
             else None,
             notes=declared_note(port),
         )

@@ -24,6 +24,7 @@ import tempfile
 from pathlib import Path
 from typing import Any
 
+from fmionnx.compile.checkir import signals_of
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.types import Ros2Plan, Ros2Settings
 from fmionnx.core.datacodec import Codec
@@ -187,8 +188,8 @@ def _check_value_references(component: Component, origin: str) -> None:
 
 
 def _check_references(system: CompiledSystem, origin: str) -> None:
-    """Every port the system records, connects or sets by a system input is a port of one of
-    its components: an edited file named one that is not, and the run ended in a traceback
+    """Every port the system records, connects, sets by a system input, plots or checks is a
+    port of one of its components: an edited file named one that is not, and the run ended in a traceback
     (a bug hunt)."""
     ports = {(c.name, port.name) for c in system.components for port in c.interface.ports}
     named = [("`record`", ref) for ref in system.record]
@@ -196,6 +197,11 @@ def _check_references(system: CompiledSystem, origin: str) -> None:
         named += [("a connection", connection.src), ("a connection", connection.dst)]
     for system_input in system.inputs:
         named += [(f"system input `{system_input.name}`", t.ref) for t in system_input.targets]
+    for plot in system.plots:  # recorded to be drawn: a port no component has was a KeyError
+        named += [(f"plot `{plot.file or plot.title}`", ref) for ref in plot.refs]
+    for check in system.checks:
+        read = [s.ref for s in signals_of(check.measure) if s.ref is not None]
+        named += [(f"check `{check.name}`", ref) for ref in (*check.refs, *read)]
     for what, ref in named:
         if (ref.component, ref.port) not in ports:
             msg = f"{origin}: {what} names `{ref}`, which no component of the system has: damaged"
@@ -346,6 +352,13 @@ def place_models(system: CompiledSystem, store: Path) -> list[Path]:
         target = stored_model(store, component)
         placed.append(target)
         if target.exists():
+            # Already placed (an earlier compile, another system sharing the model), or put
+            # there by hand: trusted only when it is the model, or the store would be named
+            # as holding it and every node would refuse it later (nothing is replaced here).
+            problem = _unlike_stored(component, target)
+            if problem is not None:
+                msg = f"{problem}: move it out of the store and compile again"
+                raise ShippingError(msg)
             continue
         folder = target.parent
         store.mkdir(parents=True, exist_ok=True)
@@ -362,6 +375,21 @@ def place_models(system: CompiledSystem, store: Path) -> list[Path]:
         finally:
             shutil.rmtree(staging, ignore_errors=True)
     return placed
+
+
+def _unlike_stored(component: Component, path: Path) -> str | None:
+    """Why the model at ``path`` in a store is not ``component``'s (None: it is). Reading its
+    interface is the check: the kind computes the same content hash as at compile time."""
+    try:
+        found = COMPONENT_KINDS[component.kind].read_interface(path, None).content_hash
+    except ModelError as exc:
+        return f"component `{component.name}`: {exc}"
+    if found != component.interface.content_hash:
+        return (
+            f"component `{component.name}`: {path} does not match the compiled system "
+            f"(sha256 {found[:16]}..., expected {component.interface.content_hash[:16]}...)"
+        )
+    return None
 
 
 def relocate(system: CompiledSystem, store: Path) -> CompiledSystem:
@@ -383,17 +411,9 @@ def relocate(system: CompiledSystem, store: Path) -> CompiledSystem:
                 f"(sha256 {component.interface.content_hash[:16]}...) is not in {store}"
             )
             raise CompiledFileError(msg)
-        try:
-            found = COMPONENT_KINDS[component.kind].read_interface(path, None).content_hash
-        except ModelError as exc:
-            msg = f"component `{component.name}`: {exc}"
-            raise CompiledFileError(msg) from None
-        if found != component.interface.content_hash:
-            msg = (
-                f"component `{component.name}`: {path} does not match the compiled system "
-                f"(sha256 {found[:16]}..., expected {component.interface.content_hash[:16]}...)"
-            )
-            raise CompiledFileError(msg)
+        problem = _unlike_stored(component, path)
+        if problem is not None:
+            raise CompiledFileError(problem)
         interface = dataclasses.replace(component.interface, path=path)
         components.append(dataclasses.replace(component, path=path, interface=interface))
     return dataclasses.replace(system, components=tuple(components))

@@ -2,8 +2,8 @@
 
 The allowed conversions are data (:data:`LOSSLESS`), documented in ``docs/types.md``:
 numeric types convert into each other (bool as 0/1); float -> integer or bool and
-integer narrowing are allowed with a warning (W031); strings and binaries only connect to
-their own type.
+integer narrowing are allowed with a warning (W031); strings and binaries connect to no other
+type (E031), and to their own not yet (E025: :data:`UNCONNECTABLE`).
 """
 
 from __future__ import annotations
@@ -23,6 +23,11 @@ _INT_BITS = {
     DType.UINT32: (False, 32),
     DType.UINT64: (False, 64),
 }
+
+#: Element types no connection carries yet (E025): the run's buffers, the native kernel, the
+#: isolated FMUs' shared memory and the ROS 2 messages all hold numbers; strings and binaries
+#: are set once, at setup (docs/types.md, docs/decisions.md).
+UNCONNECTABLE = (DType.STRING, DType.BINARY)
 
 SOURCE_CAUSALITIES = (Causality.OUTPUT,)
 TARGET_CAUSALITIES = (Causality.INPUT,)
@@ -113,6 +118,17 @@ def check_dtype(
 ) -> bool:
     """Numeric types convert; strings/binaries need the same type. Lossy ones warn."""
     a, b = src.port.dtype, dst.port.dtype
+    if a == b and a in UNCONNECTABLE:
+        bag.emit(
+            codes.UNSUPPORTED_VARIABLE,
+            f"`{src.ref}` -> `{dst.ref}` connects {a} ports: {a} values cannot travel on a "
+            "connection yet",
+            span,
+            hint=f"set `{dst.ref.port}` under `components.{dst.ref.component}.parameters` "
+            "instead (strings and binaries are set once, at setup)",
+            notes=declared_note(dst.port),
+        )
+        return False
     if a == b:
         return True
     if a.is_numeric and b.is_numeric:

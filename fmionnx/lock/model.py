@@ -43,7 +43,19 @@ def written_by_lock(path: Path) -> bool:
 
 
 def lock_path(system: Path) -> Path:
-    """``systems/robot.yaml`` -> ``systems/robot.fmionnx.lock``."""
+    """``systems/robot.yaml`` -> ``systems/robot.fmionnx.lock``.
+
+    The suffix is not part of the name: ``robot.yaml``, ``robot.yml`` and ``robot.ssp`` share
+    one lock name, and the lock's ``system:`` says which of them it belongs to (the lock
+    command refuses to replace another system's lock, ``validate --locked`` refuses to check
+    against one). A path without a name of its own (``.``, ``..``, ``""``) is resolved first;
+    one that has none even then (``/``) is a ValueError: a folder has no lock.
+    """
+    if system.name in ("", ".", ".."):
+        system = system.resolve()
+    if not system.name:
+        msg = f"`{system}` is a folder, not a system file: it has no lock"
+        raise ValueError(msg)
     return system.with_name(system.stem + LOCK_SUFFIX)
 
 

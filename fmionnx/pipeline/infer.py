@@ -1,10 +1,16 @@
-"""A single ONNX model inferred once (``fmionnx run model.onnx --input name=file.npy``)."""
+"""A single ONNX model inferred once (``fmionnx run model.onnx --input name=file.npy``).
+
+The CLI and :func:`fmionnx.run` reach it alike through the run pipeline
+(:func:`~fmionnx.pipeline.run.execute`): a bug hunt found the API running an ``.onnx`` target
+as a two-step system from its start values, its ``inputs`` ignored.
+"""
 
 from __future__ import annotations
 
 import io
+import time
 from collections.abc import Mapping
-from dataclasses import dataclass
+from dataclasses import dataclass, field
 from pathlib import Path
 
 import numpy as np
@@ -13,10 +19,13 @@ import numpy.typing as npt
 from fmionnx.compile.overrides import OverrideError
 from fmionnx.core.diagnostics import did_you_mean, one_of
 from fmionnx.core.errors import RunError
+from fmionnx.core.signals import column_names
 from fmionnx.core.types import Causality
-from fmionnx.pipeline.errors import RefusedError, RequestError
+from fmionnx.pipeline.errors import EXIT_OK, RefusedError, RequestError
+from fmionnx.pipeline.outcome import RunOutcome
 from fmionnx.pipeline.request import RunRequest
 from fmionnx.pipeline.system import System
+from fmionnx.runtime.result import RunResult, RunStatus
 
 
 @dataclass(frozen=True)
@@ -29,13 +38,50 @@ class Inference:
     out: Path | None
 
 
-def infer(request: RunRequest) -> Inference:
-    """Load the model, read each input's ``.npy`` file, infer once, write one ``.npy`` per
-    output into ``--out`` (when given)."""
+@dataclass(frozen=True)
+class InferenceOutcome(RunOutcome):
+    """A single ONNX model's inference as a run's outcome: ``outputs`` holds each output
+    shaped like the model's; ``result`` has them as one row at the start time, named as a
+    run of the model would name its columns (``outcome["model.y[0]"]``), so that code
+    reading a :class:`RunOutcome` reads this one too."""
+
+    outputs: Mapping[str, npt.NDArray[np.generic]] = field(default_factory=dict)
+
+
+def inference_outcome(request: RunRequest, system: System | None = None) -> InferenceOutcome:
+    """:func:`infer` as the pipeline's outcome: what ``fmionnx run model.onnx`` and
+    ``fmionnx.run("model.onnx", inputs=...)`` both return."""
+    began = time.perf_counter()
+    done = infer(request, system)
+    compiled = done.system.compiled
+    component = compiled.components[0]
+    signals = {}
+    for port in component.interface.with_causality(Causality.OUTPUT):
+        value = done.outputs.get(port.name)
+        if value is None or value.dtype.kind not in "biuf":
+            continue  # a string tensor has no column
+        flat = np.asarray(value, dtype=np.float64).reshape(-1)
+        names = column_names(component.name, port)
+        if len(names) != flat.size:  # a dimension known only now: flat indices
+            names = [f"{component.name}.{port.name}[{i}]" for i in range(flat.size)]
+        for name, item in zip(names, flat, strict=True):
+            signals[name] = np.array([item], dtype=np.float64)
+    result = RunResult.after(
+        compiled, "inprocess", RunStatus.COMPLETED, 0, time.perf_counter() - began, signals
+    )
+    return InferenceOutcome(
+        done.system, result, (), done.files, done.out, EXIT_OK, outputs=dict(done.outputs)
+    )
+
+
+def infer(request: RunRequest, system: System | None = None) -> Inference:
+    """Load the model (unless ``system`` is it, loaded), read each input's ``.npy`` file,
+    infer once, write one ``.npy`` per output into ``--out`` (when given)."""
     from fmionnx.core.safewrite import write_bytes_atomic
     from fmionnx.pipeline.run import load_request
 
-    system = load_request(request)
+    if system is None:
+        system = load_request(request)
     arrays = {}
     for name, file in request.inputs:
         try:

@@ -8,7 +8,10 @@ while it runs (only when some observer :attr:`~RunObserver.wants_progress`: it c
 every few hundred steps), :meth:`~RunObserver.after_run` when the backend returned or raised,
 and :meth:`~RunObserver.finished` with the outcome once the results are written. A run
 abandoned at the step timeout ends the process: :meth:`~RunObserver.abandoned` is its last
-word, after its results are written.
+word, after its results are written. A run that raised instead (a refusal, a progress
+callback's exception) ends with :meth:`~RunObserver.failed`: what an observer holds (a
+server's port, a half-written recording) is let go then, or the next run in the process
+found the port taken (a bug hunt).
 
 A live view (:mod:`fmionnx.pipeline.views`) also :attr:`~RunObserver.wants_feed`: the run
 then hands it each camera frame as it is rendered (:meth:`~RunObserver.frame`) and the
@@ -18,6 +21,7 @@ recorded signals in batches of rows while it goes (:meth:`~RunObserver.rows`,
 
 from __future__ import annotations
 
+import logging
 from collections.abc import Sequence
 from dataclasses import dataclass
 from pathlib import Path
@@ -30,6 +34,8 @@ if TYPE_CHECKING:
     from fmionnx.pipeline.outcome import RunOutcome
     from fmionnx.pipeline.system import System
     from fmionnx.runtime.result import RunResult
+
+LOG = logging.getLogger("fmionnx.pipeline")
 
 
 @dataclass(frozen=True)
@@ -97,6 +103,10 @@ class RunObserver:
         """The run's results are written; ``outcome`` holds them, the checks and the exit
         status."""
 
+    def failed(self, error: BaseException) -> None:
+        """The run raised ``error`` (it goes on to the caller) at any stage, possibly after
+        :meth:`finished`: release what is held; nothing half-written is to be left."""
+
 
 class Observers(RunObserver):
     """Several observers as one, in the order given."""
@@ -151,3 +161,12 @@ class Observers(RunObserver):
         """Each observer's :meth:`RunObserver.finished`."""
         for observer in self._all:
             observer.finished(outcome)
+
+    def failed(self, error: BaseException) -> None:
+        """Each observer's :meth:`RunObserver.failed`; one that raises in turn is logged, and
+        the others still let go (``error`` is what the caller is to see)."""
+        for observer in self._all:
+            try:
+                observer.failed(error)
+            except Exception:
+                LOG.warning("an observer failed to let go after the run raised", exc_info=True)

@@ -14,9 +14,9 @@ import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, TypedDict
+from typing import Literal, TypedDict, cast
 
-from fmionnx.compile.overrides import OverrideError, parse_value
+from fmionnx.compile.overrides import OverrideError, parse_value, plain_value
 from fmionnx.core.steps import MAX_RUN_STEPS, step_problem
 from fmionnx.core.types import Scalar, is_number
 from fmionnx.pipeline.defaults import CHECKPOINT_EVERY, STEP_TIMEOUT
@@ -241,7 +241,7 @@ def _overrides(given: dict[str, object], kind: TargetKind) -> Overrides:
     return Overrides(
         start_time=times["start_time"], step=times["step"], stop_time=times["stop_time"],
         output_interval=times["output_interval"],
-        params=tuple((str(k), v) for k, v in params.items()),
+        params=tuple((str(k), _param(v)) for k, v in params.items()),
         interface="me" if interface == "me" else "cs" if interface == "cs" else None,
         models=None if models is None else _path(models, "--models"),
     )  # fmt: skip
@@ -277,6 +277,9 @@ def _output(given: dict[str, object], kind: TargetKind) -> Output:
         )
         raise RequestError(msg)
     record = given.pop("record", None)
+    if record is not None and kind == "inference":  # it was accepted, and nothing written
+        msg = "--record records a run over time, not a single ONNX model's inference"
+        raise RequestError(msg)
     every = _number(given.pop("checkpoint_every", CHECKPOINT_EVERY), "checkpoint_every")
     assert every is not None
     if not every >= 0:
@@ -291,7 +294,7 @@ def _output(given: dict[str, object], kind: TargetKind) -> Output:
 
 
 def _limits(given: dict[str, object]) -> Limits:
-    steps = given.pop("max_steps", MAX_RUN_STEPS)
+    steps = plain_value(given.pop("max_steps", MAX_RUN_STEPS))
     if isinstance(steps, bool) or not isinstance(steps, int):
         msg = f"--max-steps takes a whole number, not `{steps}`"
         raise RequestError(msg)
@@ -346,9 +349,17 @@ def _inputs(value: object, kind: TargetKind) -> tuple[tuple[str, Path], ...]:
     return tuple((str(name), _path(file, "--input")) for name, file in value.items())
 
 
+def _param(value: object) -> ParamValue:
+    """A ``--param`` value from Python: a numpy number or array, a tuple, taken as the plain
+    value it holds (:func:`~fmionnx.compile.overrides.plain_value`); its type is checked
+    against the port's when it is set."""
+    return cast(ParamValue, plain_value(value))
+
+
 def _number(value: object, name: str) -> float | None:
     if value is None:
         return None
+    value = plain_value(value)  # a numpy number: np.int64(1) is a number of seconds too
     if not is_number(value):
         msg = f"--{name.replace('_', '-')} takes a number, not `{value}`"
         raise RequestError(msg)

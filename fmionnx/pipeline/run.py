@@ -58,6 +58,10 @@ from fmionnx.runtime.stopping import late_stop_text, stops_held
 
 LOG = logging.getLogger("fmionnx.pipeline")
 
+#: What a Python caller names the signals to record with: ``"component.port"`` (an element
+#: ``"component.port[i]"``; a single FMU's variable by its name) or a PortRef.
+SignalNames = str | PortRef | Sequence[str | PortRef]
+
 if TYPE_CHECKING:
     from fmionnx.pipeline.feed import Feeder
     from fmionnx.pipeline.system import System
@@ -72,13 +76,23 @@ def execute(
     observers: Sequence[RunObserver] = (),
     *,
     system: System | None = None,
-    signals: tuple[PortRef, ...] | None = None,
+    signals: SignalNames | None = None,
 ) -> RunOutcome:
     """Run ``request`` through every stage (module docstring); ``system`` skips loading (a
-    system already loaded, ``System.run``); ``signals`` narrows what is recorded."""
+    system already loaded, ``System.run``); ``signals`` narrows what is recorded (names
+    resolved once the system is loaded: :func:`chosen_signals`).
+
+    A single ``.onnx`` model given by its path (or a loaded one given ``inputs``) is inferred
+    once, as ``fmionnx run model.onnx`` does (:mod:`~fmionnx.pipeline.infer`)."""
+    if request.kind == "inference" and (system is None or request.inputs):
+        return _inferred(request, observers, system, signals)
     views = _views(request)  # a missing library or viewer: refused before any folder is made
-    with undone_on_failure():  # an empty results folder made for a run that failed to start
-        outcome, late = _checked_and_run(request, views, observers, system, signals)
+    try:
+        with undone_on_failure():  # an empty results folder made for a run that failed to start
+            outcome, late = _checked_and_run(request, views, observers, system, signals)
+    except BaseException as exc:  # on every path: a view's server and recording let go
+        Observers([*views, *observers]).failed(exc)
+        raise
     if late:
         LOG.warning("%s", late_stop_text(late[0]))
     return outcome
@@ -89,13 +103,14 @@ def _checked_and_run(
     views: list[RunObserver],
     observers: Sequence[RunObserver],
     system: System | None,
-    signals: tuple[PortRef, ...] | None,
+    signals: SignalNames | None,
 ) -> tuple[RunOutcome, list[str]]:
     _check_outputs(request)
     watch = Observers([*views, *observers])  # a view's files are closed before they are named
     fed = [o for o in (*views, *observers) if o.wants_feed]  # a caller's own view too
     if system is None:
         system = load_request(request)
+    chosen = chosen_signals(system, signals)
     watch.loaded(system)
     system = _overridden(system, request)
     out = _results_folder(system, request)
@@ -107,7 +122,7 @@ def _checked_and_run(
     feeder = _feeder(system, fed)
     if feeder is not None:
         watch = Observers([watch, feeder])
-    run = _run_options(request, system, options, out, watch, signals)
+    run = _run_options(request, system, options, out, watch, chosen)
     run = _watched(run, request, recorder, feeder)
     run = dataclasses.replace(run, follower=ahead)
     start = RunStart(
@@ -147,6 +162,26 @@ def _checked_and_run(
     return outcome, late
 
 
+def _inferred(
+    request: RunRequest,
+    observers: Sequence[RunObserver],
+    system: System | None,
+    signals: SignalNames | None,
+) -> RunOutcome:
+    """One inference: no run over time, so nothing to record, watch or check; observers hear
+    only that it finished."""
+    from fmionnx.pipeline.infer import inference_outcome
+
+    if signals is not None:
+        msg = "`signals` chooses what a run over time records, not a single ONNX inference's"
+        raise RequestError(msg)
+    with undone_on_failure():
+        _check_outputs(request)
+        outcome = inference_outcome(request, system)
+    Observers(observers).finished(outcome)
+    return outcome
+
+
 def load_request(request: RunRequest) -> System:
     """The request's target, loaded (DiagnosticError for errors in it; RequestError for
     ``--step``/``--start-time`` on a compiled system)."""
@@ -169,10 +204,39 @@ def load_request(request: RunRequest) -> System:
         raise
 
 
+def chosen_signals(system: System, signals: SignalNames | None) -> tuple[PortRef, ...] | None:
+    """``signals`` resolved against ``system`` as a system file's ``record:`` is; the first
+    one that names no port is refused (RequestError naming it), not a KeyError mid-run."""
+    if signals is None:
+        return None
+    # Only now: the resolver's module loads the system file's models (pydantic), which a
+    # run read back from the compile cache does not (tests/cli/test_startup_imports.py).
+    from fmionnx.compile.endpoints import resolve_endpoint
+    from fmionnx.core.diagnostics import DiagnosticBag, Span
+
+    given = [signals] if isinstance(signals, str | PortRef) else list(signals)
+    interfaces = {c.name: c.interface for c in system.compiled.components}
+    by_alias = {alias: name for name, alias in system.aliases.items()}
+    chosen = []
+    for item in given:
+        if not isinstance(item, str | PortRef):
+            msg = f"signals: `{item!r}` is not a signal: name it `component.port` (a string)"
+            raise RequestError(msg)
+        text = by_alias.get(str(item), str(item))
+        bag = DiagnosticBag()
+        resolved = resolve_endpoint(text, Span(Path(system.name)), interfaces, bag)
+        if resolved is None:
+            problem = next(iter(bag))
+            hint = f"; {problem.hint}" if problem.hint else ""
+            raise RequestError(f"signals: `{item}`: {problem.message}{hint}")
+        chosen.append(resolved.ref)
+    return tuple(chosen)
+
+
 def run_system(
     system: System,
     *,
-    signals: tuple[PortRef, ...] | None = None,
+    signals: SignalNames | None = None,
     progress: ProgressCallback | None = None,
     observers: Sequence[RunObserver] = (),
     **settings: Unpack[RunSettings],
@@ -195,7 +259,7 @@ def run_with_options(
     system: System,
     options: RunOptions,
     *,
-    signals: tuple[PortRef, ...] | None = None,
+    signals: SignalNames | None = None,
     progress: ProgressCallback | None = None,
     **settings: Unpack[RunSettings],
 ) -> RunResult:
@@ -220,7 +284,8 @@ def run_with_options(
     if problems:
         raise DiagnosticError(problems)
     chosen = options
-    record = signals if signals is not None else system.record
+    named = chosen_signals(system, signals)
+    record = named if named is not None else system.record
     if record is not None and options.record is None:
         chosen = dataclasses.replace(chosen, record=record)
     if progress is not None:
@@ -447,8 +512,9 @@ def _finish(
         files.append(recorder.finish(result, checks))
     elif record is not None and record.exists():
         files.append(record)
-    if request.watch.rrd is not None:
-        files.append(request.watch.rrd)  # closed by its view's ``finished``, called first
+    rrd = request.watch.rrd
+    if rrd is not None:
+        files.append(rrd)  # named by its view's ``finished``, after run.json is written
     if out is not None:
         from fmionnx.results import write_results
 
@@ -460,6 +526,10 @@ def _finish(
         system, _aliased(result, system), checks, tuple(files), out, exit_status(result, checks)
     )
     watch.finished(outcome)
+    if out is not None and rrd is not None:
+        from fmionnx.results import note_finished_files
+
+        note_finished_files(out, [rrd])  # now a file: the folder's record proves it the run's
     return outcome
 
 
@@ -484,8 +554,15 @@ class _ProgressCall(RunObserver):
         self._call(done, total, time)
 
 
-def run(target: str | Path | System, /, **settings: Unpack[RunSettings]) -> RunOutcome:
-    """Run ``target`` (a path, or a loaded :class:`System`) as ``fmionnx run`` would.
+def run(
+    target: str | Path | System,
+    /,
+    *,
+    signals: SignalNames | None = None,
+    **settings: Unpack[RunSettings],
+) -> RunOutcome:
+    """Run ``target`` (a path, or a loaded :class:`System`) as ``fmionnx run`` would;
+    ``signals`` narrows what is recorded, as for ``System.run``.
 
     Every ``fmionnx run`` option is a keyword under its flag's name in snake_case
     (``backend="ros2"``, ``middleware="zenoh"``, ``sync="lockstep"``, ``stop_time=``,
@@ -497,8 +574,8 @@ def run(target: str | Path | System, /, **settings: Unpack[RunSettings]) -> RunO
     from fmionnx.pipeline.system import System
 
     if isinstance(target, System):
-        return execute(loaded_request(target, settings), system=target)
-    return execute(build_request(target, **settings))
+        return execute(loaded_request(target, settings), system=target, signals=signals)
+    return execute(build_request(target, **settings), signals=signals)
 
 
 def loaded_request(system: System, settings: RunSettings) -> RunRequest:

@@ -94,6 +94,24 @@ class _StudySource:
         return plan, diagnostics
 
 
+def _count(value: object, option: str, what: str) -> int | None:
+    """A count of at least one (``--workers``, ``--batch``), checked here for the CLI and
+    :func:`fmionnx.sweep` alike: ``workers=0`` ran a study without a word (a bug hunt)."""
+    import operator
+
+    from fmionnx.pipeline.errors import RequestError
+
+    if value is None:
+        return None
+    count = None
+    if not isinstance(value, bool) and hasattr(value, "__index__"):
+        count = operator.index(value)  # an int, or a numpy integer
+    if count is None or count < 1:
+        msg = f"{option} takes a whole number of {what}, at least 1, not `{value}`"
+        raise RequestError(msg)
+    return count
+
+
 def sweep_study(
     study: str | Path,
     out: Path,
@@ -133,6 +151,8 @@ def sweep_study(
     if resume and force:
         msg = "--resume keeps the finished cases, --force removes them: choose one"
         raise RequestError(msg)
+    workers = _count(workers, "--workers", "local worker processes")
+    batch = _count(batch, "--batch", "cases per Dask task")
     if workers is not None and scheduler is not None:
         msg = "--workers starts a local cluster; an existing one (--scheduler) has its own"
         raise RequestError(msg)

@@ -20,16 +20,18 @@ from fmionnx.compile.overrides import (
     override_output_interval,
     override_parameter,
     override_stop,
+    plain_value,
 )
 from fmionnx.compile.runflags import RunFlags, apply_run_flags, mark_command_line
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Severity
 from fmionnx.core.errors import DiagnosticError
-from fmionnx.core.types import Causality, PortRef, Scalar
+from fmionnx.core.types import Causality, PortRef, Scalar, is_number
 from fmionnx.pipeline.request import COMPILED_SUFFIX, RunSettings
 
 if TYPE_CHECKING:
     from fmionnx.pipeline.compilecache import Slot
     from fmionnx.pipeline.observers import RunObserver
+    from fmionnx.pipeline.run import SignalNames
     from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
 
 #: Single-model files ``load`` accepts besides system files.
@@ -65,9 +67,11 @@ class System:
         """A new System with a different stop time, output interval and/or parameter values."""
         compiled = self.compiled
         if stop_time is not None:
-            compiled = override_stop(compiled, stop_time)
+            compiled = override_stop(compiled, _seconds(stop_time, "--stop-time"))
         if output_interval is not None:
-            compiled = override_output_interval(compiled, output_interval)
+            compiled = override_output_interval(
+                compiled, _seconds(output_interval, "--output-interval")
+            )
         for key, value in (params or {}).items():
             compiled = override_parameter(compiled, key, value)
         return dataclasses.replace(self, compiled=compiled)
@@ -75,7 +79,7 @@ class System:
     def run(
         self,
         *,
-        signals: tuple[PortRef, ...] | None = None,
+        signals: SignalNames | None = None,
         progress: ProgressCallback | None = None,
         options: RunOptions | None = None,
         observers: tuple[RunObserver, ...] = (),
@@ -85,7 +89,8 @@ class System:
         isolated, no results folder unless ``out``) and return the recorded signals
         (``result["comp.port"]``); :func:`fmionnx.run` returns the checks and files too.
 
-        ``signals`` narrows what is recorded (``()``: nothing). ``options`` runs the
+        ``signals`` narrows what is recorded (``("gain.y", "plant.x[0]")``, PortRefs too;
+        ``()``: nothing; a name of no port: RequestError). ``options`` runs the
         in-process master with exactly these :class:`RunOptions` instead (a benchmark's or a
         test's choice: no isolation unless they say so, nothing written).
         """
@@ -96,6 +101,16 @@ class System:
         return run_system(
             self, signals=signals, progress=progress, observers=observers, **settings
         ).result
+
+
+def _seconds(value: object, option: str) -> float:
+    """A time from a Python caller as a float (a numpy number too: np.int64(1)); another
+    value is an OverrideError naming the option, not a TypeError deep in the checks."""
+    plain = plain_value(value)
+    if not is_number(plain):
+        msg = f"{option} takes a number of seconds, not `{value}`"
+        raise OverrideError(msg)
+    return float(plain)
 
 
 def load(

@@ -114,6 +114,16 @@ def write_results(
     return files
 
 
+def note_finished_files(out: Path, paths: Sequence[Path]) -> None:
+    """Add those of ``paths`` that lie in ``out`` to its ownership record: files of the run
+    that take their names only after ``run.json`` is written (``--rrd``: its live view
+    renames the recording into place once the run has finished). ``run.json`` lists them
+    already; unnoted, the next run into ``out`` could not prove them its own (a bug hunt)."""
+    from fmionnx.core.owned import OwnedFolder
+
+    OwnedFolder(out).note(paths)  # a path elsewhere, or no file there, is no entry
+
+
 def nothing_recorded(result: RunResult) -> bool:
     """Whether ``result`` holds no value of any signal: the run stopped (a Ctrl-C, a model
     that hung or failed) before its models gave their first values. A run that recorded

@@ -5,12 +5,16 @@ Every number is written as the shortest decimal that reads back as the very same
 ``0.0040000000000000001`` that also round-trip but read as noise. Two identical runs give
 byte-identical files, and a reader gets back exactly the values computed. The in-process and
 the ROS 2 backend both write through :func:`write_csv`, so their files compare byte for byte.
+
+A column of integers (an int64 or uint64 port: :mod:`fmionnx.runtime.recorder` records them
+exactly) is written as whole numbers, digit for digit: float64 would round ``2**53 + 1``.
 """
 
 from __future__ import annotations
 
+from collections.abc import Sequence
 from pathlib import Path
-from typing import IO, TYPE_CHECKING
+from typing import IO, TYPE_CHECKING, Any
 
 import numpy as np
 import numpy.typing as npt
@@ -39,23 +43,53 @@ def write_csv(
     hold exactly the result's values; the bytes are the same with or without it.
     """
     header = ["time", *((aliases or {}).get(n, n) for n in result.signals)]
-    table = result_table(result)
+    columns = result_columns(result)
     with atomic_text(path) as stream:  # never half-written, never through a planted link
         stream.write(",".join(_quote(h) for h in header) + "\n")
-        write_rows(stream, table, ahead=ahead)
+        if any(column.dtype.kind in "iu" for column in columns):
+            write_columns(stream, columns)  # rows formatted ahead hold float64: not used
+        else:
+            write_rows(stream, result_table(result), ahead=ahead)
     return path
 
 
-def result_table(result: RunResult) -> npt.NDArray[np.float64]:
-    """The numbers of ``results.csv``: ``time``, then each signal in the result's order.
-
-    A run that recorded nothing has no row: its start time alone, with no value beside it,
-    was a row that said nothing (a bug hunt)."""
+def result_columns(result: RunResult) -> list[npt.NDArray[Any]]:
+    """``time``, then each signal in the result's order, each in its own dtype (none: a run
+    that recorded nothing, see :func:`result_table`)."""
     from fmionnx.results import nothing_recorded
 
     if nothing_recorded(result):
+        return []
+    return [result.time, *result.signals.values()]
+
+
+def result_table(result: RunResult) -> npt.NDArray[np.float64]:
+    """The numbers of ``results.csv``: ``time``, then each signal in the result's order, as
+    float64 (integer columns rounded: :func:`write_csv` writes those from the columns).
+
+    A run that recorded nothing has no row: its start time alone, with no value beside it,
+    was a row that said nothing (a bug hunt)."""
+    columns = result_columns(result)
+    if not columns:
         return np.empty((0, 1))
-    return np.column_stack([result.time, *result.signals.values()])
+    return np.column_stack(columns).astype(np.float64, copy=False)
+
+
+def write_columns(stream: IO[str], columns: Sequence[npt.NDArray[Any]]) -> None:
+    """Write ``columns`` (of equal length) as CSV lines: integer columns as whole numbers,
+    the others as :func:`write_rows` writes them, in blocks of :data:`BLOCK_ROWS`."""
+    rows = len(columns[0]) if columns else 0
+    for first in range(0, rows, BLOCK_ROWS):
+        block = [column[first : first + BLOCK_ROWS] for column in columns]
+        texts = [_texts(column) for column in block]
+        stream.write("\n".join(map(",".join, zip(*texts, strict=True))) + "\n")
+
+
+def _texts(column: npt.NDArray[Any]) -> list[str]:
+    """Every value of ``column`` as text: an integer's digits, a float's shortest decimal."""
+    if column.dtype.kind in "iu":
+        return [str(value) for value in column.tolist()]
+    return column_texts(np.asarray(column, dtype=np.float64))
 
 
 def write_rows(

@@ -95,6 +95,11 @@ def _numbers(table: CaseTable, name: str) -> list[float]:
     return [_float(v) for v in table.column(name)]
 
 
+def _inf(value: float) -> str:
+    """How a plot labels an infinite metric (as the case's record writes it)."""
+    return "inf" if value > 0 else "-inf"
+
+
 def _heatmap(
     table: CaseTable, targets: list[str], metric: str, names: dict[str, str], out: Path
 ) -> Path:
@@ -105,8 +110,8 @@ def _heatmap(
     xs, ys = table.column(targets[0]), table.column(targets[1])
     columns, rows = sorted(set(xs)), sorted(set(ys))
     grid = np.full((len(rows), len(columns)), np.nan)
-    for x, y, value in zip(xs, ys, shown, strict=True):
-        grid[rows.index(y), columns.index(x)] = value
+    for x, y, value in zip(xs, ys, shown, strict=True):  # an infinity has no colour: grey
+        grid[rows.index(y), columns.index(x)] = value if not math.isinf(value) else np.nan
     figure, axes = new_figure_plain()
     palette = colormaps["viridis"].with_extremes(bad="lightgrey")
     image = axes.imshow(grid, origin="lower", aspect="auto", cmap=palette)
@@ -125,8 +130,8 @@ def _heatmap(
         axes.text(col, row, f"{value:.3g}", ha="center", va="center", color=colour, fontsize=8)
     statuses = table.column("status")
     for x, y, value, status in zip(xs, ys, shown, statuses, strict=True):
-        if math.isnan(value):  # the grey cells say why
-            why = NO_VALUE if status == "ok" else status
+        if math.isnan(value) or math.isinf(value):  # the grey cells say why
+            why = (NO_VALUE if status == "ok" else status) if math.isnan(value) else _inf(value)
             col, row = columns.index(x), rows.index(y)
             axes.text(col, row, why, ha="center", va="center", color="tab:red", fontsize=8, gid=why)
     return save_figure(figure, out / _file("heatmap", metric))
@@ -141,21 +146,28 @@ def _against(
     statuses = table.column("status")
     incomplete = [i for i, s in enumerate(statuses) if s != "ok"]
     empty = [i for i, s in enumerate(statuses) if s == "ok" and math.isnan(shown[i])]
+    # Infinities are values (a record keeps them), but a line cannot reach them: a triangle
+    # at the panel's top or foot marks each (matplotlib left them out unmarked).
+    above = [i for i, v in enumerate(shown) if v == math.inf]
+    below = [i for i, v in enumerate(shown) if v == -math.inf]
+    finite = [v if not math.isinf(v) else math.nan for v in shown]
     for panel, target in zip(panels, targets, strict=True):
         xs = _numbers(table, target)
         order = sorted(range(len(xs)), key=xs.__getitem__)  # stable: ties in case order
         style = "o-" if len(targets) == 1 else "o"
-        panel.plot([xs[i] for i in order], [shown[i] for i in order], style)
-        for cases, colour, label in (
-            (incomplete, "tab:red", "did not complete"),
-            (empty, "tab:grey", NO_VALUE),
+        panel.plot([xs[i] for i in order], [finite[i] for i in order], style)
+        for cases, marker, height, colour, label in (
+            (incomplete, "x", 0.03, "tab:red", "did not complete"),
+            (empty, "x", 0.03, "tab:grey", NO_VALUE),
+            (above, "^", 0.97, "tab:purple", _inf(math.inf)),
+            (below, "v", 0.03, "tab:purple", _inf(-math.inf)),
         ):
-            if cases:  # a cross at the panel's foot, where no value is drawn
+            if cases:  # a mark at the panel's edge, where no value is drawn
                 panel.plot(
-                    [xs[i] for i in cases], [0.03] * len(cases), "x", color=colour,
+                    [xs[i] for i in cases], [height] * len(cases), marker, color=colour,
                     transform=panel.get_xaxis_transform(), label=label, gid=label,
                 )  # fmt: skip
-        if incomplete or empty:
+        if incomplete or empty or above or below:
             panel.legend(loc="best")
         panel.set_xlabel(names.get(target, target))
         panel.set_ylabel(names.get(metric, metric))

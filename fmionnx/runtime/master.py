@@ -692,6 +692,7 @@ class Master:
         start, step, total = run.start, run.step, run.steps
         clock = self._clock
         progress, every = self._ticker()
+        paced = self._pacer is not None
         issues, hyper = self._issues, self._hyper
         index = self._entry_index
         marker = self._marker
@@ -730,6 +731,8 @@ class Master:
                         worker.submit(Job(due, due.step, t, due.h, n, index[id(due)]))
                 due = None
                 if progress is not None and n % every == 0:
+                    if paced:  # the base step ends with its lanes' work: the pacer's
+                        self._drain()  # breakdown of a late step missed what they took
                     progress(n + 1, total, start + (n + 1) * step)
             self._drain()
         except _StepFailedError as failed:

@@ -5,6 +5,15 @@ only change when their component steps. Instead each component appends one row p
 its own (outputs after the step, inputs as used by the step), and :meth:`Recorder.table`
 expands the rows to base-step times by holding, which is exactly what a slower component's
 values do in the run.
+
+Rows are float64, which holds every value of every port exactly but those of 64-bit integers
+beyond 2**53 (``9007199254740993`` read as ``...992``: a bug hunt). A recorded int64 or
+uint64 buffer therefore fills two columns: its value as float64, under its name, as every
+reader of the rows takes it (the native kernel, the guardian's shared tracks, a follower
+formatting ahead, live plots); and its eight bytes unchanged, under :func:`exact_column`'s
+name, which only :meth:`Recorder.at` reads, to give the table the integers exactly. The bytes
+travel as a float64 column, so every path that copies rows copies them bit for bit, and a
+system without such ports records exactly as before.
 """
 
 from __future__ import annotations
@@ -19,6 +28,19 @@ from fmionnx.core.runner import Buffer
 
 #: Rows reserved up front; long runs grow by doubling instead of reserving hours of rows.
 CHUNK_ROWS = 1 << 16
+
+#: Starts the name of a column holding a 64-bit integer's bytes (no signal name has it).
+EXACT_MARK = "\x1f"  # the unit separator
+
+
+def exact_column(name: str, dtype: np.dtype[np.generic]) -> str:
+    """The name of the column holding the bytes of column ``name``, of integer ``dtype``."""
+    return f"{EXACT_MARK}{dtype.name}{EXACT_MARK}{name}"
+
+
+def is_exact_integer(dtype: np.dtype[np.generic]) -> bool:
+    """Integers float64 cannot hold exactly (int64, uint64): recorded by their bytes too."""
+    return dtype.kind in "iu" and dtype.itemsize == 8
 
 
 class FrameSink(Protocol):
@@ -46,7 +68,13 @@ class Track:
     outputs: bool = False
 
     def add(self, names: list[str], view: Buffer) -> None:
-        """Record ``view`` (flat) under ``names``, one column per element."""
+        """Record ``view`` (flat) under ``names``, one column per element; a 64-bit integer
+        view also under :func:`exact_column`'s names, by its bytes (see the module)."""
+        self._add(names, view)
+        if is_exact_integer(view.dtype):
+            self._add([exact_column(n, view.dtype) for n in names], view.view(np.float64))
+
+    def _add(self, names: list[str], view: Buffer) -> None:
         start = len(self.columns)
         self.columns.extend(names)
         self.views.append((view, start, start + view.size))
@@ -115,4 +143,11 @@ class Recorder:
             values = track.rows[rows]
             for column, name in enumerate(track.columns):
                 out[name] = values[:, column]
-        return {name: out[name] for name in self.order if name in out}
+        table = {name: out[name] for name in self.order if name in out}
+        if len(out) > len(table):  # columns beside the signals: 64-bit integers' bytes
+            for key, values in out.items():
+                if key.startswith(EXACT_MARK):
+                    _, dtype, name = key.split(EXACT_MARK, 2)
+                    if name in table:
+                        table[name] = values.view(np.dtype(dtype))
+        return table

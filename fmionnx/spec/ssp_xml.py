@@ -101,7 +101,7 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
             bag.emit(codes.FILE_NOT_FOUND, f"cannot read `{path.name}`: {exc}", Span(path))
             return None
     try:
-        return etree.fromstring(data, _parser(), base_url=str(path)).getroottree()
+        tree = etree.fromstring(data, _parser(), base_url=str(path)).getroottree()
     except etree.XMLSyntaxError as exc:
         line, col = exc.position if exc.position else (1, 0)
         bag.emit(
@@ -111,6 +111,20 @@ def parse_xml(path: Path, bag: DiagnosticBag) -> Any:
     except OSError as exc:
         bag.emit(codes.FILE_NOT_FOUND, f"cannot read `{path.name}`: {exc}", Span(path))
         return None
+    if tree.docinfo.doctype or tree.docinfo.internalDTD is not None:
+        # libxml2 expands an internal DTD's entities even without resolve_entities (only
+        # external ones are left alone): a file could say one thing to fmionnx and another
+        # to a tool that reads it without them. No SSP file needs a DTD; refused, as a model
+        # description's is (fmionnx.core.xmlsafe).
+        bag.emit(
+            codes.UNSAFE_ARCHIVE,
+            f"`{path.name}` declares a DTD (<!DOCTYPE ...>); SSP files must not",
+            Span(path, 1, 1),
+            hint="DTDs define entities that expand without bound or read local files; "
+            "fmionnx refuses them",
+        )
+        return None
+    return tree
 
 
 @functools.cache

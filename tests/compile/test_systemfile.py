@@ -23,6 +23,7 @@ from fmionnx.compile.systemfile import (
     to_json,
     write_compiled,
 )
+from fmionnx.core.modelfiles import ShippingError
 from fmionnx.runtime.master import Master
 from fmionnx.runtime.result import RunOptions
 
@@ -135,6 +136,11 @@ def test_a_missing_or_changed_model_is_refused(reference: CompiledSystem, tmp_pa
     shutil.copy(other, target)
     with pytest.raises(CompiledFileError, match="does not match the compiled system"):
         relocate(reference, store)
+    # Compiling again into that store says so at once, and replaces nothing (a bug hunt:
+    # it listed the wrong file as placed, and every node refused it later).
+    with pytest.raises(ShippingError, match=r"does not match the compiled system.*move it out"):
+        place_models(reference, store)
+    assert target.read_bytes() == other.read_bytes()
 
 
 def test_a_system_file_still_loads_as_before() -> None:
@@ -270,3 +276,29 @@ def test_an_edit_the_content_hash_does_not_cover_is_refused(
         from_json(text, origin="g.fmionnx.json")
     assert expected in str(refused.value)
     assert str(refused.value).startswith("g.fmionnx.json: ")
+
+
+@pytest.mark.parametrize("part", ["plots", "checks"])
+def test_a_plot_or_check_naming_no_port_is_refused_on_reading(
+    tmp_path: Path, fixture_fmu, part: str
+) -> None:  # type: ignore[no-untyped-def]
+    """Plots and checks name the ports they read (recorded whatever `record` says): one
+    naming no port was a KeyError where the run recorded it."""
+    system_file = tmp_path / "g.yaml"
+    system_file.write_text(
+        f"fmionnx: 1\nname: g\nrun: {{stop: 0.1, step: 0.01}}\ncomponents:\n"
+        f"  gain: {{kind: fmu, path: {fixture_fmu('Gain')}}}\n"
+        "plots: [{y: [gain.y], file: y.png}]\n"
+        "checks: [{name: high, expect: max(gain.y) < 10}]\n",
+        encoding="utf-8",
+    )
+    bogus = {"component": "gain", "port": "nope", "index": None}
+
+    def edit(system: dict) -> None:  # type: ignore[type-arg]
+        system[part][0]["refs"] = [bogus]
+
+    text = _edited(fmionnx.load(system_file).compiled, edit)
+    with pytest.raises(CompiledFileError) as refused:
+        from_json(text, origin="g.fmionnx.json")
+    what = "plot `y.png`" if part == "plots" else "check `high`"
+    assert f"{what} names `gain.nope`, which no component of the system has" in str(refused.value)

@@ -109,6 +109,40 @@ def test_a_metric_against_a_target_marks_a_case_without_a_value(
     assert cross.get_label() == "no value"
 
 
+#: Cases whose metric was infinite (a record keeps `inf`, `-inf`).
+INFINITE = _table(
+    {**COLUMNS, "y_end": [float("inf"), 2.0, float("-inf"), 3.0], "status": ["ok"] * 4}
+)
+
+
+def test_a_heat_map_labels_infinite_values_and_keeps_a_finite_colour_scale(
+    drawn: list[Any], tmp_path: Path
+) -> None:
+    """An infinite metric made a cell "inf" on grey with no sign, and could stretch the
+    colour scale (a bug hunt)."""
+    study_plots._heatmap(INFINITE, ["k", "x0"], "y_end", NAMES, tmp_path)
+    axes = drawn[0].axes[0]
+    texts = {(t.get_position(), t.get_text()) for t in axes.texts}
+    assert ((0, 0), "inf") in texts
+    assert ((0, 1), "-inf") in texts
+    assert axes.images[0].get_clim() == (2.0, 3.0)
+
+
+def test_a_metric_against_a_target_marks_infinite_values_at_the_edges(
+    drawn: list[Any], tmp_path: Path
+) -> None:
+    """matplotlib leaves an infinite point out of a line, unmarked (a bug hunt)."""
+    study_plots._against(INFINITE, ["k"], "y_end", NAMES, tmp_path)
+    axes = drawn[0].axes[0]
+    marks = {line.get_gid(): line for line in axes.lines if line.get_gid() in ("inf", "-inf")}
+    assert marks["inf"].get_marker() == "^"
+    assert marks["-inf"].get_marker() == "v"
+    assert marks["inf"].get_ydata().tolist() == [0.97]
+    assert marks["-inf"].get_ydata().tolist() == [0.03]
+    assert axes.get_legend() is not None
+    assert all(math.isfinite(v) or math.isnan(v) for v in axes.lines[0].get_ydata())
+
+
 def test_axes_and_colour_bars_carry_units(drawn: list[Any], tmp_path: Path) -> None:
     study_plots._heatmap(GRID, ["k", "x0"], "y_end", NAMES, tmp_path)
     axes, bar = drawn[0].axes

@@ -236,6 +236,26 @@ def test_external_entities_are_not_expanded(loose, tmp_path: Path) -> None:
     spec, found = load(loose(text))
     assert "TOPSECRET" not in repr(spec)
     assert all("TOPSECRET" not in message for _, _, message in found)
+    assert spec is None  # libxml2 refuses the unexpanded entity in an attribute (E001)
+
+
+def test_an_internal_entity_is_refused_not_expanded(loose, tmp_path: Path) -> None:
+    """libxml2 expanded an internal DTD's entities (`name="sys&e;"` became `sysX`) though the
+    docs said no entity is expanded (a bug hunt): any DTD in an SSP file is E017."""
+    text = (
+        ssd(f"<ssd:Elements>{gain('a')}</ssd:Elements>")
+        .replace(
+            "<ssd:SystemStructureDescription",
+            '<!DOCTYPE x [<!ENTITY e "X">]>\n<ssd:SystemStructureDescription',
+            1,
+        )
+        .replace('name="sys"', 'name="sys&e;"')
+    )
+    spec, found = load(loose(text))
+    assert spec is None
+    assert len(found) == 1
+    assert found[0][0] == "E017"
+    assert "declares a DTD (<!DOCTYPE ...>); SSP files must not" in found[0][2]
 
 
 def test_missing_ssd_in_archive_is_e072(tmp_path: Path) -> None:

@@ -64,6 +64,16 @@ def _number(value: object, option: str) -> float:
     return float(value)
 
 
+def checked_distro(value: object) -> RosDistro | None:
+    """``--ros-distro``: None (the system's own) or one of the distributions, listed when not."""
+    if value is None:
+        return None
+    if value not in {d.value for d in RosDistro}:
+        msg = f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}"
+        raise OptionsError(msg)
+    return RosDistro(str(value))
+
+
 def checked_choice(value: object, option: str, choices: tuple[str, ...]) -> str:
     """``value`` is one of ``choices`` (``--sync``, ``--middleware``)."""
     if value not in choices:
@@ -88,15 +98,16 @@ class Ros2BackendOptions(BackendOptions):
 
     @classmethod
     def checked(cls, given: Mapping[str, object]) -> Self:
-        """Every value checked; options of another mode refused (``--input-wait`` is free
-        runs' only, ``--zenoh-router`` Zenoh's)."""
+        """Every value checked; options of another mode refused (``--input-wait`` and
+        ``--rtf`` are free runs' only: lockstep steps as fast as the slowest node, and a pace
+        it silently ignored would read as honoured; ``--zenoh-router`` is Zenoh's)."""
         sync = checked_choice(given.get("sync", "lockstep"), "--sync", SYNC_MODES)
-        distro = given.get("ros_distro")
-        if distro is not None and distro not in {d.value for d in RosDistro}:
-            msg = f"--ros-distro must be one of {', '.join(d.value for d in RosDistro)}"
-            raise OptionsError(msg)
+        distro = checked_distro(given.get("ros_distro"))
         middleware = checked_choice(given.get("middleware", "dds"), "--middleware", MIDDLEWARES)
         rtf = checked_rtf(given.get("rtf", 1.0))
+        if "rtf" in given and sync != "free":
+            msg = "--rtf applies to --backend ros2 --sync free only (lockstep is not paced)"
+            raise OptionsError(msg)
         wait = INPUT_WAIT
         if "input_wait" in given:
             if sync != "free":
@@ -109,7 +120,7 @@ class Ros2BackendOptions(BackendOptions):
             raise OptionsError(msg)
         router = checked_router(router)
         return cls(
-            sync=sync, ros_distro=None if distro is None else RosDistro(str(distro)),
+            sync=sync, ros_distro=distro,
             middleware=middleware, zenoh_router=router, rtf=rtf, input_wait=wait,
         )  # fmt: skip
 

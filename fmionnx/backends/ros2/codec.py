@@ -134,7 +134,8 @@ class TopicCodec:
         if kind == "image":
             return _read_image(message, field)
         if kind == "scalar":
-            dtype = object if extra == "string" else np.float64
+            # The field's own type: an int64 in a float64 would lose bits above 2**53.
+            dtype = object if extra == "string" else BASE_NUMPY.get(extra, "float64")
             return np.array([_get(message, field.paths[0])], dtype=dtype)
         if kind == "elements":
             return np.array([_get(message, p) for p in field.paths], dtype=np.float64)

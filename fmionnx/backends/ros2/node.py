@@ -88,6 +88,8 @@ MATCH_TIMEOUT = 60.0
 INPUT_WAIT = 0.1
 #: Free run: stale steps logged per input (the rest are only counted).
 STALE_LOGGED = 5
+#: Seconds a node waits for its first ``/clock`` sample before its log says who should send it.
+CLOCK_SILENCE = 5.0
 #: Exit status of a node whose model ended the simulation (FMI ``terminateSimulation``): not
 #: a fault; its status file says who ended the run and when (``docs/ros2.md``).
 ENDED_BY_MODEL = 3
@@ -101,7 +103,9 @@ class SyncMode(enum.StrEnum):
 
 
 class NodeError(FmionnxError):
-    """The node cannot start (unknown component, external component, unmappable system)."""
+    """The node cannot start: its COMPONENT argument names no component of the system, or an
+    ``external`` one (whose topics come from outside). ``fmionnx node`` reports it as a usage
+    error (exit 2), as ``run`` does an unknown name in ``--param``."""
 
 
 @dataclass(frozen=True)
@@ -124,6 +128,9 @@ class NodeOptions:
     profile: bool = False
     #: ``fault`` or ``warn``: a non-finite value arriving on a connection (``--on-nonfinite``).
     on_nonfinite: str = "fault"
+    #: Free run of a system without a simulator and without a supervisor (``--clock-source``,
+    #: a launch file): this node publishes ``/clock``, as a simulator node would.
+    clock_source: bool = False
 
 
 def clock_source(system: CompiledSystem, plan: Ros2Plan) -> str | None:
@@ -329,6 +336,10 @@ class Node:
         if component in plan.external:
             msg = f"component `{component}` is `external: true`: its topics come from outside"
             raise NodeError(msg)
+        simulator = clock_source(system, plan)
+        if options.clock_source and simulator is not None:
+            msg = f"--clock-source: the simulator `{simulator}` publishes /clock in this system"
+            raise NodeError(msg)
         self.system = system
         self.plan = plan
         self.component = system.component(component)
@@ -336,9 +347,13 @@ class Node:
         self.options = options
         self.clock = StepClock(system.run, plan.distro)
         self.position = system.order.index(component)
-        self.is_clock_source = (
-            options.sync is SyncMode.FREE and clock_source(system, plan) == component
+        self.is_clock_source = options.sync is SyncMode.FREE and (
+            simulator == component or options.clock_source
         )
+        #: When this node began waiting for ``/clock``; settled once a sample came or the
+        #: silence was logged (:meth:`_clock_silence`).
+        self._clock_wait: float | None = None
+        self._clock_settled = False
         self.steps_done = 0
         #: The step from which the model asked to end the simulation (None: it did not).
         self.ending_step: int | None = None
@@ -538,6 +553,8 @@ class Node:
     # -- time ----------------------------------------------------------------------------------
 
     def _latest_tick(self, reader: SampleReader, timeout: float) -> int | None:
+        if self._clock_wait is None:
+            self._clock_wait = time.monotonic()
         latest: int | None = None
         while True:
             samples = reader.take(256)
@@ -548,7 +565,27 @@ class Node:
                 break
         if latest is None and reader.wait(timeout):
             return self._latest_tick(reader, 0.0)
+        self._clock_silence(latest)
         return latest
+
+    def _clock_silence(self, tick: int | None) -> None:
+        """Say once, after :data:`CLOCK_SILENCE` seconds without any ``/clock`` sample, that the
+        node waits for one and who sends it: a node started alone (or from a launch file of a
+        system without a simulator) otherwise waited in silence for ever."""
+        if self._clock_settled or tick is not None:
+            self._clock_settled = True
+            return
+        assert self._clock_wait is not None  # set by the first _latest_tick
+        if time.monotonic() - self._clock_wait >= CLOCK_SILENCE:
+            self._clock_settled = True
+            sender = (
+                "in lockstep, the supervisor of `fmionnx run --backend ros2` sends it"
+                if self.options.sync is SyncMode.LOCKSTEP
+                else "in a free run, the simulator's node sends it; a system without a "
+                "simulator needs one node started with --clock-source, as `fmionnx ros2 "
+                "launch-file` writes it"
+            )
+            log.warning("no /clock sample in %g s, still waiting: %s", CLOCK_SILENCE, sender)
 
     def _lockstep(self, runner: Runner, clock: SampleReader, done: SampleWriter) -> None:
         total, period = self.system.run.steps, self.component.period_steps

@@ -9,12 +9,18 @@ its source's topic. Defaults need no section:
 port                                         topic, type, field
 ===========================================  ==========================================
 camera (``uint8[H,W,3]`` or ``[1,H,W,3]``)   ``<node>/<port>``, ``sensor_msgs/msg/Image``
-scalar (number, bool)                        ``<node>/<port>``, ``std_msgs/msg/Float64`` ``data``
-array of numbers                             ``<node>/<port>``, ``std_msgs/msg/Float64MultiArray``
+scalar float or bool                         ``<node>/<port>``, ``std_msgs/msg/Float64`` ``data``
+scalar integer (``int64`` ...)               ``<node>/<port>``, ``std_msgs/msg/Int64`` ... ``data``
+array of floats or bools                     ``<node>/<port>``, ``std_msgs/msg/Float64MultiArray``
+array of integers (``int64`` ...)            ``<node>/<port>``, ``std_msgs/msg/Int64MultiArray`` ...
 string                                       ``<node>/<port>``, ``std_msgs/msg/String`` ``data``
 output feeding MuJoCo ``cmd_v`` / ``cmd_w``   ``cmd_vel``, ``geometry_msgs/msg/Twist`` ``linear.x`` / ``angular.z``
 MuJoCo ``base_pos`` / ``base_quat``          ``odom``, ``nav_msgs/msg/Odometry`` ``pose.pose.position`` / ``.orientation``
 ===========================================  ==========================================
+
+Integer ports get the std_msgs type of their own width and sign: a ``Float64`` holds integers
+only up to 2**53, and lockstep must hand a 64-bit value on bit for bit as the in-process run
+does. Floats and bools keep ``Float64`` (exact for both).
 
 Relative names are resolved in ``ros2.namespace``. :func:`build_plan` returns the plan and
 every diagnostic (E060..E065); :func:`check_ros2` only the diagnostics.
@@ -666,7 +672,18 @@ def default_type(port: Port) -> str | None:
         return IMAGE_TYPE
     if port.dtype is DType.STRING:
         return STRING if port.is_scalar else None
+    if port.dtype.is_integer:
+        return integer_type(port.dtype, scalar=port.is_scalar)
     return FLOAT64 if port.is_scalar else FLOAT64_ARRAY
+
+
+def integer_type(dtype: DType, *, scalar: bool) -> str:
+    """``std_msgs/msg/Int64`` for an ``int64`` scalar, ``.../UInt8MultiArray`` for a
+    ``uint8`` array: std_msgs has one of each for every integer width of the IR."""
+    unsigned = dtype.value.startswith("u")
+    bits = dtype.value.removeprefix("u").removeprefix("int")
+    name = f"{'U' if unsigned else ''}Int{bits}"
+    return f"std_msgs/msg/{name}" if scalar else f"std_msgs/msg/{name}MultiArray"
 
 
 def build_plan(

@@ -205,7 +205,10 @@ class FmuRunner(NativeCandidate):
                     view[:] = np.asarray(value, dtype=view.dtype).reshape(-1)[: view.size]
         for parameter in component.parameters:
             port = component.port(parameter.port)
-            function, status = set_scalars(dll, inst, port, parameter.value, self.values)
+            try:
+                function, status = set_scalars(dll, inst, port, parameter.value, self.values)
+            except ValueError as exc:  # a binary value that is no hexadecimal text
+                raise fault(component.name, str(exc), time=start, port=parameter.port) from None
             self._check(function, status, start, port=parameter.port)
         self._initialize(start, stop)
         self._advance = self._stepper(start, stop)

@@ -103,12 +103,25 @@ def set_scalars(
     values: Sequence[Scalar],
     functions: ValueFunctions,
 ) -> tuple[str, int]:
-    """Set one port's values once (parameters, start values, strings); returns (name, status)."""
+    """Set one port's values once (parameters, start values, strings); returns (name, status).
+
+    A binary value is written as hexadecimal text (``0c0d``), as FMI 3 writes binary start
+    values; the compiler has checked it (:func:`binary_bytes` raises ValueError otherwise).
+    """
     vr_array = (ctypes.c_uint * len(port.vrs))(*port.vrs)
     if port.dtype is DType.STRING:
         name = functions.name("Set", "String")
         strings = (ctypes.c_char_p * len(values))(*(str(v).encode() for v in values))
         args: tuple[object, ...] = (instance, vr_array, len(port.vrs), strings)
+    elif port.dtype is DType.BINARY:
+        name = functions.name("Set", "Binary")
+        blobs = [binary_bytes(v) for v in values]
+        sizes = (ctypes.c_size_t * len(blobs))(*(len(b) for b in blobs))
+        pointer = ctypes.POINTER(ctypes.c_uint8)
+        data = [ctypes.create_string_buffer(b, max(1, len(b))) for b in blobs]
+        pointers = (pointer * len(blobs))(*(ctypes.cast(d, pointer) for d in data))
+        # fmi3SetBinary(instance, vrs, nvrs, valueSizes, values, nValues)
+        args = (instance, vr_array, len(port.vrs), sizes, pointers)
     else:
         type_name, ctype = functions.types[port.dtype]
         name = functions.name("Set", type_name)
@@ -118,3 +131,13 @@ def set_scalars(
         args = (*args, len(values))
     status = getattr(dll, name)(*args)
     return name, int(status)
+
+
+def binary_bytes(value: Scalar) -> bytes:
+    """The bytes of a binary value written as hexadecimal text (``0c0d``, ``0C 0D``); a
+    ValueError names what is wrong."""
+    try:
+        return bytes.fromhex(str(value))
+    except ValueError:
+        msg = f"`{value}` is not hexadecimal text of whole bytes (write a binary value as `0c0d`)"
+        raise ValueError(msg) from None

@@ -21,7 +21,9 @@ read with the safe parser and measured:
 
 Every file the scene names (includes, meshes, textures, height fields, skins, models) must be
 a regular file within :data:`~fmionnx.core.resources.MODEL_FILE_BYTES`: a FIFO or a device
-would make MuJoCo's reader wait or read for ever. Which files may be named (inside the scene's
+would make MuJoCo's reader wait or read for ever. An include or an attached model that cannot
+be read is E010 naming it and where it is named (``the included file `parts.xml` at
+`scene.xml:3```), not the scene, which exists. Which files may be named (inside the scene's
 folder) is :mod:`.files`' concern; this module only measures.
 """
 
@@ -109,13 +111,28 @@ class _Scene:
         line = getattr(element, "sourceline", None)
         return f"`{file.name}:{line}`" if line else f"`{file.name}`"
 
-    def root(self, file: Path) -> Any:
+    def root(self, file: Path, named_by: str | None = None) -> Any:
+        """The parsed XML of ``file``. ``named_by`` says where an included or attached file
+        is named (``the included file `parts.xml` at `scene.xml:3```): one that cannot be read is
+        then E010 naming it and that place, not the scene (an OSError for the scene itself
+        is the caller's to report)."""
         key = file.resolve()
         if key not in self.files:
             if len(self.files) >= MAX_FILES:
                 msg = f"`{self.scene.name}` includes or attaches more than {MAX_FILES} files"
                 raise ModelError(codes.UNSAFE_ARCHIVE, msg)
-            data = read_regular(file, MODEL_FILE_BYTES, f"the scene file `{file.name}`")
+            try:
+                data = read_regular(file, MODEL_FILE_BYTES, f"the scene file `{file.name}`")
+            except OSError as exc:
+                if named_by is None:
+                    raise
+                reason = exc.strerror or str(exc)
+                msg = f"`{self.scene.name}`: {named_by} cannot be read: {reason}"
+                raise ModelError(
+                    codes.FILE_NOT_FOUND,
+                    msg,
+                    hint="name a file that exists, relative to the scene's folder",
+                ) from None
             self.files[key] = parse_safely(data, file.name)
         return self.files[key]
 
@@ -124,8 +141,9 @@ class _Scene:
 
     # -- elements ---------------------------------------------------------------------------
 
-    def count_file(self, file: Path) -> int:
-        """Elements of ``file``'s tree (its root's content), includes and attaches expanded."""
+    def count_file(self, file: Path, named_by: str | None = None) -> int:
+        """Elements of ``file``'s tree (its root's content), includes and attaches expanded;
+        ``named_by`` as for :meth:`root`."""
         key = file.resolve()
         if key in self.counted:
             return self.counted[key]
@@ -134,7 +152,7 @@ class _Scene:
             raise ModelError(codes.BAD_MODEL, msg, hint="MuJoCo cannot expand a cycle of includes")
         self.open_files.append(key)
         try:
-            root = self.root(file)
+            root = self.root(file, named_by)
             models = self.models(root, file)
             total = sum(self.count(child, file, models) for child in root)
         finally:
@@ -142,22 +160,28 @@ class _Scene:
         self.counted[key] = total
         return total
 
-    def models(self, root: Any, file: Path) -> dict[str, Path]:
-        """The ``<model name file>`` assets of ``file`` (for its ``<attach model>``)."""
+    def models(self, root: Any, file: Path) -> dict[str, tuple[Path, str]]:
+        """The ``<model name file>`` assets of ``file`` (for its ``<attach model>``): each
+        file, and where it is named."""
         return {
-            str(element.get("name")): self.named(str(element.get("file")), self.folder)
+            str(element.get("name")): (
+                self.named(str(element.get("file")), self.folder),
+                f"the model file `{element.get('file')}` at {self.where(file, element)}",
+            )
             for element in root.iter("model")
             if element.get("name") is not None and element.get("file") is not None
         }
 
-    def count(self, element: Any, file: Path, models: dict[str, Path]) -> int:
+    def count(self, element: Any, file: Path, models: dict[str, tuple[Path, str]]) -> int:
         """Elements ``element`` stands for (itself and its content), checked as it goes."""
         tag = _tag(element)
         if not tag:
             return 0
         self.measure(element, file)
         if tag == "include" and element.get("file") is not None:
-            return self.count_file(self.named(str(element.get("file")), self.folder))
+            value = str(element.get("file"))
+            named_by = f"the included file `{value}` at {self.where(file, element)}"
+            return self.count_file(self.named(value, self.folder), named_by)
         inner = sum(self.count(child, file, models) for child in element)
         if tag == "replicate":
             total = inner * _number(element.get("count"))
@@ -167,7 +191,7 @@ class _Scene:
             total = 1 + inner + PER_POINT * points
             what = f'`<{tag} count="{element.get("count")}">` makes {points} points'
         elif tag == "attach" and element.get("model") in models:
-            total = 1 + self.count_file(models[str(element.get("model"))])
+            total = 1 + self.count_file(*models[str(element.get("model"))])
             what = f"the model attached as `{element.get('model')}`"
         else:
             total = 1 + inner

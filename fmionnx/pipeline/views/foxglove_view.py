@@ -144,6 +144,10 @@ class FoxgloveView(RunObserver):
         """The process ends right after."""
         self.close()
 
+    def failed(self, error: BaseException) -> None:
+        """The run raised: stop the server, so that its port is free for the next run."""
+        self.close()
+
     def close(self) -> None:
         """Stop the server (after a moment for the last messages to leave)."""
         server, self._server = self._server, None

@@ -213,11 +213,27 @@ class RerunView(RunObserver):
         """The process ends right after: keep what was sent."""
         self.close()
 
-    def close(self) -> None:
-        """Flush and close the stream; the ``.rrd`` takes its name."""
+    def failed(self, error: BaseException) -> None:
+        """The run raised: close the stream; its ``.rrd`` is not written (nothing
+        half-written: an earlier recording under the name stays)."""
+        self.close(keep=False)
+
+    def close(self, *, keep: bool = True) -> None:
+        """Flush and close the stream; the ``.rrd`` takes its name (``keep``), else the
+        hidden partial file is removed."""
         stream, self._stream = self._stream, None
-        if stream is None:
-            return
+        if stream is not None:
+            self._flushed(stream)
+        partial, self._partial = self._partial, None
+        if partial is not None and not keep:
+            partial.unlink(missing_ok=True)
+        elif partial is not None and self.rrd is not None:
+            with contextlib.suppress(FileNotFoundError):
+                partial.chmod(0o644)
+                partial.replace(self.rrd)
+
+    def _flushed(self, stream: Any) -> None:
+        """Flush ``stream`` to its sinks and disconnect it (its bytes to :attr:`data`)."""
         if self._buffer is not None:
             self.data = self._buffer.read(flush=True)
             self._buffer = None
@@ -226,10 +242,6 @@ class RerunView(RunObserver):
         except RuntimeError as exc:  # the viewer went away during the run: the results stand
             print(f"rerun: not everything reached the viewer: {exc}", file=sys.stderr)
         stream.disconnect()
-        if self._partial is not None and self.rrd is not None:
-            with contextlib.suppress(FileNotFoundError):
-                self._partial.chmod(0o644)
-                self._partial.replace(self.rrd)
 
     # -- what does not change ------------------------------------------------------------------
 
