@@ -211,3 +211,16 @@ def let_files_settle() -> None:
     from fmionnx.pipeline.compilecache import CHANGE_MARGIN_NS
 
     time.sleep(2 * CHANGE_MARGIN_NS / 1e9)
+
+
+def cli(*args: str) -> tuple[int, str]:
+    """Run ``fmionnx ARGS`` in-process: the exit code and the output with whitespace runs
+    folded (messages wrap at the terminal's width); a traceback fails the test."""
+    from typer.testing import CliRunner
+
+    from fmionnx.cli import app
+
+    result = CliRunner().invoke(app, list(args))
+    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
+    assert "Traceback" not in result.output
+    return result.exit_code, " ".join(result.output.split())

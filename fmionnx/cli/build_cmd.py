@@ -66,11 +66,11 @@ def build_fmu_command(
 
 
 def _refuse_the_source(output: Path, source: Path, option: str) -> None:
-    """Exit 2 when ``output`` is the source FMU, or an existing file inside the source folder
-    (the build reads every file of it), even with ``--force``: a vendor's FMU rebuilt over
-    itself would lose its other platforms' binaries for good."""
+    """Exit 2 when ``output`` is the source FMU, or inside the source folder (the build reads
+    every file of it: the next build would pack this one), even with ``--force``: a vendor's
+    FMU rebuilt over itself would lose its other platforms' binaries for good."""
     refuse_an_input(output, [source], option)
-    if not (source.is_dir() and output.exists()):
+    if not source.is_dir():
         return
     try:
         inside = output.resolve().is_relative_to(source.resolve())
@@ -78,7 +78,7 @@ def _refuse_the_source(output: Path, source: Path, option: str) -> None:
         return
     if inside:
         msg = (
-            f"{option} `{output}` is a file this command reads (it lies inside the source "
-            f"folder `{source}`): choose another name"
+            f"{option} `{output}` lies inside the source folder `{source}`, which the build "
+            "packs whole: choose a name outside it"
         )
         raise fail(msg)

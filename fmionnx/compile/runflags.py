@@ -63,19 +63,36 @@ def apply_run_flags(loaded: LoadedSpec, flags: RunFlags, bag: DiagnosticBag) -> 
             where,
         )
         return LoadedSpec(None, loaded.sources, loaded.path)
-    stop = spec.run.stop if flags.stop is None else flags.stop
-    if flags.start is not None and stop is not None and stop <= flags.start:
-        # Said of the flag: the compiler's E040 pointed at `run.stop` in the file, unchanged.
+    if flags.stop is not None and not math.isfinite(flags.stop):
         bag.emit(
-            codes.RUN_SETTINGS,
-            f"--start-time {flags.start} is not before the system's stop time {stop} "
-            "(`run.stop`); give --stop-time too",
-            where,
+            codes.RUN_SETTINGS, f"--stop-time {flags.stop} is not a finite number of seconds", where
         )
+        return LoadedSpec(None, loaded.sources, loaded.path)
+    problem = _order_problem(spec.run.start, spec.run.stop, flags)
+    if problem is not None:  # said of the flags: the compiler's E040 pointed at the file
+        bag.emit(codes.RUN_SETTINGS, problem, where)
         return LoadedSpec(None, loaded.sources, loaded.path)
     update = {key: getattr(flags, key) for key in flags.keys}
     run = spec.run.model_copy(update=update)
     return LoadedSpec(spec.model_copy(update={"run": run}), loaded.sources, loaded.path)
+
+
+def _order_problem(start: float, stop: float | None, flags: RunFlags) -> str | None:
+    """Why the run would not end after it starts with the flags applied (None: it would)."""
+    if flags.start is None and flags.stop is None:
+        return None
+    first = start if flags.start is None else flags.start
+    last = stop if flags.stop is None else flags.stop
+    if last is None or last > first:
+        return None
+    if flags.stop is None:
+        return (
+            f"--start-time {first} is not before the system's stop time {last} (`run.stop`); "
+            "give --stop-time too"
+        )
+    if flags.start is None:
+        return f"--stop-time {last} is not after the system's start time {first} (`run.start`)"
+    return f"--stop-time {last} must be greater than --start-time {first}"
 
 
 def mark_command_line(system: CompiledSystem, flags: RunFlags) -> CompiledSystem:

@@ -23,37 +23,43 @@ def _make_folder(folder: Path, option: str, what: str) -> None:
     if folder.is_symlink() and not folder.exists():
         msg = f"{label} is a symbolic link that leads nowhere (its target is missing, or a loop)"
         raise RequestError(msg)
-    first_new = _first_missing(folder)
     try:
-        folder.mkdir(parents=True, exist_ok=True)
+        made = _made_levels(folder)
     except FileExistsError:
         msg = f"{label} exists and is not a folder"
         raise RequestError(msg) from None
     except OSError as exc:
         msg = f"{label} cannot be created ({exc.strerror})"
         raise RequestError(msg) from None
-    made = _MADE.get()
-    if first_new is not None and made is not None:
-        made.append((first_new, folder))
+    watched = _MADE.get()
+    if watched is not None:
+        watched.extend(made)
     if not os.access(folder, os.W_OK | os.X_OK):
         msg = f"{label} is not writable"
         raise RequestError(msg)
 
 
-def _first_missing(folder: Path) -> Path | None:
-    """The highest of ``folder`` and its parents that does not exist yet (what ``mkdir``
-    with parents creates first); None when ``folder`` exists."""
-    missing = None
-    for at in (folder, *folder.parents):
-        if at.exists() or at.is_symlink():
-            break
-        missing = at
-    return missing
+def _made_levels(folder: Path) -> list[Path]:
+    """Make ``folder`` and its missing parents one level at a time, along the path as written;
+    return exactly the folders this call made (outermost first). ``Path.mkdir(parents=True)``
+    says nothing of what it made, and the path as written is what is made: in
+    ``new/../out`` it makes ``new`` too, where a guess from the normalized path would have
+    named a folder the user had (a review). A level made meanwhile by someone else is theirs."""
+    made = []
+    for depth in range(1, len(folder.parts) + 1):
+        level = Path(*folder.parts[:depth])
+        try:
+            level.mkdir()
+        except FileExistsError:
+            if not level.is_dir():
+                raise
+            continue
+        made.append(level)
+    return made
 
 
-#: The folders the output checks created while :func:`undone_on_failure` watches them: each
-#: the highest one created and the one asked for.
-_MADE: ContextVar[list[tuple[Path, Path]] | None] = ContextVar("fmionnx_made", default=None)
+#: The folders the output checks made while :func:`undone_on_failure` watches them.
+_MADE: ContextVar[list[Path] | None] = ContextVar("fmionnx_made", default=None)
 
 
 @contextlib.contextmanager
@@ -61,29 +67,18 @@ def undone_on_failure() -> Iterator[None]:
     """Folders the output checks make inside the block are removed again, when still empty,
     if the block raises: a command that checked ``--out`` and then failed to load its system
     left an empty results folder behind (a bug hunt). Never a folder that existed before,
-    never one holding anything."""
-    made: list[tuple[Path, Path]] = []
+    never one holding anything (``rmdir`` refuses it: what a writer put there stays)."""
+    made: list[Path] = []
     token = _MADE.set(made)
     try:
         yield
     except BaseException:
-        for top, asked in reversed(made):
-            _remove_empty_chain(top, asked)
+        for level in reversed(made):  # innermost first
+            with contextlib.suppress(OSError):
+                level.rmdir()
         raise
     finally:
         _MADE.reset(token)
-
-
-def _remove_empty_chain(top: Path, asked: Path) -> None:
-    """``asked`` and its parents up to ``top``, each removed while empty (rmdir refuses a
-    folder holding anything: what a concurrent writer put there stays)."""
-    for at in (asked, *asked.parents):
-        try:
-            at.rmdir()
-        except OSError:
-            return
-        if at == top:
-            return
 
 
 def check_output_file(path: Path, option: str) -> Path:

@@ -192,7 +192,9 @@ def load_request(request: RunRequest) -> System:
         return load(
             request.target, interface=overrides.interface if request.kind == "model" else None,
             step=overrides.step, start=overrides.start_time, models=overrides.models,
-            stop=overrides.stop_time,
+            # compiled in only with a new start (one past the file's stop then compiles);
+            # alone it stays an override of the compiled system, kept apart in the cache
+            stop=overrides.stop_time if overrides.start_time is not None else None,
         )  # fmt: skip
     except OverrideError as exc:
         raise RequestError(str(exc)) from None

@@ -125,24 +125,24 @@ def load(
     """Compile a system file or a single model, or read a compiled system; raises
     DiagnosticError on errors (CompiledFileError for an unusable compiled-system file).
 
-    ``interface`` applies to a single ``.fmu`` only; ``step`` and ``start`` replace the run's
-    base step and start time of any system before it is compiled (:mod:`.compile.runflags`),
-    ``stop`` too when ``start`` is given (alone: pass it to ``System.with_overrides``).
+    ``interface`` applies to a single ``.fmu`` only; ``step``, ``start`` and ``stop`` replace
+    the run's base step, start and stop time of any system before it is compiled
+    (:mod:`.compile.runflags`; a start past the file's stop needs ``stop``).
     A compiled-system file (``*.fmionnx.json``, written by ``fmionnx compile``) is read as it
-    is, nothing compiled (``step``/``start`` are refused: OverrideError); ``models`` names the
-    store its models are found in by hash (default: where they were).
+    is, nothing compiled (``step``/``start`` are refused: OverrideError; ``stop`` is applied
+    as ``System.with_overrides`` applies it); ``models`` names the store its models are found
+    in by hash (default: where they were).
     """
     target = Path(path)
-    # A stop is compiled in only with a new start (one past the file's stop compiles); alone
-    # it stays an override of the compiled system (``with_overrides``), compiled files too.
-    flags = RunFlags(start=start, step=step, stop=stop if start is not None else None)
+    flags = RunFlags(start=start, step=step, stop=stop)
     if target.name.lower().endswith(COMPILED_SUFFIX):
         from fmionnx.compile.systemfile import read_compiled
 
         if flags.start is not None or flags.step is not None:
             msg = "--step and --start-time need a system file: a compiled system is run as it is"
             raise OverrideError(msg)
-        return System(read_compiled(target, models=models), source=target)
+        read = System(read_compiled(target, models=models), source=target)
+        return read if stop is None else read.with_overrides(stop_time=stop)
     if target.suffix.lower() in MODEL_SUFFIXES:
         result = compile_model(target, flags, interface)
     else:

@@ -162,7 +162,9 @@ def _column(column: str, result: RunResult) -> npt.NDArray[np.float64]:
     if len(values) == 0:
         msg = f"`{column}` has no recorded value"
         raise MeasureError(msg)
-    return values
+    # A 64-bit integer signal is recorded exactly (int64/uint64 arrays): measured as floats,
+    # as every other signal is, or `a - b` of unsigned values wrapped around to 1.8e19.
+    return np.asarray(values, dtype=np.float64)
 
 
 def _first_time(condition: npt.NDArray[Any], result: RunResult) -> float:

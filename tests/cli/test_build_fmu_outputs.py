@@ -59,8 +59,13 @@ def test_a_file_inside_the_source_folder_is_never_the_output(tmp_path: Path) -> 
     before = description.read_bytes()
     code, output = _invoke(str(source), "-o", str(description), "--force")
     assert code == 2
-    assert "is a file this command reads (it lies inside the source folder" in output
+    assert "lies inside the source folder" in output
     assert description.read_bytes() == before
+    # A new file there too (a review): the next build would pack it into the FMU.
+    code, output = _invoke(str(source), "-o", str(source / "out.fmu"))
+    assert code == 2
+    assert "which the build packs whole: choose a name outside it" in output
+    assert not (source / "out.fmu").exists()
 
 
 def test_a_users_file_at_the_output_needs_force(tmp_path: Path) -> None:
@@ -128,7 +133,15 @@ def test_the_root_folder_as_source_asks_for_an_output(tmp_path: Path) -> None:
     code, output = _invoke("/")
     assert code == 2
     assert "`/` has no name to derive the output's from: name it with --output" in output
-    code, output = _invoke("/", "-o", str(tmp_path / "x.fmu"))  # not copied: no description
+    code, output = _invoke("/", "-o", str(tmp_path / "x.fmu"))  # nothing is outside `/`
+    assert code == 2
+    assert "lies inside the source folder `/`" in output
+    assert not (tmp_path / "x.fmu").exists()
+
+
+def test_a_folder_without_a_model_description_is_not_copied(tmp_path: Path) -> None:
+    (tmp_path / "src").mkdir()
+    code, output = _invoke(str(tmp_path / "src"), "-o", str(tmp_path / "x.fmu"))
     assert code == 1
     assert "has no modelDescription.xml" in output
     assert not (tmp_path / "x.fmu").exists()

@@ -181,3 +181,16 @@ def test_a_failed_start_keeps_folders_that_existed_or_hold_anything(tmp_path: Pa
     with undone_on_failure():  # no failure: what was made stays
         check_output_folder(tmp_path / "kept" / "stays", "--out")
     assert (tmp_path / "kept" / "stays").is_dir()
+
+
+def test_a_path_through_a_new_folder_removes_what_it_made_not_what_was_there(
+    tmp_path: Path, monkeypatch: pytest.MonkeyPatch
+) -> None:
+    """`--out new/../out2` with `out2` there before: the folder made was `new`, not `out2`
+    (a review: the user's empty `out2` was removed and `new` was left)."""
+    monkeypatch.chdir(tmp_path)
+    (tmp_path / "out2").mkdir()
+    (tmp_path / "broken.yaml").write_text("components: {g: {fmu: missing.fmu}}\n")
+    code, _ = _invoke("run", "broken.yaml", "--out", "new/../out2")
+    assert code == 1
+    assert sorted(p.name for p in tmp_path.iterdir()) == ["broken.yaml", "out2"]

@@ -14,6 +14,7 @@ from typer.testing import CliRunner
 
 from fmionnx.api import OverrideError, load, parse_value
 from fmionnx.cli.app import app
+from fmionnx.core.errors import DiagnosticError
 from tests.conftest import build_fixture_fmu
 
 SYSTEM = """\
@@ -139,3 +140,12 @@ def test_a_start_past_the_files_stop_alone_names_the_option(system: Path) -> Non
     text = " ".join(output.split())
     assert "--start-time 5.0 is not before the system's stop time 1.0 (`run.stop`)" in text
     assert "give --stop-time too" in text
+
+
+def test_load_takes_a_stop_time_alone_or_with_a_start(system: Path) -> None:
+    """`fmionnx.load(path, stop=...)` was accepted and ignored without `start` (a review)."""
+    assert load(system, stop=0.5).compiled.run.stop == 0.5
+    both = load(system, start=5.0, stop=5.5).compiled.run
+    assert (both.start, both.stop) == (5.0, 5.5)
+    with pytest.raises(DiagnosticError, match=r"--stop-time 0\.0 is not after"):
+        load(system, stop=0.0)

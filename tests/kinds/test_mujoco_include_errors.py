@@ -7,18 +7,10 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
 
-from fmionnx.cli.app import app
+from tests.conftest import cli
 
 SYSTEM = "fmionnx: 1\nname: mjs\nrun: {stop: 0.01, step: 0.002}\ncomponents:\n"
-
-
-def _cli(*args: str) -> tuple[int, str]:
-    result = CliRunner().invoke(app, list(args))
-    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
-    assert "Traceback" not in result.output
-    return result.exit_code, " ".join(result.output.split())
 
 
 @pytest.fixture
@@ -42,26 +34,26 @@ MISSING = (
 
 
 def test_validate_names_the_missing_include_not_the_scene(folder: Path) -> None:
-    code, output = _cli("validate", "sys.yaml")
+    code, output = cli("validate", "sys.yaml")
     assert code == 1
     assert f"error[E010 file-not-found]: component `w`: {MISSING}" in output
     assert "`inc.xml` cannot be read" not in output
 
 
 def test_validating_the_scene_alone_says_the_same(folder: Path) -> None:
-    code, output = _cli("validate", "inc.xml")
+    code, output = cli("validate", "inc.xml")
     assert code == 1
     assert f"inc.xml: error[E010 file-not-found]: {MISSING}" in output
 
 
 def test_run_says_the_same(folder: Path) -> None:
-    code, output = _cli("run", "sys.yaml", "--out", str(folder / "out"))
+    code, output = cli("run", "sys.yaml", "--out", str(folder / "out"))
     assert code == 1
     assert MISSING in output
 
 
 def test_inspect_says_the_same_with_the_code(folder: Path) -> None:
-    code, output = _cli("inspect", "inc.xml")
+    code, output = cli("inspect", "inc.xml")
     assert code == 1
     assert f"error[E010]: {MISSING}" in output
 
@@ -75,7 +67,7 @@ def test_a_missing_file_of_a_nested_include_names_the_file_that_includes_it(
         "</mujoco>\n",
         "utf-8",
     )
-    code, output = _cli("validate", "a.xml")
+    code, output = cli("validate", "a.xml")
     assert code == 1
     assert (
         "error[E010 file-not-found]: `a.xml`: the included file `sub/gone.xml` at `b.xml:3` "
@@ -90,7 +82,7 @@ def test_a_missing_attached_model_is_named(folder: Path) -> None:
         "</mujoco>\n",
         "utf-8",
     )
-    code, output = _cli("validate", "att.xml")
+    code, output = cli("validate", "att.xml")
     assert code == 1
     assert "error[E010 file-not-found]: `att.xml`: the model file `gone.xml` at `att.xml:2`" in (
         output
@@ -108,7 +100,7 @@ def test_an_oserror_about_another_file_names_that_file(
 
     monkeypatch.setattr(interface, "check_scene_before_loading", missing)
     (folder / "inc.xml").write_text("<mujoco/>\n", encoding="utf-8")
-    code, output = _cli("validate", "sys.yaml")
+    code, output = cli("validate", "sys.yaml")
     assert code == 1
     assert (
         f"component `w`: `{folder / 'mesh.stl'}` (a file `inc.xml` needs) cannot be read: "
@@ -126,6 +118,6 @@ def test_an_oserror_about_the_model_itself_names_the_model(
 
     monkeypatch.setattr(interface, "check_scene_before_loading", unreadable)
     (folder / "inc.xml").write_text("<mujoco/>\n", encoding="utf-8")
-    code, output = _cli("validate", "sys.yaml")
+    code, output = cli("validate", "sys.yaml")
     assert code == 1
     assert "component `w`: `inc.xml` cannot be read: Permission denied" in output

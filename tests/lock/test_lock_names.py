@@ -8,10 +8,9 @@ from __future__ import annotations
 from pathlib import Path
 
 import pytest
-from typer.testing import CliRunner
 
-from fmionnx.cli.app import app
 from fmionnx.lock.model import lock_path
+from tests.conftest import cli
 
 HEADER = "fmionnx: 1\nname: {name}\nrun: {{stop: 1, step: 0.1}}\ncomponents:\n"
 
@@ -28,13 +27,6 @@ def _bad(path: Path) -> Path:
     return path
 
 
-def _cli(*args: str) -> tuple[int, str]:
-    result = CliRunner().invoke(app, list(args))
-    assert result.exception is None or isinstance(result.exception, SystemExit), result.exception
-    assert "Traceback" not in result.output
-    return result.exit_code, " ".join(result.output.split())
-
-
 @pytest.fixture
 def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
     monkeypatch.chdir(tmp_path)
@@ -45,22 +37,22 @@ def folder(tmp_path: Path, monkeypatch: pytest.MonkeyPatch) -> Path:
 def test_locking_the_yml_twin_does_not_replace_the_yaml_lock(folder: Path) -> None:
     _system(folder / "good.yaml", "a")
     _system(folder / "good.yml", "b")
-    assert _cli("lock", "good.yaml")[0] == 0
+    assert cli("lock", "good.yaml")[0] == 0
     before = (folder / "good.fmionnx.lock").read_text(encoding="utf-8")
-    code, output = _cli("lock", "good.yml")
+    code, output = cli("lock", "good.yml")
     assert code == 2
     assert "`good.fmionnx.lock` is the lock of `good.yaml`, not of `good.yml`" in output
     assert "--force" in output
     assert (folder / "good.fmionnx.lock").read_text(encoding="utf-8") == before
-    assert _cli("lock", "--force", "good.yml")[0] == 0
+    assert cli("lock", "--force", "good.yml")[0] == 0
     assert "system: good.yml" in (folder / "good.fmionnx.lock").read_text(encoding="utf-8")
 
 
 def test_validating_against_another_systems_lock_says_whose_it_is(folder: Path) -> None:
     _system(folder / "good.yaml", "a")
     _system(folder / "good.yml", "b")
-    assert _cli("lock", "good.yml")[0] == 0
-    code, output = _cli("validate", "--locked", "good.yaml")
+    assert cli("lock", "good.yml")[0] == 0
+    code, output = cli("validate", "--locked", "good.yaml")
     assert code == 1
     assert (
         "good.yaml: error[E081 lock-missing]: `good.fmionnx.lock` is the lock of `good.yml`, "
@@ -68,27 +60,27 @@ def test_validating_against_another_systems_lock_says_whose_it_is(folder: Path) 
     )
     assert "note: good.fmionnx.lock:5:9: the system this lock belongs to" in output
     assert "E080" not in output  # no diff against a model good.yaml does not use
-    assert _cli("validate", "--locked", "good.yml")[0] == 0
+    assert cli("validate", "--locked", "good.yml")[0] == 0
 
 
 def test_an_ssp_converted_to_yaml_is_not_checked_against_the_ssps_lock(folder: Path) -> None:
     _system(folder / "X.yaml")
-    assert _cli("export", "X.yaml", "-o", "X.ssp")[0] == 0
+    assert cli("export", "X.yaml", "-o", "X.ssp")[0] == 0
     (folder / "X.yaml").unlink()
-    assert _cli("lock", "X.ssp")[0] == 0
-    assert _cli("convert", "X.ssp", "-o", "X.yaml")[0] == 0
-    code, output = _cli("validate", "--locked", "X.yaml")
+    assert cli("lock", "X.ssp")[0] == 0
+    assert cli("convert", "X.ssp", "-o", "X.yaml")[0] == 0
+    code, output = cli("validate", "--locked", "X.yaml")
     assert code == 1
     assert "`X.fmionnx.lock` is the lock of `X.ssp`, not of `X.yaml`" in output
-    assert _cli("lock", "X.yaml")[0] == 2
-    assert _cli("lock", "--force", "X.yaml")[0] == 0
-    assert _cli("validate", "--locked", "X.yaml")[0] == 0
+    assert cli("lock", "X.yaml")[0] == 2
+    assert cli("lock", "--force", "X.yaml")[0] == 0
+    assert cli("validate", "--locked", "X.yaml")[0] == 0
 
 
 def test_two_systems_sharing_a_lock_name_are_refused_together(folder: Path) -> None:
     _system(folder / "good.yaml", "a")
     _system(folder / "good.yml", "b")
-    code, output = _cli("lock", "good.yaml", "good.yml")
+    code, output = cli("lock", "good.yaml", "good.yml")
     assert code == 2
     assert "`good.yaml` and `good.yml` share the lock name `good.fmionnx.lock`" in output
     assert not (folder / "good.fmionnx.lock").exists()
@@ -96,7 +88,7 @@ def test_two_systems_sharing_a_lock_name_are_refused_together(folder: Path) -> N
 
 def test_one_system_named_twice_is_locked_once(folder: Path) -> None:
     _system(folder / "good.yaml")
-    code, output = _cli("lock", "good.yaml", "./good.yaml")
+    code, output = cli("lock", "good.yaml", "./good.yaml")
     assert code == 0, output
     assert output == "wrote good.fmionnx.lock"
 
@@ -104,13 +96,13 @@ def test_one_system_named_twice_is_locked_once(folder: Path) -> None:
 def test_every_system_is_compiled_before_any_lock_is_written(folder: Path) -> None:
     _system(folder / "good.yaml")
     _bad(folder / "bad.yaml")
-    code, output = _cli("lock", "good.yaml", "bad.yaml")
+    code, output = cli("lock", "good.yaml", "bad.yaml")
     assert code == 1
     assert "bad.yaml" in output
     assert "not locked: fix the errors above first (no lock was written)" in output
     assert not (folder / "good.fmionnx.lock").exists()
     assert not (folder / "bad.fmionnx.lock").exists()
-    code, output = _cli("lock", "bad.yaml", "good.yaml")  # the order does not matter
+    code, output = cli("lock", "bad.yaml", "good.yaml")  # the order does not matter
     assert code == 1
     assert not (folder / "good.fmionnx.lock").exists()
 
@@ -119,7 +111,7 @@ def test_a_refused_lock_name_leaves_every_lock_as_it_was(folder: Path) -> None:
     _system(folder / "good.yaml")
     _system(folder / "other.yaml")
     (folder / "other.fmionnx.lock").write_text("my notes\n", encoding="utf-8")
-    code, output = _cli("lock", "good.yaml", "other.yaml")
+    code, output = cli("lock", "good.yaml", "other.yaml")
     assert code == 2
     assert "not written by `fmionnx lock`" in output
     assert not (folder / "good.fmionnx.lock").exists()
@@ -130,11 +122,11 @@ def test_a_folder_is_no_system_to_lock(folder: Path, name: str) -> None:
     (folder / "sub").mkdir()
     with pytest.MonkeyPatch.context() as patch:
         patch.chdir(folder / "sub")
-        code, output = _cli("lock", name)
+        code, output = cli("lock", name)
         assert code == 1
         assert "E011" in output
         assert "is a folder, not a system file" in output
-        code, output = _cli("validate", "--locked", name)
+        code, output = cli("validate", "--locked", name)
         assert code == 1
         assert "E011" in output
     assert not list(folder.rglob("*.fmionnx.lock"))

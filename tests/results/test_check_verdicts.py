@@ -161,3 +161,23 @@ def test_run_json_records_every_verdict(tmp_path: Path) -> None:
             "note": None,
         },
     ]
+
+
+def test_64_bit_integer_signals_are_measured_as_floats() -> None:
+    """int64/uint64 signals are recorded exactly (as integer arrays): a measure computed on
+    them in integer arithmetic wrapped around (`final(a - b)` of unsigned 1 and 5 gave 1.8e19,
+    `mean(i + i)` of 2**62 a negative number: a review)."""
+    from fmionnx.compile import checkir as ir
+    from fmionnx.runtime.checks import measure
+
+    result = _result(
+        {
+            "s.a": np.arange(1, 12, dtype=np.uint64),
+            "s.b": np.full(11, 5, dtype=np.uint64),
+            "s.i": np.full(11, 2**62, dtype=np.int64),
+        }
+    )
+    a, b, i = (ir.Signal(name) for name in ("s.a", "s.b", "s.i"))
+    assert measure(ir.Reduce("initial", ir.Binary("-", a, b)), result) == -4.0
+    assert measure(ir.Reduce("min", ir.Unary("-", a)), result) == -11.0
+    assert measure(ir.Reduce("mean", ir.Binary("+", i, i)), result) == 2.0**63

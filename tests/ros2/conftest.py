@@ -154,3 +154,26 @@ def loopback_env(monkeypatch: pytest.MonkeyPatch) -> DdsEnvironment:
     monkeypatch.delenv("CYCLONEDDS_URI", raising=False)
     monkeypatch.delenv("ROS_AUTOMATIC_DISCOVERY_RANGE", raising=False)
     return from_environment(RosDistro.HUMBLE)
+
+
+#: A signal feeding the Gain test FMU (compiled from C): two nodes, no simulator.
+NO_SIMULATOR = """
+fmionnx: 1
+name: hy
+run: {{stop: 0.1, step: 0.01}}
+components:
+  my-src: {{kind: signal, outputs: {{v: {{constant: 2}}}}}}
+  gain: {{kind: fmu, path: {gain}}}
+connections:
+  - my-src.v -> gain.u
+"""
+
+
+@pytest.fixture
+def system(tmp_path: Path) -> Path:
+    """:data:`NO_SIMULATOR` written to a file of the test's own."""
+    from tests.conftest import build_fixture_fmu
+
+    path = tmp_path / "hy.yaml"
+    path.write_text(NO_SIMULATOR.format(gain=build_fixture_fmu("Gain")), encoding="utf-8")
+    return path

@@ -22,29 +22,10 @@ from typing import Any
 
 import pytest
 
-from tests.conftest import REPO, build_fixture_fmu, end_process
+from tests.conftest import REPO, end_process
 from tests.ros2.test_run import fmionnx, processes_with
 
 pytestmark = pytest.mark.ros2
-
-SYSTEM = """
-fmionnx: 1
-name: hy
-run: {{stop: 0.1, step: 0.01}}
-components:
-  my-src: {{kind: signal, outputs: {{v: {{constant: 2}}}}}}
-  gain: {{kind: fmu, path: {gain}}}
-connections:
-  - my-src.v -> gain.u
-"""
-
-
-@pytest.fixture
-def system(tmp_path: Path) -> Path:
-    """A signal feeding the Gain test FMU (compiled from C): two nodes, no simulator."""
-    path = tmp_path / "hy.yaml"
-    path.write_text(SYSTEM.format(gain=build_fixture_fmu("Gain")), encoding="utf-8")
-    return path
 
 
 def launched(system: Path, target: Path) -> list[dict[str, Any]]:

@@ -17,29 +17,9 @@ import pytest
 from typer.testing import CliRunner
 
 from fmionnx.cli import app
-from tests.conftest import build_fixture_fmu
 from tests.ros2.test_run import fmionnx
 
 pytestmark = pytest.mark.ros2
-
-SYSTEM = """
-fmionnx: 1
-name: hy
-run: {{stop: 0.1, step: 0.01}}
-components:
-  my-src: {{kind: signal, outputs: {{v: {{constant: 2}}}}}}
-  gain: {{kind: fmu, path: {gain}}}
-connections:
-  - my-src.v -> gain.u
-"""
-
-
-@pytest.fixture
-def system(tmp_path: Path) -> Path:
-    """A signal feeding the Gain test FMU (compiled from C): no simulator, two nodes."""
-    path = tmp_path / "hy.yaml"
-    path.write_text(SYSTEM.format(gain=build_fixture_fmu("Gain")), encoding="utf-8")
-    return path
 
 
 @pytest.mark.parametrize(

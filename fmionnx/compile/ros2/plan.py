@@ -13,7 +13,7 @@ scalar float or bool                         ``<node>/<port>``, ``std_msgs/msg/F
 scalar integer (``int64`` ...)               ``<node>/<port>``, ``std_msgs/msg/Int64`` ... ``data``
 array of floats or bools                     ``<node>/<port>``, ``std_msgs/msg/Float64MultiArray``
 array of integers (``int64`` ...)            ``<node>/<port>``, ``std_msgs/msg/Int64MultiArray`` ...
-string                                       ``<node>/<port>``, ``std_msgs/msg/String`` ``data``
+string                                       not published: string connections are E025
 output feeding MuJoCo ``cmd_v`` / ``cmd_w``   ``cmd_vel``, ``geometry_msgs/msg/Twist`` ``linear.x`` / ``angular.z``
 MuJoCo ``base_pos`` / ``base_quat``          ``odom``, ``nav_msgs/msg/Odometry`` ``pose.pose.position`` / ``.orientation``
 ===========================================  ==========================================
