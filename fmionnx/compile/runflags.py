@@ -32,8 +32,9 @@ class RunFlags:
 
     start: float | None = None
     step: float | None = None
-    #: ``--stop-time`` given with ``--start-time``: applied with it, so a start past the
-    #: file's stop compiles (alone it is an override of the compiled system, :mod:`.overrides`).
+    #: ``--stop-time`` given with ``--start-time`` (or ``fmionnx.load(stop=...)``): applied
+    #: with it, so a start past the file's stop compiles (the command line's ``--stop-time``
+    #: alone is an override of the compiled system, :mod:`.overrides`).
     stop: float | None = None
 
     @property

@@ -13,6 +13,7 @@ its checks are sent.
 
 from __future__ import annotations
 
+import socket
 import sys
 import time
 from pathlib import Path
@@ -33,6 +34,8 @@ if TYPE_CHECKING:
 REPEAT = 1.0
 #: Seconds the server stays up after the last message (the socket drains its queue).
 LINGER = 0.3
+#: Seconds a stopped server's port is waited for (:func:`_released`).
+RELEASE_WAIT = 5.0
 
 
 class FoxgloveView(RunObserver):
@@ -156,4 +159,27 @@ class FoxgloveView(RunObserver):
         time.sleep(LINGER)
         for channel in self._channels.values():
             channel.close()
+        port = server.port
         server.stop()
+        _released(port)
+
+
+def _released(port: int, within: float = RELEASE_WAIT) -> None:
+    """Wait until the stopped server's ``port`` can be bound again (at most ``within`` s).
+
+    The SDK's ``stop`` only asks its server's thread to end; the socket closes a moment
+    later, and a next run in this process that serves on the same port was refused "Address
+    already in use" on a loaded machine (CI). The probe binds as a server does (address
+    reuse: connections left in TIME_WAIT do not hold the port)."""
+    deadline = time.monotonic() + within
+    while True:
+        with socket.socket(socket.AF_INET, socket.SOCK_STREAM) as probe:
+            probe.setsockopt(socket.SOL_SOCKET, socket.SO_REUSEADDR, 1)
+            try:
+                probe.bind(("127.0.0.1", port))
+            except OSError:
+                if time.monotonic() >= deadline:
+                    return  # the next server says so, naming the port
+            else:
+                return
+        time.sleep(0.02)
