@@ -82,8 +82,12 @@ def fail(message: str, code: int = ExitCode.USAGE) -> typer.Exit:
     from rich.markup import escape
 
     from fmionnx.cli.console import make_console
+    from fmionnx.core.printable import printable
 
-    make_console(stderr=True, soft_wrap=True).print(f"[bold red]error:[/] {escape(message)}")
+    # printable: a message may quote a file's name or a model's port (terminal escapes);
+    # its own line breaks (a fault's several lines) stay
+    text = escape("\n".join(printable(line) for line in message.split("\n")))
+    make_console(stderr=True, soft_wrap=True).print(f"[bold red]error:[/] {text}")
     return typer.Exit(code)
 
 

@@ -54,7 +54,7 @@ def build_fmu_command(
     try:
         written = build_fmu(source, output)
     except ModelError as exc:
-        err.print(f"[bold red]error\\[{exc.code}][/]: {escape(str(exc))}")
+        err.print(f"[bold red]error\\[{exc.code.code}][/]: {escape(str(exc))}")
         if exc.hint:
             err.print(f"  hint: {exc.hint}", markup=False)
         raise typer.Exit(ExitCode.PROBLEMS) from None

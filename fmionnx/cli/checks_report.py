@@ -7,6 +7,7 @@ that a check failed, the line says which one.
 
 from __future__ import annotations
 
+import math
 from collections.abc import Sequence
 
 from rich.console import Console
@@ -22,10 +23,35 @@ def failed(outcomes: Sequence[CheckOutcome]) -> list[CheckOutcome]:
 
 
 def value_text(outcome: CheckOutcome) -> str:
-    """The measured value for people: 4 significant digits, or why there is none."""
-    if outcome.value is None:
+    """The measured value for people: 4 significant digits, or why there is none.
+
+    More digits where 4 would put the value on the wrong side of the bound, or on it: a
+    ``mean(time) == 0.5`` measuring 0.49999999999999994 failed as "measured 0.5, expected
+    == 0.5" (a bug hunt). Enough are shown to tell the value from the bound the way the
+    check did, at most the value's shortest exact text."""
+    value = outcome.value
+    if value is None:
         return "—"
-    return f"{outcome.value:.4g}"
+    if not math.isfinite(value) or not math.isfinite(outcome.bound):
+        return f"{value:.4g}"
+    side = _side(value, outcome.bound)
+    for digits in range(4, 16):  # then exactly: 16 digits may be neither
+        text = f"{value:.{digits}g}"
+        if _side(float(text), outcome.bound) == side:
+            return text
+    return repr(value)
+
+
+def bound_text(outcome: CheckOutcome) -> str:
+    """The bound as the check compares with it: ``:g`` where that is the bound exactly, else
+    its shortest exact text (``1234567`` is not ``1.23457e+06``)."""
+    short = f"{outcome.bound:g}"
+    return short if float(short) == outcome.bound else repr(outcome.bound)
+
+
+def _side(value: float, bound: float) -> int:
+    """Below (-1), on (0) or above (1) the bound."""
+    return (value > bound) - (value < bound)
 
 
 def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: bool) -> None:
@@ -50,7 +76,7 @@ def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: b
         table.add_row(
             f"{escape(outcome.name)}\n[dim]{escape(outcome.expression)}[/]{note}",
             value_text(outcome),
-            f"{outcome.comparison} {outcome.bound:g}",
+            f"{outcome.comparison} {bound_text(outcome)}",
             verdict,
         )
     console.print(table)
@@ -62,5 +88,6 @@ def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: b
 
 def verdict_text(outcome: CheckOutcome) -> str:
     """Why a check failed, in one phrase: the note, or the value against the bound."""
-    measured = f"measured {value_text(outcome)}, expected {outcome.comparison} {outcome.bound:g}"
+    expected = f"{outcome.comparison} {bound_text(outcome)}"
+    measured = f"measured {value_text(outcome)}, expected {expected}"
     return escape(outcome.note) if outcome.value is None and outcome.note else measured

@@ -124,6 +124,10 @@ def graph(
         check=False,
     )
     if rendered.returncode != 0:
-        typer.echo(f"error: Graphviz failed: {rendered.stderr.decode(errors='replace')}", err=True)
+        from fmionnx.core.printable import printable
+
+        # Graphviz quotes the label it choked on: text from a model file, shown escaped.
+        reason = printable(rendered.stderr.decode(errors="replace").rstrip())
+        typer.echo(f"error: Graphviz failed: {reason}", err=True)
         raise typer.Exit(ExitCode.PROBLEMS)
     write_derived(output, rendered.stdout)  # atomically, never through a link

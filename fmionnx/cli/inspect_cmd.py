@@ -1,4 +1,10 @@
-"""``fmionnx inspect``: show what a model file offers (ports and facts), without a system file."""
+"""``fmionnx inspect``: show what a model file offers (ports and facts), without a system file.
+
+Every text shown comes from the model file (names, descriptions, units, metadata): its control
+characters are shown escaped (:func:`~fmionnx.core.printable.printable`), so a hostile model
+cannot send escape sequences to the terminal, nor break a table row with a line break. The
+JSON keeps the texts as they are (the encoder escapes them).
+"""
 
 from __future__ import annotations
 
@@ -18,6 +24,7 @@ from rich.text import Text
 from fmionnx.cli.app import ExitCode, app
 from fmionnx.core import codes
 from fmionnx.core.codes import ErrorCode
+from fmionnx.core.printable import printable
 
 if TYPE_CHECKING:
     from fmionnx.core.types import ComponentInterface, Port
@@ -66,9 +73,10 @@ def shown_columns(interface: ComponentInterface) -> tuple[str, ...]:
 
 
 def port_rows(interface: ComponentInterface) -> list[tuple[str, ...]]:
-    """One row of :func:`shown_columns` per port."""
+    """One row of :func:`shown_columns` per port, each cell printable (one line, no escape
+    sequence)."""
     ranged = "range" in shown_columns(interface)
-    return [
+    rows = [
         (
             port.name,
             port.causality.value,
@@ -81,15 +89,28 @@ def port_rows(interface: ComponentInterface) -> list[tuple[str, ...]]:
         )
         for port in interface.ports
     ]
+    return [tuple(printable(cell) for cell in row) for row in rows]
+
+
+def fact_rows(interface: ComponentInterface) -> list[tuple[str, str]]:
+    """The facts (and the content hash) as printable key/value pairs."""
+    facts = [(printable(key), printable(value)) for key, value in interface.facts]
+    if interface.content_hash:
+        facts.append(("sha256", interface.content_hash))
+    return facts
+
+
+def _heading(interface: ComponentInterface) -> tuple[str, str]:
+    return printable(interface.kind), printable(str(interface.path))
 
 
 def render_plain(interface: ComponentInterface) -> str:
     """Aligned plain text for pipes and files: facts, then the port table."""
-    lines = [f"{interface.kind}: {interface.path}"]
-    width = max((len(k) for k, _ in interface.facts), default=0)
-    lines += [f"  {key.ljust(width)}  {value}" for key, value in interface.facts]
-    if interface.content_hash:
-        lines.append(f"  {'sha256'.ljust(width)}  {interface.content_hash}")
+    kind, path = _heading(interface)
+    lines = [f"{kind}: {path}"]
+    facts = fact_rows(interface)
+    width = max((len(k) for k, _ in facts), default=0)
+    lines += [f"  {key.ljust(width)}  {value}" for key, value in facts]
     columns = shown_columns(interface)
     rows = [tuple(c.upper() for c in columns), *port_rows(interface)]
     widths = [max(len(row[i]) for row in rows) for i in range(len(columns))]
@@ -102,12 +123,11 @@ def render_plain(interface: ComponentInterface) -> str:
 
 def render_rich(interface: ComponentInterface, console: Console) -> None:
     """The same content as :func:`render_plain` with a rich table, for terminals."""
-    console.print(f"[bold]{interface.kind}[/]: {escape(str(interface.path))}")
+    kind, path = _heading(interface)
+    console.print(f"[bold]{escape(kind)}[/]: {escape(path)}")
     facts = Table.grid(padding=(0, 2))
-    for key, value in interface.facts:
+    for key, value in fact_rows(interface):
         facts.add_row(Text("  " + key, style="dim"), Text(value))
-    if interface.content_hash:
-        facts.add_row(Text("  sha256", style="dim"), Text(interface.content_hash))
     console.print(facts)
     table = Table(box=box.SIMPLE_HEAD, header_style="bold")
     for column in shown_columns(interface):
@@ -118,11 +138,12 @@ def render_rich(interface: ComponentInterface, console: Console) -> None:
 
 
 def _fail(code: ErrorCode | None, message: str, hint: str | None = None) -> typer.Exit:
+    """``error[Exxx]: message`` on stderr; the message may quote the model: printable."""
     err = Console(stderr=True, highlight=False)
     label = f"error[{code.code}]" if code else "error"
-    err.print(f"[bold red]{label}[/]: {escape(message)}", soft_wrap=True)
+    err.print(f"[bold red]{label}[/]: {escape(printable(message))}", soft_wrap=True)
     if hint:
-        err.print(f"  hint: {hint}", markup=False, soft_wrap=True)
+        err.print(f"  hint: {printable(hint)}", markup=False, soft_wrap=True)
     return typer.Exit(ExitCode.PROBLEMS)
 
 

@@ -34,7 +34,8 @@ System = Annotated[
 Component = Annotated[str, typer.Argument(help="The component this node runs.")]
 Sync = Annotated[str, typer.Option("--sync", help="`lockstep` or `free`.")]
 Rtf = Annotated[
-    float, typer.Option("--rtf", help="Free run: the simulator node's pace (x real time).")
+    float | None,
+    typer.Option("--rtf", help="Free run: the simulator node's pace (x real time, default 1)."),
 ]
 RecordDir = Annotated[
     Path | None, typer.Option("--record-dir", help="Folder for this node's recorded rows.")
@@ -50,7 +51,7 @@ NodeMiddleware = Annotated[
     ),
 ]
 NodeInputWait = Annotated[
-    float,
+    float | None,
     typer.Option(
         "--input-wait",
         help="Free run: seconds a step waits for an input sample of its time (default 0.1).",
@@ -110,6 +111,23 @@ def _remaps(items: list[str]) -> tuple[tuple[str, str], ...]:
     return tuple(pairs)
 
 
+def _free_run_only(
+    sync: str, supervised: bool, *, rtf: float | None, input_wait: float | None
+) -> None:
+    """Refuse ``--rtf`` and ``--input-wait`` in lockstep, as ``fmionnx run --backend ros2``
+    does: a lockstep node steps when told, so a pace it silently ignored would read as
+    honoured. The supervisor hands every node its own (checked) ``--rtf``, lockstep or not,
+    so a ``--supervised`` node is not asked."""
+    from fmionnx.runtime.backend import OptionsError
+
+    if sync == "free" or supervised:
+        return
+    if rtf is not None:
+        raise OptionsError("--rtf applies to --sync free only (lockstep is not paced)")
+    if input_wait is not None:
+        raise OptionsError("--input-wait applies to --sync free only")
+
+
 @app.command(
     epilog="Examples:\n\n"
     "  fmionnx node systems/sign_follower.yaml tracker --sync free\n\n"
@@ -124,11 +142,11 @@ def node(
     ros_distro: RosDistro = None,
     stop_time: StopTime = None,
     param: Param = None,
-    rtf: Rtf = 1.0,
+    rtf: Rtf = None,
     record_dir: RecordDir = None,
     supervised: Supervised = False,
     middleware: NodeMiddleware = "dds",
-    input_wait: NodeInputWait = 0.1,
+    input_wait: NodeInputWait = None,
     remap: Remap = None,
     zenoh_router: NodeRouter = "",
     models: Models = None,
@@ -140,6 +158,7 @@ def node(
     """Run one component as a ROS 2 node (Cyclone DDS, rclpy or Zenoh); exit 0 at the stop time,
     1 on a fault, 2 on a usage error, 3 when its model ended the simulation (docs/ros2.md)."""
     from fmionnx.backends.ros2.backend import (
+        INPUT_WAIT,
         MIDDLEWARES,
         SYNC_MODES,
         checked_choice,
@@ -156,7 +175,9 @@ def node(
         checked_choice(sync, "--sync", SYNC_MODES)
         checked_choice(middleware, "--middleware", MIDDLEWARES)
         checked_distro(ros_distro)
-        rtf, input_wait = checked_rtf(rtf), checked_input_wait(input_wait)
+        _free_run_only(sync, supervised, rtf=rtf, input_wait=input_wait)
+        rtf = checked_rtf(1.0 if rtf is None else rtf)
+        input_wait = checked_input_wait(INPUT_WAIT if input_wait is None else input_wait)
         if zenoh_router and middleware != "zenoh":
             raise OptionsError("--zenoh-router applies to --middleware zenoh")  # noqa: TRY301
         if zenoh_router:

@@ -91,7 +91,7 @@ def graph(
     ] = "",
 ) -> None:
     """Read the live graph (DDS discovery or Zenoh liveliness) and compare it with the system;
-    exit 1 if links are missing."""
+    exit 1 if links are missing or of another message type than the system's."""
     from fmionnx.backends.ros2.env import Ros2EnvError, from_environment
     from fmionnx.backends.ros2.graph import compare, read_live_graph, render_json, render_text
     from fmionnx.backends.ros2.transport import Participant, TransportError
@@ -131,7 +131,7 @@ def graph(
     result = compare(plan, live)
     render = render_json if output_format == "json" else render_text
     sys.stdout.write(render(plan, live, result))
-    raise typer.Exit(ExitCode.PROBLEMS if result.missing else ExitCode.OK)
+    raise typer.Exit(ExitCode.OK if result.complete else ExitCode.PROBLEMS)
 
 
 def _check_listening(timeout: float, domain: int | None) -> None:

@@ -51,7 +51,8 @@ Param = Annotated[
         "-p",
         help="Parameter or start value set before initialization, repeatable; the value is read "
         "as JSON. A system: `component.name=value` (`-p tracker.turnRate=0.6`); a single FMU: "
-        "`name=value` (`-p k=2`).",
+        "`name=value` (`-p k=2`). A single ONNX model: an input's value, by its name "
+        "(`-p k=[0.5]`; --input reads one from a .npy file).",
     ),
 ]
 Quiet = Annotated[

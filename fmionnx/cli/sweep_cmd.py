@@ -43,7 +43,9 @@ def sweep(
     ] = None,
     workers: Annotated[
         int | None,
-        typer.Option("--workers", "-w", min=1, help="Local worker processes (default: cores)."),
+        # No `min=1`: the pipeline checks the count (`fmionnx.sweep` too) and says so in the
+        # project's words, `error: --workers takes ...`, where Typer printed its own box.
+        typer.Option("--workers", "-w", help="Local worker processes (default: cores)."),
     ] = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="Finish an interrupted study in --out.")
@@ -61,8 +63,7 @@ def sweep(
     batch: Annotated[
         int | None,
         typer.Option(
-            "--batch",
-            min=1,
+            "--batch",  # no `min=1`, as --workers
             help="Cases per Dask task (1: one each; default: short cases batched by their time).",
         ),
     ] = None,

@@ -33,7 +33,7 @@ from fmionnx.compile.checkparse import (
     UnaryOp,
     parse,
 )
-from fmionnx.compile.endpoints import resolve_endpoint, split_endpoint
+from fmionnx.compile.endpoints import endpoint_text, resolve_endpoint, split_endpoint
 from fmionnx.compile.expected_path import (
     EXPECTED_PATH,
     PathFileError,
@@ -334,7 +334,7 @@ class _Resolver:
                 codes.CHECK_SIGNAL,
                 f"{where} is an array of shape {port.shape_text()}; a check reads one element",
                 start,
-                f"pick an element: `{ref}[0]`",
+                _pick_an_element(ref),
             )
         if ref.index is not None and len(port.shape) >= 2 and port.dtype is DType.UINT8:
             raise _CheckError(
@@ -689,3 +689,12 @@ def _numbers(node: Group, what: str) -> tuple[float, ...]:
             codes.CHECK_MEANING, f"{what} has 2 or 3 coordinates, not {len(values)}", node.start
         )
     return tuple(values)
+
+
+def _pick_an_element(ref: PortRef) -> str:
+    """The hint for an array named whole: its first element as a check names it (a quoted
+    port, ``q."x y"``, goes between backticks in an expression)."""
+    first = endpoint_text(PortRef(ref.component, ref.port, (0,)))
+    if '"' in first:
+        return f"pick an element, between backticks: `` `{first}` ``"
+    return f"pick an element: `{first}`"

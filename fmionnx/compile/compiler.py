@@ -32,6 +32,7 @@ from fmionnx.compile.overrides import (
 from fmionnx.compile.plots import compile_plots
 from fmionnx.compile.recordcheck import recorded_refs
 from fmionnx.compile.resolve import read_interface, resolve_run
+from fmionnx.compile.symdims import check_symbolic_dims
 from fmionnx.compile.sysinputs import compile_inputs
 from fmionnx.compile.typecheck import check_causality, check_count, check_dtype
 from fmionnx.compile.unitcheck import check_units
@@ -81,6 +82,7 @@ def compile_spec(loaded: LoadedSpec, bag: DiagnosticBag) -> CompiledSystem | Non
     connections = _connections(spec, interfaces, sources, bag, mentioned)
     by_name = {c.name: c for c in components}
     _check_drivers(connections, bag)
+    check_symbolic_dims(components, connections, bag)
     inputs = compile_inputs(spec, interfaces, sources, bag)
     # A port a system input reaches is set from outside, like a connected one.
     mentioned |= {(t.ref.component, t.ref.port) for i in inputs for t in i.targets}

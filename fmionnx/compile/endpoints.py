@@ -1,7 +1,12 @@
-"""Parse and resolve connection endpoints ``component.port[index]`` against real interfaces."""
+"""Parse and resolve connection endpoints ``component.port[index]`` against real interfaces.
+
+A port whose name is no dotted word is quoted, ``t."input.1"[0]`` (:data:`ENDPOINT_RE`).
+"""
 
 from __future__ import annotations
 
+import itertools
+import re
 from collections.abc import Mapping
 from dataclasses import dataclass
 
@@ -31,8 +36,10 @@ def split_endpoint(
     match = ENDPOINT_RE.match(text)
     if match is None:
         return None
-    name = match.group("name")
     index = match.group("index")
+    if match.group("quoted") is not None:  # the quotes hold the whole port name
+        return match.group("owner"), match.group("quoted"), index
+    name = match.group("name")
     best = ""
     for component in components:
         if name.startswith(component + ".") and len(component) > len(best):
@@ -63,7 +70,7 @@ def resolve_endpoint(
             codes.BAD_ENDPOINT,
             f"`{text.strip()}` is not an endpoint",
             span,
-            hint="write `component.port`, or `component.port[i]` for one element",
+            hint=_bad_endpoint_hint(text.strip(), interfaces),
         )
         return None
     component, port_name, index_text = parts
@@ -112,6 +119,75 @@ def resolve_endpoint(
             return None
         count = 1
     return ResolvedEndpoint(PortRef(component, port_name, index), port, count)
+
+
+#: A port name that is written as it is: dotted parts, each starting with a letter, ``_`` or ``$``.
+_PLAIN_PORT = re.compile(r"[A-Za-z_$][\w:$-]*(?:\.[A-Za-z_$][\w:$-]*)*")
+#: An element index at the end of an endpoint's text.
+_TRAILING_INDEX = re.compile(r"\[\s*\d+\s*(?:,\s*\d+\s*)*\]$")
+
+
+def endpoint_text(ref: PortRef) -> str:
+    """``ref`` as an endpoint is written, its port quoted when the name is no dotted word.
+
+    ``str(ref)`` names the port as the model does (``t.input.1``: a results column), which
+    the endpoint parser reads differently or not at all; this text parses back to ``ref``.
+    """
+    port = ref.port if _PLAIN_PORT.fullmatch(ref.port) else f'"{ref.port}"'
+    index = "" if ref.index is None else "[" + ",".join(map(str, ref.index)) + "]"
+    return f"{ref.component}.{port}{index}"
+
+
+def without_spaces(text: str) -> str:
+    """``text`` without white space, except inside a quoted port name (``w."front left"``).
+
+    Plots take ``a.x [0]`` as ``a.x[0]``; the space of a camera named ``front left`` is part
+    of the name.
+    """
+    pieces = text.split('"')
+    return '"'.join(
+        piece if inside else re.sub(r"\s+", "", piece)
+        for inside, piece in zip(itertools.cycle((False, True)), pieces, strict=False)
+    )
+
+
+def _bad_endpoint_hint(text: str, interfaces: Mapping[str, ComponentInterface | None]) -> str:
+    """How to write ``text``, which is no endpoint: quoted, when it names a port that way.
+
+    A model's port named ``input.1`` or ``a b`` can be named only in quotes; the text is
+    shown quoted so that the fix can be copied. Text that names no port of the component
+    (``g.x[-1]``) gets the grammar instead: quoting it would only lead to E021.
+    """
+    if '"' in text:
+        return (
+            'a quoted port name is written `component."port name"`, an index after the closing '
+            'quote; the name can be neither empty nor hold `"`'
+        )
+    plain = "write `component.port`, or `component.port[i]` for one element"
+    owners = [c for c in interfaces if text.startswith(c + ".")]
+    if owners:
+        component = max(owners, key=len)
+        quoted = _quoted(text[len(component) + 1 :], interfaces[component])
+        if quoted is not None:
+            return f"quote a port name that is not a dotted word: `{component}.{quoted}`"
+    if "." not in text:
+        return plain
+    return plain + ', or `component."port name"` for a port whose name is no dotted word'
+
+
+def _quoted(rest: str, interface: ComponentInterface | None) -> str | None:
+    """``"rest"`` (an index kept after the quotes) when it names a port; None when not.
+
+    An unreadable model (None, reported already) cannot say: the quoted text is offered.
+    """
+    index = _TRAILING_INDEX.search(rest)
+    candidates = [(rest, "")]
+    if index is not None and index.start() > 0:
+        candidates.insert(0, (rest[: index.start()], index.group()))
+    for port, suffix in candidates:
+        if interface is None or interface.port(port) is not None:
+            return f'"{port}"{suffix}'
+    return None
 
 
 def _port_hint(

@@ -22,9 +22,11 @@ from fmionnx.core.types import (
     Component,
     DType,
     ParameterValue,
+    Port,
     PortRef,
     Scalar,
     ValueSource,
+    is_hex_bytes,
     is_number,
     is_whole_multiple,
     number_text,
@@ -318,6 +320,8 @@ def _override_port(
         detail = f"`{component_name}` has no {what} `{port_name}`; {hint}"
         raise OverrideError(detail, subject=_param(key))
     flat = value if isinstance(value, list) else [value]
+    if port.dtype in TEXT_DTYPES:
+        flat = [_as_text(item, source) for item in flat]
     size = 1 if port.size is None else port.size  # None: known at run time, one value
     for item in flat:  # before coercing: float() of a huge integer raises OverflowError
         problem = port.dtype.out_of_range(item) or port.bounds_problem(item)
@@ -327,16 +331,77 @@ def _override_port(
     if len(flat) != size or any(c is None for c in coerced):
         detail = (
             f"expected {size} value(s) of type {port.dtype} (shape {port.shape_text()}), "
-            f"got `{value}`"
+            f"got `{value}`{_text_hint(port.dtype)}"
         )
+        if port.size is None and len(flat) != 1:  # its size is known only once fed
+            detail += (
+                "; a port of symbolic shape takes one value here, set on every element "
+                "(an array for a single ONNX model: `--input NAME=file.npy`)"
+            )
         raise OverrideError(detail, subject=_param(key))
     values = tuple(c for c in coerced if c is not None)
+    problem = _binary_problem(port, values) or _size_problem(component, port, values)
+    if problem is not None:
+        raise OverrideError(problem, subject=_param(key))
     kept = tuple(p for p in component.parameters if p.port != port_name)
     updated = dataclasses.replace(
         component, parameters=(*kept, ParameterValue(port_name, values, span, source))
     )
     components = tuple(updated if c.name == component_name else c for c in system.components)
     return dataclasses.replace(system, components=components)
+
+
+#: Types whose values are text: a String's characters, a Binary's hexadecimal bytes.
+TEXT_DTYPES = (DType.STRING, DType.BINARY)
+
+
+def _as_text(item: object, source: ValueSource) -> Scalar:
+    """A value for a String or Binary port as the text it sets.
+
+    A command-line value is read as JSON before its port is known, so ``-p label=12`` and
+    ``-p blob=1234`` arrive as numbers: a whole number (or ``true``) is taken as the text it
+    was written as, which JSON keeps exactly (no leading zeros, no other spelling). A
+    fraction or an exponent is not (``1.50`` reads as 1.5), so it is left for the type check
+    to refuse with a hint to quote it; so is a number from a file, whose YAML reading has
+    lost the text already (``0012`` is 12). A Python caller's ``bytes`` are a Binary's hex.
+    """
+    if isinstance(item, bytes | bytearray):
+        return item.hex()
+    if source is not ValueSource.COMMAND_LINE or not isinstance(item, int):
+        return cast("Scalar", item)  # as given: the type check names what does not fit
+    return json.dumps(item)  # 12 -> "12", True -> "true"
+
+
+def _text_hint(dtype: DType) -> str:
+    """What to write instead of a value a String or Binary port refused (its type's)."""
+    if dtype is DType.BINARY:
+        return '; binary is hexadecimal text (`0c0d`); quote hex that reads as a number (`"1e00"`)'
+    if dtype is DType.STRING:
+        return '; quote text that reads as a number (`"1.50"`)'
+    return ""
+
+
+def _binary_problem(port: Port, values: tuple[Scalar, ...]) -> str | None:
+    """Text a Binary port cannot take: it must be hexadecimal, two digits per byte, as FMI 3
+    writes binary start values; refused here rather than as a fault when the run sets it."""
+    if port.dtype is not DType.BINARY:
+        return None
+    for text in values:
+        if not is_hex_bytes(str(text)):
+            return (
+                f"`{_short(str(text))}` is not hexadecimal text of whole bytes: binary "
+                f"`{port.name}` takes two hex digits per byte, e.g. `0c0d`"
+            )
+    return None
+
+
+def _size_problem(component: Component, port: Port, values: tuple[Scalar, ...]) -> str | None:
+    """Why ``values`` would resize ports of ``component`` (:func:`fixed_size_problem`)."""
+    from fmionnx.kinds.base import fixed_size_problem
+    from fmionnx.kinds.registry import COMPONENT_KINDS
+
+    kind = COMPONENT_KINDS.get(component.kind)
+    return fixed_size_problem(kind, component.interface, port, values)
 
 
 def kind_settings(component: Component) -> tuple[str, ...]:

@@ -11,10 +11,9 @@ neither a model file nor the system file.
 
 from __future__ import annotations
 
-import re
 from collections.abc import Mapping
 
-from fmionnx.compile.endpoints import ResolvedEndpoint, resolve_endpoint
+from fmionnx.compile.endpoints import ResolvedEndpoint, resolve_endpoint, without_spaces
 from fmionnx.compile.expected_path import (
     EXPECTED_PATH,
     PathFileError,
@@ -62,7 +61,7 @@ def compile_plots(
     plots = []
     for index, plot in enumerate(spec.plots):
         key = "xy" if plot.xy is not None else "y"
-        texts = tuple(re.sub(r"\s+", "", t) for t in (plot.xy or plot.y or ()))
+        texts = tuple(without_spaces(t) for t in (plot.xy or plot.y or ()))
         refs: list[PortRef] = []
         series: list[Series] = []
         for position, text in enumerate(texts):
@@ -116,7 +115,7 @@ def _marks(
             hint="move `marks` to a plot with `y: [...]`",
         )
         return None
-    text = re.sub(r"\s+", "", plot.marks.of)
+    text = without_spaces(plot.marks.of)
     scratch = DiagnosticBag()
     resolved = resolve_endpoint(text, span, interfaces, scratch)
     if resolved is None:

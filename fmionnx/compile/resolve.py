@@ -30,10 +30,12 @@ from fmionnx.core.types import (
     ParameterValue,
     Port,
     Scalar,
+    is_hex_bytes,
     is_whole_multiple,
     number_text,
 )
 from fmionnx.core.units import Unit, conversion
+from fmionnx.kinds.base import fixed_size_problem
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.spec.runspec import RunSpec
 from fmionnx.spec.sourcemap import SourceMap
@@ -130,16 +132,8 @@ def _fits(dtype: DType, value: Scalar) -> bool:
     if dtype is DType.STRING:
         return isinstance(value, str)
     if dtype is DType.BINARY:  # hexadecimal text, as FMI 3 writes binary start values
-        return isinstance(value, str) and _is_hex(value)
+        return isinstance(value, str) and is_hex_bytes(value)
     return False
-
-
-def _is_hex(text: str) -> bool:
-    try:
-        bytes.fromhex(text)
-    except ValueError:
-        return False
-    return True
 
 
 def resolve_parameters(
@@ -182,9 +176,30 @@ def resolve_parameters(
             flat = _in_port_unit(name, port, flat, written_in, value_span, bag)
         if flat is None or not _check_value(name, port, flat, value_span, bag):
             continue
+        problem = fixed_size_problem(COMPONENT_KINDS[spec.kind], interface, port, tuple(flat))
+        if problem is not None:  # the ports it sizes were compiled with its start value
+            bag.emit(
+                codes.PARAMETER_VALUE,
+                f"`{name}.{key}`: {problem}",
+                value_span,
+                notes=declared_note(port),
+            )
+            continue
         source = sources.value_source(("components", name, "parameters", key))
-        resolved.append(ParameterValue(key, tuple(flat), value_span, source))
+        resolved.append(ParameterValue(key, _as_port_numbers(port, flat), value_span, source))
     return tuple(resolved)
+
+
+def _as_port_numbers(port: Port, flat: list[Scalar]) -> tuple[Scalar, ...]:
+    """``flat`` as the port holds it: a whole number written for a float port is that float
+    (``k: 3`` is 3.0), as ``--param`` gives it, so a system's compiled form does not depend on
+    how a value was spelled (an SSP round trip wrote ``3`` back as ``3.0``: another hash)."""
+    if not port.dtype.is_float:
+        return tuple(flat)
+    return tuple(
+        float(v) if isinstance(v, int) and not isinstance(v, bool) and abs(v) < 2**1023 else v
+        for v in flat
+    )
 
 
 def _in_port_unit(

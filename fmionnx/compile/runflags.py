@@ -12,14 +12,13 @@ coming from the command line. They apply to every system file (YAML, SSP) alike.
 from __future__ import annotations
 
 import dataclasses
-import math
 from dataclasses import dataclass
 from typing import TYPE_CHECKING
 
 from fmionnx.compile.ir import CompiledSystem, Origin
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
-from fmionnx.core.steps import step_problem
+from fmionnx.core.steps import time_flags_problem
 
 if TYPE_CHECKING:  # a lone model (`run model.fmu`) never loads a system file's types
     from fmionnx.spec.yaml import LoadedSpec
@@ -52,24 +51,9 @@ def apply_run_flags(loaded: LoadedSpec, flags: RunFlags, bag: DiagnosticBag) -> 
     if spec is None or not flags.keys:
         return loaded
     where = Span(loaded.path)
-    if flags.step is not None:
-        problem = step_problem(flags.step)
-        if problem is not None:
-            bag.emit(codes.RUN_SETTINGS, f"--step {problem}", where)
-            return LoadedSpec(None, loaded.sources, loaded.path)
-    if flags.start is not None and not math.isfinite(flags.start):
-        bag.emit(
-            codes.RUN_SETTINGS,
-            f"--start-time {flags.start} is not a finite number of seconds",
-            where,
-        )
-        return LoadedSpec(None, loaded.sources, loaded.path)
-    if flags.stop is not None and not math.isfinite(flags.stop):
-        bag.emit(
-            codes.RUN_SETTINGS, f"--stop-time {flags.stop} is not a finite number of seconds", where
-        )
-        return LoadedSpec(None, loaded.sources, loaded.path)
-    problem = _order_problem(spec.run.start, spec.run.stop, flags)
+    problem = time_flags_problem(flags.start, flags.step, flags.stop)
+    if problem is None:
+        problem = _order_problem(spec.run.start, spec.run.stop, flags)
     if problem is not None:  # said of the flags: the compiler's E040 pointed at the file
         bag.emit(codes.RUN_SETTINGS, problem, where)
         return LoadedSpec(None, loaded.sources, loaded.path)
@@ -79,21 +63,18 @@ def apply_run_flags(loaded: LoadedSpec, flags: RunFlags, bag: DiagnosticBag) -> 
 
 
 def _order_problem(start: float, stop: float | None, flags: RunFlags) -> str | None:
-    """Why the run would not end after it starts with the flags applied (None: it would)."""
-    if flags.start is None and flags.stop is None:
-        return None
-    first = start if flags.start is None else flags.start
-    last = stop if flags.stop is None else flags.stop
-    if last is None or last > first:
-        return None
-    if flags.stop is None:
+    """Why the run would not end after it starts when one of ``--start-time``/``--stop-time``
+    meets the system file's other end (None: it would; both given, ``time_flags_problem``)."""
+    if flags.start is not None and flags.stop is None and stop is not None and stop <= flags.start:
         return (
-            f"--start-time {first} is not before the system's stop time {last} (`run.stop`); "
-            "give --stop-time too"
+            f"--start-time {flags.start} is not before the system's stop time {stop} "
+            "(`run.stop`); give --stop-time too"
         )
-    if flags.start is None:
-        return f"--stop-time {last} is not after the system's start time {first} (`run.start`)"
-    return f"--stop-time {last} must be greater than --start-time {first}"
+    if flags.stop is not None and flags.start is None and flags.stop <= start:
+        return (
+            f"--stop-time {flags.stop} is not after the system's start time {start} (`run.start`)"
+        )
+    return None
 
 
 def mark_command_line(system: CompiledSystem, flags: RunFlags) -> CompiledSystem:

@@ -12,7 +12,6 @@ would have given.
 from __future__ import annotations
 
 import dataclasses
-import math
 import re
 from pathlib import Path
 from typing import Literal
@@ -21,7 +20,7 @@ from fmionnx.compile.ir import CompiledSystem
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag, Span
 from fmionnx.core.specbase import ComponentSpecBase
-from fmionnx.core.steps import step_problem
+from fmionnx.core.steps import step_problem, time_flags_problem
 from fmionnx.core.types import ComponentInterface
 from fmionnx.spec.runspec import RunSpec
 
@@ -49,16 +48,9 @@ def compile_single_model(
     An FMU runs from its default experiment (``step``/``interface`` override); an ONNX model
     gets a one-step run of length 1 s, since it has no time of its own.
     """
-    problem = step_problem(step) if step is not None else None
+    problem = time_flags_problem(start, step, stop)
     if problem is not None:  # checked here: RunSpec would raise a bare ValidationError
-        bag.emit(codes.RUN_SETTINGS, f"--step {problem}", Span(path))
-        return None
-    if start is not None and not math.isfinite(start):
-        bag.emit(
-            codes.RUN_SETTINGS,
-            f"--start-time {start} is not a finite number of seconds",
-            Span(path),
-        )
+        bag.emit(codes.RUN_SETTINGS, problem, Span(path))
         return None
     from fmionnx.kinds.base import TIMELESS
     from fmionnx.kinds.registry import kind_for_path

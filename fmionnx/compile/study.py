@@ -47,14 +47,20 @@ from fmionnx.core.steps import MAX_RUN_STEPS
 from fmionnx.core.types import Causality
 from fmionnx.kinds.base import Settable, SettingError
 from fmionnx.kinds.registry import COMPONENT_KINDS
-from fmionnx.spec.study import AxisSpec, LoadedStudy, StudySpec, StudyValue
+from fmionnx.spec.study import (
+    AxisSpec,
+    BoundsSpec,
+    LoadedStudy,
+    StudySpec,
+    StudyValue,
+    between,
+    within,
+)
 
 #: More cases than this is a mistake in the study file (a grid axis too many), not a study.
 MAX_CASES = 1_000_000
 #: Run settings a study may vary (``run.<key>``), as the system file spells them.
 RUN_TARGETS: dict[str, SettingKind] = {"run.stop": "stop", "run.output_interval": "output_interval"}
-#: Significant digits kept of generated numbers (a range, a sample): tidy tables, same cases.
-DIGITS = 12
 #: ``isolate`` words besides component names (as ``fmionnx run --isolate``).
 ISOLATE_WORDS = ("fmus", "all", "none")
 
@@ -177,7 +183,8 @@ def resolve_study(
     tried: dict[str, list[SettingValue | StudyValue]] = {t: list(v) for t, v in grid.items()}
     tried.update({t: [r[t] for r in rows] for t in sampled})
     for target, values in tried.items():
-        ok = _check_values(system, target, kinds[target], values, loaded, bag) and ok
+        hint = _range_hint(system, target, axes[target])
+        ok = _check_values(system, target, kinds[target], values, loaded, bag, hint) and ok
     if not ok or metrics is None or bag.has_errors or isolate is None:
         return None
     cases = _cases(grid, rows or [{}], kinds, list(spec.parameters))
@@ -270,8 +277,10 @@ def _check_values(
     values: Sequence[SettingValue | StudyValue],
     loaded: LoadedStudy,
     bag: DiagnosticBag,
+    hint: str | None = None,
 ) -> bool:
-    """Apply every value alone to the base system: a value that does not fit is E103."""
+    """Apply every value alone to the base system: a value that does not fit is E103
+    (``hint``: what the axis could have written instead)."""
     # Each distinct value once; `true` and `1` are equal in Python (and in a dict's keys), not
     # to a model: both are tried (found by fuzzing: `[0.5, 1, true]` passed, its case failed).
     distinct = {_typed(frozen): frozen for frozen in map(_frozen, values)}
@@ -294,6 +303,7 @@ def _check_values(
                 codes.STUDY_VALUES,
                 f"`{target}`: {detail}",
                 loaded.sources.value(("parameters", target)),
+                hint=hint,
             )
             return False
         steps = applied.run.steps
@@ -311,6 +321,24 @@ def _check_values(
     return True
 
 
+def _range_hint(system: CompiledSystem, target: str, axis: AxisSpec) -> str | None:
+    """For a ``range`` of floats applied to an integer parameter: how it gives integers."""
+    numbers = axis.range.numbers() if axis.range is not None else []
+    if not numbers or not isinstance(numbers[0], float):
+        return None
+    owners = [c for c in system.components if target.startswith(c.name + ".")]
+    if not owners:
+        return None
+    component = max(owners, key=lambda c: len(c.name))
+    port = component.interface.port(target[len(component.name) + 1 :])
+    if port is None or not port.dtype.is_integer:
+        return None
+    return (
+        "a `range` gives integers when `start` and `stop` are written as integers and every "
+        "number between them is whole (`num - 1` divides `stop - start`)"
+    )
+
+
 def _frozen(value: SettingValue | StudyValue) -> SettingValue:
     return tuple(value) if isinstance(value, list | tuple) else value
 
@@ -320,10 +348,6 @@ def _typed(value: object) -> object:
     if isinstance(value, list | tuple):
         return tuple(_typed(v) for v in value)
     return (type(value).__name__, value)
-
-
-def _tidy(value: float) -> float:
-    return float(f"{value:.{DIGITS}g}")
 
 
 def _sample_rows(
@@ -343,9 +367,7 @@ def _sample_rows(
         for j, target in enumerate(random):
             bounds = sampled[target].random
             assert bounds is not None
-            columns[target] = [
-                bounds.low + (bounds.high - bounds.low) * float(u) for u in draws[:, j]
-            ]
+            columns[target] = [_drawn(bounds, float(u)) for u in draws[:, j]]
     if lhs:
         for target in lhs:  # one stratum per sample in every dimension, strata paired at random
             bounds = sampled[target].latin_hypercube
@@ -353,9 +375,17 @@ def _sample_rows(
             strata = rng.permutation(samples)
             jitter = rng.random(samples)
             units = (strata + jitter) / samples
-            columns[target] = [bounds.low + (bounds.high - bounds.low) * float(u) for u in units]
+            columns[target] = [_drawn(bounds, float(u)) for u in units]
     order = list(sampled)
-    return [{t: _tidy(columns[t][i]) for t in order} for i in range(samples)]
+    return [{t: columns[t][i] for t in order} for i in range(samples)]
+
+
+def _drawn(bounds: BoundsSpec, fraction: float) -> float:
+    """The number ``fraction`` (in ``[0, 1)``) of the way through ``bounds``, rounded, and in
+    ``[low, high)`` however close to the float limit the bounds are (``low + (high - low) * u``
+    was infinite for every case from ``-1e308`` to ``1e308``)."""
+    value = within(between(bounds.low, bounds.high, fraction), bounds.low, bounds.high)
+    return value if value < bounds.high else math.nextafter(bounds.high, bounds.low)
 
 
 def _cases(
@@ -370,10 +400,7 @@ def _cases(
     width = max(4, len(str(total - 1)))
     cases: list[Case] = []
     for point, row in itertools.product(points, rows):
-        values: dict[str, SettingValue] = {
-            t: _frozen(_tidy(v) if isinstance(v, float) else v)
-            for t, v in zip(grid, point, strict=True)
-        }
+        values: dict[str, SettingValue] = {t: _frozen(v) for t, v in zip(grid, point, strict=True)}
         values.update(row)
         settings = tuple(Setting(t, kinds[t], values[t]) for t in order)
         cases.append(Case(f"case-{len(cases):0{width}d}", settings))

@@ -1,17 +1,18 @@
 """Per-connection checks: causality, element type, element count (units: :mod:`unitcheck`).
 
 The allowed conversions are data (:data:`LOSSLESS`), documented in ``docs/types.md``:
-numeric types convert into each other (bool as 0/1); float -> integer or bool and
-integer narrowing are allowed with a warning (W031); strings and binaries connect to no other
-type (E031), and to their own not yet (E025: :data:`UNCONNECTABLE`).
+numeric types convert into each other (bool as 0/1); float -> integer or bool, integer
+narrowing and integer -> float where the float's significand is narrower than the integer
+(int64 -> float64, int32 -> float32) are allowed with a warning (W031); strings and binaries
+connect to no other type (E031), and to their own not yet (E025: :data:`UNCONNECTABLE`).
 """
 
 from __future__ import annotations
 
-from fmionnx.compile.endpoints import ResolvedEndpoint
+from fmionnx.compile.endpoints import ResolvedEndpoint, endpoint_text
 from fmionnx.core import codes
-from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
-from fmionnx.core.types import Causality, DType, Port
+from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, with_article
+from fmionnx.core.types import Causality, DType, Port, PortRef
 
 _INT_BITS = {
     DType.INT8: (True, 8),
@@ -29,14 +30,25 @@ _INT_BITS = {
 #: are set once, at setup (docs/types.md, docs/decisions.md).
 UNCONNECTABLE = (DType.STRING, DType.BINARY)
 
+#: Significand bits of each float type (the implicit leading bit included): every integer of
+#: at most this many bits (sign apart) is held exactly, a wider one is rounded (IEEE 754).
+SIGNIFICAND_BITS = {DType.FLOAT64: 53, DType.FLOAT32: 24}
+
 SOURCE_CAUSALITIES = (Causality.OUTPUT,)
 TARGET_CAUSALITIES = (Causality.INPUT,)
 
 
 def is_lossy(source: DType, target: DType) -> bool:
-    """True when converting ``source`` to ``target`` may lose values (float64->float32 is not)."""
-    if source == target or target.is_float:
+    """True when converting ``source`` to ``target`` may lose values (float64->float32 is not).
+
+    float64 -> float32 counts as exact by decision (docs/decisions.md): it is how every ONNX
+    model takes FMU values. An integer into a float is exact only when the float's significand
+    holds all the integer's magnitude bits: int64 -> float64 rounds 10**18 + 1 silently.
+    """
+    if source == target:
         return False
+    if target.is_float:
+        return source.is_integer and _int_to_float_rounds(source, target)
     if source.is_float:
         return True  # float -> integer or bool truncates
     if target is DType.BOOL:
@@ -50,8 +62,21 @@ def is_lossy(source: DType, target: DType) -> bool:
     return dst_bits < src_bits + (1 if dst_signed and not src_signed else 0)
 
 
-def _a(word: str) -> str:
-    return ("an " if word[:1] in "aeiou" else "a ") + word
+def _int_to_float_rounds(source: DType, target: DType) -> bool:
+    """Whether some value of integer ``source`` has no exact ``target`` float."""
+    signed, bits = _INT_BITS[source]
+    return bits - (1 if signed else 0) > SIGNIFICAND_BITS[target]
+
+
+def _lossy_hint(source: DType, target: DType) -> str:
+    """What the lossy conversion does to a value, said so that the reader can judge it."""
+    if source.is_integer and target.is_float:
+        limit = 2 ** SIGNIFICAND_BITS[target]
+        return (
+            f"an integer larger in magnitude than 2^{SIGNIFICAND_BITS[target]} ({limit}) may "
+            f"be rounded to the nearest {target}; convert in the model, or accept the rounding"
+        )
+    return "convert in the model, or accept the truncation"
 
 
 def declared_note(port: Port) -> list[Note]:
@@ -91,7 +116,7 @@ def check_causality(
         hint = None
         bag.emit(
             codes.CAUSALITY,
-            f"`{src.ref}` is {_a(src.port.causality.value)}, but a connection must start at an output",
+            f"`{src.ref}` is {with_article(src.port.causality.value)}, but a connection must start at an output",
             span,
             hint=hint,
             notes=declared_note(src.port),
@@ -104,7 +129,7 @@ def check_causality(
             hint = None
         bag.emit(
             codes.CAUSALITY,
-            f"`{dst.ref}` is {_a(dst.port.causality.value)}, but a connection must end at an input",
+            f"`{dst.ref}` is {with_article(dst.port.causality.value)}, but a connection must end at an input",
             span,
             hint=hint,
             notes=declared_note(dst.port),
@@ -137,7 +162,7 @@ def check_dtype(
                 codes.LOSSY_CONVERSION,
                 f"`{src.ref}` ({a}) -> `{dst.ref}` ({b}) may lose precision or range",
                 span,
-                hint="convert in the model, or accept the truncation",
+                hint=_lossy_hint(a, b),
             )
         return True
     bag.emit(
@@ -189,12 +214,17 @@ def _count_error(
 
     hint = None
     if src.ref.index is None and src.count and src.count > 1 and dst.count == 1:
-        hint = f"select one element, e.g. `{src.ref}[0]`"
+        hint = f"select one element, e.g. `{_first_element(src.ref)}`"
     elif dst.ref.index is None and dst.count and dst.count > 1 and src.count == 1:
-        hint = f"drive one element, e.g. `{dst.ref}[0]`"
+        hint = f"drive one element, e.g. `{_first_element(dst.ref)}`"
     bag.emit(
         codes.SHAPE,
         f"`{src.ref}` carries {described(src)} but `{dst.ref}` takes {described(dst)}",
         span,
         hint=hint,
     )
+
+
+def _first_element(ref: PortRef) -> str:
+    """``ref``'s first element as an endpoint is written (``p."12"[0]`` for a quoted port)."""
+    return endpoint_text(PortRef(ref.component, ref.port, (0,)))

@@ -183,8 +183,9 @@ UNSUPPORTED_VARIABLE = ErrorCode(
     "unsupported-variable",
     _E,
     "model",
-    "A system uses a model variable fmionnx does not support yet: an FMI 3 clock (named in "
-    "an endpoint, or needed by the model).",
+    "A system uses a model variable in a way fmionnx does not support: an FMI 3 clock (named "
+    "in an endpoint, or needed by the model), a string or binary port connected or recorded, "
+    "an image recorded.",
 )
 # --- connection checks
 CAUSALITY = ErrorCode(
@@ -351,6 +352,13 @@ ROS2_REFERENCE = ErrorCode(
     _E,
     "ros2",
     "The ros2 section names a component or port that does not exist.",
+)
+ROS2_LOSSY_FIELD = ErrorCode(
+    "W060",
+    "ros2-lossy-field",
+    _W,
+    "ros2",
+    "A message field that cannot hold every value of the port mapped onto it.",
 )
 # --- SSP (issue: SSP)
 SSP_SCHEMA = ErrorCode(
@@ -530,6 +538,7 @@ CODES: dict[str, ErrorCode] = _codes(
     ROS2_QOS,
     ROS2_UNMAPPED,
     ROS2_REFERENCE,
+    ROS2_LOSSY_FIELD,
     SSP_SCHEMA,
     SSP_UNSUPPORTED,
     SSP_REFERENCE,

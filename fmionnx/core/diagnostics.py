@@ -131,6 +131,15 @@ class DiagnosticBag:
         return len(self._items)
 
 
+def with_article(noun: str) -> str:
+    """``noun`` after its indefinite article, by its sound: "an input", "an actuator", "an
+    RGB image", "a uint8", "a jointpos sensor" (one rule for every message that needs one)."""
+    vowel_sound = (noun[:1].lower() in "aeio" and not noun.startswith("one")) or (
+        noun[:1].lower() == "u" and not noun.startswith(("uint", "uni", "us"))
+    )
+    return ("an " if vowel_sound or noun.startswith("RGB") else "a ") + noun
+
+
 def did_you_mean(word: str, candidates: Iterable[str]) -> str | None:
     """A ``did you mean `x`?`` hint for the closest candidate, or None when nothing is close."""
     matches = difflib.get_close_matches(word, list(candidates), n=1, cutoff=0.6)

@@ -42,8 +42,8 @@ def column_names(component: str, port: Port, index: tuple[int, ...] | None = Non
     if port.is_scalar:
         return [f"{component}.{port.name}"]
     size = port.size
-    if size is None:  # a symbolic dimension, not resolved: one column stands for the port
-        size = 1
+    if size is None:  # a symbolic dimension: one column stands for the port until the run
+        size = 1  # knows its count (the recorder then names each element: Track.add)
     # an array of no elements (an FMI 3 dimension of size 0) has no column
     return [f"{component}.{port.name}[{element_index(port, i)}]" for i in range(size)]
 

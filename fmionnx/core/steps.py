@@ -32,6 +32,21 @@ def step_problem(step: float) -> str | None:
     return None
 
 
+def time_flags_problem(start: float | None, step: float | None, stop: float | None) -> str | None:
+    """Why ``--start-time``/``--step``/``--stop-time`` cannot be run (a sentence naming the
+    option), or None. The CLI refuses them as usage errors, ``load(...)`` and a lone model as
+    E040: one wording for all three."""
+    problem = None if step is None else step_problem(step)
+    if problem is not None:
+        return f"--step {problem}"
+    for option, value in (("--start-time", start), ("--stop-time", stop)):
+        if value is not None and not math.isfinite(value):
+            return f"{option} {value} must be a finite number of seconds"
+    if start is not None and stop is not None and stop <= start:
+        return f"--stop-time {stop} must be greater than --start-time {start}"
+    return None
+
+
 def count_problem(length: float, step: float, what: str) -> str | None:
     """Why ``length / step`` base steps cannot be counted exactly (a sentence), or None.
 

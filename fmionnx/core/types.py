@@ -27,6 +27,16 @@ def is_number(value: object) -> TypeGuard[int | float]:
     return isinstance(value, int | float) and not isinstance(value, bool)
 
 
+def is_hex_bytes(text: str) -> bool:
+    """Whether ``text`` is hexadecimal text of whole bytes (``0c0d``), as FMI 3 writes binary
+    start values and fmionnx takes a Binary port's value."""
+    try:
+        bytes.fromhex(text)
+    except ValueError:
+        return False
+    return True
+
+
 #: Largest finite float32, above which a value silently becomes infinity.
 _FLOAT32_MAX = 3.4028234663852886e38
 

@@ -3,15 +3,23 @@
 Components are nodes styled by kind (FMU, ONNX, MuJoCo) with their rate; connections are edges
 labelled with the ports they join. Several connections between the same two components are
 merged into one edge with one label line per connection, which keeps the picture readable.
+
+Every text put into the graph (component, port and file names, units) is quoted for the
+format it lands in: DOT strings and HTML-like labels, Mermaid labels; and its control
+characters are shown escaped (:func:`~fmionnx.core.printable.printable`): an ONNX port name
+can hold anything, and a file named ``R&D.fmu`` made Graphviz refuse the whole graph.
 """
 
 from __future__ import annotations
 
+import html
 import json
+import re
 from collections import defaultdict
 from typing import Any
 
 from fmionnx.compile.ir import CompiledSystem
+from fmionnx.core.printable import printable
 from fmionnx.core.types import Component
 from fmionnx.kinds.base import Display
 from fmionnx.kinds.registry import COMPONENT_KINDS
@@ -41,7 +49,15 @@ def _grouped(system: CompiledSystem) -> dict[tuple[str, str], list[str]]:
 
 
 def _dot_quote(text: str) -> str:
-    return '"' + text.replace("\\", "\\\\").replace('"', '\\"') + '"'
+    """A DOT quoted string: its backslashes and quotes escaped, so ``\\l`` in a name stays
+    text and is not a line break."""
+    return '"' + printable(text).replace("\\", "\\\\").replace('"', '\\"') + '"'
+
+
+def _dot_html(text: str) -> str:
+    """Text inside a DOT HTML-like label: ``&``, ``<`` and ``>`` as entities (Graphviz
+    parses the label as XML and refuses the whole graph at a bare ``&``)."""
+    return html.escape(printable(text), quote=False)
 
 
 def to_dot(system: CompiledSystem) -> str:
@@ -54,10 +70,11 @@ def to_dot(system: CompiledSystem) -> str:
         '  edge [fontname=Helvetica, fontsize=9, color="#475569", fontcolor="#334155"];',
     ]
     for component in system.components:
+        details = [_display(component.kind).label, component.path.name]
+        details += [_rate(component)] if _rate(component) else []
         label = (
-            f"<<b>{component.name}</b><br/><font point-size='9'>"
-            f"{_display(component.kind).label} · {component.path.name}"
-            f"{' · ' + _rate(component) if _rate(component) else ''}</font>>"
+            f"<<b>{_dot_html(component.name)}</b><br/><font point-size='9'>"
+            f"{' · '.join(_dot_html(text) for text in details)}</font>>"
         )
         style = _display(component.kind).dot
         lines.append(f"  {_dot_quote(component.name)} [label={label}, {style}];")
@@ -86,6 +103,17 @@ def _mermaid_ids(names: list[str]) -> dict[str, str]:
     return ids
 
 
+#: Characters a Mermaid label cannot hold as they are: the quote ends it, ``#`` starts an
+#: entity code, ``<``/``>``/``&`` are HTML, a backtick starts a Markdown string.
+_MERMAID_SPECIAL = re.compile('["#&<>`]')
+
+
+def _mermaid_text(text: str) -> str:
+    """Text inside a quoted Mermaid label: special characters as Mermaid's entity codes
+    (``#60;``), which the diagram shows as the character."""
+    return _MERMAID_SPECIAL.sub(lambda m: f"#{ord(m.group())};", printable(text))
+
+
 def to_mermaid(system: CompiledSystem) -> str:
     """Mermaid flowchart text (renders on GitHub and in mkdocs-material)."""
     lines = ["flowchart LR"]
@@ -93,11 +121,12 @@ def to_mermaid(system: CompiledSystem) -> str:
     for component in system.components:
         left, right = _display(component.kind).mermaid
         rate = _rate(component)
-        label = f"{component.name}<br/><small>{_display(component.kind).label}"
-        label += f" · {rate}</small>" if rate else "</small>"
+        label = f"{_mermaid_text(component.name)}<br/><small>"
+        label += _mermaid_text(_display(component.kind).label)
+        label += f" · {_mermaid_text(rate)}</small>" if rate else "</small>"
         lines.append(f'  {ids[component.name]}{left}"{label}"{right}')
     for (src, dst), labels in sorted(_grouped(system).items()):
-        text = "<br/>".join(labels).replace('"', "'")
+        text = "<br/>".join(_mermaid_text(label) for label in labels)
         lines.append(f'  {ids[src]} -- "{text}" --> {ids[dst]}')
     for kind, colour in ((k, d.display.colour) for k, d in COMPONENT_KINDS.items()):
         members = [ids[c.name] for c in system.components if c.kind == kind]

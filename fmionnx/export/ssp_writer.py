@@ -5,8 +5,11 @@ packed), the models under ``resources/`` and one ``.ssv`` per component with sca
 parameters. SSP 1.0 is written because FMPy reads only 1.0 and every 2.0 reader reads 1.0.
 What SSP cannot say (component periods, ONNX/MuJoCo options, array parameters, integers
 beyond ``ssv:Integer``'s 32 bits, the base step, record/plots/checks/ros2 sections) goes into
-``org.fmionnx`` annotations as JSON, so that ``fmionnx convert`` gives the system file back. The layout is flat: one root system whose
-components keep their (possibly dotted) names; connections are component to component.
+``org.fmionnx`` annotations as JSON, so that ``fmionnx convert`` gives the system file back,
+in the order it was written: a component's parameters split between its ``.ssv`` and the
+annotation are listed there in order (``parameter_order``), and the system inputs keep the
+order of their connectors. The layout is flat: one root system whose components keep their
+(possibly dotted) names; connections are component to component.
 """
 
 from __future__ import annotations
@@ -36,7 +39,7 @@ from fmionnx.core.units import BASE_UNITS, Unit
 from fmionnx.kinds.base import FMI, ShipsFiles
 from fmionnx.kinds.registry import COMPONENT_KINDS, model_files
 from fmionnx.spec.model import ConnectionSpec, InputTargetSpec, SystemSpec, split_connection
-from fmionnx.spec.ssp import MIME_BY_KIND
+from fmionnx.spec.ssp import BOUND_INPUTS, MIME_BY_KIND, PARAMETER_ORDER
 from fmionnx.spec.ssp_archive import SSD_NAME
 from fmionnx.spec.ssp_names import port_label_to_fmi
 from fmionnx.spec.ssp_tree import FMIONNX_ANNOTATION
@@ -132,6 +135,9 @@ class _Writer:
         self.units: dict[str, Unit] = {}
         #: System input values an ``.ssv`` cannot hold, for the system's annotation.
         self.input_values: dict[str, Any] = {}
+        #: System inputs whose value is bound on the root system and that reach ports: the
+        #: annotation names them, so that the reader keeps them inputs (see :meth:`inputs`).
+        self.bound_inputs: list[str] = []
 
     def _port(self, component: str, port: str) -> Port | None:
         if self.system is None:
@@ -192,7 +198,11 @@ class _Writer:
 
         This is how other tools write a system's top-level inputs and parameters, and how the
         SSP front end reads them back as open connectors, transformations included. The kind
-        is ``parameter`` when every target is a parameter, else ``input``.
+        is ``parameter`` when every target is a parameter, else ``input``. A value goes into a
+        binding on the root system, typed like the targets (``ssv:Real`` for Real ports, as a
+        component's parameters); one that also reaches ports is named in the annotation's
+        ``bound_inputs``, so that fmionnx reads it back as that input's value (other tools'
+        bound connectors are values for the ports they reach, and stay so).
         """
         if not self.spec.inputs:
             return
@@ -201,15 +211,19 @@ class _Writer:
         connections = scratch.find(_q("ssd", "Connections"))
         if connections is None:
             connections = _sub(scratch, "ssd", "Connections")
+        typed_by: dict[str, Port | None] = {}
         for name, entry in self.spec.inputs.items():
             kinds: set[str] = set()
             floats = True
+            first: Port | None = None
             for item in entry.to:
                 target = item if isinstance(item, InputTargetSpec) else InputTargetSpec(to=item)
                 component, label = self._endpoint(target.to, "input")
                 kind, port = self.connectors[component][label]
                 kinds.add(kind)
                 floats = floats and port is not None and port.dtype.is_float
+                if first is None:
+                    first = port
                 node = _sub(
                     connections,
                     "ssd",
@@ -232,14 +246,21 @@ class _Writer:
                 _sub(connector, "ssc", _ssv_type(entry.value, None)[0])
             elif floats:  # no unit: each target keeps its own, through its transformation
                 _sub(connector, "ssc", "Real")
+            # Real targets make the value a Real, as for a component's parameter (libcosim
+            # refuses an ssv:Integer for a Real); other targets leave it typed by its value.
+            typed_by[name] = first if entry.to and floats else None
         if not len(connections):  # inputs that only hold values: the schema wants none empty
             scratch.remove(connections)
         held: dict[str, Any] = {}
         for name, entry in self.spec.inputs.items():
             if entry.value is None:
                 continue
+            # Whether an .ssv holds it exactly goes by the value as written: an integer
+            # beyond 32 bits keeps its type in our annotation even with Real targets.
             if _ssv_holds(entry.value, None):
                 held[name] = entry.value
+                if entry.to:
+                    self.bound_inputs.append(name)
             else:
                 self.input_values[name] = entry.value
         if held:  # values of their own: a binding on the root system, as tools write them
@@ -251,7 +272,7 @@ class _Writer:
             parameters = _sub(parameter_set, "ssv", "Parameters")
             for name, value in held.items():
                 parameter = _sub(parameters, "ssv", "Parameter", name=name)
-                element, text = _ssv_type(value, None)
+                element, text = _ssv_type(value, typed_by[name])
                 _sub(parameter, "ssv", element, value=text)
 
     def component(self, parent: Any, name: str, spec: ComponentSpecBase, staging: Path) -> None:
@@ -280,6 +301,8 @@ class _Writer:
             options.pop(key, None)
         if others:
             options["parameters"] = others
+        if others and scalars:  # from two places: the reader restores the order as written
+            options[PARAMETER_ORDER] = list(spec.parameters)
         if options:
             _annotation(node, options)
 
@@ -420,6 +443,8 @@ def build_ssd(spec: SystemSpec, base: Path, staging: Path, system: CompiledSyste
         settings["run"] = run
     if writer.input_values:  # beyond ssv:Integer: read back onto the `inputs:` entries
         settings["inputs"] = writer.input_values
+    if writer.bound_inputs:  # their bound values stay theirs: read back as `inputs:` values
+        settings[BOUND_INPUTS] = writer.bound_inputs
     if settings:
         _annotation(root, settings)
     _check(root, "ssd", SSD_NAME)

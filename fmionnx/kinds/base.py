@@ -15,7 +15,7 @@ from typing import TYPE_CHECKING, Protocol, runtime_checkable
 
 from fmionnx.core.codes import ErrorCode
 from fmionnx.core.errors import FmionnxError
-from fmionnx.core.types import Component, ComponentInterface, KindConfig, Scalar
+from fmionnx.core.types import Component, ComponentInterface, KindConfig, Port, Scalar
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.modelfiles import ModelFile
@@ -240,6 +240,52 @@ class ConfinedStart(Protocol):
         """Environment variables that settle, for a confined process, what the runner of
         ``component`` would otherwise find out by starting a process (empty: nothing)."""
         ...
+
+
+@runtime_checkable
+class SizingParameters(Protocol):
+    """A kind whose parameters may size other ports: an FMI 3 structural parameter that is the
+    ``<Dimension>`` of an array port.
+
+    A compiled port has one shape, the one the model declares by default (the parameter's
+    start value), and every runner, connection and recording is sized from it; a value that
+    changed the parameter would have the model read and write arrays of another size. The
+    compiler refuses such a value where it is set (:func:`fixed_size_problem`). A kind without
+    this protocol has no parameter that sizes a port.
+    """
+
+    def sized_ports(self, interface: ComponentInterface, name: str) -> tuple[str, ...]:
+        """The ports of ``interface`` whose shape the parameter ``name`` sets (empty: none)."""
+        ...
+
+
+def fixed_size_problem(
+    kind: object, interface: ComponentInterface, port: Port, values: tuple[Scalar, ...]
+) -> str | None:
+    """Why ``values`` cannot be set on ``port`` of a model of ``kind``: it sizes other ports
+    (:class:`SizingParameters`) and differs from its start value, with which they were sized.
+    None when it sizes none or keeps that value."""
+    if not isinstance(kind, SizingParameters):
+        return None
+    sized = kind.sized_ports(interface, port.name)
+    if not sized or values == port.start:
+        return None
+    shapes = ", ".join(f"`{name}`{_shape_of(interface, name)}" for name in sized)
+    start = "no value" if port.start is None else f"its start value {_values(port.start)}"
+    return (
+        f"`{port.name}` is a structural parameter that sizes {shapes}; fmionnx fixes a "
+        f"model's arrays at their default shape, so `{port.name}` can only keep {start} "
+        f"(got {_values(values)})"
+    )
+
+
+def _shape_of(interface: ComponentInterface, name: str) -> str:
+    port = interface.port(name)
+    return "" if port is None else f" (shape {port.shape_text()})"
+
+
+def _values(values: tuple[Scalar, ...]) -> str:
+    return str(values[0]) if len(values) == 1 else "[" + ", ".join(map(str, values)) + "]"
 
 
 #: A value a study gives one of a kind's settings: a number, or a flat list (a position).

@@ -1,7 +1,10 @@
 """Code actions: the fixes the compiler's own hints describe, as edits.
 
 * ``did you mean `theta`?`` (an unknown port, component, parameter or key): replace the
-  misspelt name, the part of the diagnostic's range closest to the suggestion;
+  misspelt name, the part of the diagnostic's range closest to the suggestion (inside the
+  quotes of a quoted port name; a port suggested for an endpoint is quoted when its name is
+  no dotted word, ``q."x y"``);
+* ``quote a port name that is not a dotted word: `p."12"[1]``` (E023): write the endpoint so;
 * ``quote the endpoint: 'a.y[0]'`` (an index inside a flow collection): quote it;
 * a unit mismatch that the compiler cannot convert (E033): write the connection in its long
   form with a ``factor`` and ``offset`` to fill in (a unit without a definition), or with
@@ -20,8 +23,10 @@ from typing import Any
 
 from lsprotocol import types
 
+from fmionnx.compile.endpoints import endpoint_text
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import Diagnostic, DiagnosticBag
+from fmionnx.core.types import PortRef
 from fmionnx.lsp.diagnostics import Published
 from fmionnx.lsp.positions import value_end
 from fmionnx.spec.model import split_connection
@@ -31,6 +36,11 @@ from fmionnx.spec.yaml import parse_yaml
 _DID_YOU_MEAN = re.compile(r"did you mean `(?P<name>[^`]+)`\?")
 _QUOTE = re.compile(r"quote the endpoint: '(?P<token>.+?)' \(")
 _SEGMENT = re.compile(r"[A-Za-z_$][\w$-]*")
+#: A quoted port name in an endpoint: its text (group 1) is one name, blanks and dots and all.
+_QUOTED_SEGMENT = re.compile(r'\."([^"\n]+)"')
+#: E023 on text that names a port only when quoted: what was written and the quoted form.
+_NOT_AN_ENDPOINT = re.compile(r"`(?P<written>[^\n]+)` is not an endpoint")
+_QUOTE_PORT = re.compile(r"quote a port name that is not a dotted word: `(?P<fixed>[^`]+)`")
 #: Keys of a connection's long form, in the order they are written.
 _LONG_FORM = ("from", "to", "factor", "offset", "convert_units")
 
@@ -51,7 +61,14 @@ def actions(
         hint = diagnostic.hint or ""
         rename = _DID_YOU_MEAN.search(hint)
         if rename is not None:
-            edit = _replace_closest(lines, lsp.range, rename["name"])
+            is_port = diagnostic.code == codes.UNKNOWN_PORT.code
+            edit = _replace_closest(lines, lsp.range, rename["name"], quote=is_port)
+            if edit is not None:
+                edits.append(edit)
+        written = _NOT_AN_ENDPOINT.fullmatch(diagnostic.message)
+        fixed = _QUOTE_PORT.search(hint)
+        if written is not None and fixed is not None:
+            edit = _requote(lines, lsp.range, written["written"], fixed["fixed"])
             if edit is not None:
                 edits.append(edit)
         quote = _QUOTE.search(hint)
@@ -85,24 +102,52 @@ def _meets(a: types.Range, b: types.Range) -> bool:
 
 
 def _replace_closest(
-    lines: Sequence[str], where: types.Range, name: str
+    lines: Sequence[str], where: types.Range, name: str, *, quote: bool = False
 ) -> tuple[str, list[types.TextEdit], bool] | None:
-    """Replace the name in ``where`` that is closest to the suggested ``name``."""
+    """Replace the name in ``where`` that is closest to the suggested ``name``.
+
+    A quoted port name is one candidate, replaced inside its quotes (its words are not names
+    of their own: replacing one broke the name); ``quote``: ``name`` is a port of an
+    endpoint, quoted when it replaces an unquoted name and is no dotted word.
+    """
     row = where.start.line
     if row >= len(lines) or where.end.line != row:
         return None
     begin = where.start.character
     segment = lines[row][begin : where.end.character]
+    quoted = [(m.start(1), m.end(1)) for m in _QUOTED_SEGMENT.finditer(segment)]
+    candidates = quoted + [
+        (m.start(), m.end())
+        for m in _SEGMENT.finditer(segment)
+        if not any(s - 1 <= m.start() < e + 1 for s, e in quoted)
+    ]
     best: tuple[float, int, int, str] | None = None
-    for match in _SEGMENT.finditer(segment):
-        score = difflib.SequenceMatcher(None, match.group(0), name).ratio()
-        if match.group(0) != name and (best is None or score >= best[0]):
-            best = (score, match.start(), match.end(), match.group(0))
+    for start, end in sorted(candidates):
+        text = segment[start:end]
+        score = difflib.SequenceMatcher(None, text, name).ratio()
+        if text != name and (best is None or score >= best[0]):
+            best = (score, start, end, text)
     if best is None or best[0] < 0.5:
         return None
     _, start, end, old = best
-    edit = _edit(row, begin + start, begin + end, name)
-    return f"Replace `{old}` with `{name}`", [edit], True
+    new = name
+    if quote and (start, end) not in quoted:
+        new = endpoint_text(PortRef("_", name)).removeprefix("_.")
+    edit = _edit(row, begin + start, begin + end, new)
+    return f"Replace `{old}` with `{new}`", [edit], True
+
+
+def _requote(
+    lines: Sequence[str], where: types.Range, written: str, fixed: str
+) -> tuple[str, list[types.TextEdit], bool] | None:
+    """Replace the endpoint ``written`` where the diagnostic starts with its quoted form."""
+    row = where.start.line
+    if row >= len(lines) or lines[row].find(written, where.start.character) != (
+        where.start.character
+    ):
+        return None
+    start = where.start.character
+    return f"Quote the port name: `{fixed}`", [_edit(row, start, start + len(written), fixed)], True
 
 
 def _quote(

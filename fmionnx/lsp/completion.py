@@ -6,7 +6,9 @@ What is offered depends on where the cursor is (:mod:`fmionnx.lsp.yamlcontext`):
   values (``kind:``, ``interface:``, QoS names ...);
 * component names, and after ``component.`` its ports with causality, type, shape and unit:
   outputs left of ``->`` in a connection (and in ``from:``), inputs right of it
-  (and in ``to:``), any port in ``record``, ``plots`` and checks;
+  (and in ``to:``), any port in ``record``, ``plots`` and checks; a port whose name is no
+  dotted word is inserted as an endpoint writes it, quoted (``p."input.1"``), and in a check
+  between backticks (`` `p."input.1"` ``);
 * parameter names under ``parameters:`` and in a study's targets, port names and units under
   an ONNX entry's ``units:``, units after any ``unit:`` of an entry;
 * ROS 2: message types, the fields of the type given, component names as node keys;
@@ -18,6 +20,8 @@ What is offered depends on where the cursor is (:mod:`fmionnx.lsp.yamlcontext`):
 from __future__ import annotations
 
 import contextlib
+import enum
+import re
 from collections.abc import Iterable, Sequence
 from typing import Any
 
@@ -25,11 +29,12 @@ from lsprotocol import types
 from pydantic import BaseModel
 
 from fmionnx.compile.checks import FUNCTIONS
+from fmionnx.compile.endpoints import endpoint_text
 from fmionnx.compile.expected_path import EXPECTED_PATH, expected_path_file
 from fmionnx.compile.plots import MAP_REFERENCE
 from fmionnx.compile.typecheck import SOURCE_CAUSALITIES, TARGET_CAUSALITIES
 from fmionnx.core.errors import ModelError
-from fmionnx.core.types import Causality, Port
+from fmionnx.core.types import Causality, Port, PortRef
 from fmionnx.core.units import BUILTIN_UNITS, Unit
 from fmionnx.kinds.base import MAP, SITES, SiteSource
 from fmionnx.kinds.registry import COMPONENT_KINDS
@@ -37,13 +42,17 @@ from fmionnx.lsp.analysis import DocumentKind
 from fmionnx.lsp.outline import ComponentOutline, Outline
 from fmionnx.lsp.references import components_of
 from fmionnx.lsp.schema import keys_at, takes_mappings_only, values_at
-from fmionnx.lsp.yamlcontext import ITEM, Cursor, cursor_at, name_before
+from fmionnx.lsp.yamlcontext import ITEM, Cursor, cursor_at, name_before, split_typed_port
 from fmionnx.spec.model import SystemSpec
 from fmionnx.spec.study import StudySpec
 
 _K = types.CompletionItemKind
 #: Characters of a name (a key, a component, a port) an item replaces after the cursor.
 _WORD_CHARACTERS = "ABCDEFGHIJKLMNOPQRSTUVWXYZabcdefghijklmnopqrstuvwxyz0123456789_$-"
+#: A name the checks language reads without backticks (its NAME token, less the index).
+_CHECK_NAME = re.compile(r"[A-Za-z_$][\w$]*(?:\.[A-Za-z_$][\w$]*)*")
+#: Text that cannot be inside a quoted port name being completed: its end is not after it.
+_NOT_IN_QUOTES = re.compile(r"->|[,\[\]{}`]")
 #: Targets of a study that are run settings, not parameters (docs/sweep.md).
 _RUN_TARGETS = {
     "run.stop": "stop time of each case",
@@ -98,17 +107,38 @@ class _Here:
         self.components = components_of(outline)
         lines = text.split("\n")
         rest = lines[line][column:] if line < len(lines) else ""
+        #: The line before and after the cursor.
+        self.before = lines[line][:column] if line < len(lines) else ""
+        self.rest = rest
         #: The rest of the word the cursor is in: an item replaces it too (`kind: |onnx`).
         self.word_after = len(rest) - len(rest.lstrip(_WORD_CHARACTERS)) if rest else 0
         self.dot_after = rest[self.word_after : self.word_after + 1] == "."
 
-    def edit_range(self, typed: str) -> types.Range:
+    def edit_range(self, typed: str, after: int | None = None) -> types.Range:
         """What an item replaces: the ``typed`` characters before the cursor and the rest of
-        the word after it."""
+        the word after it (``after`` characters, when given)."""
+        after = self.word_after if after is None else after
         return types.Range(
             types.Position(line=self.line, character=max(0, self.column - len(typed))),
-            types.Position(line=self.line, character=self.column + self.word_after),
+            types.Position(line=self.line, character=self.column + after),
         )
+
+    def port_after(self, partial: str) -> int:
+        """How much after the cursor a port replaces: the rest of a quoted name (to its
+        closing quote) when the cursor is in one, else the rest of the word.
+
+        Without it, a port picked inside ``p."1|2"`` left the old name's tail behind.
+        """
+        rest = self.rest
+        if partial.startswith('"'):
+            closing = rest.find('"')
+        elif not partial and rest.startswith('"'):
+            closing = rest.find('"', 1)
+        else:
+            return self.word_after
+        if closing < 0 or _NOT_IN_QUOTES.search(rest[:closing]):
+            return self.word_after
+        return closing + 1
 
     def item(
         self,
@@ -119,8 +149,11 @@ class _Here:
         documentation: str = "",
         order: int = 0,
         insert: str | None = None,
+        after: int | None = None,
+        filter_text: str | None = None,
     ) -> types.CompletionItem:
-        """One item replacing ``typed`` with ``insert`` (default: the label)."""
+        """One item replacing ``typed`` (and ``after`` characters after the cursor, by default
+        the rest of the word) with ``insert`` (default: the label)."""
         return types.CompletionItem(
             label=label,
             kind=kind,
@@ -129,9 +162,9 @@ class _Here:
             if documentation
             else None,
             sort_text=f"{order:02d}{label}",
-            filter_text=label,
+            filter_text=filter_text or label,
             text_edit=types.TextEdit(
-                self.edit_range(typed), insert if insert is not None else label
+                self.edit_range(typed, after), insert if insert is not None else label
             ),
         )
 
@@ -220,13 +253,17 @@ def _split_typed(here: _Here, typed: str) -> tuple[ComponentOutline, str] | None
 def _endpoints(
     here: _Here, typed: str, causalities: Sequence[Causality]
 ) -> list[types.CompletionItem]:
-    """Component names, or after ``component.`` its ports of the given causalities."""
-    typed = typed.strip().strip("'\"")
+    """Component names, or after ``component.`` its ports of the given causalities.
+
+    A YAML quote before the endpoint is no part of it; a double quote after ``component.``
+    is: it opens a quoted port name.
+    """
+    typed = typed.strip().lstrip("'\"").rstrip("'")
     split = _split_typed(here, typed)
     if split is None:
         return _component_names(here, typed, suffix=".")
     component, partial = split
-    return _ports(here, component, partial, causalities)
+    return _ports(here, component, partial, causalities, _Naming.ENDPOINT)
 
 
 def _component_names(here: _Here, typed: str, suffix: str = "") -> list[types.CompletionItem]:
@@ -245,11 +282,24 @@ def _component_names(here: _Here, typed: str, suffix: str = "") -> list[types.Co
     return items
 
 
+class _Naming(enum.Enum):
+    """How a port is written where it is completed."""
+
+    #: As the model names it: a key under ``parameters:``/``units:``, a study's target.
+    MODEL = "model"
+    #: As an endpoint: quoted when the name is no dotted word (``"input.1"``).
+    ENDPOINT = "endpoint"
+    #: In a check expression: as an endpoint, between backticks when the checks language
+    #: cannot read it bare.
+    CHECK = "check"
+
+
 def _ports(
     here: _Here,
     component: ComponentOutline | None,
     typed: str,
     causalities: Sequence[Causality],
+    naming: _Naming = _Naming.MODEL,
 ) -> list[types.CompletionItem]:
     if component is None or component.interface is None:
         return []
@@ -258,17 +308,33 @@ def _ports(
         if port.causality not in causalities:
             continue
         order = causalities.index(port.causality)
-        items.append(
-            here.item(
-                port.name,
-                typed,
-                _K.Field if port.causality is Causality.OUTPUT else _K.Property,
-                port_detail(port),
-                _port_doc(port),
-                order=order,
+        if naming is _Naming.MODEL:
+            kind = _K.Field if port.causality is Causality.OUTPUT else _K.Property
+            items.append(
+                here.item(port.name, typed, kind, port_detail(port), _port_doc(port), order=order)
             )
-        )
+        else:
+            items.append(_written_port(here, component.name, port, typed, naming, order))
     return items
+
+
+def _written_port(
+    here: _Here, component: str, port: Port, typed: str, naming: _Naming, order: int
+) -> types.CompletionItem:
+    """A port as an endpoint or a check writes it, replacing ``typed`` (what follows
+    ``component.``): quoted when its name is no dotted word, and in a check the whole name
+    between backticks when the checks language cannot read it bare (unless one is open)."""
+    kind = _K.Field if port.causality is Causality.OUTPUT else _K.Property
+    detail, doc = port_detail(port), _port_doc(port)
+    written = endpoint_text(PortRef(component, port.name))
+    label = written[len(component) + 1 :]
+    after = here.port_after(typed)
+    if naming is _Naming.CHECK and not _CHECK_NAME.fullmatch(written):
+        opened = here.before[: len(here.before) - len(typed)].endswith(f"`{component}.")
+        if not opened:
+            whole, insert = f"{component}.{typed}", f"`{written}`"
+            return here.item(label, whole, kind, detail, doc, order, insert, after, written)
+    return here.item(label, typed, kind, detail, doc, order=order, after=after)
 
 
 def _port_doc(port: Port) -> str:
@@ -306,13 +372,13 @@ def _expression(here: _Here, text: str) -> list[types.CompletionItem]:
         items.append(here.item("time", typed, _K.Variable, "the simulation time, s", order=1))
         items += _component_names(here, typed, suffix=".")
         return items
-    head, _, partial = typed.rpartition(".")
+    head, partial = split_typed_port(typed)
     if head.endswith(".site") and head.removesuffix(".site") in here.components:
         return _sites(here, here.components[head.removesuffix(".site")], partial)
     component = here.components.get(head)
     if component is None:
         return []
-    items = _ports(here, component, partial, _ANY_SIDE)
+    items = _ports(here, component, partial, _ANY_SIDE, _Naming.CHECK)
     kind = COMPONENT_KINDS.get(component.kind or "")
     if kind is not None and SITES in kind.capabilities:
         items.append(

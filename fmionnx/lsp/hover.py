@@ -16,10 +16,11 @@ from collections.abc import Sequence
 from lsprotocol import types
 from pydantic import BaseModel
 
+from fmionnx.compile.endpoints import endpoint_text
 from fmionnx.compile.expected_path import expected_path_file
 from fmionnx.core.diagnostics import CODES
 from fmionnx.core.errors import ModelError
-from fmionnx.core.types import Causality, Port
+from fmionnx.core.types import Causality, Port, PortRef
 from fmionnx.kinds.base import SiteSource
 from fmionnx.kinds.registry import COMPONENT_KINDS
 from fmionnx.lsp.analysis import DocumentKind
@@ -89,7 +90,7 @@ def describe(reference: Reference) -> str:
     """Markdown about what ``reference`` names."""
     component = reference.component
     if reference.what == "port" and reference.port is not None and component is not None:
-        return port_text(component, reference.port)
+        return port_text(component, reference.port, endpoint=True)
     if reference.what == "component" and component is not None:
         return component_text(component)
     if reference.what == "site" and component is not None:
@@ -107,14 +108,15 @@ def describe(reference: Reference) -> str:
     return ""
 
 
-def port_text(component: ComponentOutline, port: Port) -> str:
-    """A port's type, shape, unit, description, start value and declaration."""
+def port_text(component: ComponentOutline, port: Port, *, endpoint: bool = False) -> str:
+    """A port's type, shape, unit, description, start value and declaration. ``endpoint``:
+    named as a system file's endpoint writes it (``p."input.1"``), so that it can be copied;
+    else as the model names it (an SSD's connector)."""
     shape = port.shape_text()
     unit = f", unit `{port.unit}`" if port.unit else ", no unit"
-    lines = [
-        f"**{component.name}.{port.name}** — {port.causality.value} `{port.dtype.value}` "
-        f"{shape}{unit}"
-    ]
+    ref = PortRef(component.name, port.name)
+    named = endpoint_text(ref) if endpoint else str(ref)
+    lines = [f"**{named}** — {port.causality.value} `{port.dtype.value}` {shape}{unit}"]
     if port.description:
         lines.append(port.description)
     if port.start is not None:

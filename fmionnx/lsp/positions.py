@@ -5,7 +5,7 @@ starts exactly at the diagnostic's line and column and ends where the thing ther
 
 * a problem inside a value (an endpoint of a connection, a name in a check expression, a
   syntax error): the token there, a dotted name with its index such as ``odometry.thta`` or
-  ``world.base_quat[7]``, or a quoted string;
+  ``world.base_quat[7]``, its port quoted or not (``q."x  y"``), or a quoted string;
 * a key (the token is followed by ``:``): the key;
 * any other problem is about the value that starts there (a connection ``a.y -> b.u`` with a
   unit mismatch, a period, a flow mapping): to the end of that scalar or bracket on its line;
@@ -48,6 +48,10 @@ def token_end(text: str, start: int) -> int:
     index = start
     while index < len(text):
         char = text[index]
+        closing = text.find('"', index + 1) if char == '"' and text[index - 1] == "." else -1
+        if closing > index + 1:  # a quoted port name (`q."x  y"`): its blanks are the name's
+            index = closing + 1
+            continue
         ends_key = char == ":" and (index + 1 == len(text) or text[index + 1].isspace())
         if char.isspace() or char in ",{}()" or ends_key:
             break

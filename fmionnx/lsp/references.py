@@ -3,7 +3,8 @@ its expected path, or a function of the checks language.
 
 Names are split the way the compiler splits endpoints (:func:`fmionnx.compile.endpoints.
 split_endpoint`: the longest component name that prefixes the text), so ``sub.gain.y`` is port
-``y`` of component ``sub.gain`` when there is one.
+``y`` of component ``sub.gain`` when there is one; a quoted port (``p."input.1"``) is named
+whole by its quotes, after the component written before them.
 """
 
 from __future__ import annotations
@@ -16,7 +17,7 @@ from fmionnx.compile.expected_path import EXPECTED_PATH
 from fmionnx.compile.plots import MAP_REFERENCE
 from fmionnx.core.types import Port
 from fmionnx.lsp.outline import ComponentOutline, Outline
-from fmionnx.lsp.yamlcontext import cursor_at, name_at
+from fmionnx.lsp.yamlcontext import cursor_at, name_at, quoted_port
 
 #: Where a name under the cursor is the port of the entry it is written in (its key).
 _OWN_PORT_SECTIONS = ("parameters", "units")
@@ -87,8 +88,9 @@ def _dotted(
     name: str, components: dict[str, ComponentOutline], line: int, start: int, end: int
 ) -> Reference | None:
     plain = re.sub(r"\[[^\]]*\]$", "", name)
-    parts = _split(plain, components)
-    if parts is None:
+    quoted = quoted_port(plain)
+    parts = _split(plain, components) if quoted is None else quoted
+    if parts is None or parts[0] not in components:
         return None
     component_name, rest = parts
     component = components[component_name]
@@ -96,6 +98,9 @@ def _dotted(
     def found(what: str, named: str, port: Port | None = None) -> Reference:
         return Reference(what, named, component, port, line=line, start=start, end=end)
 
+    if quoted is not None:  # the quotes hold a port's name, never a site or a reference
+        port = component.interface.port(rest) if component.interface is not None else None
+        return found("component", component_name) if port is None else found("port", name, port)
     if rest == EXPECTED_PATH:
         return found("expected_path", name)
     if rest == MAP_REFERENCE:

@@ -6,7 +6,9 @@ system ``inputs``, and the ``ros2`` section (node keys, topic and QoS keys). Eac
 values is searched for dotted names whose component, split as the compiler splits endpoints
 (the longest component name that prefixes them), is the one renamed; positions inside a value
 come from the compiler's own mapping (:func:`fmionnx.compile.scalarpos.position_in_value`),
-so quoted and folded values are edited where the name really is.
+so quoted and folded values are edited where the name really is. A quoted port
+(``p."input.1"``) belongs to the component written before its quotes and is kept as it is:
+the words inside the quotes are the port's name, never a component's.
 """
 
 from __future__ import annotations
@@ -22,12 +24,10 @@ from lsprotocol import types
 from fmionnx.compile.scalarpos import position_in_value
 from fmionnx.core.diagnostics import DiagnosticBag, Span
 from fmionnx.core.sourcetext import editing
-from fmionnx.lsp.yamlcontext import cursor_at, name_at
+from fmionnx.lsp.yamlcontext import NAME, cursor_at, name_at, quoted_port
 from fmionnx.spec.model import DOTTED_NAME
 from fmionnx.spec.sourcemap import KeyPath, SourceMap
 from fmionnx.spec.yaml import parse_yaml
-
-_NAME = re.compile(r"[A-Za-z_$][\w$:-]*(?:\.[A-Za-z_$][\w$:-]*)*")
 
 
 class RenameError(ValueError):
@@ -75,7 +75,11 @@ def component_at(path: Path, text: str, line: int, column: int) -> tuple[str, ty
 
 
 def _owner(name: str, components: tuple[str, ...]) -> str | None:
-    """The component a dotted name belongs to (the longest prefix), or the name itself."""
+    """The component a dotted name belongs to (the longest prefix), or the name itself; a
+    quoted port's, the component written before the quotes."""
+    quoted = quoted_port(re.sub(r"\[[^\]]*\]$", "", name))
+    if quoted is not None:
+        return quoted[0] if quoted[0] in components else None
     if name in components:
         return name
     best = ""
@@ -157,7 +161,7 @@ def _key_text(span: Span, lines: list[str]) -> Span:
 
 
 def _offsets(value: str, old: str, components: tuple[str, ...]) -> Iterator[int]:
-    for match in _NAME.finditer(value):
+    for match in NAME.finditer(value):
         if _owner(match.group(0), components) == old:
             yield match.start()
 

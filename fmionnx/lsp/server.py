@@ -15,6 +15,8 @@ Bad input never stops the server:
   the stream;
 * every handler is guarded: a failure of fmionnx itself (a bug) is logged to the client in one
   line and the request answered with an empty result, never a traceback on the stream;
+* a request whose parameters are not what the protocol allows (a negative position) is
+  answered with the error InvalidParams (:class:`FmionnxProtocol`), not left unanswered;
 * a file that does not parse is diagnostics like any other mistake (the compiler's own).
 """
 
@@ -29,12 +31,17 @@ import sys
 import traceback
 from collections.abc import Awaitable, Callable, Sequence
 from concurrent.futures import ThreadPoolExecutor
+from contextvars import ContextVar
+from dataclasses import dataclass
 from pathlib import Path
 from typing import Any, ParamSpec, TypeVar
 
+from cattrs import ClassValidationError
+from cattrs.v import format_exception, transform_error
 from lsprotocol import types
-from pygls.exceptions import JsonRpcException
+from pygls.exceptions import JsonRpcException, JsonRpcInvalidParams
 from pygls.lsp.server import LanguageServer
+from pygls.protocol import LanguageServerProtocol
 from pygls.uris import to_fs_path
 from pygls.workspace import TextDocument
 
@@ -81,11 +88,88 @@ def _version() -> str:
         return __version__
 
 
+#: Whether the message pygls is decoding on this thread is a request (which gets an answer).
+_DECODING_REQUEST: ContextVar[bool] = ContextVar("fmionnx_decoding_request", default=False)
+
+
+@dataclass(frozen=True, slots=True)
+class RefusedRequest:
+    """A request whose parameters did not decode: answered with ``error``, handled by none."""
+
+    jsonrpc: str
+    id: int | str
+    method: str
+    error: JsonRpcInvalidParams
+
+
+class FmionnxProtocol(LanguageServerProtocol):
+    """pygls' protocol, except that a request with parameters the protocol does not allow is
+    answered with the JSON-RPC error InvalidParams (-32602) naming the field.
+
+    pygls decodes each message into lsprotocol's types before any handler runs, and those
+    types refuse what the specification rules out (a negative ``line`` or ``character``, a
+    missing field). pygls then logs "Invalid Params" and drops the message: the editor waits
+    for an answer that never comes, and shows "Error in server". Here the request is answered.
+
+    With an error rather than an empty result: a position below zero is never where a user's
+    cursor is but a bug of the client, and an empty result would tell it "nothing here" and
+    hide that. InvalidParams is the answer JSON-RPC defines for exactly this: every client
+    settles the request on it (the wait ends) and logs it, where the message names the field
+    and its fault for whoever fixes the client. An empty result could not be given
+    generically either: the request never reached a handler that knows what "empty" is for it.
+
+    ``protocol_cls`` is pygls' own extension point; :meth:`structure_message` and
+    :meth:`handle_message` are public, and ``_send_response`` is how pygls itself answers.
+    A notification that does not decode has no one to answer: pygls' handling stays.
+    """
+
+    def structure_message(self, data: dict[str, Any]) -> Any:
+        """pygls' decoding; a request it refuses becomes a :class:`RefusedRequest` (and
+        pygls' log of the refusal, a traceback, is dropped: the answer says it)."""
+        request = _is_request(data)
+        token = _DECODING_REQUEST.set(request)
+        try:
+            return super().structure_message(data)
+        except JsonRpcInvalidParams as exc:
+            if not request:
+                raise
+            method = str(data["method"])
+            detail = _why_invalid(exc.__cause__)
+            error = JsonRpcInvalidParams(f"Invalid Params of `{method}`: {detail}")
+            return RefusedRequest(str(data["jsonrpc"]), data["id"], method, error)
+        finally:
+            _DECODING_REQUEST.reset(token)
+
+    def handle_message(self, message: Any) -> None:
+        """Answer a :class:`RefusedRequest` with its error; hand the rest to pygls."""
+        if isinstance(message, RefusedRequest):
+            self._send_response(message.id, None, message.error.to_response_error())
+            return
+        super().handle_message(message)
+
+
+def _is_request(data: dict[str, Any]) -> bool:
+    """A JSON-RPC request (it expects an answer), not a notification or a response."""
+    return "method" in data and "error" not in data and isinstance(data.get("id"), (int, str))
+
+
+def _why_invalid(cause: BaseException | None) -> str:
+    """Each fault of a message that did not decode, with where: ``Position.line should be in
+    range [0:2147483647], but was -1 @ $.params.position``."""
+    if not isinstance(cause, ClassValidationError):
+        return str(cause)
+
+    def say(exc: BaseException, expected: type | None) -> str:
+        return str(exc).rstrip(".") if type(exc) is ValueError else format_exception(exc, expected)
+
+    return "; ".join(transform_error(cause, format_exception=say))
+
+
 class FmionnxServer(LanguageServer):
     """The server's state: the last check and published diagnostics of each open file."""
 
     def __init__(self) -> None:
-        super().__init__("fmionnx", _version())
+        super().__init__("fmionnx", _version(), protocol_cls=FmionnxProtocol)
         self.checker = ThreadPoolExecutor(max_workers=1, thread_name_prefix="fmionnx-check")
         self.analyses: dict[str, Analysis] = {}
         self.outlines: dict[str, Outline] = {}
@@ -526,7 +610,10 @@ def _contains(span: types.Range, line: int, column: int) -> bool:
 def _not_an_answer(record: logging.LogRecord) -> bool:
     """Whether pygls' log ``record`` is worth stderr: not when it is the traceback pygls logs
     for every error a handler raises, where the error is an answer meant for the user (a
-    refused rename, a file that cannot be read), not a bug."""
+    refused rename, a file that cannot be read), not a bug; nor the traceback it logs for a
+    request that did not decode, which :class:`FmionnxProtocol` answers."""
+    if _DECODING_REQUEST.get() and str(record.msg).startswith("Unable to deserialize"):
+        return False
     error = record.exc_info[1] if record.exc_info else None
     return not isinstance(error, RequestFailedError)
 

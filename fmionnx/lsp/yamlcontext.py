@@ -196,23 +196,55 @@ def _unquoted(text: str) -> str:
     return text[1:] if text[:1] in ("'", '"') else text
 
 
-#: A name as the checks language and endpoints write it, up to the cursor.
-_NAME_TAIL = re.compile(r"[A-Za-z_$][\w$:-]*(?:\.[A-Za-z_$][\w$:-]*)*\.?$")
+#: A dotted word: parts starting with a letter, ``_`` or ``$`` (a component, a plain port).
+_DOTTED = r"[A-Za-z_$][\w$:-]*(?:\.[A-Za-z_$][\w$:-]*)*"
+#: A port name between double quotes after the component (``p."input.1"``): the quotes hold
+#: the whole name, which holds no ``"`` (:data:`fmionnx.spec.runspec.ENDPOINT_RE`).
+_QUOTED_PORT = r'\."[^"\n]+"'
+
+#: A name as the checks language and endpoints write it, up to the cursor: a dotted name, or
+#: one whose quoted port is being written (``p."inp``, its closing quote not yet typed).
+_NAME_TAIL = re.compile(_DOTTED + r'(?:\.(?:"[^"\n]*"?)?)?$')
 
 
 def name_before(text: str) -> str:
-    """The dotted name that ends ``text`` (``final(odometry.po`` -> ``odometry.po``)."""
+    """The dotted name that ends ``text`` (``final(odometry.po`` -> ``odometry.po``,
+    ``record: [p."inp`` -> ``p."inp``)."""
     match = _NAME_TAIL.search(text)
     return match.group(0) if match else ""
 
 
-#: A dotted name with an optional element index, as hover and definition look it up.
-_NAME = re.compile(r"[A-Za-z_$][\w$:-]*(?:\.[A-Za-z_$][\w$:-]*)*(?:\[[\d,\s]*\])?")
+def split_typed_port(typed: str) -> tuple[str, str]:
+    """A name being typed as (what comes before its last part, that part): the part is
+    everything from an opening quote (``p."input.1`` -> ``p``, ``"input.1``), which may hold
+    dots, else what follows the last dot (``sub.gain.y`` -> ``sub.gain``, ``y``)."""
+    head, quote, port = typed.partition('."')
+    if quote:
+        return head, '"' + port
+    head, _, partial = typed.rpartition(".")
+    return head, partial
+
+
+#: A dotted name, its port quoted or not, with an optional element index, as hover,
+#: definition and rename look it up (``world.base_quat[0]``, ``p."12"[1]``).
+NAME = re.compile(_DOTTED + f"(?:{_QUOTED_PORT})?" + r"(?:\[[\d,\s]*\])?")
+#: A name whose port is quoted: the owner and the port name (no index).
+_QUOTED_NAME = re.compile(r"(?P<owner>" + _DOTTED + r')\."(?P<port>[^"\n]+)"')
+
+
+def quoted_port(name: str) -> tuple[str, str] | None:
+    """(component, port) of a name with a quoted port (``p."12"``); None for any other."""
+    match = _QUOTED_NAME.fullmatch(name)
+    return (match["owner"], match["port"]) if match else None
 
 
 def name_at(line_text: str, column: int) -> tuple[str, int] | None:
-    """The dotted name under ``column`` of a line and the column it starts at, or None."""
-    for match in _NAME.finditer(line_text):
+    """The dotted name under ``column`` of a line and the column it starts at, or None.
+
+    A quoted port is part of the name (``p."input.1"``): the words inside the quotes are the
+    port's, never names of their own (a component ``input`` is not named by it).
+    """
+    for match in NAME.finditer(line_text):
         name = match.group(0).rstrip(":")  # `key:` ends a key, it is no part of the name
         if match.start() <= column <= match.start() + len(name) and name:
             return name, match.start()

@@ -21,14 +21,16 @@ as one more dependency.
 
 - the *key* (the entry's folder name) is a sha256 over this cache's format, the code that
   compiled it (fmionnx's files and the libraries that read models, by size and modification
-  time: see :func:`_code_stamp`), the ``FMIONNX_*`` environment (resource limits change
-  diagnostics), the working folder, the path as given, ``--start-time``/``--step``, and the
-  system file's bytes (a lone model: ``--interface`` instead, its bytes being a
-  dependency, below);
+  time, those ``PYTHONPATH`` reaches too: see :func:`_code_stamp`), the ``FMIONNX_*``
+  environment (resource limits change diagnostics), the working folder, the home folder
+  (``~/m.fmu`` names another model under another ``HOME``), the path as given,
+  ``--start-time``/``--step``, and the system file's bytes (a lone model: ``--interface``
+  instead, its bytes being a dependency, below);
 - the entry lists every model it read with the sha256 of its contents (a scene with the
   files it is shipped with, its folder where they cannot be listed) and each model's
   expected-path file (or that there was none). A lookup hashes them all again; one that
-  differs is a miss;
+  differs is a miss, and so is a model path written from a home folder (``~user/m.fmu``)
+  that names another file now;
 - an entry is written only for a compile that read what it lists (:func:`store`): nothing
   that changed after the compile began, by its change time; hashes that are those the
   interfaces were read from; no ONNX model with external data (not hashed with it).
@@ -196,7 +198,9 @@ def lookup(place: Slot | None) -> Cached | None:
         found = _read(_root() / place.key, place.key)
     except (OSError, ValueError, _RefusedError):
         return None
-    if found is not None and not _names_its_model(found.system, place):
+    if found is not None and not (
+        _names_its_model(found.system, place) and _homes_as_compiled(found.system, place)
+    ):
         return None
     return found
 
@@ -249,6 +253,30 @@ def _names_its_model(system: CompiledSystem, place: Slot) -> bool:
     return place.model is None or all(c.path == place.model for c in system.components)
 
 
+def _homes_as_compiled(system: CompiledSystem, place: Slot) -> bool:
+    """Whether each model path the system file wrote from a home folder (``~/m.fmu``,
+    ``~user/m.fmu``) still names the file it named at the compile: ``HOME`` is in the key,
+    but a study's system file is not, nor is another user's home folder. A path whose home
+    is gone now names the path as written, in the system file's folder, as the compiler does."""
+    if place.model is not None:  # a lone model: checked by the path it resolved to
+        return True
+    return all(
+        _names_now(c.path, c.declared_path) for c in _models(system) if c.declared_path[:1] == "~"
+    )
+
+
+def _names_now(path: Path, declared: str) -> bool:
+    """Whether ``declared`` (a path from a home folder) names ``path`` now."""
+    written = Path(declared)
+    try:
+        expanded = written.expanduser()
+    except RuntimeError:  # no such user now: kept as written, relative to the system file
+        expanded = written
+    if expanded.is_absolute():
+        return path == expanded
+    return path.parts[-len(written.parts) :] == written.parts
+
+
 def _as_compiled(system: CompiledSystem, dependencies: list[Dependency]) -> bool:
     """Whether each model file hashed for the entry has the contents its interface was read
     from (a kind that says so, :data:`~fmionnx.kinds.base.FILE_HASHED`, carries the sha256
@@ -297,12 +325,22 @@ def _hashed(path: Path, flags: RunFlags, **what: object) -> str:
         "code": _code_stamp(),
         "environment": limits_in_force(),
         "cwd": str(Path.cwd()),
+        "home": _home(),
         "path": str(path),
         "flags": [flags.start, flags.step, flags.stop],
         **what,
     }
     text = json.dumps(material, sort_keys=True, default=repr)
     return hashlib.sha256(text.encode()).hexdigest()
+
+
+def _home() -> str | None:
+    """What ``~`` in a model path stands for now (``HOME``, else the user's entry): the same
+    system file run with another home runs other models, so it is another entry."""
+    try:
+        return str(Path("~").expanduser())
+    except RuntimeError:  # no home anywhere: ``~`` is kept as written
+        return None
 
 
 @functools.cache
@@ -328,14 +366,21 @@ def _code_stamp() -> str:
 
 
 def _library_folders() -> list[Path]:
-    """The folders libraries are installed in (``site-packages``), not the script's folder or
-    the working folder that ``sys.path`` also holds: those change with every file written."""
+    """The folders libraries are imported from: ``site-packages``, and the folders
+    ``PYTHONPATH`` names (a ROS 2 install puts its own libraries there, in front of
+    ``site-packages``: another ``PYTHONPATH`` can compile with other versions). Not the
+    script's folder or the working folder that ``sys.path`` also holds: those change with
+    every file written (the working folder is in the key by name)."""
     import site
 
     folders = [*site.getsitepackages()]
     if site.ENABLE_USER_SITE:
         folders.append(site.getusersitepackages())
-    return [Path(f) for f in dict.fromkeys(folders) if f in sys.path and Path(f).is_dir()]
+    installed = [Path(f) for f in folders if f in sys.path]
+    here = Path.cwd()
+    named = [here / f for f in os.environ.get("PYTHONPATH", "").split(os.pathsep) if f]
+    named = [f for f in named if not f.is_relative_to(here)]  # `PYTHONPATH=.`: the working
+    return [f for f in dict.fromkeys([*named, *installed]) if f.is_dir()]  # folder, as above
 
 
 def _stamp_file(digest: hashlib._Hash, file: Path, relative_to: Path | None) -> None:

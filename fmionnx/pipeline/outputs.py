@@ -90,16 +90,18 @@ def check_output_file(path: Path, option: str) -> Path:
         msg = f"{option} `{path}` exists and is not writable"
         raise RequestError(msg)
     _make_folder(path.parent, option, str(path))
-    if not path.exists():
-        # A folder can pass every check and still take no new file (``/proc``, a read-only
-        # mount as root); the file's writer would then fail naming its temporary file.
-        try:
-            handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
-        except OSError as exc:
-            msg = f"{option} `{path}`: no file can be made in `{path.parent}` ({exc.strerror})"
-            raise RequestError(msg) from None
-        os.close(handle)
-        Path(probe).unlink()
+    # A folder can pass every check and still take no new file (``/proc``, a read-only mount
+    # as root); the file's writer, which makes a new file beside the name and renames it over
+    # even an existing one (``/proc/version``), would then fail after the work, exit 1.
+    try:
+        handle, probe = tempfile.mkstemp(prefix=f".{path.name}.", dir=path.parent)
+    except OSError as exc:
+        msg = f"{option} `{path}`: no file can be made in `{path.parent}` ({exc.strerror})"
+        if path.exists():
+            msg += "; the file is replaced by a new one made there"
+        raise RequestError(msg) from None
+    os.close(handle)
+    Path(probe).unlink()
     return path
 
 

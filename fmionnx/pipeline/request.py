@@ -10,19 +10,21 @@ it). The backend's own options are checked by the backend's options type
 
 from __future__ import annotations
 
-import math
 from collections.abc import Mapping, Sequence
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import Literal, TypedDict, cast
+from typing import TYPE_CHECKING, Literal, TypedDict, cast
 
 from fmionnx.compile.overrides import OverrideError, parse_value, plain_value
-from fmionnx.core.steps import MAX_RUN_STEPS, step_problem
+from fmionnx.core.steps import MAX_RUN_STEPS, time_flags_problem
 from fmionnx.core.types import Scalar, is_number
 from fmionnx.pipeline.defaults import CHECKPOINT_EVERY, STEP_TIMEOUT
 from fmionnx.pipeline.errors import RequestError
 from fmionnx.pipeline.viewspec import ViewSpecError, ViewTarget, parse_view
 from fmionnx.runtime.backend import BackendOptions, OptionsError
+
+if TYPE_CHECKING:
+    from fmionnx.pipeline.system import ParamInput
 
 #: What a request runs: a system file, a compiled system, a single model run over time (an
 #: ``.fmu``) or a single model inferred once (an ``.onnx``).
@@ -48,7 +50,7 @@ class RunSettings(TypedDict, total=False):
     start_time: float | None
     step: float | None
     output_interval: float | None
-    params: Mapping[str, ParamValue] | None
+    params: Mapping[str, ParamInput] | None  # numpy values too (a ParamValue once checked)
     interface: str | None
     inputs: Mapping[str, str | Path] | None
     record: str | Path | None
@@ -248,19 +250,11 @@ def _overrides(given: dict[str, object], kind: TargetKind) -> Overrides:
 
 
 def _check_times(times: dict[str, float | None]) -> None:
-    """A base step and a start time that cannot be one, refused as options (exit 2, as
-    ``--stop-time nan`` is): they came as errors at the system file, exit 1."""
-    step, start = times["step"], times["start_time"]
-    problem = None if step is None else step_problem(step)
+    """A base step and times that cannot be one, refused as options (exit 2): they came as
+    errors at the system file, exit 1."""
+    problem = time_flags_problem(times["start_time"], times["step"], times["stop_time"])
     if problem is not None:
-        raise RequestError(f"--step {problem}")
-    if start is not None and not math.isfinite(start):
-        msg = f"--start-time {start} is not a finite number of seconds"
-        raise RequestError(msg)
-    stop = times["stop_time"]
-    if start is not None and stop is not None and math.isfinite(stop) and stop <= start:
-        msg = f"--stop-time {stop} must be greater than --start-time {start}"
-        raise RequestError(msg)
+        raise RequestError(problem)
 
 
 def _output(given: dict[str, object], kind: TargetKind) -> Output:

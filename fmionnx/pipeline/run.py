@@ -82,9 +82,10 @@ def execute(
     system already loaded, ``System.run``); ``signals`` narrows what is recorded (names
     resolved once the system is loaded: :func:`chosen_signals`).
 
-    A single ``.onnx`` model given by its path (or a loaded one given ``inputs``) is inferred
-    once, as ``fmionnx run model.onnx`` does (:mod:`~fmionnx.pipeline.infer`)."""
-    if request.kind == "inference" and (system is None or request.inputs):
+    A single ``.onnx`` model, given by its path or loaded, is inferred once, as ``fmionnx run
+    model.onnx`` does (:mod:`~fmionnx.pipeline.infer`): a loaded one without ``inputs`` was
+    run over time instead (a bug hunt), two answers to one question."""
+    if request.kind == "inference":
         return _inferred(request, observers, system, signals)
     views = _views(request)  # a missing library or viewer: refused before any folder is made
     try:
@@ -213,7 +214,7 @@ def chosen_signals(system: System, signals: SignalNames | None) -> tuple[PortRef
         return None
     # Only now: the resolver's module loads the system file's models (pydantic), which a
     # run read back from the compile cache does not (tests/cli/test_startup_imports.py).
-    from fmionnx.compile.endpoints import resolve_endpoint
+    from fmionnx.compile.endpoints import endpoint_text, resolve_endpoint
     from fmionnx.core.diagnostics import DiagnosticBag, Span
 
     given = [signals] if isinstance(signals, str | PortRef) else list(signals)
@@ -224,7 +225,8 @@ def chosen_signals(system: System, signals: SignalNames | None) -> tuple[PortRef
         if not isinstance(item, str | PortRef):
             msg = f"signals: `{item!r}` is not a signal: name it `component.port` (a string)"
             raise RequestError(msg)
-        text = by_alias.get(str(item), str(item))
+        # a PortRef as an endpoint is written: its port quoted when that is no dotted word
+        text = by_alias.get(str(item), item if isinstance(item, str) else endpoint_text(item))
         bag = DiagnosticBag()
         resolved = resolve_endpoint(text, Span(Path(system.name)), interfaces, bag)
         if resolved is None:

@@ -12,7 +12,7 @@ import dataclasses
 from collections.abc import Mapping
 from dataclasses import dataclass, field
 from pathlib import Path
-from typing import TYPE_CHECKING, Literal, Unpack
+from typing import TYPE_CHECKING, Literal, TypeAlias, Unpack, cast
 
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.overrides import (
@@ -28,11 +28,25 @@ from fmionnx.core.errors import DiagnosticError
 from fmionnx.core.types import Causality, PortRef, Scalar, is_number
 from fmionnx.pipeline.request import COMPILED_SUFFIX, RunSettings
 
-if TYPE_CHECKING:
+if TYPE_CHECKING:  # numpy loads when a system runs, not with `import fmionnx`
+    from collections.abc import Sequence
+
+    import numpy as np
+    import numpy.typing as npt
+
     from fmionnx.pipeline.compilecache import Slot
     from fmionnx.pipeline.observers import RunObserver
     from fmionnx.pipeline.run import SignalNames
     from fmionnx.runtime.result import ProgressCallback, RunOptions, RunResult
+
+#: A parameter's value as a Python caller gives it (``params=``): a plain value or a list of
+#: them, numpy's (``np.int64(2)``, ``np.float32(0.5)``, ``np.bool_(True)``, an array) or a
+#: tuple, each taken as the plain value it holds (:func:`plain_value`). Typed ``Scalar``
+#: only, the numpy values taken at run time failed a caller's type check (a bug hunt).
+#: Quoted: numpy is imported for type checkers only.
+ParamInput: TypeAlias = (
+    "Scalar | np.generic | npt.NDArray[np.generic] | Sequence[Scalar | np.generic]"
+)
 
 #: Single-model files ``load`` accepts besides system files.
 MODEL_SUFFIXES = (".fmu", ".onnx")
@@ -61,10 +75,11 @@ class System:
         self,
         *,
         stop_time: float | None = None,
-        params: Mapping[str, Scalar | list[Scalar]] | None = None,
+        params: Mapping[str, ParamInput] | None = None,
         output_interval: float | None = None,
     ) -> System:
-        """A new System with a different stop time, output interval and/or parameter values."""
+        """A new System with a different stop time, output interval and/or parameter values
+        (numpy values too: :data:`ParamInput`)."""
         compiled = self.compiled
         if stop_time is not None:
             compiled = override_stop(compiled, _seconds(stop_time, "--stop-time"))
@@ -73,7 +88,9 @@ class System:
                 compiled, _seconds(output_interval, "--output-interval")
             )
         for key, value in (params or {}).items():
-            compiled = override_parameter(compiled, key, value)
+            # A value of none of Scalar's types is refused, naming it, by override_parameter.
+            plain = cast("Scalar | list[Scalar]", plain_value(value))
+            compiled = override_parameter(compiled, key, plain)
         return dataclasses.replace(self, compiled=compiled)
 
     def run(

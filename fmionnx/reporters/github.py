@@ -4,7 +4,9 @@ Each diagnostic becomes ``::error file=F,line=L,col=C,title=E031 dtype::message`
 use ``::warning`` and infos ``::notice``. Escaping follows the runner's rules (the
 ``@actions/core`` toolkit): in the message ``%``, CR and LF are percent-encoded; in property
 values ``:`` and ``,`` are too. Notes and hints follow the message on their own lines, so the
-annotation shows the whole story.
+annotation shows the whole story. Every text is printable first
+(:func:`~fmionnx.core.printable.printable`): a control character quoted from a model file is
+shown escaped, in the log and in the annotation, and a line break in it cannot end the command.
 """
 
 from __future__ import annotations
@@ -12,8 +14,9 @@ from __future__ import annotations
 from typing import TextIO
 
 from fmionnx.core.diagnostics import Diagnostic, Severity
+from fmionnx.core.printable import printable
 from fmionnx.reporters.base import FileResult, Reporter
-from fmionnx.reporters.common import capped, display_path, full_text, left_out, located
+from fmionnx.reporters.common import capped, detail_lines, display_path, left_out, located
 from fmionnx.reporters.text import summary
 
 _COMMAND = {Severity.ERROR: "error", Severity.WARNING: "warning", Severity.INFO: "notice"}
@@ -38,8 +41,10 @@ def annotation(diagnostic: Diagnostic, result: FileResult) -> str:
         if span.col > 0:
             properties.append(("col", str(span.col)))
     properties.append(("title", f"{diagnostic.code} {diagnostic.name}"))
-    props = ",".join(f"{key}={escape_property(value)}" for key, value in properties)
-    return f"::{_COMMAND[diagnostic.severity]} {props}::{escape_data(full_text(diagnostic))}"
+    props = ",".join(f"{key}={escape_property(printable(value))}" for key, value in properties)
+    # Message, notes and hint on their own lines (the only line breaks the text keeps).
+    text = "\n".join(printable(part) for part in [diagnostic.message, *detail_lines(diagnostic)])
+    return f"::{_COMMAND[diagnostic.severity]} {props}::{escape_data(text)}"
 
 
 class GithubReporter(Reporter):

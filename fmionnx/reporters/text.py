@@ -1,4 +1,9 @@
-"""Compiler-style text output: ``file:line:col: error[E031 dtype]: ...`` with the source line."""
+"""Compiler-style text output: ``file:line:col: error[E031 dtype]: ...`` with the source line.
+
+Messages quote the files they are about (a port name of an ONNX model, a file name): every
+line is printable (:func:`~fmionnx.core.printable.printable`), its control characters shown
+escaped, so a hostile model sends no escape sequence to the terminal.
+"""
 
 from __future__ import annotations
 
@@ -8,6 +13,7 @@ from rich.console import Console
 from rich.markup import escape
 
 from fmionnx.core.diagnostics import Diagnostic, Severity, Span
+from fmionnx.core.printable import printable
 from fmionnx.core.sourcetext import source_lines
 from fmionnx.reporters.base import FileResult, Reporter, count
 from fmionnx.reporters.common import capped, left_out
@@ -24,24 +30,25 @@ def source_excerpt(span: Span) -> list[str]:
         return []
     text = lines[span.line - 1].expandtabs(1)
     gutter = f"{span.line:>4} | "
-    excerpt = [gutter + text]
-    if span.col > 0:
-        excerpt.append(" " * (len(gutter) - 2) + "| " + " " * (span.col - 1) + "^")
+    excerpt = [gutter + printable(text)]
+    if span.col > 0:  # under the column as shown: an escaped character before it is wider
+        before = len(printable(text[: span.col - 1])) + max(0, span.col - 1 - len(text))
+        excerpt.append(" " * (len(gutter) - 2) + "| " + " " * before + "^")
     return excerpt
 
 
 def format_plain(diagnostic: Diagnostic, *, excerpt: bool = True) -> list[str]:
-    """The lines of one diagnostic without colour (golden files use this)."""
+    """The lines of one diagnostic without colour (golden files use this), each printable."""
     where = f"{diagnostic.span}: " if diagnostic.span else ""
     head = f"{where}{diagnostic.severity.label}[{diagnostic.code} {diagnostic.name}]: {diagnostic.message}"
-    lines = [head]
+    lines = [printable(head)]
     if excerpt and diagnostic.span is not None:
         lines.extend(source_excerpt(diagnostic.span))
     for note in diagnostic.notes:
         at = f"{note.span}: " if note.span else ""
-        lines.append(f"  note: {at}{note.message}")
+        lines.append(printable(f"  note: {at}{note.message}"))
     if diagnostic.hint:
-        lines.append(f"  hint: {diagnostic.hint}")
+        lines.append(printable(f"  hint: {diagnostic.hint}"))
     return lines
 
 

@@ -46,11 +46,27 @@ def write_csv(
     columns = result_columns(result)
     with atomic_text(path) as stream:  # never half-written, never through a planted link
         stream.write(",".join(_quote(h) for h in header) + "\n")
-        if any(column.dtype.kind in "iu" for column in columns):
-            write_columns(stream, columns)  # rows formatted ahead hold float64: not used
-        else:
+        if all(_exact_as_float(column) for column in columns):
             write_rows(stream, result_table(result), ahead=ahead)
+        else:  # rows formatted ahead hold float64, which rounds these integers: not used
+            write_columns(stream, columns)
     return path
+
+
+#: Whole numbers up to this magnitude are exact float64 values, and a float64 whole number
+#: below 1e16 is written as its digits: such integer columns write the same text either way.
+_EXACT_WHOLE = 2**53
+
+
+def _exact_as_float(column: npt.NDArray[Any]) -> bool:
+    """Whether ``column`` writes the same text as float64 (:func:`format_rows`) as from its
+    own integers: a float column, or integers no larger than 2**53 in magnitude, so that a
+    system with 64-bit integer ports still uses the rows formatted ahead in the common case."""
+    if column.dtype.kind not in "iu" or column.size == 0:
+        return True
+    if column.dtype.kind == "u":
+        return int(column.max()) <= _EXACT_WHOLE
+    return int(column.min()) >= -_EXACT_WHOLE and int(column.max()) <= _EXACT_WHOLE
 
 
 def result_columns(result: RunResult) -> list[npt.NDArray[Any]]:

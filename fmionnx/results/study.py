@@ -10,7 +10,8 @@ Layout of ``DIR``::
     *.png                 summary plots
 
 The records are the durable progress: an interrupted study loses at most the cases under way,
-and ``--resume`` runs only the cases without a record. The table is built from the records
+and ``--resume`` runs only the cases without a record (a damaged one, not as a study writes
+it, is none: :func:`record_problem`). The table is built from the records
 alone, in case order, so a study run twice (or resumed) gives the same table -- apart from the
 ``wall_time`` and ``worker`` columns.
 
@@ -26,7 +27,7 @@ import contextlib
 import json
 import math
 import os
-from collections.abc import Iterator
+from collections.abc import Callable, Iterator
 from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
@@ -46,8 +47,8 @@ if TYPE_CHECKING:
 
 #: The ``format`` of ``study.json``.
 FORMAT = "fmionnx-study"
-#: A case's statuses (``fmionnx.backends.sweep.case.CaseStatus``); anything else a record
-#: says is taken as ``failed``.
+#: A case's statuses (``fmionnx.backends.sweep.case.CaseStatus``); a record saying anything
+#: else is damaged (:func:`record_problem`): its case runs again.
 STATUSES = ("ok", "fault", "timeout", "failed")
 #: Columns that differ between two runs of the same study.
 VOLATILE = ("wall_time", "worker")
@@ -126,7 +127,7 @@ class StudyFolder:
                         "wrote (its ownership record does not list that very file), so "
                         "--force deletes nothing there: choose a new or empty folder"
                     )
-                return None
+                return self._folder_in_the_way()
             if not resume:
                 return (
                     f"`{self.out}` already holds a study's results: --resume finishes it, "
@@ -145,7 +146,30 @@ class StudyFolder:
                 )
         elif self.out.exists() and any(self.out.iterdir()):
             return f"`{self.out}` is not empty and holds no study: choose a new or empty folder"
-        return None
+        return self._folder_in_the_way()
+
+    def _folder_in_the_way(self) -> str | None:
+        """Why the study cannot write a file it writes (None: it can), touching nothing: a
+        folder where a case's record (or kept results) goes, which no atomic write replaces.
+        Found after the case had run, it stopped the study with exit 1 (a bug hunt); it is
+        refused with the folder's other problems, before a cluster starts. A link there is
+        no problem: the write replaces the link, never writes through it."""
+        ids = {c.id for c in self.plan.cases}
+        found = [
+            f"{RECORDS}/{name}"
+            for name in _folders(self.out / RECORDS)
+            if name.endswith(".json") and name.removesuffix(".json") in ids
+        ]
+        for case in sorted(ids.intersection(_listing(self.out / CASES))):
+            folder = f"{CASES}/{case}"
+            found.extend(f"{folder}/{n}" for n in _folders(self.out / folder) if n in KEPT)
+        if not found:
+            return None
+        more = f" (and {len(found) - 1} more)" if len(found) > 1 else ""
+        return (
+            f"`{self.out / min(found)}`{more} is a folder where the study writes a file: "
+            "remove it or choose a new folder"
+        )
 
     def kept_in_the_way(self, *, resume: bool = False) -> str | None:
         """Why a study run with ``--force`` cannot start afresh here (None: it can), touching
@@ -232,14 +256,21 @@ class StudyFolder:
         }
 
     def finished(self) -> set[str]:
-        """Ids of the cases with a record of this plan."""
-        ids = {c.id for c in self.plan.cases}
-        done = set()
-        for path in self.records.glob("*.json"):
-            record = _read(path)
-            if record is not None and record["id"] in ids and path.stem == record["id"]:
-                done.add(record["id"])
-        return done
+        """Ids of the cases with a record of this plan that checks out (:meth:`read_record`);
+        any other case runs (again)."""
+        return {c.id for c in self.plan.cases if self.read_record(c.id) is not None}
+
+    def read_record(self, case: str) -> dict[str, Any] | None:
+        """Case ``case``'s record, or None where there is none this plan's study could have
+        written: missing, cut short, another case's, or not of the shape
+        :meth:`CaseOutcome.as_json` writes (:func:`record_problem`). Such a record is
+        damaged, and its case runs again on ``--resume``: a record edited to
+        ``"metrics": {"fy": "abc"}`` gave a row with ``fy`` empty and no reason, a
+        ``"status": "bogus"`` a made-up ``failed`` row that was never run again."""
+        record = _read(self.records / f"{case}.json")
+        if record is None or record["id"] != case or record_problem(record, self.plan):
+            return None
+        return record
 
     def record(self, outcome: CaseOutcome) -> None:
         """Write the case's record (and its results.csv when kept); atomic, so a record is
@@ -272,25 +303,24 @@ class StudyFolder:
         rows = []
         real = _real_targets(self.plan)
         for case in self.plan.cases:
-            record = _read(self.records / f"{case.id}.json")
+            record = self.read_record(case.id)  # checked: every field has its type
             if record is None:
                 continue
             row: dict[str, Any] = {"case": case.id}
             for setting in case.settings:
                 value = _real(setting.value) if setting.target in real else setting.value
                 row[setting.target] = _cell(value)
-            metrics = _mapping(record.get("metrics"))
+            metrics = record.get("metrics", {})
             for metric in self.plan.metrics:
                 row[metric.name] = _number(metrics.get(metric.name))
-            checks = _mapping(record.get("checks"))
+            checks = record.get("checks", {})
             for name in self.plan.check_names:
                 row[CHECK_PREFIX + name] = checks.get(name) is True
-            status = record.get("status")
-            row["status"] = status if status in STATUSES else "failed"
+            row["status"] = record["status"]
             empty = [m.name for m in self.plan.metrics if math.isnan(row[m.name])]
             row["message"] = _clean(_message(record, empty))
             row["wall_time"] = _number(record.get("wall_time", 0.0))
-            row["worker"] = _clean(str(record.get("worker", "")))
+            row["worker"] = _clean(record.get("worker", ""))
             rows.append(tuple(row.get(name, math.nan) for name in columns))
         return CaseTable(columns, tuple(rows))
 
@@ -319,6 +349,18 @@ def _listing(folder: Path) -> list[str]:
         return []
     try:
         return [entry.name for entry in os.scandir(folder)]
+    except OSError:
+        return []
+
+
+def _folders(folder: Path) -> list[str]:
+    """The names of the folders in ``folder`` (not links to one); none when it is missing,
+    a link or not a folder."""
+    if folder.is_symlink() or not folder.is_dir():
+        return []
+    try:
+        with os.scandir(folder) as entries:
+            return [e.name for e in entries if e.is_dir(follow_symlinks=False)]
     except OSError:
         return []
 
@@ -429,6 +471,81 @@ def _read(path: Path) -> dict[str, Any] | None:
     if isinstance(data, dict) and isinstance(data.get("id"), str):
         return data
     return None
+
+
+def record_problem(record: dict[str, Any], plan: StudyPlan) -> str | None:
+    """Why ``record`` is not one ``plan``'s study writes (None: it is one).
+
+    What :meth:`CaseOutcome.as_json` writes: a known ``status``; text for ``message`` and
+    ``worker``; a finite number for ``wall_time`` and ``started``; the study's metrics, each
+    a finite number, ``"inf"``, ``"-inf"`` or null with a note saying why (all of them, but
+    for a case that could not run, which measured none); the system's checks, each true or
+    false; notes in text, on the study's metrics and checks. A field may be missing (a
+    record of an earlier version has no ``started``): the table takes its default."""
+    status = record.get("status")
+    if status not in STATUSES:
+        return f"an unknown status `{status}`"
+    wrong = [name for name, fits in _FIELDS.items() if name in record and not fits(record[name])]
+    if wrong:
+        return f"`{wrong[0]}` is not {_FIELD_TYPES[wrong[0]]}"
+    metrics, checks = record.get("metrics", {}), record.get("checks", {})
+    notes = record.get("notes", {})
+    names = {m.name for m in plan.metrics}
+    unknown = sorted(set(metrics) - names) or sorted(set(checks) - set(plan.check_names))
+    unknown = unknown or sorted(set(notes) - names - set(plan.check_names))
+    if unknown:
+        return f"`{unknown[0]}` is none of the study's metrics and checks"
+    if status != "failed" and set(metrics) != names:
+        return f"the metric `{sorted(names - set(metrics))[0]}` is missing"
+    unexplained = sorted(n for n, v in metrics.items() if v is None and n not in notes)
+    if unexplained:
+        return f"the metric `{unexplained[0]}` has no value and no note saying why"
+    return None
+
+
+def _finite(value: object) -> bool:
+    """A JSON number a float holds, finite (never a boolean, which JSON keeps apart)."""
+    if isinstance(value, bool) or not isinstance(value, int | float):
+        return False
+    try:
+        return math.isfinite(value)
+    except OverflowError:  # an integer of hundreds of digits (JSON allows it)
+        return False
+
+
+def _metric_value(value: object) -> bool:
+    return value is None or value in INFINITIES or _finite(value)
+
+
+def _mapping_of(fits: Callable[[object], bool]) -> Callable[[object], bool]:
+    """Whether a value is a JSON object whose every value ``fits``."""
+
+    def check(value: object) -> bool:
+        return isinstance(value, dict) and all(fits(v) for v in value.values())
+
+    return check
+
+
+#: A record's fields besides ``id`` and ``status``, each with the test its value passes.
+_FIELDS: dict[str, Callable[[object], bool]] = {
+    "message": lambda v: isinstance(v, str),
+    "worker": lambda v: isinstance(v, str),
+    "wall_time": lambda v: _finite(v) and isinstance(v, int | float) and v >= 0,
+    "started": _finite,
+    "metrics": _mapping_of(_metric_value),
+    "checks": _mapping_of(lambda v: isinstance(v, bool)),
+    "notes": _mapping_of(lambda v: isinstance(v, str)),
+}
+#: What each of :data:`_FIELDS` is, for :func:`record_problem`'s reason.
+_FIELD_TYPES = {
+    "message": "text",
+    "worker": "text",
+    "wall_time": "a number of seconds",
+    "started": "a number",
+    "metrics": "the metrics' values",
+    "checks": "the checks' verdicts",
+    "notes": "notes in text",
+}
 
 
 def _read_description(path: Path) -> dict[str, Any]:

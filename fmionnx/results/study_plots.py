@@ -9,7 +9,9 @@
 Cases that did not complete are drawn as missing (a grey cell, a cross), never as a value,
 and say why (their status); a case that completed but whose metric has no value (a
 ``first_time`` whose condition never held) is drawn the same way, labelled ``no value``. Axes
-and colour bars carry the targets' and metrics' units (:mod:`.study_units`).
+and colour bars carry the targets' and metrics' units (:mod:`.study_units`). A target that is
+no number (text, an array, booleans) has no axis: each figure names it in a note at its foot,
+and a metric's points are joined by a line only when the study has one target, drawn or not.
 """
 
 from __future__ import annotations
@@ -17,6 +19,8 @@ from __future__ import annotations
 import functools
 import math
 import re
+import textwrap
+from dataclasses import dataclass
 from pathlib import Path
 from typing import TYPE_CHECKING, Any
 
@@ -53,19 +57,71 @@ def study_drawings(table: CaseTable, plan: StudyPlan, out: Path) -> list[Drawing
         return []
     units = plan_units(plan)
     names = {name: labelled(name, unit) for name, unit in units.items()}
+    left_out = _left_out(table, plan, numeric)
     found: list[Drawing] = []
     for metric in plan.plotted_metrics:  # at most PLOTTED_METRICS (W100 says so)
         draw = _heatmap if len(numeric) == 2 and _is_grid(table, numeric) else _against
-        found.append(functools.partial(draw, table, numeric, metric.name, names, out))
+        found.append(
+            functools.partial(draw, table, numeric, metric.name, names, out, left_out=left_out)
+        )
     if plan.check_names:
-        found.append(functools.partial(_passfail, table, numeric, plan, names, out))
+        found.append(
+            functools.partial(_passfail, table, numeric, plan, names, out, left_out=left_out)
+        )
     return found
 
 
+@dataclass(frozen=True)
+class LeftOut:
+    """The study's targets no axis shows (text, arrays, booleans): how many, and the note
+    that names them under each figure."""
+
+    count: int = 0
+    note: str = ""
+
+    def say(self, figure: Any) -> None:
+        """Say under ``figure`` which targets it does not show, as a figure says what else it
+        leaves out (a case without a value, an infinite value): a text or an array target
+        was dropped without a word, its cases drawn as if they were repeats (a bug hunt)."""
+        if self.note:  # in lines the figure's width holds (long target names make long ones)
+            text = textwrap.fill(self.note, width=int(figure.get_figwidth() * CHARS_PER_INCH))
+            figure.supxlabel(text, fontsize="small", color="tab:grey", gid=LEFT_OUT)
+
+
+#: Every target drawn.
+NOTHING = LeftOut()
 #: What a case that completed without a value for a metric is labelled.
 NO_VALUE = "no value"
 #: The columns drawn on an axis: numbers (a column of booleans or text is not one).
 NUMERIC = ("int", "uint", "float")
+
+#: The ``gid`` of a figure's note on the targets it does not show.
+LEFT_OUT = "targets not drawn"
+#: How many targets a note names before it counts the rest.
+NAMED = 4
+#: Characters of the note (matplotlib's "small" font) that an inch of figure holds.
+CHARS_PER_INCH = 15
+
+
+def _left_out(table: CaseTable, plan: StudyPlan, numeric: list[str]) -> LeftOut:
+    """The targets no axis shows, named (the first :data:`NAMED` of them)."""
+    dropped = [t for t in plan.targets if t not in numeric]
+    if not dropped:
+        return NOTHING
+    values = plan.cases[0].values() if plan.cases else {}
+    named = [f"{t} ({_what(values.get(t), table.kind(t))})" for t in dropped[:NAMED]]
+    rest = f" and {len(dropped) - NAMED} more" if len(dropped) > NAMED else ""
+    note = "not drawn, not numbers: " + ", ".join(named) + rest + " (the table has them)"
+    return LeftOut(len(dropped), note)
+
+
+def _what(value: object, kind: str) -> str:
+    """What a target that is not a number holds, in a word."""
+    if isinstance(value, tuple):
+        return "an array"
+    if kind == "bool" or isinstance(value, bool):
+        return "booleans"
+    return "text" if kind == "text" else "mixed values"
 
 
 def _is_grid(table: CaseTable, targets: list[str]) -> bool:
@@ -101,7 +157,13 @@ def _inf(value: float) -> str:
 
 
 def _heatmap(
-    table: CaseTable, targets: list[str], metric: str, names: dict[str, str], out: Path
+    table: CaseTable,
+    targets: list[str],
+    metric: str,
+    names: dict[str, str],
+    out: Path,
+    *,
+    left_out: LeftOut = NOTHING,
 ) -> Path:
     import numpy as np
     from matplotlib import colormaps
@@ -134,11 +196,18 @@ def _heatmap(
             why = (NO_VALUE if status == "ok" else status) if math.isnan(value) else _inf(value)
             col, row = columns.index(x), rows.index(y)
             axes.text(col, row, why, ha="center", va="center", color="tab:red", fontsize=8, gid=why)
+    left_out.say(figure)
     return save_figure(figure, out / _file("heatmap", metric))
 
 
 def _against(
-    table: CaseTable, targets: list[str], metric: str, names: dict[str, str], out: Path
+    table: CaseTable,
+    targets: list[str],
+    metric: str,
+    names: dict[str, str],
+    out: Path,
+    *,
+    left_out: LeftOut = NOTHING,
 ) -> Path:
     figure, axes = new_figure_plain(ncols=len(targets))
     panels = axes if len(targets) > 1 else [axes]
@@ -154,7 +223,9 @@ def _against(
     for panel, target in zip(panels, targets, strict=True):
         xs = _numbers(table, target)
         order = sorted(range(len(xs)), key=xs.__getitem__)  # stable: ties in case order
-        style = "o-" if len(targets) == 1 else "o"
+        # A line joins cases that differ in this target alone: only when the study has no
+        # other target, drawn or not (a text target's cases zigzagged along one line).
+        style = "o-" if len(targets) + left_out.count == 1 else "o"
         panel.plot([xs[i] for i in order], [finite[i] for i in order], style)
         for cases, marker, height, colour, label in (
             (incomplete, "x", 0.03, "tab:red", "did not complete"),
@@ -173,11 +244,18 @@ def _against(
         panel.set_ylabel(names.get(metric, metric))
         panel.grid(visible=True, alpha=0.3)
     figure.suptitle(metric)
+    left_out.say(figure)
     return save_figure(figure, out / _file("metric", metric))
 
 
 def _passfail(
-    table: CaseTable, targets: list[str], plan: StudyPlan, names: dict[str, str], out: Path
+    table: CaseTable,
+    targets: list[str],
+    plan: StudyPlan,
+    names: dict[str, str],
+    out: Path,
+    *,
+    left_out: LeftOut = NOTHING,
 ) -> Path:
     checks = [table.column(CHECK_PREFIX + n) for n in plan.check_names]
     statuses = table.column("status")
@@ -202,4 +280,5 @@ def _passfail(
     axes.set_title("checks: " + ", ".join(plan.check_names))
     axes.legend(loc="best")
     axes.grid(visible=True, alpha=0.3)
+    left_out.say(figure)
     return save_figure(figure, out / "passfail.png")

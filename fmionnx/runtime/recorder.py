@@ -66,13 +66,30 @@ class Track:
     #: the guardian needs to take back rows after a crash as the parallel master does.
     place: int = -1
     outputs: bool = False
+    #: The one name a port of a size known only at run time was given, by the columns its
+    #: buffer fills (see :meth:`add`).
+    widened: dict[str, list[str]] = field(default_factory=dict)
 
     def add(self, names: list[str], view: Buffer) -> None:
         """Record ``view`` (flat) under ``names``, one column per element; a 64-bit integer
         view also under :func:`exact_column`'s names, by its bytes (see the module)."""
+        names = self._sized(names, view)
         self._add(names, view)
         if is_exact_integer(view.dtype):
             self._add([exact_column(n, view.dtype) for n in names], view.view(np.float64))
+
+    def _sized(self, names: list[str], view: Buffer) -> list[str]:
+        """``names``, or the flat names of every element of ``view`` when ``names`` is the
+        one column a port with a dimension known only at run time is named by before the run
+        (``comp.port[0]``, :func:`fmionnx.core.signals.column_names`) and its buffer holds
+        another count: an ONNX output ``[batch, 3]`` whose ``batch`` the inputs fixed. One
+        column for three values crashed the first sample (a bug hunt)."""
+        if len(names) != 1 or view.size == 1 or not names[0].endswith("[0]"):
+            return names
+        stem = names[0][: -len("[0]")]
+        wide = [f"{stem}[{i}]" for i in range(view.size)]
+        self.widened[names[0]] = wide
+        return wide
 
     def _add(self, names: list[str], view: Buffer) -> None:
         start = len(self.columns)
@@ -143,7 +160,9 @@ class Recorder:
             values = track.rows[rows]
             for column, name in enumerate(track.columns):
                 out[name] = values[:, column]
-        table = {name: out[name] for name in self.order if name in out}
+        widened = {one: wide for track in self.tracks for one, wide in track.widened.items()}
+        order = [name for one in self.order for name in widened.get(one, [one])]
+        table = {name: out[name] for name in order if name in out}
         if len(out) > len(table):  # columns beside the signals: 64-bit integers' bytes
             for key, values in out.items():
                 if key.startswith(EXACT_MARK):

@@ -81,11 +81,21 @@ class ConnectionSpec(StrictModel):
 
 
 def split_connection(text: str) -> tuple[str, str] | None:
-    """Split ``"a.b -> c.d"`` into its two endpoint texts, or None when there is no arrow."""
-    if text.count(ARROW) != 1:
+    """Split ``"a.b -> c.d"`` into its two endpoint texts, or None without exactly one arrow.
+
+    An arrow inside a quoted port name (``t."a->b"``, see ``ENDPOINT_RE``) is part of the name.
+    Unbalanced quotes quote nothing: the endpoint with the stray quote is then the error.
+    """
+    balanced = text.count('"') % 2 == 0
+    arrows = [
+        at
+        for at in range(len(text))
+        if text.startswith(ARROW, at) and (not balanced or text.count('"', 0, at) % 2 == 0)
+    ]
+    if len(arrows) != 1:
         return None
-    left, right = text.split(ARROW)
-    return left.strip(), right.strip()
+    (at,) = arrows
+    return text[:at].strip(), text[at + len(ARROW) :].strip()
 
 
 class InputTargetSpec(StrictModel):

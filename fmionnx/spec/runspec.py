@@ -19,8 +19,13 @@ from fmionnx.core.steps import step_problem
 #: ``name.more[3]``: a dotted name with an optional element index (``[0]`` or ``[0,2]``).
 #: Which prefix is the component is decided by the compiler from the known component names
 #: (SSP nested systems give dotted component names; Modelica FMUs give dotted port names).
+#: A port whose name is no dotted word (PyTorch's ONNX names ``input.1`` and ``12``, a
+#: camera ``a b``, FMI 2's ``medium[1].T``) is written between double quotes after its
+#: component, ``t."input.1"[0]`` (group ``quoted``, the text before it group ``owner``): the
+#: quotes hold the whole port name, which needs no escapes and so cannot itself hold ``"``.
 ENDPOINT_RE = re.compile(
-    r"^\s*(?P<name>[A-Za-z_][\w:-]*(?:\.[A-Za-z_$][\w:$-]*)+)"
+    r"^\s*(?:(?P<name>[A-Za-z_][\w:-]*(?:\.[A-Za-z_$][\w:$-]*)+)"
+    r'|(?P<owner>[A-Za-z_][\w:-]*(?:\.[A-Za-z_$][\w:$-]*)*)\."(?P<quoted>[^"]+)")'
     r"(?:\[(?P<index>\s*\d+\s*(?:,\s*\d+\s*)*)\])?\s*$"
 )
 

@@ -41,9 +41,24 @@ MIME_BY_KIND = {kind: mime for mime, kind in KIND_BY_MIME.items()}
 INTERFACE_BY_IMPLEMENTATION = {"CoSimulation": "cs", "ModelExchange": "me"}
 #: Keys of the component spec that come from SSD elements, never from our annotation.
 _STRUCTURAL_KEYS = ("kind", "path")
+#: System annotation key: root connectors that stay system inputs although a value is bound
+#: to them (``fmionnx export`` writes an ``inputs:`` entry with a ``value`` and ports so).
+BOUND_INPUTS = "bound_inputs"
+#: Component annotation key: the component's parameter names in the order written, when its
+#: values come from both the ``.ssv`` and the annotation.
+PARAMETER_ORDER = "parameter_order"
 #: Keys our system-level annotation may carry (``inputs``: values of system inputs that an
 #: ``.ssv`` cannot hold, by input name).
-SYSTEM_ANNOTATION_KEYS = ("description", "run", "record", "plots", "checks", "ros2", "inputs")
+SYSTEM_ANNOTATION_KEYS = (
+    "description",
+    "run",
+    "record",
+    "plots",
+    "checks",
+    "ros2",
+    "inputs",
+    BOUND_INPUTS,
+)
 
 
 def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
@@ -78,8 +93,12 @@ def load_ssp_system(path: Path, bag: DiagnosticBag) -> LoadedSpec:
         return LoadedSpec(None, sources, path)
     report_unread(tree, ssd, bag)
     document = read_document(tree)
-    flat = flatten(document, ssd, root, bag)
-    data = _system_data(document, flat, ssd, root, sources, bag)
+    annotation = _system_annotation(document, ssd, bag)
+    names = _bound_inputs(annotation, document, ssd, bag)
+    flat = flatten(document, ssd, root, bag, names or frozenset())
+    data = None
+    if annotation is not None and names is not None:
+        data = _system_data(document, annotation, flat, ssd, root, sources, bag)
     if data is None or _errors(bag) > errors_before:
         return LoadedSpec(None, sources, path)
     try:
@@ -109,6 +128,50 @@ def _json_object(annotation: Annotation, ssd: Path, bag: DiagnosticBag) -> dict[
     return value
 
 
+def _annotation_span(document: Document, ssd: Path) -> Span:
+    where = document.annotation.line if document.annotation is not None else document.line
+    return Span(ssd, where)
+
+
+def _system_annotation(document: Document, ssd: Path, bag: DiagnosticBag) -> dict[str, Any] | None:
+    """The SSD's ``org.fmionnx`` object (``{}`` without one); None: invalid (E003/E002)."""
+    if document.annotation is None:
+        return {}
+    parsed = _json_object(document.annotation, ssd, bag)
+    if parsed is None:
+        return None
+    for key in parsed:
+        if key not in SYSTEM_ANNOTATION_KEYS:
+            bag.emit(
+                codes.UNKNOWN_KEY,
+                f"unknown key `{key}` in the system's `org.fmionnx` annotation",
+                _annotation_span(document, ssd),
+                hint=f"expected one of {', '.join(SYSTEM_ANNOTATION_KEYS)}",
+            )
+            return None
+    return parsed
+
+
+def _bound_inputs(
+    annotation: dict[str, Any] | None, document: Document, ssd: Path, bag: DiagnosticBag
+) -> frozenset[str] | None:
+    """The root connectors the annotation keeps as system inputs; None: not a list (E003).
+
+    Read before flattening, which needs them: a bound root connector is otherwise a value
+    flowing to the ports it reaches, as other tools mean it.
+    """
+    names = (annotation or {}).get(BOUND_INPUTS, [])
+    if not isinstance(names, list) or not all(isinstance(n, str) for n in names):
+        bag.emit(
+            codes.INVALID_VALUE,
+            f"`{BOUND_INPUTS}` in the system's `org.fmionnx` annotation must list system "
+            "input names",
+            _annotation_span(document, ssd),
+        )
+        return None
+    return frozenset(names)
+
+
 def system_name(text: str, span: Span, bag: DiagnosticBag) -> str:
     """The SSD name as a system-file name (``[A-Za-z_][\\w-]*``), warning when changed."""
     name = re.sub(r"[^\w-]", "_", text) or "system"
@@ -121,6 +184,7 @@ def system_name(text: str, span: Span, bag: DiagnosticBag) -> str:
 
 def _system_data(
     document: Document,
+    annotation: dict[str, Any],
     flat: FlatSystem,
     ssd: Path,
     root: Path | None,
@@ -129,23 +193,10 @@ def _system_data(
 ) -> dict[str, Any] | None:
     top = Span(ssd, document.line)
     sources.record((), top)
-    annotation: dict[str, Any] = {}
-    annotation_span = top
-    if document.annotation is not None:
-        annotation_span = Span(ssd, document.annotation.line)
-        parsed = _json_object(document.annotation, ssd, bag)
-        if parsed is None:
-            return None
-        annotation = parsed
+    annotation = dict(annotation)
+    annotation.pop(BOUND_INPUTS, None)  # used by flattening already
+    annotation_span = _annotation_span(document, ssd)
     for key in annotation:
-        if key not in SYSTEM_ANNOTATION_KEYS:
-            bag.emit(
-                codes.UNKNOWN_KEY,
-                f"unknown key `{key}` in the system's `org.fmionnx` annotation",
-                annotation_span,
-                hint=f"expected one of {', '.join(SYSTEM_ANNOTATION_KEYS)}",
-            )
-            return None
         sources.record((key,), annotation_span, annotation_span)
     run: dict[str, Any] = {}
     if document.start is not None:
@@ -190,7 +241,10 @@ def _system_data(
         return None
     if inputs:
         sources.record(("inputs",), Span(ssd, document.root.line))
-        data["inputs"] = inputs
+        # In the order their connectors are declared (the order the file's author, or the
+        # system file `fmionnx export` wrote, gave them), whatever set their values.
+        last = len(flat.declared)
+        data["inputs"] = dict(sorted(inputs.items(), key=lambda i: flat.declared.get(i[0], last)))
     return data
 
 
@@ -241,11 +295,20 @@ def _component(
         entry["interface"] = INTERFACE_BY_IMPLEMENTATION[element.implementation]
         sources.record((*key, "interface"), span, span)
     parameters: dict[str, Any] = {}
+    order: list[str] = []
     if element.annotation is not None:
         options = _json_object(element.annotation, ssd, bag)
         if options is None:
             return None
         option_span = Span(ssd, element.annotation.line)
+        order = options.pop(PARAMETER_ORDER, [])
+        if not isinstance(order, list) or not all(isinstance(n, str) for n in order):
+            bag.emit(
+                codes.INVALID_VALUE,
+                f"`{PARAMETER_ORDER}` of component `{name}` must list parameter names",
+                option_span,
+            )
+            return None
         for option in options:
             if option in _STRUCTURAL_KEYS:
                 bag.emit(
@@ -271,10 +334,22 @@ def _component(
         if value.unit is not None:
             sources.units[(*key, "parameters", parameter)] = value.unit
     if parameters:
-        entry["parameters"] = parameters
+        entry["parameters"] = _in_order(parameters, order)
         if (*key, "parameters") not in sources.spans:
             sources.record((*key, "parameters"), span, span)
     return entry
+
+
+def _in_order(parameters: dict[str, Any], order: list[str]) -> dict[str, Any]:
+    """``parameters`` in the annotation's ``order`` (the system file's), others after it.
+
+    The ``.ssv`` and the annotation each hold some of a component's values; the order of a
+    component's parameters is part of its compiled system, so it is restored as written.
+    A name the order lists but no binding sets (removed by another tool) is skipped.
+    """
+    ranks = {name: rank for rank, name in enumerate(order)}
+    last = len(ranks)
+    return dict(sorted(parameters.items(), key=lambda item: ranks.get(item[0], last)))
 
 
 def _inputs(flat: FlatSystem, ssd: Path, sources: SourceMap, bag: DiagnosticBag) -> dict[str, Any]:

@@ -49,11 +49,14 @@ def bind_parameters(
     root: Path | None,
     parameters: Parameters,
     kept: dict[Pin, BoundValue] | None = None,
+    inputs: frozenset[str] = frozenset(),
 ) -> set[Pin]:
     """Fill ``parameters`` (component -> name -> value); return the system connectors set.
 
-    ``kept`` receives the values bound to root-system connectors that lead to no component
-    connector (they stay system inputs with that value).
+    ``kept`` receives the values bound to root-system connectors that stay system inputs
+    with that value: those that lead to no component connector, and those named in
+    ``inputs`` (our annotation's ``bound_inputs``: an exported ``inputs:`` entry with a
+    value and ports, whose value the compiler sets on its ports as for a system file).
     """
     bound: set[Pin] = set()
     # Innermost first, so that outer bindings (applied later) override them.
@@ -63,7 +66,7 @@ def bind_parameters(
                 if not element.is_system:
                     _set(parameters, ".".join(path), value)
                     continue
-                pin = _assign(graph, path, element, value, parameters, kept)
+                pin = _assign(graph, path, element, value, parameters, kept, inputs)
                 if pin is not None:
                     bound |= _downstream(graph, pin)
     return bound
@@ -84,6 +87,7 @@ def _assign(
     value: BoundValue,
     parameters: Parameters,
     kept: dict[Pin, BoundValue] | None = None,
+    inputs: frozenset[str] = frozenset(),
 ) -> Pin | None:
     """Set ``value`` bound on the system at ``path``; the system connector it set, if any."""
     target = _resolve(graph, path, value.name)
@@ -102,6 +106,9 @@ def _assign(
         _set(parameters, ".".join(pin[0]), replace(value, name=pin[1]))
         return None
     value = _in_connector_unit(graph, pin, value)
+    if kept is not None and _stays_input(graph, pin, value, inputs):
+        kept[pin] = value  # the compiler sets the ports it reaches, as for a system file
+        return pin
     reached = graph.reach_from(pin)
     if not reached and not pin[0] and kept is not None and not graph.broken:
         kept[pin] = value  # a top-level connector bound to a value: a system input
@@ -120,6 +127,21 @@ def _assign(
             carried = replace(value, name=end.pin[1], value=result, via_connection=True)
             _set(parameters, component, carried)
     return pin
+
+
+def _stays_input(graph: SystemGraph, pin: Pin, value: BoundValue, inputs: frozenset[str]) -> bool:
+    """Whether a value bound to ``pin`` is the value of a system input named in ``inputs``.
+
+    Only a root connector that nothing drives, whose value needs no unit conversion by the
+    compiler (a system input's value has no unit): otherwise the value flows on as any other.
+    """
+    return (
+        not pin[0]
+        and pin[1] in inputs
+        and value.unit is None
+        and not graph.into.get(pin)
+        and not graph.broken
+    )
 
 
 def _in_connector_unit(graph: SystemGraph, pin: Pin, value: BoundValue) -> BoundValue:

@@ -17,17 +17,22 @@ Values bound to components and to system connectors are resolved by
 input (``conn`` on the root system, ``sub.conn`` on a nested one) whose value the command line
 can set (``--param conn=1``) and that reaches the component connectors at the ends of its
 chains, transformations included. A root connector bound to a value and connected to nothing
-becomes a system input holding that value (no targets), as OMSimulator keeps it.
+becomes a system input holding that value (no targets), as OMSimulator keeps it; so does a
+bound root connector that our annotation names (``bound_inputs``: an exported ``inputs:`` entry
+with a value and ports), with its targets. System inputs are listed in the order their
+connectors are declared.
 """
 
 from __future__ import annotations
 
+import re
 from collections import defaultdict
 from dataclasses import dataclass, field
 from pathlib import Path
 
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span
+from fmionnx.spec.runspec import ENDPOINT_RE
 from fmionnx.spec.ssp_bind import bind_parameters
 from fmionnx.spec.ssp_graph import Pin, Reached, SystemGraph, pin_text, system_text
 from fmionnx.spec.ssp_names import fmi_to_port_label
@@ -80,6 +85,9 @@ class FlatSystem:
     connections: list[FlatConnection] = field(default_factory=list)
     parameters: dict[str, dict[str, BoundValue]] = field(default_factory=lambda: defaultdict(dict))
     inputs: dict[str, FlatInput] = field(default_factory=dict)
+    #: Every system connector (``conn``, ``sub.conn``) -> its rank in the document: system
+    #: inputs are listed in this order.
+    declared: dict[str, int] = field(default_factory=dict)
 
 
 def endpoint_text(graph: SystemGraph, pin: Pin, line: int) -> str | None:
@@ -96,7 +104,16 @@ def endpoint_text(graph: SystemGraph, pin: Pin, line: int) -> str | None:
             )
             return None
         label = shifted
-    return ".".join(pin[0]) + "." + label
+    text = ".".join(pin[0]) + "." + label
+    if ENDPOINT_RE.match(text) is None and '"' not in label:  # `input.1`, `front left`
+        index = _TRAILING_INDEX.search(label)
+        name, tail = (label, "") if index is None else (label[: index.start()], index.group())
+        text = ".".join(pin[0]) + f'."{name}"{tail}'  # the port named whole, in quotes
+    return text
+
+
+#: The element index at the end of a connector's name (``12[1]``: ``[1]``).
+_TRAILING_INDEX = re.compile(r"\[\d+(?:,\d+)*\]$")
 
 
 def _flatten_connections(graph: SystemGraph, flat: FlatSystem) -> set[Pin]:
@@ -157,19 +174,39 @@ def _target(graph: SystemGraph, reached: Reached) -> FlatTarget | None:
     return FlatTarget(endpoint, reached.factor, reached.offset, reached.line)
 
 
-def flatten(document: Document, ssd: Path, root: Path | None, bag: DiagnosticBag) -> FlatSystem:
-    """Flatten ``document``; problems go into ``bag``."""
+def flatten(
+    document: Document,
+    ssd: Path,
+    root: Path | None,
+    bag: DiagnosticBag,
+    bound_inputs: frozenset[str] = frozenset(),
+) -> FlatSystem:
+    """Flatten ``document``; problems go into ``bag``.
+
+    ``bound_inputs`` names root connectors that stay system inputs with the value bound to
+    them (our annotation says so): see :func:`fmionnx.spec.ssp_bind.bind_parameters`.
+    """
     if not _unique_names(document, ssd, bag):
         return FlatSystem()  # the elements cannot be told apart: nothing to flatten
     graph = SystemGraph(document, ssd, bag)
     flat = FlatSystem()
     for path, element in graph.components.items():
         flat.components[".".join(path)] = element
+    flat.declared = {
+        pin_text(pin): rank
+        for rank, pin in enumerate(pin for pin in graph.connectors if graph.is_system_pin(pin))
+    }
     driven = _flatten_connections(graph, flat)
     kept: dict[Pin, BoundValue] = {}
-    bound = bind_parameters(graph, root, flat.parameters, kept)
+    bound = bind_parameters(graph, root, flat.parameters, kept, bound_inputs)
     for pin, value in kept.items():
-        flat.inputs[pin_text(pin)] = FlatInput(pin_text(pin), graph.connectors[pin].line, (), value)
+        targets = (_target(graph, r) for r in graph.reach_from(pin))
+        flat.inputs[pin_text(pin)] = FlatInput(
+            pin_text(pin),
+            graph.connectors[pin].line,
+            tuple(t for t in targets if t is not None),
+            value,
+        )
     _open_connectors(graph, driven | bound, flat)
     _check_duplicates(flat, ssd, bag)
     return flat

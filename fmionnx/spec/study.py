@@ -17,9 +17,17 @@ from __future__ import annotations
 import math
 from dataclasses import dataclass
 from pathlib import Path
-from typing import Any, Literal
+from typing import Annotated, Any, Literal, TypeGuard
 
-from pydantic import Field, ValidationError, field_validator, model_validator
+from pydantic import (
+    BeforeValidator,
+    Field,
+    ModelWrapValidatorHandler,
+    PrivateAttr,
+    ValidationError,
+    field_validator,
+    model_validator,
+)
 
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Span
@@ -30,17 +38,98 @@ from fmionnx.spec.pydantic_errors import report_validation_error
 from fmionnx.spec.sourcemap import SourceMap
 from fmionnx.spec.yaml import parse_yaml, read_text
 
+#: Significant digits kept of generated numbers (a range's, a sample's): tidy tables, the same
+#: cases on every machine. Numbers the study file writes are kept as written.
+GENERATED_DIGITS = 12
+
+
+def _not_null(value: object) -> object:
+    """Refuse ``null`` before the union of scalars does, whose last member's complaint ("a
+    valid boolean") says nothing of what is wrong."""
+    if value is None:
+        msg = "null is not a value: write a number, `true`/`false` or a text (quoted)"
+        raise ValueError(msg)
+    return value
+
+
+#: One value of a study's list, never null.
+StudyScalar = Annotated[ScalarLiteral, BeforeValidator(_not_null)]
 #: A parameter value a study may try: a scalar or a flat list (an array parameter).
-StudyValue = ScalarLiteral | list[ScalarLiteral]
+StudyValue = Annotated[StudyScalar | list[StudyScalar], BeforeValidator(_not_null)]
+
+
+def _integer(value: object) -> TypeGuard[int]:
+    """Whether ``value`` was written as an integer (``true`` is not one)."""
+    return isinstance(value, int) and not isinstance(value, bool)
+
+
+def tidy(value: float) -> float:
+    """``value`` rounded to :data:`GENERATED_DIGITS` significant digits (a generated number)."""
+    return float(f"{value:.{GENERATED_DIGITS}g}")
+
+
+def between(start: float, stop: float, fraction: float) -> float:
+    """The number ``fraction`` of the way from ``start`` to ``stop``, never overflowing where
+    both are finite (``start + (stop - start) * fraction`` is infinite from ``-1e308`` to
+    ``1e308``), and ``start``/``stop`` exactly at 0 and 1."""
+    if fraction == 1:
+        return stop
+    return start * (1 - fraction) + stop * fraction
+
+
+def within(value: float, low: float, high: float) -> float:
+    """``value`` (a generated number) tidied, unless tidying takes it out of ``[low, high]``;
+    kept inside it either way (a last rounding of the sum can step past a bound)."""
+    tidied = tidy(value)
+    chosen = tidied if low <= tidied <= high else value
+    return min(max(chosen, low), high)
 
 
 class RangeSpec(StrictModel):
     """``num`` evenly spaced numbers from ``start`` to ``stop`` (both included)."""
 
+    # The docstring above is the schema's description (``schemas/study.schema.json``).
+
     model_config = StrictModel.model_config | {"allow_inf_nan": False}
     start: float = Field(description="First value.")
     stop: float = Field(description="Last value (included).")
     num: int = Field(ge=1, le=100_000, description="How many values (at least 1).")
+    #: ``start`` and ``stop`` as written when both are integers (exact, however large).
+    _whole: tuple[int, int] | None = PrivateAttr(default=None)
+
+    @model_validator(mode="wrap")
+    @classmethod
+    def _written_whole(cls, data: Any, handler: ModelWrapValidatorHandler[RangeSpec]) -> RangeSpec:
+        """Keep ``start`` and ``stop`` as written when both are integers: the fields are
+        floats (a large integer is not exact as one, and ``0`` is then ``0.0``)."""
+        made = handler(data)
+        if isinstance(data, dict):
+            start, stop = data.get("start"), data.get("stop")
+            if _integer(start) and _integer(stop):
+                made._whole = (start, stop)
+        return made
+
+    def numbers(self) -> list[float] | list[int]:
+        """The range's numbers: ``start`` and ``stop`` as written, those between generated
+        (rounded to :data:`GENERATED_DIGITS` digits, within the range).
+
+        ``start`` and ``stop`` written as integers, with every number between them whole,
+        give integers (``{start: 0, stop: 10, num: 11}``: 0, 1, ... 10), as the same numbers
+        written as a list do: an integer parameter takes them, a float one converts them (a
+        bug hunt: an integer parameter could not be varied by a range at all)."""
+        if self._whole is not None:
+            first, last = self._whole
+            steps = max(self.num - 1, 1)
+            if (last - first) % steps == 0:
+                return [first + (last - first) // steps * i for i in range(self.num)]
+        if self.num == 1:
+            return [self.start]
+        low, high = sorted((self.start, self.stop))
+        inner = [
+            within(between(self.start, self.stop, i / (self.num - 1)), low, high)
+            for i in range(1, self.num - 1)
+        ]
+        return [self.start, *inner, self.stop]
 
 
 class BoundsSpec(StrictModel):
@@ -126,10 +215,7 @@ class AxisSpec(StrictModel):
         if self.list_ is not None:
             return list(self.list_)
         if self.range is not None:
-            r = self.range
-            if r.num == 1:
-                return [r.start]
-            return [r.start + (r.stop - r.start) * i / (r.num - 1) for i in range(r.num)]
+            return list(self.range.numbers())
         return []
 
 

@@ -109,7 +109,7 @@ def test_overrides_through_the_api(system: Path) -> None:
         (["--step", "-1"], "--step -1.0 is not a positive finite number of seconds"),
         (["--step", "inf"], "--step inf is not a positive finite number of seconds"),
         (["--step", "nan"], "--step nan is not a positive finite number of seconds"),
-        (["--start-time", "nan"], "--start-time nan is not a finite number of seconds"),
+        (["--start-time", "nan"], "--start-time nan must be a finite number of seconds"),
         (["--start-time", "2", "--stop-time", "1"], "--stop-time 1.0 must be greater than"),
     ],
 )

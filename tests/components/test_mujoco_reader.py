@@ -113,7 +113,9 @@ def test_same_name_on_sensor_and_actuator_is_e013(tmp_path: Path) -> None:
         "<actuator><motor name='j_out' joint='j'/></actuator>"
         "<sensor><jointpos name='j_out' joint='j'/></sensor></mujoco>"
     )
-    with pytest.raises(ModelError, match="`j_out` is used by") as info:
+    with pytest.raises(
+        ModelError, match="`j_out` is used by a jointpos sensor and an actuator;"
+    ) as info:
         MUJOCO_KIND.read_interface(scene, None)
     assert info.value.code is codes.UNSUPPORTED_MODEL
 

@@ -15,6 +15,7 @@ from typer.testing import CliRunner
 
 import fmionnx
 from fmionnx.cli.app import app
+from fmionnx.pipeline.errors import RequestError
 from fmionnx.runtime.result import RunStatus
 from tests.conftest import build_fixture_fmu
 
@@ -67,13 +68,10 @@ def test_a_binary_value_that_is_not_hexadecimal_is_refused_where_it_is_written(
     assert "hexadecimal" in result.output
 
 
-def test_a_command_line_value_that_is_not_hexadecimal_is_a_fault_not_a_traceback(
+def test_a_command_line_value_that_is_not_hexadecimal_is_refused_before_the_run(
     folder: Path,
 ) -> None:
-    result = fmionnx.run(
-        build_fixture_fmu("Binary3"), no_out=True, isolate="none", params={"blob": "zz"}
-    ).result
-    assert result.status is RunStatus.FAULT
-    assert "`zz` is not hexadecimal text" in str(result.error)
-    assert result.error is not None
-    assert result.error.port == "blob"
+    with pytest.raises(RequestError, match=r"--param `blob`: `zz` is not hexadecimal text"):
+        fmionnx.run(
+            build_fixture_fmu("Binary3"), no_out=True, isolate="none", params={"blob": "zz"}
+        )

@@ -97,3 +97,35 @@ def test_integer_columns_are_written_digit_for_digit(tmp_path: Path) -> None:
     )
     text = write_csv(result, tmp_path / "results.csv").read_text(encoding="utf-8")
     assert text == (f"time,a.i,a.u,a.x\n0,{-(2**63)},{2**64 - 1},0.1\n0.1,{2**53 + 1},0,1e+300\n")
+
+
+def _ints_result(values: list[int]) -> RunResult:
+    return RunResult(
+        system="ints", backend="inprocess", status=RunStatus.COMPLETED, start=0.0, stop=0.1,
+        step=0.1, steps_done=1, wall_time=0.01, time=np.array([0.0, 0.1]),
+        signals={"a.i": np.array(values, dtype=np.int64), "a.x": np.array([0.5, 1.5])},
+    )  # fmt: skip
+
+
+@pytest.mark.parametrize(
+    ("values", "ahead_used"), [([-(2**53), 2**53], True), ([0, 2**53 + 1], False)]
+)
+def test_rows_formatted_ahead_serve_integer_columns_that_float64_holds(
+    tmp_path: Path, values: list[int], ahead_used: bool
+) -> None:
+    """A system with an int64 port threw away every row formatted while its run went on (a
+    re-read): integers within 2**53 are exact float64s and written as the same digits, so the
+    pieces serve them; beyond it the columns are written from the integers, digit for digit."""
+    from fmionnx.results.csvahead import CsvAhead
+    from fmionnx.results.csvfile import result_table
+
+    result = _ints_result(values)
+    table = result_table(result)
+    ahead = CsvAhead(0.0, 0.1, 1, piece_rows=2)
+    ahead.adopt([(0, table, b"piece,formatted,ahead\n" * 2)])  # marked: was it used?
+    text = write_csv(result, tmp_path / "results.csv", ahead=ahead).read_text(encoding="utf-8")
+    assert ("piece,formatted,ahead" in text) is ahead_used
+    plain = write_csv(result, tmp_path / "plain.csv").read_text(encoding="utf-8")
+    assert plain.splitlines()[1:] == [
+        f"{t:g},{v},{x:g}" for t, v, x in zip([0, 0.1], values, [0.5, 1.5], strict=True)
+    ]

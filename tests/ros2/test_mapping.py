@@ -160,3 +160,31 @@ def test_mujoco_quaternion_onto_a_whole_orientation_message_fills_members_by_nam
     assert plan.topic("/odom").field_of("base_quat").paths == tuple(
         f"pose.pose.orientation.{axis}" for axis in "wxyz"
     )
+
+
+def test_ros2_topics_name_dotted_and_quoted_ports_as_connections_do() -> None:
+    """`ros2.topics` keys were split at their last dot: a dotted port (`body.x`, Modelica) was
+    read as component `tracker.body`, and a port named `input.1` could not be named at all."""
+    import dataclasses
+
+    from fmionnx.compile.ros2.settings import ros2_settings
+    from fmionnx.core.types import Causality, DType, Port
+
+    system = make_system()
+    tracker = system.component("tracker")
+    extra = (
+        Port("body.x", Causality.OUTPUT, DType.FLOAT64, ()),
+        Port("12", Causality.OUTPUT, DType.FLOAT64, ()),
+    )
+    interface = dataclasses.replace(tracker.interface, ports=(*tracker.interface.ports, *extra))
+    components = tuple(
+        dataclasses.replace(c, interface=interface) if c.name == "tracker" else c
+        for c in system.components
+    )
+    ros2 = Ros2Spec(topics={"tracker.body.x": "/body_x", 'tracker."12"': "/twelve"})
+    system = dataclasses.replace(system, components=components, ros2=ros2_settings(ros2))
+    plan, diagnostics = build_plan(system)
+    assert [d.message for d in diagnostics if d.code.startswith("E")] == []
+    assert plan is not None
+    assert plan.topic("/body_x").publisher is not None
+    assert plan.topic("/twelve").publisher is not None

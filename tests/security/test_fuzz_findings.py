@@ -243,7 +243,13 @@ def test_an_output_of_another_shape_than_declared_is_a_fault_naming_it(tmp_path:
     # found by fuzzing models (issue 38): an output declared double[1] that the model expands
     # to 3 elements compiled, then the run crashed where it was first recorded (a numpy
     # ValueError, a traceback)
-    path = _onnx_model(tmp_path / "expand.onnx", [1], [3])
+    model = _onnx_model(tmp_path / "expand.onnx", [1], [3])
+    path = tmp_path / "expand.yaml"  # run over time (a lone model is inferred once)
+    path.write_text(
+        f"fmionnx: 1\nname: expand\nrun: {{stop: 2, step: 1}}\n"
+        f"components:\n  expand: {{kind: onnx, path: {model}}}\n",
+        encoding="utf-8",
+    )
     for isolate in ("none", "all"):
         result = fmionnx.load(path).run(stop_time=2.0, isolate=isolate)
         assert result.status.value == "fault", isolate

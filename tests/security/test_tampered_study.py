@@ -11,7 +11,6 @@ study's own file is refused with where.
 from __future__ import annotations
 
 import json
-import math
 import os
 import threading
 from collections.abc import Callable
@@ -104,7 +103,13 @@ def test_a_record_that_is_no_regular_file_is_no_record(
         {"id": "case-0001", "status": {"ok": True}, "notes": [1, 2], "wall_time": True},
         {"id": ["case-0001"], "status": "ok"},
         {"id": "case-0001", "status": "ok", "wall_time": 10**400, "metrics": {"y_end": -(10**400)}},
-        {"id": "case-0001", "status": "ok", "message": "\ud800", "worker": "w\udfff"},
+        {
+            "id": "case-0001",
+            "status": "ok",
+            "message": "\ud800",
+            "worker": "w\udfff",
+            "metrics": {"y_end": 1.0},
+        },
     ],
     ids=[
         "wall-time-text",
@@ -119,17 +124,16 @@ def test_a_record_with_fields_of_the_wrong_type_gives_a_table(
     folder: StudyFolder, record: dict[str, object]
 ) -> None:
     (folder.records / "case-0001.json").write_text(json.dumps(record), "utf-8")
-    folder.prepare(resume=True)
+    finished = folder.prepare(resume=True)
     table = folder.table()
     rows = table.to_pandas().set_index("case")
-    if isinstance(record["id"], list):  # no record: the case runs again, and has no row
+    if record.get("message") != "\ud800":
+        # a damaged record, no record at all: the case runs again, and has no row (a row
+        # of made-up values was never run again: docs/sweep.md, Resuming)
+        assert "case-0001" not in finished
         assert "case-0001" not in rows.index
-        return
-    row = rows.loc["case-0001"]
-    assert row["status"] in {"ok", "failed"}
-    assert isinstance(row["wall_time"], float)
-    if record.get("wall_time") in ("soon", True, 10**400):
-        assert math.isnan(row["wall_time"])
+    else:
+        assert rows.loc["case-0001"]["status"] == "ok"
     folder.write_table(table)  # parquet takes it: every column of one type
     assert (folder.out / "cases.csv").read_text("utf-8")  # and so does UTF-8
 

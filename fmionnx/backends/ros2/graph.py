@@ -7,8 +7,12 @@ endpoint that no node claims belongs to a plain DDS participant and is shown as 
 
 The comparison works on *links*: ``(node, "pub"|"sub", topic)``. A link of the plan that is not
 live is *missing*; a live link on a topic of the plan that the plan does not have is *extra*
-(a foreign subscriber of ``/cmd_vel``, a second publisher). Control topics (``/clock``,
-``/fmionnx/...``) and ``ros_discovery_info`` are listed but never compared.
+(a foreign subscriber of ``/cmd_vel``, a second publisher). A live link of the plan whose
+endpoint has another message type than the plan's is of the *wrong type*, not ok: DDS matches
+a writer and a reader only when their type names agree (a node of an older fmionnx publishing
+an ``int64`` port as ``std_msgs/msg/Float64`` reaches no ``std_msgs/msg/Int64`` reader).
+Control topics (``/clock``, ``/fmionnx/...``) and ``ros_discovery_info`` are listed but never
+compared.
 """
 
 from __future__ import annotations
@@ -33,6 +37,9 @@ from fmionnx.compile.ros2.types import Ros2Plan
 
 Link = tuple[str, str, str]  # (node, "pub" | "sub", topic)
 
+#: The type shown for an endpoint whose type a source could not name; never compared.
+UNKNOWN_TYPE = "?"
+
 #: Topics of the run's machinery, shown but not compared with the plan.
 CONTROL_PREFIXES = ("/clock", "/fmionnx/", "/rosout", "/parameter_events")
 
@@ -53,6 +60,14 @@ class LiveGraph:
     participants: dict[str, str] = field(default_factory=dict)  # endpoint-less node label
     topics: dict[str, set[str]] = field(default_factory=dict)  # ROS topic -> types
     links: set[Link] = field(default_factory=set)
+    #: The types of each link's own endpoints; a link without an entry (a graph built from
+    #: another source) is judged by its topic's types.
+    link_types: dict[Link, set[str]] = field(default_factory=dict)
+
+    def types_of(self, link: Link) -> set[str]:
+        """The message types ``link``'s endpoints use (else every type seen on its topic);
+        ``?`` (a type a source could not name) is left out."""
+        return (self.link_types.get(link) or self.topics.get(link[2], set())) - {UNKNOWN_TYPE}
 
     def publishers(self, topic: str) -> list[str]:
         """Nodes writing ``topic``."""
@@ -98,8 +113,10 @@ def read_live_graph(participant: Participant, timeout: float) -> LiveGraph:
             if node is None:
                 node = f"(participant {endpoint.participant_key.hex[:8]})"
                 graph.participants[node] = endpoint.participant_key.hex
-            graph.topics.setdefault(topic, set()).add(ros_type(endpoint.type_name))
+            msgtype = ros_type(endpoint.type_name)
+            graph.topics.setdefault(topic, set()).add(msgtype)
             graph.links.add((node, kind, topic))
+            graph.link_types.setdefault((node, kind, topic), set()).add(msgtype)
     _alive(participants)  # keeps the reader's cache fresh; participants show through endpoints
     return graph
 
@@ -114,22 +131,44 @@ def plan_links(plan: Ros2Plan) -> set[Link]:
 
 
 @dataclass(frozen=True)
+class WrongType:
+    """A live link of the plan whose endpoint uses another message type than the plan's."""
+
+    link: Link
+    expected: str
+    seen: tuple[str, ...]
+
+
+@dataclass(frozen=True)
 class Comparison:
-    """Plan links found live, missing, and live links on plan topics that the plan lacks."""
+    """Plan links found live, missing, live links on plan topics that the plan lacks, and
+    plan links live with another message type (they match no endpoint of the plan's type)."""
 
     ok: tuple[Link, ...]
     missing: tuple[Link, ...]
     extra: tuple[Link, ...]
+    wrong_type: tuple[WrongType, ...] = ()
+
+    @property
+    def complete(self) -> bool:
+        """Every link of the plan is live with the plan's type (``ros2 graph`` exits 0)."""
+        return not self.missing and not self.wrong_type
 
 
 def compare(plan: Ros2Plan, graph: LiveGraph) -> Comparison:
     """Compare the live graph with the plan (control topics are left out)."""
     expected = plan_links(plan)
-    topics = {t.name for t in plan.topics}
+    types = {t.name: t.msgtype for t in plan.topics}
     live = {link for link in graph.links if not link[2].startswith(CONTROL_PREFIXES)}
-    extra = {link for link in live - expected if link[2] in topics}
+    extra = {link for link in live - expected if link[2] in types}
+    wrong = [
+        WrongType(link, types[link[2]], tuple(sorted(seen)))
+        for link in sorted(expected & live)
+        if (seen := graph.types_of(link)) and types[link[2]] not in seen
+    ]
+    ok = (expected & live) - {w.link for w in wrong}
     return Comparison(
-        tuple(sorted(expected & live)), tuple(sorted(expected - live)), tuple(sorted(extra))
+        tuple(sorted(ok)), tuple(sorted(expected - live)), tuple(sorted(extra)), tuple(wrong)
     )
 
 
@@ -153,9 +192,17 @@ def render_text(plan: Ros2Plan, graph: LiveGraph, result: Comparison) -> str:
     for label, links in (("ok", result.ok), ("missing", result.missing), ("extra", result.extra)):
         for node, kind, topic in links:
             lines.append(f"  {label:<8} {node} {arrow[kind]} {topic}")
+    for wrong in result.wrong_type:
+        node, kind, topic = wrong.link
+        lines.append(
+            f"  {'type':<8} {node} {arrow[kind]} {topic}  "
+            f"seen {', '.join(wrong.seen)}, expected {wrong.expected}"
+        )
     summary = (
         f"{len(result.ok)} link(s) ok, {len(result.missing)} missing, {len(result.extra)} extra"
     )
+    if result.wrong_type:
+        summary += f", {len(result.wrong_type)} of the wrong type"
     lines.append(summary)
     return "\n".join(lines) + "\n"
 
@@ -180,5 +227,15 @@ def render_json(plan: Ros2Plan, graph: LiveGraph, result: Comparison) -> str:
         "ok": links(result.ok),
         "missing": links(result.missing),
         "extra": links(result.extra),
+        "wrong_type": [
+            {
+                "node": w.link[0],
+                "kind": w.link[1],
+                "topic": w.link[2],
+                "expected": w.expected,
+                "seen": list(w.seen),
+            }
+            for w in result.wrong_type
+        ],
     }
     return json.dumps(document, indent=2) + "\n"

@@ -23,7 +23,8 @@ only up to 2**53, and lockstep must hand a 64-bit value on bit for bit as the in
 does. Floats and bools keep ``Float64`` (exact for both).
 
 Relative names are resolved in ``ros2.namespace``. :func:`build_plan` returns the plan and
-every diagnostic (E060..E065); :func:`check_ros2` only the diagnostics.
+every diagnostic (E060..E065, and W060 for an explicit mapping onto a field that cannot hold
+every value of its port); :func:`check_ros2` only the diagnostics.
 """
 
 from __future__ import annotations
@@ -32,9 +33,11 @@ from collections.abc import Sequence
 from dataclasses import dataclass, field
 from typing import TYPE_CHECKING
 
+from fmionnx.compile.endpoints import split_endpoint
 from fmionnx.compile.ir import CompiledSystem
 from fmionnx.compile.ros2.fields import IMAGE_TYPE, WHOLE, PortField, image_geometry
 from fmionnx.compile.ros2.messages import (
+    BASE_DTYPE,
     DEFAULT_DISTRO,
     FieldError,
     FieldInfo,
@@ -54,9 +57,10 @@ from fmionnx.compile.ros2.names import (
 )
 from fmionnx.compile.ros2.qos import PROFILES, QosProfile
 from fmionnx.compile.ros2.types import NodePlan, Ros2Plan, Subscription, TopicPlan
+from fmionnx.compile.typecheck import SIGNIFICAND_BITS, is_lossy
 from fmionnx.core import codes
 from fmionnx.core.codes import ErrorCode
-from fmionnx.core.diagnostics import Diagnostic, Span, did_you_mean, make, one_of
+from fmionnx.core.diagnostics import Diagnostic, Span, did_you_mean, make, one_of, with_article
 from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.base import SIMULATOR, RoleDefault
 from fmionnx.kinds.registry import COMPONENT_KINDS, has_capability
@@ -182,17 +186,23 @@ class _Builder:
         )
 
     def parse_endpoint(self, key: str, section: str) -> tuple[Component, Port] | None:
-        component_name, dot, port_name = key.rpartition(".")
-        component = self.component(component_name) if dot else None
+        # As connections are read: the longest component name that prefixes the key, so a
+        # dotted port (`body.x`) is found, and a quoted one (`net."input.1"`) too.
+        split = split_endpoint(key, {c.name: c for c in self.system.components})
+        if split is None or split[2] is not None:
+            self.emit(
+                codes.ROS2_REFERENCE,
+                f"`{key}` in ros2.{section} is not `component.port`",
+                self.key_span(section, key),
+                hint='a port whose name is no dotted word goes in quotes: `net."input.1"`'
+                if split is None
+                else "name the whole port: topics carry ports, not their elements",
+            )
+            return None
+        component_name, port_name, _ = split
+        component = self.component(component_name)
         if component is None:
-            if not dot:
-                self.emit(
-                    codes.ROS2_REFERENCE,
-                    f"`{key}` in ros2.{section} is not `component.port`",
-                    self.key_span(section, key),
-                )
-            else:
-                self.unknown_component(component_name, (section, key))
+            self.unknown_component(component_name, (section, key))
             return None
         port = component.interface.port(port_name)
         if port is None:
@@ -247,11 +257,46 @@ class _Builder:
             publisher = component.name if port.causality is Causality.OUTPUT else None
             if publisher is None or component.external:
                 publisher = None
-            self.add_port(name, msgtype, publisher, component, port, field_path, span, key)
+            mapped = self.add_port(name, msgtype, publisher, component, port, field_path, span, key)
+            if mapped is not None:
+                self.warn_lossy(self.drafts[name].msgtype, mapped, port, span, key)
             if spec.qos is not None:
                 self.set_qos(name, spec.qos, ("topics", key))
             done.add((component.name, port.name))
         return done
+
+    def warn_lossy(
+        self, msgtype: str, mapped: PortField, port: Port, span: Span, label: str
+    ) -> None:
+        """W060 when an explicit mapping puts ``port`` onto a field that cannot hold all of its
+        values (an ``int64`` on a ``float64`` field rounds above 2^53). In-process the value
+        is handed on as it is; on the topic it would change, silently. Defaults never do this
+        (each port gets a type of its own element type), so only explicit entries are checked.
+        """
+        outgoing = port.causality is Causality.OUTPUT
+        for path, base in field_bases(msgtype, mapped.paths, self.distro):
+            field_dtype = BASE_DTYPE.get(base)
+            if field_dtype is None:
+                continue
+            source, target = (port.dtype, field_dtype) if outgoing else (field_dtype, port.dtype)
+            lost = value_loss(source, target)
+            if lost is None:
+                continue
+            where = f"`{path}` of `{msgtype}`"
+            message = (
+                f"`{label}` ({port.dtype}) is mapped onto {where}, {with_article(base)} field that cannot "
+                f"hold every {port.dtype} value: {lost}"
+                if outgoing
+                else f"`{label}` ({port.dtype}) reads {where}, {with_article(base)} field whose values it "
+                f"cannot all hold: {lost}"
+            )
+            suggestion = default_type(port)
+            example = f", e.g. `{suggestion}`" if suggestion not in (None, IMAGE_TYPE) else ""
+            hint = (
+                f"map it onto {with_article(port.dtype.value)} field{example}, or accept the loss"
+            )
+            self.emit(codes.ROS2_LOSSY_FIELD, message, span, hint=hint)
+            return
 
     def implied_type(self, component: Component, port: Port, topic: str) -> str | None:
         """The type of a topic entry without ``type``: the port's role default, the type
@@ -313,7 +358,8 @@ class _Builder:
         paths: str | tuple[str, ...] | None,
         span: Span,
         label: str,
-    ) -> None:
+    ) -> PortField | None:
+        """Put ``port`` on ``topic`` (E06x when it cannot be); the field it was given."""
         if msgtype is None:
             msgtype = default_type(port)
             if msgtype is None:
@@ -324,7 +370,7 @@ class _Builder:
                     span,
                     hint="name a message type and field for it under `ros2.topics`",
                 )
-                return
+                return None
         elif msgtype not in self.known_types:
             self.emit(
                 codes.ROS2_TYPE,
@@ -333,10 +379,10 @@ class _Builder:
                 hint=did_you_mean(msgtype, self.known_types)
                 or f"types come from the {self.distro.value} message set",
             )
-            return
+            return None
         mapped = self.fit(msgtype, port, paths, span, label)
         if mapped is None:
-            return
+            return None
         mapped = _wxyz_quaternion(component, mapped, msgtype, self.distro)
         draft = self.drafts.get(topic)
         if draft is None:
@@ -349,7 +395,7 @@ class _Builder:
                 span,
                 hint="a topic has one message type; use another topic name",
             )
-            return
+            return None
         elif draft.publisher != publisher:
             self.emit(
                 codes.ROS2_UNMAPPED,
@@ -357,7 +403,7 @@ class _Builder:
                 span,
                 hint="ports of different components need different topics",
             )
-            return
+            return None
         clash = [f for f in draft.fields if set(f.paths) & set(mapped.paths)]
         if clash:
             self.emit(
@@ -366,9 +412,10 @@ class _Builder:
                 f"`{topic}`",
                 span,
             )
-            return
+            return None
         draft.fields.append(mapped)
         self.port_topics[(component.name, port.name)] = topic
+        return mapped
 
     def fit(
         self,
@@ -641,6 +688,42 @@ def _wxyz_quaternion(
     return PortField(mapped.port, paths, mapped.shape, mapped.dtype)
 
 
+def value_loss(source: DType, target: DType) -> str | None:
+    """What converting ``source`` values into ``target`` loses (a phrase), or None.
+
+    The rule of connections (:func:`is_lossy`: float64 -> float32 counts as exact, an integer
+    wider than a float's significand is rounded), said of a message field.
+    """
+    if not is_lossy(source, target):
+        return None
+    if source.is_integer and target.is_float:
+        return f"integers beyond 2^{SIGNIFICAND_BITS[target]} arrive rounded"
+    if target is DType.BOOL:
+        return "every value other than 0 arrives as 1"
+    if source.is_float:
+        return "fractions are cut off and values out of its range do not arrive as sent"
+    return f"values outside the range of {target} do not arrive as sent"
+
+
+def field_bases(msgtype: str, paths: tuple[str, ...], distro: RosDistro) -> list[tuple[str, str]]:
+    """``(path, ROS base type)`` of every field that one port's values land in: a nested
+    message of numbers counts with each of its members; an image (:data:`WHOLE`) is skipped
+    (its bytes are the port's own ``uint8``)."""
+    found: list[tuple[str, str]] = []
+    for path in paths:
+        if path == WHOLE:
+            continue
+        info = resolve_field(msgtype, path, distro)
+        if info.kind is FieldKind.MESSAGE:
+            for leaf in numeric_leaves(info.base, distro) or ():
+                found.append(
+                    (f"{path}.{leaf}", resolve_field(msgtype, f"{path}.{leaf}", distro).base)
+                )
+        elif not info.element_is_message:
+            found.append((path, info.base))
+    return found
+
+
 def _frame_id(draft: _Draft) -> str:
     if draft.msgtype == ODOMETRY:
         return "odom"
@@ -702,7 +785,7 @@ def check_ros2(
     sources: SourceMap | None = None,
     distro: RosDistro = DEFAULT_DISTRO,
 ) -> list[Diagnostic]:
-    """Diagnostics E060..E065 for mapping ``system`` onto ROS 2 (empty when it maps).
+    """Diagnostics E060..E065 and W060 for mapping ``system`` onto ROS 2 (empty when it maps).
 
     ``sources`` (the front end's source map) gives ``path:line:col`` spans for the ``ros2:``
     section; without it, spans point at the system file (and connections at their line).

@@ -26,7 +26,7 @@ from fmionnx.core.archive import safe_extract, write_deterministic_zip
 from fmionnx.core.errors import BuildError, ModelError
 from fmionnx.core.safewrite import atomic_binary, refuse
 from fmionnx.core.scratch import scratch
-from fmionnx.kinds.fmu.buildcheck import check_build_inputs
+from fmionnx.kinds.fmu.buildcheck import check_build_inputs, copy_source_folder
 from fmionnx.kinds.fmu.buildrecipe import BuildRecipe, read_recipe
 
 #: The CMake project every source FMU is compiled with; the FMU's recipe fills its cache.
@@ -144,8 +144,9 @@ def _write_built(unpacked: Path, work: Path, output: Path) -> None:
 def build_fmu(source: Path, output: Path | None = None) -> Path:
     """Build the source FMU at ``source`` (folder or ``.fmu``) into ``output``; return it.
 
-    Raises ModelError for an unusable source (missing model description or sources) and
-    BuildError, with the compiler log, when compilation fails. ``output`` is written
+    Raises ModelError for an unusable source (missing model description or sources, a link
+    in a source folder that is broken or leads out of it: see
+    :func:`~.buildcheck.copy_source_folder`) and BuildError, with the compiler log, when compilation fails. ``output`` is written
     atomically: a failed build leaves no half-written FMU. Binaries of other platforms are
     kept. Whether ``output`` may be replaced is the caller's to check
     (:func:`check_build_target`); this writes it.
@@ -159,7 +160,7 @@ def build_fmu(source: Path, output: Path | None = None) -> Path:
     with scratch("build") as tmp:
         unpacked = tmp / "fmu"
         if source.is_dir():
-            shutil.copytree(source, unpacked)
+            copy_source_folder(source, unpacked)  # its links checked: nothing from outside
         elif source.is_file():
             safe_extract(source, unpacked)
         else:

@@ -8,6 +8,7 @@ safety check (:mod:`fmionnx.core.xmlsafe`). How variables become ports is in
 
 from __future__ import annotations
 
+import json
 from collections.abc import Mapping
 from dataclasses import dataclass
 from pathlib import Path
@@ -33,7 +34,7 @@ from fmionnx.kinds.fmu.files import (
     identity_file,
     read_fmu_files,
 )
-from fmionnx.kinds.fmu.ports import ports_from_model_description
+from fmionnx.kinds.fmu.ports import SIZES_PREFIX, ports_from_model_description, sizing_facts
 
 if TYPE_CHECKING:  # the runner contract brings numpy: loaded when a runner is made
     from fmionnx.core.runner import Runner, Wiring
@@ -62,6 +63,8 @@ FACT_KEYS = (
     # FMI 3 clocks (:mod:`fmionnx.kinds.fmu.clocks`): `unsupported.<clock name>`, one per clock,
     # and the ports updated only at clock ticks
     "clockedVariables",
+    # FMI 3 structural parameters that size array ports (:func:`.ports.sizing_facts`):
+    # `sizes.<parameter>`, the ports it sizes
 )
 
 
@@ -197,6 +200,16 @@ class FmuKind:
         ``canBeInstantiatedOnlyOncePerProcess``): its next run needs a fresh process."""
         return component.interface.fact("canBeInstantiatedOnlyOncePerProcess") != "true"
 
+    def sized_ports(self, interface: ComponentInterface, name: str) -> tuple[str, ...]:
+        """The array ports whose ``<Dimension>`` is the structural parameter ``name`` (the
+        ``sizes.<name>`` fact the interface reader wrote)."""
+        listed = interface.fact(SIZES_PREFIX + name)
+        try:  # a compiled-system file's facts are read back as text: never believed
+            ports = json.loads(listed) if listed else []
+        except ValueError:
+            return ()
+        return tuple(p for p in ports if isinstance(p, str)) if isinstance(ports, list) else ()
+
     def warm_up(self) -> None:
         """Import the runners' modules (fmpy's, ctypes): cheap, and every FMU needs them."""
         import fmionnx.kinds.fmu.runner  # noqa: F401
@@ -292,7 +305,7 @@ def load_fmu_interface(path: Path) -> ComponentInterface:
         kind="fmu",
         path=path,
         ports=ports,
-        facts=_facts(model_description, files) + tuple(clocks),
+        facts=_facts(model_description, files) + tuple(clocks) + sizing_facts(model_description),
         default_experiment=_experiment(model_description),
         content_hash=files.content_hash,
     )

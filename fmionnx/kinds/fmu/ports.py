@@ -15,6 +15,10 @@ Rules (documented in ``docs/components.md``):
   the structural parameter it references) and keep their single value reference. The element
   count is checked against :data:`fmionnx.core.resources.ARRAY_ELEMENTS` before anything is
   sized from it (E008): a few bytes of XML can declare an array of 10^9 elements.
+* A structural parameter that is an array port's ``<Dimension valueReference=..>`` sizes it:
+  :func:`sizing_facts` lists such ports per parameter (facts ``sizes.<parameter>``), because
+  the compiled ports keep the shape of the parameter's start value and a value that changes
+  it must be refused where it is set.
 * Units: a variable's ``unit`` (or its declared type's) names a ``<UnitDefinitions>`` entry;
   its ``<BaseUnit>`` (SI exponents, factor, offset; the same element and attributes in FMI 2
   and 3) becomes the port's unit definition. A unit without ``<BaseUnit>`` is not related to
@@ -26,6 +30,7 @@ Rules (documented in ``docs/components.md``):
 from __future__ import annotations
 
 import itertools
+import json
 import math
 import re
 from dataclasses import dataclass, replace
@@ -65,6 +70,9 @@ FMI_DTYPES: dict[str, DType] = {
 PORT_CAUSALITIES = frozenset(
     {"input", "output", "parameter", "calculatedParameter", "structuralParameter"}
 )
+
+#: A fact ``sizes.<parameter>`` = ``["port", ...]`` (JSON): the ports whose shape it sets.
+SIZES_PREFIX = "sizes."
 
 _INDEXED = re.compile(r"^(?P<base>.+)\[(?P<index>\d+(?:\s*,\s*\d+)*)\]$")
 
@@ -180,6 +188,30 @@ def ports_from_model_description(
             depends = _depends_on(groups[group], outputs, port_name)
             ports.append(_port(group, groups[group], depends, xml_file))
     return tuple(ports)
+
+
+def sizing_facts(model_description: Any) -> tuple[tuple[str, str], ...]:
+    """``sizes.<parameter>`` facts: per variable that is a port's ``<Dimension
+    valueReference>``, the ports it sizes, in declaration order (an FMI 3 ``<Alias>`` of either
+    side is a port of its own, so it is listed and keyed too). None for FMI 2, which has no
+    arrays of its own."""
+    sized: dict[str, dict[str, None]] = {}
+    for variable in model_description.modelVariables:
+        if variable.causality not in PORT_CAUSALITIES or dtype_of(variable.type, 3) is None:
+            continue
+        ports = (str(variable.name), *_alias_names(variable))
+        for dimension in getattr(variable, "dimensions", None) or ():
+            sizer = dimension.variable  # None: a fixed `start`
+            if sizer is None:
+                continue
+            for name in (str(sizer.name), *_alias_names(sizer)):
+                sized.setdefault(name, {}).update(dict.fromkeys(ports))
+    # JSON: a variable's name may hold a comma (`a[1,2]`, a quoted Modelica name)
+    return tuple((SIZES_PREFIX + name, json.dumps(list(ports))) for name, ports in sized.items())
+
+
+def _alias_names(variable: Any) -> tuple[str, ...]:
+    return tuple(str(a.name) for a in getattr(variable, "aliases", None) or () if a.name)
 
 
 def _record(

@@ -14,7 +14,7 @@ from pathlib import Path
 from typing import Any
 
 from fmionnx.core import codes
-from fmionnx.core.diagnostics import Span, did_you_mean, one_of
+from fmionnx.core.diagnostics import Span, did_you_mean, one_of, with_article
 from fmionnx.core.errors import ModelError
 from fmionnx.core.regularfile import regular_size
 from fmionnx.core.resources import MODEL_FILE_BYTES
@@ -256,8 +256,8 @@ def _check_unique(ports: list[Port], path: Path) -> None:
     for port in ports:
         if port.name in seen:
             msg = (
-                f"`{path.name}`: the name `{port.name}` is used by a {seen[port.name]} and a "
-                f"{port.description}; port names must be unique"
+                f"`{path.name}`: the name `{port.name}` is used by {with_article(seen[port.name])} and "
+                f"{with_article(port.description)}; port names must be unique"
             )
             raise ModelError(codes.UNSUPPORTED_MODEL, msg, hint="rename one of them in the scene")
         seen[port.name] = port.description

@@ -72,7 +72,8 @@ def has_external_data(model: Any) -> bool:
 
 def check_external_data(model: Any, path: Path) -> None:
     """Raise ModelError (E017) for an external tensor of the model at ``path`` stored
-    anywhere but inside the model's folder."""
+    anywhere but inside the model's folder, and E010 for one whose file is missing: else a
+    system would validate and fault when onnxruntime loads the model."""
     folder = path.parent.resolve()
     for tensor in all_tensors(model):
         if tensor.data_location != EXTERNAL:
@@ -89,9 +90,14 @@ def check_external_data(model: Any, path: Path) -> None:
         if not (folder / normal).resolve().is_relative_to(folder):
             msg = f"{where}, a link to a file outside the model's folder"
             raise ModelError(codes.UNSAFE_ARCHIVE, msg, hint=_HINT)
+        if not (folder / normal).exists():
+            msg = f"{where}, which does not exist beside the model"
+            raise ModelError(codes.FILE_NOT_FOUND, msg, hint=_MISSING_HINT)
 
 
 _HINT = (
     "external tensor data must be stored beside the model (onnx.save_model(..., "
     "save_as_external_data=True, location='weights.bin'))"
 )
+
+_MISSING_HINT = "copy the model's external data file beside it, under the name the model gives"

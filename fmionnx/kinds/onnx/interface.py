@@ -109,6 +109,7 @@ def _interface(model: Any, data: bytes, path: Path) -> ComponentInterface:
     input_names = tuple(v.name for v in inputs)
     ports = [_port(v, Causality.INPUT, path, None) for v in inputs]
     ports += [_port(v, Causality.OUTPUT, path, input_names) for v in graph.output]
+    _check_unique(ports, path)
     check_model_sizes(model, path)  # what it stores and computes (E008, E011)
     opset = next((o.version for o in model.opset_import if o.domain in ("", "ai.onnx")), 0)
     facts = [
@@ -127,6 +128,23 @@ def _interface(model: Any, data: bytes, path: Path) -> ComponentInterface:
         facts=tuple(facts),
         content_hash=hashlib.sha256(data).hexdigest(),
     )
+
+
+def _check_unique(ports: list[Port], path: Path) -> None:
+    """E013 for a name two ports share: an output named like an input (a graph passing its
+    input through) or two outputs of one name. Ports are found by name, so the second would
+    hide the first (``p.x -> h.u`` then said `p.x` is an input), as MuJoCo's names do."""
+    seen: dict[str, Causality] = {}
+    for port in ports:
+        first = seen.get(port.name)
+        if first is not None:
+            both = f"an {first.value} and an {port.causality.value}"
+            if first is port.causality:
+                both = f"two {first.value}s"
+            msg = f"`{path.name}`: the name `{port.name}` is used by {both}; port names must be unique"
+            hint = "rename one of them in the graph (an Identity node gives an output its own name)"
+            raise ModelError(codes.UNSUPPORTED_MODEL, msg, hint=hint)
+        seen[port.name] = port.causality
 
 
 def _port(value: Any, causality: Causality, path: Path, depends: tuple[str, ...] | None) -> Port:

@@ -2,8 +2,9 @@
 
 Each input port owns a flat buffer in the tensor's element type; the feed is a reshaped view
 of that buffer (no copy per step), e.g. a camera's ``uint8[480,640,3]`` connected to an input
-``[1,480,640,3]``. Symbolic dimensions become 1, except a single symbolic dimension whose size
-the connection determines. Outputs are copied into flat buffers after each run.
+``[1,480,640,3]``. Symbolic dimensions take the sizes the counts fed to the inputs fix, carried
+to every port naming them (:mod:`fmionnx.core.dims`); one no input fixes is 1. Outputs are copied into flat
+buffers after each run.
 """
 
 from __future__ import annotations
@@ -14,6 +15,7 @@ from typing import Any
 
 import numpy as np
 
+from fmionnx.core.dims import Dims, bind_dims, known_count, resolved_shape
 from fmionnx.core.runner import Buffer, OutputCopies, fault
 from fmionnx.core.types import Causality, Component, DType, Port
 from fmionnx.kinds.kept import Kept
@@ -47,14 +49,11 @@ def one_thread_each() -> None:
     _default_threads[0] = 1
 
 
-def concrete_shape(port: Port, size: int | None) -> tuple[int, ...]:
-    """The tensor shape used at run time: symbolic dims are 1, or fill ``size`` when one is."""
-    known = math.prod(d for d in port.shape if isinstance(d, int))
-    symbolic = [i for i, d in enumerate(port.shape) if not isinstance(d, int)]
-    shape = [d if isinstance(d, int) else 1 for d in port.shape]
-    if size is not None and len(symbolic) == 1 and known and size % known == 0:
-        shape[symbolic[0]] = size // known
-    return tuple(shape)
+def concrete_shape(port: Port, size: int | None, dims: Dims | None = None) -> tuple[int, ...]:
+    """The tensor shape used at run time: the names ``dims`` fixed (:mod:`fmionnx.core.dims`), an input's
+    one other symbolic dimension filled from ``size`` when it divides; any other is 1."""
+    resolved = resolved_shape(port, dims if dims is not None else Dims({}), size)
+    return tuple(1 if d is None else d for d in resolved)
 
 
 #: How onnxruntime's arena refuses an allocation beyond its ceiling (bfc_arena.cc).
@@ -176,8 +175,9 @@ class OnnxRunner:
                 time=start,
             )
         explicit = {p.port: p.value for p in self.component.parameters}
+        dims = bind_dims(self.component.interface.ports, self._sizes)
         for port in self.component.interface.with_causality(Causality.INPUT):
-            shape = concrete_shape(port, self._sizes.get(port.name))
+            shape = concrete_shape(port, self._sizes.get(port.name), dims)
             buffer = np.zeros(math.prod(shape), dtype=port.dtype.value)
             value = explicit.get(port.name, port.start)
             if value is not None:
@@ -189,19 +189,32 @@ class OnnxRunner:
         results = self._run(start)
         for name, value in zip(self._names, results, strict=True):
             array = np.asarray(value)
-            # The run's columns and connections are sized from the declared shape: a model
-            # whose output is another size (an Expand to a shape it computes) is a fault here,
-            # not a crash where the value is first recorded.
-            shape = concrete_shape(declared[name], self._sizes.get(name))
-            if array.size != math.prod(shape):
-                raise fault(
-                    self.component.name,
-                    f"output has shape {list(array.shape)}, not the shape the model declares "
-                    f"for it ({list(declared[name].shape)})",
-                    time=start,
-                    port=name,
-                )
+            self._check_output(declared[name], array, dims, start)
             self._outputs[name] = np.array(array.reshape(-1), copy=True)
+
+    def _check_output(self, port: Port, array: Any, dims: Dims, start: float) -> None:
+        """Fault unless the first value of output ``port`` has the size its declared shape
+        has once the inputs fixed its names: the run's columns and connections are sized
+        from that shape, so an output of another size (an Expand to a shape it computes) is a
+        fault here, not a crash where the value is first recorded. A dimension no input fixes
+        (an unnamed one, a name only outputs use) takes what the model gives."""
+        resolved = resolved_shape(port, dims)
+        count = known_count(resolved)
+        known = math.prod(d for d in resolved if d is not None)
+        if count is not None:
+            fits = array.size == count
+        else:  # a zero dimension beside the open ones: the output is empty
+            fits = array.size % known == 0 if known else array.size == 0
+        if not fits:
+            named = {d: dims.bound[d] for d in port.shape if isinstance(d, str) and d in dims.bound}
+            fixed = f" with {', '.join(f'{k} = {v}' for k, v in named.items())}" if named else ""
+            raise fault(
+                self.component.name,
+                f"output has shape {list(array.shape)}, not the shape the model declares "
+                f"for it ({list(port.shape)}{fixed})",
+                time=start,
+                port=port.name,
+            )
 
     def input_buffer(self, port: str) -> Buffer:
         """Flat buffer behind the tensor fed to input ``port``."""

@@ -87,7 +87,7 @@ def check_stored_tensors(model: Any, path: Path) -> None:
     for tensor in all_tensors(model):
         if tensor.data_location == EXTERNAL:
             where = folder / PurePosixPath(_location(tensor).replace("\\", "/"))
-            if where.exists():  # a missing file is onnxruntime's to report when it loads
+            if where.exists():  # a missing one was refused already (E010, :mod:`.external`)
                 regular_size(
                     where, MODEL_FILE_BYTES, f"`{where.name}`, the data of tensor `{tensor.name}`,"
                 )

@@ -213,3 +213,38 @@ def test_liveliness_tokens_make_the_live_graph_that_is_compared_with_the_plan() 
     text = render_text(plan, graph, result)
     assert "/teleop_listener" in text
     assert "not in the system" in text
+
+
+def test_a_zenoh_endpoint_of_another_type_is_told_apart_on_a_shared_topic() -> None:
+    """Each liveliness token carries its endpoint's type: a publisher of the wrong type is
+    reported although a subscriber of the right type shares the topic (compared per topic,
+    the right subscriber's type hid it)."""
+    from fmionnx.backends.ros2.graph import compare
+    from fmionnx.backends.ros2.loading import plan_for
+    from fmionnx.backends.ros2.zenoh.graph import graph_of
+    from tests.ros2.conftest import make_system
+
+    plan = plan_for(make_system(), RosDistro.JAZZY)
+    tokens = []
+    wrong_link = None
+    for index, node in enumerate(plan.nodes):
+        owner = NodeToken(0, f"{index:032x}", 0, node.namespace, node.name)
+        tokens.append(owner.node())
+        for kind, topics in ((EntityKind.PUBLISHER, node.publishes),
+                             (EntityKind.SUBSCRIPTION, node.subscribes)):  # fmt: skip
+            for number, topic in enumerate(topics, 1):
+                msgtype = plan.topic(topic).msgtype
+                if (
+                    wrong_link is None
+                    and kind is EntityKind.PUBLISHER
+                    and any(topic in other.subscribes for other in plan.nodes)
+                ):
+                    wrong_link, msgtype = (node.fqn, "pub", topic), "std_msgs/msg/String"
+                tokens.append(
+                    owner.entity(number, kind, topic, msgtype, QosProfile(), RosDistro.JAZZY)
+                )
+    assert wrong_link is not None  # the system has a topic both published and subscribed
+    parsed = [parse_token(t) for t in tokens]
+    result = compare(plan, graph_of([p for p in parsed if p is not None]))
+    assert [w.link for w in result.wrong_type] == [wrong_link]
+    assert wrong_link not in result.ok

@@ -13,7 +13,7 @@ from __future__ import annotations
 import time
 from typing import Any
 
-from fmionnx.backends.ros2.graph import LiveGraph
+from fmionnx.backends.ros2.graph import UNKNOWN_TYPE, LiveGraph
 from fmionnx.backends.ros2.zenoh.config import ZenohConfigError, ZenohEnvironment
 from fmionnx.backends.ros2.zenoh.graph_cache import GraphCache
 from fmionnx.backends.ros2.zenoh.keys import EntityKind, ParsedToken
@@ -29,8 +29,11 @@ def graph_of(tokens: list[ParsedToken]) -> LiveGraph:
         kind = _LINK_KIND.get(token.kind)
         if kind is None or token.topic is None:
             continue
-        graph.topics.setdefault(token.topic, set()).add(token.msgtype or "?")
-        graph.links.add((token.fqn, kind, token.topic))
+        msgtype = token.msgtype or UNKNOWN_TYPE
+        link = (token.fqn, kind, token.topic)
+        graph.topics.setdefault(token.topic, set()).add(msgtype)
+        graph.links.add(link)
+        graph.link_types.setdefault(link, set()).add(msgtype)  # each endpoint's own type
     return graph
 
 
