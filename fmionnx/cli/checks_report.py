@@ -49,6 +49,16 @@ def bound_text(outcome: CheckOutcome) -> str:
     return short if float(short) == outcome.bound else repr(outcome.bound)
 
 
+def _check_text(outcome: CheckOutcome) -> str:
+    """The check's name and, dimmed below it, its expression; an unnamed check is called by
+    its expression, which shown twice ("max(g.y) > 0 / max(g.y) > 0") said nothing more (a
+    bug hunt)."""
+    name = escape(outcome.name)
+    if outcome.name == outcome.expression:
+        return name
+    return f"{name}\n[dim]{escape(outcome.expression)}[/]"
+
+
 def _side(value: float, bound: float) -> int:
     """Below (-1), on (0) or above (1) the bound."""
     return (value > bound) - (value < bound)
@@ -74,7 +84,7 @@ def print_checks(console: Console, outcomes: Sequence[CheckOutcome], *, quiet: b
         verdict = "[green]pass[/]" if outcome.passed else "[bold red]FAIL[/]"
         note = f"\n[yellow]{escape(outcome.note)}[/]" if outcome.note else ""
         table.add_row(
-            f"{escape(outcome.name)}\n[dim]{escape(outcome.expression)}[/]{note}",
+            f"{_check_text(outcome)}{note}",
             value_text(outcome),
             f"{outcome.comparison} {bound_text(outcome)}",
             verdict,

@@ -23,11 +23,25 @@ Target = Annotated[
         ".fmu or .onnx."
     ),
 ]
+
+
+def folder_path(text: str) -> Path:
+    """``--out``'s folder; an empty one is refused here, where it is still text: as a path it
+    is ``.``, and the run or sweep refused the current folder's files instead (a bug hunt)."""
+    if not text:
+        from fmionnx.cli.app import fail
+
+        raise fail("--out is empty: name a results folder, e.g. `--out results`")
+    return Path(text)
+
+
 Out = Annotated[
     Path | None,
     typer.Option(
         "--out",
         "-o",
+        parser=folder_path,
+        metavar="<path>",
         help="Folder for results.csv, run.json and plots (default: out/<system name>/). "
         "Single ONNX model: one .npy per output (default: none).",
     ),

@@ -14,6 +14,7 @@ from typing import TYPE_CHECKING, Annotated
 import typer
 
 from fmionnx.cli.app import ExitCode, QuietOption, app, fail
+from fmionnx.cli.run_options import folder_path
 
 if TYPE_CHECKING:
     from rich.console import Console
@@ -26,6 +27,27 @@ if TYPE_CHECKING:
 RANKED_ROWS = 10
 
 
+StudyOut = Annotated[
+    Path,
+    typer.Option(
+        "--out", "-o", parser=folder_path, metavar="<path>",
+        help="Results folder (new, or --resume).",
+    ),
+]  # fmt: skip
+# No `min=1` on the counts: the pipeline checks them (`fmionnx.sweep` too) and says so in the
+# project's words, `error: --workers takes ...`, where Typer printed its own box.
+Workers = Annotated[
+    int | None, typer.Option("--workers", "-w", help="Local worker processes (default: cores).")
+]
+Batch = Annotated[
+    int | None,
+    typer.Option(
+        "--batch",
+        help="Cases per Dask task (1: one each; default: short cases batched by their time).",
+    ),
+]
+
+
 @app.command(
     epilog="Examples:\n\n"
     "  fmionnx sweep study.yaml --out sweeps/gains\n\n"
@@ -34,19 +56,14 @@ RANKED_ROWS = 10
 )
 def sweep(
     study: Annotated[Path, typer.Argument(help="Study file (YAML): the system and what to vary.")],
-    out: Annotated[Path, typer.Option("--out", "-o", help="Results folder (new, or --resume).")],
+    out: StudyOut,
     scheduler: Annotated[
         str | None,
         typer.Option(
             "--scheduler", help="An existing Dask cluster's scheduler (`tcp://HOST:8786`)."
         ),
     ] = None,
-    workers: Annotated[
-        int | None,
-        # No `min=1`: the pipeline checks the count (`fmionnx.sweep` too) and says so in the
-        # project's words, `error: --workers takes ...`, where Typer printed its own box.
-        typer.Option("--workers", "-w", help="Local worker processes (default: cores)."),
-    ] = None,
+    workers: Workers = None,
     resume: Annotated[
         bool, typer.Option("--resume", help="Finish an interrupted study in --out.")
     ] = False,
@@ -60,13 +77,7 @@ def sweep(
     force: Annotated[
         bool, typer.Option("--force", help="Replace the results of a study already in --out.")
     ] = False,
-    batch: Annotated[
-        int | None,
-        typer.Option(
-            "--batch",  # no `min=1`, as --workers
-            help="Cases per Dask task (1: one each; default: short cases batched by their time).",
-        ),
-    ] = None,
+    batch: Batch = None,
     quiet: QuietOption = False,
 ) -> None:
     """Run every case of a study in parallel and write one row per case (cases.parquet/.csv).
@@ -203,6 +214,10 @@ def _summary(console: Console, result: SweepResult) -> None:
     overview.add_row("cases", str(len(result.plan.cases)))
     if result.resumed:
         overview.add_row("resumed", f"{result.resumed} finished before")
+    if result.damaged:
+        overview.add_row(
+            "run again", f"{result.damaged} whose record was damaged (records/<case>.json)"
+        )
     for status in ("ok", "fault", "timeout", "failed"):
         if counts.get(status, 0):
             colour = "green" if status == "ok" else "red"

@@ -39,12 +39,14 @@ MAX_DEPTH = 64
 COMPARISONS = ("<=", ">=", "==", "!=", "<", ">")
 KEYWORDS = ("and", "or", "not")
 
+#: Digits are ASCII ``[0-9]``, not ``\d``: ``\d`` also matches other scripts' digits
+#: (``\u0661``, which ``float`` reads as 1), which the grammar does not have (a bug hunt).
 _TOKEN = re.compile(
     r"""
     (?P<space>\s+)
-  | (?P<number>(?:\d+\.?\d*|\.\d+)(?:[eE][+-]?\d+)?)
-  | (?P<name>[A-Za-z_$][\w$]*(?:\.[A-Za-z_$][\w$]*)*(?:\[\s*\d+\s*(?:,\s*\d+\s*)*\])?)
-  | (?P<quoted>`[^`]*`(?:\[\s*\d+\s*(?:,\s*\d+\s*)*\])?)
+  | (?P<number>(?:[0-9]+\.?[0-9]*|\.[0-9]+)(?:[eE][+-]?[0-9]+)?)
+  | (?P<name>[A-Za-z_$][\w$]*(?:\.[A-Za-z_$][\w$]*)*(?:\[\s*[0-9]+\s*(?:,\s*[0-9]+\s*)*\])?)
+  | (?P<quoted>`[^`]*`(?:\[\s*[0-9]+\s*(?:,\s*[0-9]+\s*)*\])?)
   | (?P<operator><=|>=|==|!=|[-+*/<>=(),\[\]])
     """,
     re.VERBOSE,
@@ -164,6 +166,8 @@ def tokenize(text: str) -> list[Token]:
                 hint = "write `and` / `or`"
             elif char == "!":
                 hint = "write `not` for a negation, `!=` for 'differs'"
+            elif char.isdigit():
+                hint = "write numbers and indices with the digits 0-9"
             raise ParseError(f"`{char}` cannot appear in a check expression", position, hint)
         kind = match.lastgroup or "space"
         if kind != "space":
@@ -344,6 +348,7 @@ class _Parser:
     def unary(self) -> Node:
         if self.at("-", "+"):
             token = self.advance()
+            self.one_sign(token)
             self.nested(token.start)
             try:
                 operand = self.unary()
@@ -351,6 +356,24 @@ class _Parser:
                 self.depth -= 1
             return UnaryOp(token.text, operand, token.start, _end(operand))
         return self.primary()
+
+    def one_sign(self, sign: Token) -> None:
+        """A number has one sign at most (``["-" | "+"] NUMBER``): ``+-1`` was read as -1, and
+        a bound written so was accepted (a bug hunt). Signs before anything else (``--x``)
+        are operators, as the grammar's ``unary`` has them."""
+        after = self.index
+        while self.tokens[after].kind == "operator" and self.tokens[after].text in ("-", "+"):
+            after += 1
+        number = self.tokens[after]
+        if after == self.index or number.kind != "number":
+            return
+        signs = "".join(t.text for t in self.tokens[self.index - 1 : after])
+        negative = signs.count("-") % 2 == 1
+        raise ParseError(
+            f"`{signs}{number.text}` is not a number: a number has one sign at most",
+            sign.start,
+            f"write `{'-' if negative else ''}{number.text}`",
+        )
 
     def primary(self) -> Node:
         token = self.token

@@ -10,6 +10,7 @@ connect to no other type (E031), and to their own not yet (E025: :data:`UNCONNEC
 from __future__ import annotations
 
 from fmionnx.compile.endpoints import ResolvedEndpoint, endpoint_text
+from fmionnx.compile.symdims import UNSIZED
 from fmionnx.core import codes
 from fmionnx.core.diagnostics import DiagnosticBag, Note, Span, with_article
 from fmionnx.core.types import Causality, DType, Port, PortRef
@@ -178,26 +179,25 @@ def check_dtype(
 def check_count(
     src: ResolvedEndpoint, dst: ResolvedEndpoint, span: Span, bag: DiagnosticBag
 ) -> int | None:
-    """Element counts must agree (shapes may differ: ``[1,3]`` -> ``(3,)`` reshapes)."""
+    """Element counts must agree (shapes may differ: ``[1,3]`` -> ``(3,)`` reshapes).
+
+    Where both ends have symbolic shapes the count is not known from the two ports alone:
+    the source's may be fixed by what its own inputs are fed. The connection is let through
+    as :data:`~.symdims.UNSIZED`, for :func:`~.symdims.check_symbolic_dims` to size in
+    dataflow order or refuse."""
     if src.count is not None and dst.count is not None:
         if src.count == dst.count:
             return src.count
         _count_error(src, dst, span, bag)
         return None
     known = src.count if src.count is not None else dst.count
+    if known is None:
+        return UNSIZED
     symbolic = dst.port if dst.count is None else src.port
     fixed = 1
     for dim in symbolic.shape:
         if isinstance(dim, int):
             fixed *= dim
-    if known is None:
-        bag.emit(
-            codes.SHAPE,
-            f"both `{src.ref}` and `{dst.ref}` have symbolic shapes; the element count is unknown",
-            span,
-            hint="give the model a fixed shape",
-        )
-        return None
     if known % fixed != 0:
         _count_error(src, dst, span, bag)
         return None

@@ -25,9 +25,8 @@ def _make_folder(folder: Path, option: str, what: str) -> None:
         raise RequestError(msg)
     try:
         made = _made_levels(folder)
-    except FileExistsError:
-        msg = f"{label} exists and is not a folder"
-        raise RequestError(msg) from None
+    except FileExistsError as exc:
+        raise RequestError(_in_the_way(folder, label, option, what, exc)) from None
     except OSError as exc:
         msg = f"{label} cannot be created ({exc.strerror})"
         raise RequestError(msg) from None
@@ -37,6 +36,16 @@ def _make_folder(folder: Path, option: str, what: str) -> None:
     if not os.access(folder, os.W_OK | os.X_OK):
         msg = f"{label} is not writable"
         raise RequestError(msg)
+
+
+def _in_the_way(folder: Path, label: str, option: str, what: str, exc: FileExistsError) -> str:
+    """The message for a path that is not a folder where one is needed, naming that path:
+    for ``--out afile/sub``, ``afile`` (a file) is in the way, and "`afile/sub` exists and is
+    not a folder" named a path that does not exist (a bug hunt)."""
+    blocking = Path(exc.filename) if exc.filename is not None else folder
+    if blocking == folder:
+        return f"{label} exists and is not a folder"
+    return f"{option} `{what}`: `{blocking}` exists and is not a folder"
 
 
 def _made_levels(folder: Path) -> list[Path]:

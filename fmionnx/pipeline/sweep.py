@@ -44,6 +44,8 @@ class SweepResult:
     resumed: int
     warnings: tuple[Diagnostic, ...] = ()
     tasks: StudyRun | None = None
+    #: Cases whose record was there but damaged (``--resume``): they ran again.
+    damaged: int = 0
 
     @functools.cached_property
     def table(self) -> pd.DataFrame:
@@ -292,6 +294,8 @@ def _run(
     folder = StudyFolder(out, plan)
     finished = folder.prepare(resume=resume, force=force)
     pending = [c for c in plan.cases if c.id not in finished]
+    # a record there that does not check out is run again: said, so nobody wonders why
+    damaged = sum((folder.records / f"{c.id}.json").exists() for c in pending) if resume else 0
     job = Job.of(plan, keep_results=keep_results, rrd=rrd)
     counts = [len(finished), 0]
     if progress is not None:
@@ -320,7 +324,7 @@ def _run(
         files.extend(writers.plots(table, plan, out))
     finally:
         writers.close()  # its plot worker, when the study stopped before its plots
-    return SweepResult(plan, table, tuple(files), len(finished), tasks=tasks)
+    return SweepResult(plan, table, tuple(files), len(finished), tasks=tasks, damaged=damaged)
 
 
 class _ResultsWriters:

@@ -32,11 +32,12 @@ def report_validation_error(
 
         root = SystemSpec
     seen: set[tuple[Any, ...]] = set()
-    for error in exc.errors(include_url=False):
+    errors = exc.errors(include_url=False)
+    paths = [_data_path(tuple(error["loc"]), data) for error in errors]
+    for error, data_loc in zip(errors, paths, strict=True):
         loc = tuple(error["loc"])
-        data_loc = _data_path(loc, data)
         kind = error["type"]
-        if _other_union_branch(loc, data):
+        if _other_union_branch(loc, data) or _scalar_beside_deeper(loc, data_loc, paths, data):
             continue
         if kind in {"extra_forbidden", "missing"} or data_loc not in seen:
             _emit(error, loc, data_loc, data, sources, bag, root)
@@ -164,6 +165,12 @@ _MISSING = object()
 
 
 def _short(value: Any) -> str:
+    """``value`` as the YAML writes it where that differs from Python (``null``, ``true``),
+    cut to 40 characters."""
+    if value is None:
+        return "null"
+    if isinstance(value, bool):
+        return "true" if value else "false"
     text = repr(value)
     return text if len(text) <= 40 else text[:37] + "..."
 
@@ -211,6 +218,25 @@ def _other_union_branch(loc: tuple[Any, ...], data: Any) -> bool:
         if element == "str":
             return not isinstance(_value_at(data, _data_path(loc[:position], data)), str)
     return False
+
+
+#: The names pydantic gives the scalar branches of a union in an error's ``loc``.
+_SCALAR_BRANCHES = frozenset({"bool", "int", "float", "str"})
+
+
+def _scalar_beside_deeper(
+    loc: tuple[Any, ...], data_loc: tuple[Any, ...], paths: list[tuple[Any, ...]], data: Any
+) -> bool:
+    """True for a scalar branch's complaint about a list or mapping when another error lies
+    inside that value: the container branch was tried and says what is wrong there. For
+    ``[[1, null]]`` "Input should be a valid boolean" at ``[0]`` came beside "null is not a
+    value" at ``[0][1]`` (a bug hunt). Without a deeper error it is kept: it is then the
+    only word on a list written where a scalar belongs."""
+    if not loc or loc[-1] not in _SCALAR_BRANCHES:
+        return False
+    if not isinstance(_value_at(data, data_loc), (dict, list)):
+        return False
+    return any(len(p) > len(data_loc) and p[: len(data_loc)] == data_loc for p in paths)
 
 
 def _is_last_key(loc: tuple[Any, ...], element: Any) -> bool:

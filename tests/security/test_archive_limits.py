@@ -74,7 +74,7 @@ def test_total_unpacked_size_is_bounded(tmp_path: Path, monkeypatch: pytest.Monk
     assert not (tmp_path / "out" / "resources" / "data.bin").exists()
 
 
-def test_a_malformed_limit_setting_is_e019_not_ignored(
+def test_a_malformed_limit_setting_is_e008_not_ignored(
     tmp_path: Path, monkeypatch: pytest.MonkeyPatch
 ) -> None:
     monkeypatch.setenv("FMIONNX_MAX_ARCHIVE_MEMBERS", "lots")

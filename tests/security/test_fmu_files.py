@@ -90,7 +90,7 @@ def _fmi3_zip(path: Path, variables: list[str]) -> Path:
     return fmu_zip(path, {"modelDescription.xml": fmi3(variables).encode()})
 
 
-def test_a_billion_element_array_is_e019_at_its_line(tmp_path: Path) -> None:
+def test_a_billion_element_array_is_e008_at_its_line(tmp_path: Path) -> None:
     variable = (
         '<Float64 name="x" valueReference="1" causality="output">'
         f'<Dimension start="{BILLION}"/></Float64>'

@@ -77,7 +77,7 @@ def test_an_ssp_component_outside_the_archive_is_e017(tmp_path: Path) -> None:
     assert found == ("E017", "`../../outside/Gain.fmu` points outside the SSP archive")
 
 
-def test_an_ssd_larger_than_the_limit_is_e019_before_parsing(
+def test_an_ssd_larger_than_the_limit_is_e008_before_parsing(
     layout: Path,
     monkeypatch: pytest.MonkeyPatch,
     fixture_fmu,  # type: ignore[no-untyped-def]

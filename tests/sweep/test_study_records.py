@@ -151,6 +151,7 @@ def test_a_damaged_record_is_run_again_on_resume(mixed: Path, tmp_path: Path, cl
 
     resumed = run_sweep(plan, out, scheduler=cluster, resume=True)
     assert resumed.resumed == 2
+    assert resumed.damaged == len(DAMAGE)  # said in the CLI's overview (`run again`)
     after = {p.stem: json.loads(p.read_text("utf-8")) for p in records.glob("*.json")}
     for case in DAMAGE:  # run again: a record written afresh
         assert after[case]["started"] != before[case]["started"], case

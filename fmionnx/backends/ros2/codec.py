@@ -6,6 +6,13 @@ field path (a scalar, a fixed array, a sequence, or a message made of numeric sc
 one scalar field path per element (a quaternion in MuJoCo's ``w, x, y, z`` order onto
 ``orientation.w/x/y/z``). An image port maps onto a whole ``sensor_msgs/msg/Image``.
 Primitive arrays go in and out as numpy arrays so that large messages cost one copy.
+
+Integer fields carry integer values exactly (``int64`` and ``uint64`` included): a value is
+converted to the field's own type, never through a float, and decoded in the field's type. A
+value that the field cannot hold (``2**40`` into an ``int32``, a NaN into any integer) is a
+fault naming the port, the field and the value, for a scalar, an element, a nested message
+and an array alike, rather than a wrapped number on the wire (the compiler warns of such a
+mapping with W060; this is the run-time side of it).
 """
 
 from __future__ import annotations
@@ -83,12 +90,21 @@ class TopicCodec:
         if field.paths == (WHOLE,):
             return ("image", None)
         if len(field.paths) > 1:
-            return ("elements", None)
+            leaves = tuple(
+                (p, resolve_field(self.msgtype, p, self.distro).base) for p in field.paths
+            )
+            return ("elements", leaves)
         info = resolve_field(self.msgtype, field.paths[0], self.distro)
         if info.kind is FieldKind.SCALAR:
             return ("scalar", info.base)
         if info.kind is FieldKind.MESSAGE:
-            return ("struct", numeric_leaves(info.base, self.distro))
+            names = numeric_leaves(info.base, self.distro) or ()
+            path = field.paths[0]
+            leaves = tuple(
+                (f"{path}.{n}", resolve_field(self.msgtype, f"{path}.{n}", self.distro).base)
+                for n in names
+            )
+            return ("struct", leaves)
         return ("array", BASE_NUMPY.get(info.base, "float64"))
 
     # --- encoding
@@ -109,15 +125,12 @@ class TopicCodec:
             # Decoded values are flat; a node may forward them as they are.
             _fill_image(message, value.reshape(field.shape) if value.ndim == 1 else value)
         elif kind == "scalar":
-            _set(message, field.paths[0], _scalar(flat[0], extra))
-        elif kind == "elements":
-            for path, element in zip(field.paths, flat, strict=True):
-                _set(message, path, float(element))
-        elif kind == "struct":
-            target = _get(message, field.paths[0])
-            for name, element in zip(extra, flat, strict=True):
-                setattr(target, name, float(element))
+            _set(message, field.paths[0], self._scalar(field.port, field.paths[0], extra, flat[0]))
+        elif kind in ("elements", "struct"):
+            for (path, base), element in zip(extra, flat, strict=True):
+                _set(message, path, self._scalar(field.port, path, base, element))
         else:
+            self._check_range(field.port, field.paths[0], flat, np.dtype(extra))
             _set(message, field.paths[0], np.ascontiguousarray(flat, dtype=extra))
             if field.paths[0] == "data" and hasattr(message, "layout"):
                 _fill_layout(self._store, message, field.shape)
@@ -137,11 +150,10 @@ class TopicCodec:
             # The field's own type: an int64 in a float64 would lose bits above 2**53.
             dtype = object if extra == "string" else BASE_NUMPY.get(extra, "float64")
             return np.array([_get(message, field.paths[0])], dtype=dtype)
-        if kind == "elements":
-            return np.array([_get(message, p) for p in field.paths], dtype=np.float64)
-        if kind == "struct":
-            target = _get(message, field.paths[0])
-            return np.array([getattr(target, n) for n in extra], dtype=np.float64)
+        if kind in ("elements", "struct"):
+            # In the fields' own type, as a scalar: int64 members keep their bits above 2**53.
+            common = _common_dtype([base for _, base in extra], field.dtype)
+            return np.array([_get(message, path) for path, _ in extra], dtype=common)
         array = np.asarray(_get(message, field.paths[0])).reshape(-1)
         if array.size != field.size:
             msg = (
@@ -151,15 +163,77 @@ class TopicCodec:
             raise RunError(msg, port=field.port)
         return array
 
+    # --- values into fields
+    def _scalar(self, port: str, path: str, base: str, value: Any) -> Any:
+        """``value`` as the Python value of a ``base`` field: an integer field gets an
+        integer made without a float (exact up to 2**64), a fault when it does not fit."""
+        if base == "string":
+            return str(value)
+        if base == "bool":
+            return bool(value)
+        if base.startswith("float"):
+            return float(value)
+        info = np.iinfo(BASE_NUMPY.get(base, "int64"))
+        number = _integer(value)
+        if number is None or not info.min <= number <= info.max:
+            raise self._out_of_range(port, path, base, value, info)
+        return number
 
-def _scalar(value: Any, base: str) -> Any:
-    if base == "string":
-        return str(value)
-    if base == "bool":
-        return bool(value)
-    if base.startswith("float"):
-        return float(value)
+    def _check_range(self, port: str, path: str, values: Array, target: np.dtype[Any]) -> None:
+        """A fault when an element of ``values`` does not fit an integer array field of
+        ``target`` (numpy would wrap it); checked only where the port's type can exceed it."""
+        if target.kind not in "iu" or values.size == 0 or np.can_cast(values.dtype, target):
+            return
+        info = np.iinfo(target)
+        if values.dtype.kind == "f":
+            whole = np.trunc(values)
+            # ``min`` and ``max + 1`` are 0 or powers of two: exact in any float.
+            bad = ~np.isfinite(whole) | (whole < float(info.min)) | (whole >= float(info.max) + 1)
+        elif values.dtype.kind in "iu":
+            source = np.iinfo(values.dtype)
+            bad = np.zeros(values.shape, dtype=bool)
+            if source.min < info.min:
+                bad |= values < values.dtype.type(info.min)
+            if source.max > info.max:
+                bad |= values > values.dtype.type(info.max)
+        else:
+            return
+        if bad.any():
+            base = target.name
+            raise self._out_of_range(port, path, base, values[np.argmax(bad)], info)
+
+    def _out_of_range(
+        self, port: str, path: str, base: str, value: Any, info: np.iinfo[Any]
+    ) -> RunError:
+        msg = (
+            f"port `{port}` sends {_shown(value)}, which field `{path}` of `{self.msgtype}` "
+            f"({base}, {info.min}..{info.max}) cannot hold"
+        )
+        return RunError(msg, port=port)
+
+
+def _integer(value: Any) -> int | None:
+    """``value`` as a Python int (a float's fraction cut off, as numpy casts), or None for a
+    NaN or an infinity. Integers never pass through a float: int64/uint64 stay exact."""
+    if isinstance(value, float | np.floating):
+        return int(value) if np.isfinite(value) else None
     return int(value)
+
+
+def _shown(value: Any) -> str:
+    """A value as a user reads it: ``1099511627776``, ``nan``, ``3.5``."""
+    return str(value.item() if isinstance(value, np.generic) else value)
+
+
+def _common_dtype(bases: list[str], port_dtype: str) -> np.dtype[Any]:
+    """One dtype holding every field of ``bases`` exactly: the fields' own when they agree,
+    their promotion otherwise; the port's type where numpy would promote integers to a
+    float (``int64`` beside ``uint64``)."""
+    dtypes = [np.dtype(BASE_NUMPY.get(base, "float64")) for base in bases]
+    common = np.result_type(*dtypes) if dtypes else np.dtype(np.float64)
+    if common.kind == "f" and all(d.kind in "iub" for d in dtypes):
+        return np.dtype(port_dtype)
+    return common
 
 
 def _fill_layout(store: Any, message: Any, shape: tuple[int, ...]) -> None:

@@ -183,14 +183,8 @@ def scene_ports(model: Any) -> tuple[list[Port], list[str], tuple[tuple[str, str
         )
     for i in range(model.nu):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_ACTUATOR, i)
-        if not name:
-            continue
-        limited = bool(model.actuator_ctrllimited[i])
-        low, high = model.actuator_ctrlrange[i]
-        description = f"actuator, ctrlrange [{low:g}, {high:g}]" if limited else "actuator"
-        ports.append(
-            Port(name, Causality.INPUT, DType.FLOAT64, (), start=(0.0,), description=description)
-        )
+        if name:
+            ports.append(_actuator_port(model, i, name))
     for i in range(model.nsite):
         name = mujoco.mj_id2name(model, mujoco.mjtObj.mjOBJ_SITE, i)
         if name:
@@ -215,6 +209,37 @@ def scene_ports(model: Any) -> tuple[list[Port], list[str], tuple[tuple[str, str
         ("cameras", ",".join(names)),
     )
     return ports, names, facts
+
+
+def _actuator_port(model: Any, actuator: int, name: str) -> Port:
+    """The input port of actuator ``actuator``, bounded by its ``ctrlrange`` where MuJoCo
+    clamps to it.
+
+    MuJoCo clamps a limited actuator's control (``ctrllimited``, or ``autolimits`` with a
+    ``ctrlrange``: the compiled flag says which) to ``ctrlrange`` without a word, unless the
+    scene disables ``clampctrl``. As the port's min/max, a value set outside it
+    (``parameters:``, ``-p``, a study's values) is E043 as an FMU's is, not run as another
+    value. Values arriving through connections at run time are clamped, as MuJoCo does.
+    """
+    import mujoco
+
+    limited = bool(model.actuator_ctrllimited[actuator])
+    low, high = (float(b) for b in model.actuator_ctrlrange[actuator])
+    if not limited:
+        return Port(name, Causality.INPUT, DType.FLOAT64, (), start=(0.0,), description="actuator")
+    description = f"actuator, ctrlrange [{low:g}, {high:g}]"
+    clamped = not int(model.opt.disableflags) & int(mujoco.mjtDisableBit.mjDSBL_CLAMPCTRL)
+    if not clamped:
+        description += " (not clamped: clampctrl is disabled)"
+    return Port(
+        name,
+        Causality.INPUT,
+        DType.FLOAT64,
+        (),
+        start=(0.0,),
+        description=description,
+        bounds=(low, high) if clamped else (None, None),
+    )
 
 
 def interface_from(
