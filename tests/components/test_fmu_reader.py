@@ -509,7 +509,8 @@ def test_fmi3_bounds_are_read(tmp_path: Path) -> None:
         '<Float64 name="x" valueReference="1" causality="parameter" variability="fixed" '
         'start="1" min="0" max="10"/>',
         '<Int8 name="m" valueReference="2" causality="input" start="1" max="4"/>',
-        # fmpy reads no bounds of unsigned types (its check is `startswith("Int")`): none
+        # fmpy reads no bounds of unsigned types (its check is `startswith("Int")`): read
+        # from the XML (they were none, and a value above 4 was set without a word)
         '<UInt8 name="u" valueReference="3" causality="input" start="1" max="4"/>',
     ]
     folder = fmu_folder(tmp_path, "T", fmi3(variables))
@@ -517,5 +518,5 @@ def test_fmi3_bounds_are_read(tmp_path: Path) -> None:
     assert [(p.name, p.bounds) for p in ports] == [
         ("x", (0.0, 10.0)),
         ("m", (None, 4)),
-        ("u", (None, None)),
+        ("u", (None, 4)),
     ]

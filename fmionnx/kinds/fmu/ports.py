@@ -120,13 +120,20 @@ def unit_definitions(model_description: Any) -> dict[str, Unit]:
     return units
 
 
-def relative_flags(root: Any) -> dict[str, bool]:
-    """``relativeQuantity`` as each variable writes it, by name (absent: not listed).
+#: Attributes read from each variable's own XML element, where fmpy does not read them:
+#: ``relativeQuantity`` (fmpy looks for it among the element's children, not on it) and
+#: ``min``/``max`` (fmpy reads them for ``Float*``/``Int*``/``Real`` types only, not for
+#: FMI 3's ``UInt8``..``UInt64``).
+_OWN_ATTRIBUTES = ("relativeQuantity", "min", "max")
 
-    Read from the XML itself: fmpy reads the attribute on type definitions but not on
-    variables (it looks for it among the element's children).
-    """
-    flags: dict[str, bool] = {}
+#: A variable's attributes of :data:`_OWN_ATTRIBUTES` as it writes them, by variable name.
+OwnAttributes = dict[str, dict[str, str]]
+
+
+def own_attributes(root: Any) -> OwnAttributes:
+    """Each variable's :data:`_OWN_ATTRIBUTES` as written in the XML itself (absent: not
+    listed). FMI 2 writes them on the type element inside the ``ScalarVariable``."""
+    found: OwnAttributes = {}
     variables = root.find("ModelVariables")
     for variable in variables if variables is not None else ():
         if not isinstance(variable.tag, str):
@@ -135,17 +142,19 @@ def relative_flags(root: Any) -> dict[str, bool]:
         holder = variable
         if variable.tag == "ScalarVariable":  # FMI 2: on the type element inside
             holder = next((c for c in variable if isinstance(c.tag, str)), None)
-        text = holder.get("relativeQuantity") if holder is not None else None
-        if name is not None and text is not None:
-            flags[name] = text in ("true", "1")
-    return flags
+        if name is None or holder is None:
+            continue
+        written = {key: text for key in _OWN_ATTRIBUTES if (text := holder.get(key)) is not None}
+        if written:
+            found[name] = written
+    return found
 
 
-def _relative(variable: Any, flags: dict[str, bool]) -> bool:
+def _relative(variable: Any, own: OwnAttributes) -> bool:
     """FMI ``relativeQuantity`` of the variable, else of its declared type."""
-    own = flags.get(str(variable.name))
-    if own is not None:
-        return own
+    text = own.get(str(variable.name), {}).get("relativeQuantity")
+    if text is not None:
+        return text in ("true", "1")
     declared = variable.declaredType
     return bool(getattr(declared, "relativeQuantity", False)) if declared is not None else False
 
@@ -156,15 +165,16 @@ def ports_from_model_description(
     """Every port of the model, in declaration order (a group sits at its first element).
 
     ``root`` is the parsed XML of the same description, for what fmpy does not read
-    (:func:`relative_flags`); without it, only type definitions mark relative quantities.
+    (:func:`own_attributes`); without it, only type definitions mark relative quantities and
+    FMI 3 unsigned integers have only their declared types' bounds.
     """
     major = int(str(model_description.fmiVersion).split(".")[0])
     units = unit_definitions(model_description)
-    flags = relative_flags(root) if root is not None else {}
+    own = own_attributes(root) if root is not None else {}
     records = [
         record
         for variable in model_description.modelVariables
-        if (record := _record(variable, major, xml_file, (units, flags))) is not None
+        if (record := _record(variable, major, xml_file, (units, own))) is not None
     ]
     groups = _groups(records) if major == 2 else {}
     port_name = {id(r.variable): r.name for r in records}
@@ -215,7 +225,7 @@ def _alias_names(variable: Any) -> tuple[str, ...]:
 
 
 def _record(
-    variable: Any, major: int, xml_file: Path, unit_facts: tuple[dict[str, Unit], dict[str, bool]]
+    variable: Any, major: int, xml_file: Path, unit_facts: tuple[dict[str, Unit], OwnAttributes]
 ) -> _Scalarish | None:
     if variable.causality not in PORT_CAUSALITIES or getattr(variable, "alias", None) is not None:
         return None
@@ -241,14 +251,19 @@ def _record(
         line=line,
         unit_definition=unit_facts[0].get(unit) if unit is not None else None,
         relative_quantity=_relative(variable, unit_facts[1]),
-        bounds=(_bound(variable, "min", dtype), _bound(variable, "max", dtype)),
+        bounds=(
+            _bound(variable, "min", dtype, unit_facts[1]),
+            _bound(variable, "max", dtype, unit_facts[1]),
+        ),
     )
 
 
-def _bound(variable: Any, which: str, dtype: DType) -> float | None:
+def _bound(variable: Any, which: str, dtype: DType, own: OwnAttributes) -> float | None:
     """The variable's declared ``min`` or ``max``, else its declared type's (FMI: the
     variable's attribute overrides the type's); None where neither declares one."""
     text = getattr(variable, which, None)
+    if text is None:  # fmpy reads no bound of FMI 3 unsigned integers: the XML's own
+        text = own.get(str(variable.name), {}).get(which)
     if text is None and variable.declaredType is not None:
         text = getattr(variable.declaredType, which, None)
     if text is None:
